@@ -1,0 +1,136 @@
+//! Axis-aligned bounding boxes.
+
+use glam::Vec3;
+
+/// A closed axis-aligned box `[min, max]`. The empty box has `min > max`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Aabb {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Aabb {
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
+
+    pub fn new(min: Vec3, max: Vec3) -> Self {
+        Aabb { min, max }
+    }
+
+    pub fn from_points<'a>(points: impl IntoIterator<Item = &'a Vec3>) -> Self {
+        points.into_iter().fold(Aabb::EMPTY, |b, p| b.grow(*p))
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
+    }
+
+    #[must_use]
+    pub fn grow(self, p: Vec3) -> Self {
+        Aabb {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
+    }
+
+    #[must_use]
+    pub fn union(self, o: Aabb) -> Self {
+        Aabb {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
+    }
+
+    #[must_use]
+    pub fn intersection(self, o: Aabb) -> Self {
+        Aabb {
+            min: self.min.max(o.min),
+            max: self.max.min(o.max),
+        }
+    }
+
+    pub fn extent(&self) -> Vec3 {
+        self.max - self.min
+    }
+
+    pub fn center(&self) -> Vec3 {
+        0.5 * (self.min + self.max)
+    }
+
+    pub fn diagonal(&self) -> f32 {
+        self.extent().length()
+    }
+
+    /// Surface area; a flat (2D) box has the area of both of its faces.
+    pub fn surface_area(&self) -> f32 {
+        let e = self.extent().max(Vec3::ZERO);
+        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+    }
+
+    pub fn volume(&self) -> f32 {
+        let e = self.extent().max(Vec3::ZERO);
+        e.x * e.y * e.z
+    }
+
+    pub fn contains(&self, p: Vec3) -> bool {
+        p.cmpge(self.min).all() && p.cmple(self.max).all()
+    }
+
+    /// Parametric interval `[t0, t1]` where the ray `o + t d` is inside the box,
+    /// or `None`. Directions with zero components are handled: the ray is then
+    /// inside the slab for all t or for none.
+    pub fn clip_ray(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<(f32, f32)> {
+        let mut t0 = t_min;
+        let mut t1 = t_max;
+        for a in 0..3 {
+            let inv = 1.0 / d[a];
+            let mut near = (self.min[a] - o[a]) * inv;
+            let mut far = (self.max[a] - o[a]) * inv;
+            if near > far {
+                std::mem::swap(&mut near, &mut far);
+            }
+            // NaN arises for a zero direction component with the origin on the
+            // slab boundary: the ray lies in the boundary plane, which the
+            // closed box contains, so the slab does not restrict t.
+            if near.is_nan() || far.is_nan() {
+                if o[a] < self.min[a] || o[a] > self.max[a] {
+                    return None;
+                }
+                continue;
+            }
+            t0 = t0.max(near);
+            t1 = t1.min(far);
+            if t0 > t1 {
+                return None;
+            }
+        }
+        Some((t0, t1))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clip_ray_handles_axis_parallel_rays() {
+        let b = Aabb::new(Vec3::ZERO, Vec3::ONE);
+        // Parallel to x, inside the y and z slabs.
+        let r = b.clip_ray(Vec3::new(-1.0, 0.5, 0.5), Vec3::X, 0.0, f32::INFINITY);
+        assert_eq!(r, Some((1.0, 2.0)));
+        // Parallel to x, outside the y slab.
+        assert_eq!(b.clip_ray(Vec3::new(-1.0, 2.0, 0.5), Vec3::X, 0.0, f32::INFINITY), None);
+        // Lying in the boundary plane y = 1.
+        let r = b.clip_ray(Vec3::new(-1.0, 1.0, 0.5), Vec3::X, 0.0, f32::INFINITY);
+        assert_eq!(r, Some((1.0, 2.0)));
+    }
+
+    #[test]
+    fn flat_box_has_area_but_no_volume() {
+        let b = Aabb::new(Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0));
+        assert_eq!(b.volume(), 0.0);
+        assert_eq!(b.surface_area(), 2.0);
+    }
+}

@@ -1,0 +1,129 @@
+//! Reference ambient occlusion by ray casting.
+//!
+//! Ambient accessibility at a point x with normal n is
+//! A(x) = (1/pi) * integral over the hemisphere of V(x, w) cos(theta) dw,
+//! with V = 1 when no surface is hit within the radius. Sampling w with
+//! density cos(theta)/pi (Malley's method) makes the estimator the fraction of
+//! unoccluded rays. Ray j of point i follows sample j of stream i of the
+//! seeded sequence, on the CPU (`raycast`) and in WGSL (`gpu`) alike, and both
+//! return the per-ray results as bit masks so they can be compared ray by ray.
+
+pub mod gpu;
+pub mod points;
+pub mod raycast;
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+use crate::error::{Error, Result};
+use crate::sampling::{Frame, SampleSequence, cosine_hemisphere};
+
+/// Where AO is estimated: the ray origin (already offset from the surface),
+/// the unit normal of the hemisphere, and the index of the point's stream in
+/// the sample sequence (a vertex or pixel index, so results do not depend on
+/// how points are batched). A zero normal means "no hemisphere": no rays are
+/// cast and the point counts as open. Same layout as the GPU's `points`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct AoPoint {
+    pub origin: [f32; 3],
+    pub stream: u32,
+    pub normal: [f32; 3],
+    pub _pad: u32,
+}
+
+impl AoPoint {
+    pub fn new(origin: Vec3, normal: Vec3, stream: u32) -> Self {
+        AoPoint {
+            origin: origin.to_array(),
+            stream,
+            normal: normal.to_array(),
+            _pad: 0,
+        }
+    }
+
+    pub fn has_hemisphere(&self) -> bool {
+        self.normal != [0.0; 3]
+    }
+}
+
+// The WGSL kernel reads 8 words per point.
+const _: () = assert!(std::mem::size_of::<AoPoint>() == 32);
+
+/// How many rays, how far, which sample sequence.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AoSettings {
+    pub rays_per_point: u32,
+    /// Occluders farther than this do not count; `f32::INFINITY` for none.
+    pub radius: f32,
+    pub seed: u32,
+}
+
+impl AoSettings {
+    pub fn validate(&self) -> Result<()> {
+        if self.rays_per_point == 0 {
+            return Err(Error::param("--rays", "must be at least 1"));
+        }
+        if self.rays_per_point > 1 << 20 {
+            return Err(Error::param("--rays", "must be at most 1048576 per point"));
+        }
+        if self.radius.is_nan() || self.radius <= 0.0 {
+            return Err(Error::param(
+                "--radius",
+                format!("must be positive, got {}", self.radius),
+            ));
+        }
+        Ok(())
+    }
+
+    pub fn words_per_point(&self) -> u32 {
+        self.rays_per_point.div_ceil(32)
+    }
+}
+
+/// Direction of ray `j` of the point with stream index `point`: sample j of
+/// the point's stream, mapped to the cosine-weighted hemisphere about `normal`.
+#[inline]
+pub fn ray_direction(seq: &SampleSequence, point: u32, j: u32, normal: Vec3) -> Vec3 {
+    let [u, v] = seq.sample(point, j);
+    Frame::from_normal(normal).to_world(cosine_hemisphere(u, v))
+}
+
+/// Per-ray results: bit j of point i's `words_per_point` words is set when
+/// ray j escaped.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct VisibilityMasks {
+    pub rays_per_point: u32,
+    pub words_per_point: u32,
+    pub bits: Vec<u32>,
+}
+
+impl VisibilityMasks {
+    pub fn points(&self) -> usize {
+        self.bits.len() / self.words_per_point as usize
+    }
+
+    pub fn mask(&self, point: usize) -> &[u32] {
+        let w = self.words_per_point as usize;
+        &self.bits[point * w..(point + 1) * w]
+    }
+
+    /// Fraction of unoccluded rays per point.
+    pub fn accessibility(&self) -> Vec<f32> {
+        (0..self.points())
+            .map(|p| {
+                let visible: u32 = self.mask(p).iter().map(|w| w.count_ones()).sum();
+                visible as f32 / self.rays_per_point as f32
+            })
+            .collect()
+    }
+
+    /// Number of rays whose result differs between two runs.
+    pub fn differing_rays(&self, other: &VisibilityMasks) -> u64 {
+        self.bits
+            .iter()
+            .zip(&other.bits)
+            .map(|(a, b)| (a ^ b).count_ones() as u64)
+            .sum()
+    }
+}

@@ -1,0 +1,49 @@
+//! AO by ray casting on the CPU: the reference path and the twin of
+//! `wgsl/ao_rays.wgsl`.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::{AoPoint, AoSettings, VisibilityMasks, ray_direction};
+use crate::kdtree::KdTree;
+use crate::progress::Progress;
+use crate::sampling::SampleSequence;
+
+/// Casts `rays_per_point` AO rays from every point (rayon, all threads of the
+/// current pool) and returns which escaped.
+pub fn visibility_cpu(
+    tree: &KdTree,
+    points: &[AoPoint],
+    settings: &AoSettings,
+    progress: &Progress,
+) -> VisibilityMasks {
+    let words = settings.words_per_point() as usize;
+    let seq = SampleSequence::new(settings.seed);
+    let mut bits = vec![0u32; points.len() * words];
+    bits.par_chunks_mut(words)
+        .zip(points.par_iter())
+        .with_min_len(16)
+        .for_each(|(mask, point)| {
+            point_visibility(tree, &seq, point, settings, mask);
+            progress.inc(1);
+        });
+    VisibilityMasks {
+        rays_per_point: settings.rays_per_point,
+        words_per_point: words as u32,
+        bits,
+    }
+}
+
+fn point_visibility(tree: &KdTree, seq: &SampleSequence, point: &AoPoint, settings: &AoSettings, mask: &mut [u32]) {
+    let normal = Vec3::from_array(point.normal);
+    let origin = Vec3::from_array(point.origin);
+    for j in 0..settings.rays_per_point {
+        let visible = !point.has_hemisphere() || {
+            let dir = ray_direction(seq, point.stream, j, normal);
+            !tree.any_hit(origin, dir, settings.radius)
+        };
+        if visible {
+            mask[(j / 32) as usize] |= 1 << (j % 32);
+        }
+    }
+}

@@ -1,0 +1,85 @@
+//! The contract's binary and text formats: RAYS.f32, HITS.bin, per-vertex CSV,
+//! and PNG images.
+
+use std::io::Write;
+use std::path::Path;
+
+use crate::error::{Error, Result};
+use crate::ray::{Hit, Ray};
+
+/// Reads N records of 6 little-endian f32 (origin, direction). Every
+/// component must be finite and every direction non-zero.
+pub fn read_rays(path: &Path) -> Result<Vec<Ray>> {
+    let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
+    if bytes.len() % 24 != 0 {
+        return Err(Error::file(
+            path,
+            "size",
+            format!(
+                "{} bytes is not a whole number of rays (24 bytes each: 6 little-endian f32)",
+                bytes.len()
+            ),
+        ));
+    }
+    let mut rays = Vec::with_capacity(bytes.len() / 24);
+    for (i, record) in bytes.chunks_exact(24).enumerate() {
+        let mut c = [0f32; 6];
+        for (k, slot) in c.iter_mut().enumerate() {
+            *slot = f32::from_le_bytes(record[4 * k..4 * k + 4].try_into().expect("4 bytes"));
+        }
+        const NAMES: [&str; 6] = ["ox", "oy", "oz", "dx", "dy", "dz"];
+        if let Some(k) = c.iter().position(|v| !v.is_finite()) {
+            return Err(Error::file(
+                path,
+                format!("ray {i}"),
+                format!("{} is {}; must be finite", NAMES[k], c[k]),
+            ));
+        }
+        if c[3] == 0.0 && c[4] == 0.0 && c[5] == 0.0 {
+            return Err(Error::file(path, format!("ray {i}"), "direction is the zero vector"));
+        }
+        rays.push(Ray {
+            origin: [c[0], c[1], c[2]],
+            dir: [c[3], c[4], c[5]],
+        });
+    }
+    Ok(rays)
+}
+
+/// Writes N records of (f32 t, u32 triangle), little-endian; a miss is
+/// (+inf, 0xFFFFFFFF).
+pub fn write_hits(path: &Path, hits: &[Hit]) -> Result<()> {
+    let mut bytes = Vec::with_capacity(hits.len() * 8);
+    for h in hits {
+        let (t, tri) = if h.is_hit() {
+            (h.t, h.triangle)
+        } else {
+            (f32::INFINITY, Hit::MISS_INDEX)
+        };
+        bytes.extend_from_slice(&t.to_le_bytes());
+        bytes.extend_from_slice(&tri.to_le_bytes());
+    }
+    std::fs::write(path, bytes).map_err(|e| Error::write(path, e))
+}
+
+/// `index,ao` lines, no header.
+pub fn write_vertex_csv(path: &Path, ao: &[f32]) -> Result<()> {
+    let mut out = std::io::BufWriter::new(std::fs::File::create(path).map_err(|e| Error::write(path, e))?);
+    for (i, a) in ao.iter().enumerate() {
+        writeln!(out, "{i},{a}").map_err(|e| Error::write(path, e))?;
+    }
+    out.flush().map_err(|e| Error::write(path, e))
+}
+
+/// A grey image with alpha: `values` in [0, 1] stored linearly (no sRGB
+/// curve, so pixel / 255 is the value), `None` transparent.
+pub fn write_grey_png(path: &Path, width: u32, height: u32, values: &[Option<f32>]) -> Result<()> {
+    let mut img = image::GrayAlphaImage::new(width, height);
+    for (p, v) in img.pixels_mut().zip(values) {
+        *p = match v {
+            Some(v) => image::LumaA([(v.clamp(0.0, 1.0) * 255.0).round() as u8, 255]),
+            None => image::LumaA([0, 0]),
+        };
+    }
+    img.save(path).map_err(|e| Error::write(path, e))
+}

@@ -1,0 +1,189 @@
+//! The GPU context: a device and queue, either created headless here (the
+//! CLI's convenience) or adopted from a host engine, plus what penumbra needs
+//! to know about them (limits, timestamp support, a name for reports).
+
+use std::sync::Arc;
+
+use crate::error::{Error, Result};
+
+/// One adapter as `penumbra info` reports it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct AdapterSummary {
+    pub name: String,
+    pub backend: String,
+    pub device_type: String,
+    pub driver_info: String,
+}
+
+impl AdapterSummary {
+    pub fn from_info(info: &wgpu::AdapterInfo) -> Self {
+        let driver_info = [info.driver.as_str(), info.driver_info.as_str()]
+            .iter()
+            .filter(|s| !s.is_empty())
+            .copied()
+            .collect::<Vec<_>>()
+            .join(" ");
+        AdapterSummary {
+            name: info.name.clone(),
+            backend: format!("{:?}", info.backend).to_lowercase(),
+            device_type: format!("{:?}", info.device_type).to_lowercase(),
+            driver_info,
+        }
+    }
+}
+
+/// A device and queue penumbra's passes run on.
+///
+/// Passes never create devices themselves: they take `&wgpu::Device` and
+/// record into a caller's `CommandEncoder`. `GpuContext` bundles what the
+/// convenience entry points (CLI, tests) need on top of that.
+#[derive(Clone)]
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    /// Adapter name for reports ("host device" when adopted).
+    pub name: String,
+    /// Whether compute passes can carry timestamp queries.
+    pub timestamps: bool,
+    pub(crate) kernels: Arc<crate::gpu::kernels::KernelCache>,
+}
+
+impl std::fmt::Debug for GpuContext {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuContext").field("name", &self.name).finish()
+    }
+}
+
+/// Backend sets to look at, in order: `WGPU_BACKEND` if set; otherwise the
+/// native APIs first and GL only if they have no adapter (probing GL on a
+/// headless machine costs time and prints EGL warnings, and lavapipe's GL
+/// adapter lacks what the Vulkan one has).
+fn backend_sets() -> Vec<wgpu::Backends> {
+    match wgpu::Backends::from_env() {
+        Some(b) => vec![b],
+        None => vec![wgpu::Backends::all() - wgpu::Backends::GL, wgpu::Backends::GL],
+    }
+}
+
+fn instance(backends: wgpu::Backends) -> wgpu::Instance {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    desc.backends = backends;
+    wgpu::Instance::new(desc)
+}
+
+/// Lists the adapters wgpu finds (honouring `WGPU_BACKEND`; all backends,
+/// GL included, otherwise).
+pub fn enumerate_adapters() -> Vec<AdapterSummary> {
+    let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all());
+    let adapters = pollster::block_on(instance(backends).enumerate_adapters(backends));
+    adapters
+        .iter()
+        .map(|a| AdapterSummary::from_info(&a.get_info()))
+        .collect()
+}
+
+/// Preference order: Vulkan before other backends (lavapipe shows up as both
+/// a Vulkan and a GL adapter, and only Vulkan has everything we use), then
+/// discrete, integrated, virtual, CPU devices.
+fn rank(info: &wgpu::AdapterInfo) -> (u8, u8) {
+    let backend = match info.backend {
+        wgpu::Backend::Vulkan => 0,
+        wgpu::Backend::Metal | wgpu::Backend::Dx12 => 1,
+        wgpu::Backend::Gl => 2,
+        _ => 3,
+    };
+    let kind = match info.device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Cpu => 3,
+        wgpu::DeviceType::Other => 4,
+    };
+    (backend, kind)
+}
+
+fn pick_adapter() -> Result<wgpu::Adapter> {
+    let mut adapters = Vec::new();
+    for backends in backend_sets() {
+        adapters = pollster::block_on(instance(backends).enumerate_adapters(backends));
+        if let Ok(wanted) = std::env::var("WGPU_ADAPTER_NAME") {
+            let wanted = wanted.to_lowercase();
+            adapters.retain(|a| a.get_info().name.to_lowercase().contains(&wanted));
+        }
+        if !adapters.is_empty() {
+            break;
+        }
+    }
+    if let Ok(wanted) = std::env::var("WGPU_ADAPTER_NAME")
+        && adapters.is_empty()
+    {
+        let names: Vec<String> = enumerate_adapters().into_iter().map(|a| a.name).collect();
+        let found = if names.is_empty() {
+            "none".to_string()
+        } else {
+            names.join(", ")
+        };
+        return Err(Error::Device(format!(
+            "WGPU_ADAPTER_NAME={wanted:?} matches no adapter (found: {found})"
+        )));
+    }
+    adapters.sort_by_key(|a| rank(&a.get_info()));
+    adapters.into_iter().next().ok_or_else(|| {
+        Error::Device(
+            "no GPU adapter found (on Debian, `apt-get install mesa-vulkan-drivers` provides \
+             lavapipe); use --device cpu for the CPU reference path"
+                .into(),
+        )
+    })
+}
+
+impl GpuContext {
+    /// Creates a headless device on the preferred adapter.
+    pub fn headless() -> Result<GpuContext> {
+        let adapter = pick_adapter()?;
+        let info = adapter.get_info();
+        let features = adapter.features() & wgpu::Features::TIMESTAMP_QUERY;
+        // Ask for everything the adapter allows: lavapipe's 128 MiB storage
+        // bindings instead of WebGPU's portable 128 MiB / 2048-texel defaults.
+        let limits = adapter.limits();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("penumbra"),
+            required_features: features,
+            required_limits: limits,
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        }))
+        .map_err(|e| Error::Device(format!("cannot create a device on {}: {e}", info.name)))?;
+        Ok(Self::adopt(device, queue, info.name.clone()))
+    }
+
+    /// Adopts a host engine's device and queue. Passes are built for this
+    /// device and record into the host's encoders.
+    pub fn from_host(device: &wgpu::Device, queue: &wgpu::Queue) -> GpuContext {
+        Self::adopt(device.clone(), queue.clone(), "host device".into())
+    }
+
+    fn adopt(device: wgpu::Device, queue: wgpu::Queue, name: String) -> GpuContext {
+        let timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        GpuContext {
+            device,
+            queue,
+            name,
+            timestamps,
+            kernels: Arc::new(Default::default()),
+        }
+    }
+
+    pub fn limits(&self) -> wgpu::Limits {
+        self.device.limits()
+    }
+
+    /// Waits for all submitted work.
+    pub fn wait(&self) -> Result<()> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map(|_| ())
+            .map_err(|e| Error::internal(format!("waiting for the GPU failed: {e}")))
+    }
+}

@@ -1,0 +1,615 @@
+//! SAH kd-tree construction with the MLRTA paper's three rules
+//! (Reshetov, Soupikov and Hurley 2005, section 3.1).
+//!
+//! The cost of a split is the surface-area heuristic of MacDonald and Booth:
+//! `C = C_trav + C_isect * (SA(below)/SA(cell) * N_below + SA(above)/SA(cell) * N_above)`,
+//! and a cell becomes a leaf when no split is cheaper than `C_isect * N`. On
+//! top of it, applied in order at every cell:
+//!
+//! 1. **Empty cells**: if the triangles leave an empty slab at one side of the
+//!    cell whose volume is more than `empty_cell_volume` (10%) of the cell's,
+//!    cut it off first, whatever the SAH says.
+//! 2. **Covered planes**: if an axis-aligned plane through the cell is covered
+//!    entirely by triangles lying in it, split there and put those triangles
+//!    in the smaller child. A plane on the cell's boundary yields a 2D (flat)
+//!    cell holding them.
+//! 3. **No tiny cells**: a cell whose surface area is below `min_cell_area`
+//!    times the scene box's is not split further.
+//!
+//! Candidate planes come from the triangles' bounds clipped to the cell
+//! ("perfect splits"). Cells with many triangles evaluate the SAH on a binned
+//! grid of planes (O(N) per cell); smaller cells sweep every event exactly
+//! (Wald and Havran 2006). The two children are built in parallel with rayon.
+
+use glam::Vec3;
+
+use super::clip::{clip_triangle, clipped_bounds};
+use super::node::{KdNode, MAX_LEAF_TRIANGLES, MAX_TREE_DEPTH};
+use crate::aabb::Aabb;
+
+/// Knobs of the builder. `Default` gives the settings the README's numbers
+/// were measured with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KdTreeParams {
+    /// Cost of one traversal step, relative to `intersection_cost`.
+    pub traversal_cost: f32,
+    /// Cost of one ray–triangle test.
+    pub intersection_cost: f32,
+    /// SAH discount for splits with an empty child (0 = none).
+    pub empty_bonus: f32,
+    /// Rule 1: cut off an empty slab larger than this fraction of the cell's
+    /// volume. Values >= 1 disable the rule.
+    pub empty_cell_volume: f32,
+    /// Rule 2: split on planes covered by coplanar triangles.
+    pub coplanar_rule: bool,
+    /// Rule 3: do not split cells with a surface area below this fraction of
+    /// the scene box's. 0 disables the rule.
+    pub min_cell_area: f32,
+    /// Maximum depth; `None` picks `8 + 1.3 log2(N)` (capped at
+    /// `MAX_TREE_DEPTH`, the traversal stack size).
+    pub max_depth: Option<usize>,
+    /// Cells with more triangles than this use binned SAH.
+    pub exact_sah_below: usize,
+    /// Number of bins per axis for binned SAH.
+    pub bins: usize,
+}
+
+impl Default for KdTreeParams {
+    fn default() -> Self {
+        KdTreeParams {
+            traversal_cost: 1.0,
+            intersection_cost: 1.5,
+            empty_bonus: 0.2,
+            empty_cell_volume: 0.1,
+            coplanar_rule: true,
+            min_cell_area: 1e-7,
+            max_depth: None,
+            exact_sah_below: 1024,
+            bins: 64,
+        }
+    }
+}
+
+impl KdTreeParams {
+    pub fn depth_limit(&self, triangles: usize) -> usize {
+        let auto = (8.0 + 1.3 * (triangles.max(1) as f32).log2()).round() as usize;
+        self.max_depth.unwrap_or(auto).clamp(1, MAX_TREE_DEPTH)
+    }
+}
+
+/// A triangle reference in a cell: its index and its bounds clipped to the cell.
+#[derive(Clone, Copy)]
+struct Prim {
+    bounds: Aabb,
+    tri: u32,
+}
+
+/// Why a cell was split, for the build statistics.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum SplitKind {
+    Sah,
+    EmptyCut,
+    CoveredPlane,
+}
+
+/// Why a cell became a leaf, for the build statistics.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum LeafReason {
+    Empty,
+    Cost,
+    SmallCell,
+    DepthLimit,
+}
+
+/// The flat arrays being built, with their statistics. Subtrees built in
+/// parallel get their own `Output` and are appended with their indices moved.
+#[derive(Default)]
+pub(super) struct Output {
+    pub nodes: Vec<KdNode>,
+    pub leaf_triangles: Vec<u32>,
+    pub stats: BuildStats,
+}
+
+impl Output {
+    fn push_leaf(&mut self, prims: &[Prim], reason: LeafReason, depth: usize) {
+        let s = &mut self.stats;
+        s.depth = s.depth.max(depth);
+        s.leaves += 1;
+        match reason {
+            _ if prims.is_empty() => s.empty_leaves += 1,
+            LeafReason::SmallCell => s.small_cell_leaves += 1,
+            LeafReason::DepthLimit => s.depth_limited_leaves += 1,
+            LeafReason::Empty | LeafReason::Cost => {}
+        }
+        s.max_triangles_per_leaf = s.max_triangles_per_leaf.max(prims.len());
+        self.nodes
+            .push(KdNode::leaf(self.leaf_triangles.len() as u32, prims.len() as u32));
+        self.leaf_triangles.extend(prims.iter().map(|p| p.tri));
+    }
+
+    fn count_split(&mut self, kind: SplitKind, depth: usize) {
+        self.stats.depth = self.stats.depth.max(depth);
+        match kind {
+            SplitKind::EmptyCut => self.stats.empty_cuts += 1,
+            SplitKind::CoveredPlane => self.stats.covered_plane_splits += 1,
+            SplitKind::Sah => {}
+        }
+    }
+
+    /// Appends a subtree built separately, moving its child and leaf indices.
+    fn append(&mut self, sub: Output) {
+        let node_base = self.nodes.len() as u32;
+        let leaf_base = self.leaf_triangles.len() as u32;
+        self.nodes.extend(sub.nodes.into_iter().map(|n| {
+            if n.is_leaf() {
+                KdNode {
+                    word0: n.word0 + leaf_base,
+                    ..n
+                }
+            } else {
+                KdNode {
+                    word1: n.word1 + (node_base << 2),
+                    ..n
+                }
+            }
+        }));
+        self.leaf_triangles.extend(sub.leaf_triangles);
+        let (s, t) = (&mut self.stats, sub.stats);
+        s.depth = s.depth.max(t.depth);
+        s.leaves += t.leaves;
+        s.empty_leaves += t.empty_leaves;
+        s.small_cell_leaves += t.small_cell_leaves;
+        s.depth_limited_leaves += t.depth_limited_leaves;
+        s.max_triangles_per_leaf = s.max_triangles_per_leaf.max(t.max_triangles_per_leaf);
+        s.empty_cuts += t.empty_cuts;
+        s.covered_plane_splits += t.covered_plane_splits;
+    }
+}
+
+/// The SAH of one cell and axis with its constants hoisted.
+struct Sah {
+    lo: f32,
+    hi: f32,
+    constant: f32,
+    per_length: f32,
+    traversal: f32,
+    intersection: f32,
+    empty_factor: f32,
+}
+
+impl Sah {
+    #[inline]
+    fn cost(&self, pos: f32, n_below: usize, n_above: usize) -> f32 {
+        let p_below = self.constant + self.per_length * (pos - self.lo);
+        let p_above = self.constant + self.per_length * (self.hi - pos);
+        let factor = if n_below == 0 || n_above == 0 {
+            self.empty_factor
+        } else {
+            1.0
+        };
+        self.traversal + self.intersection * factor * (p_below * n_below as f32 + p_above * n_above as f32)
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Split {
+    axis: usize,
+    pos: f32,
+    /// Where triangles lying in the split plane go.
+    planar_below: bool,
+    kind: SplitKind,
+    cost: f32,
+}
+
+pub(super) struct Builder<'a> {
+    triangles: &'a [[Vec3; 3]],
+    params: &'a KdTreeParams,
+    max_depth: usize,
+    scene_area: f32,
+}
+
+/// Cells with more triangles than this build their children in parallel.
+const PARALLEL_BELOW: usize = 2048;
+
+impl<'a> Builder<'a> {
+    pub fn new(triangles: &'a [[Vec3; 3]], params: &'a KdTreeParams, bounds: &Aabb) -> Self {
+        Builder {
+            triangles,
+            params,
+            max_depth: params.depth_limit(triangles.len()),
+            scene_area: bounds.surface_area(),
+        }
+    }
+
+    pub fn build(&self, bounds: Aabb) -> Output {
+        let prims: Vec<Prim> = self
+            .triangles
+            .iter()
+            .enumerate()
+            .map(|(i, t)| Prim {
+                bounds: Aabb::from_points(t),
+                tri: i as u32,
+            })
+            .collect();
+        let mut out = Output::default();
+        self.build_cell(prims, bounds, 0, &mut out);
+        out
+    }
+
+    fn build_cell(&self, prims: Vec<Prim>, cell: Aabb, depth: usize, out: &mut Output) {
+        if prims.is_empty() {
+            return out.push_leaf(&prims, LeafReason::Empty, depth);
+        }
+        if depth >= self.max_depth {
+            return out.push_leaf(&prims, LeafReason::DepthLimit, depth);
+        }
+        if cell.surface_area() < self.params.min_cell_area * self.scene_area {
+            return out.push_leaf(&prims, LeafReason::SmallCell, depth);
+        }
+        let split = self
+            .empty_cut(&prims, &cell)
+            .or_else(|| self.covered_plane(&prims, &cell))
+            .or_else(|| self.best_sah_split(&prims, &cell));
+        let leaf_cost = self.params.intersection_cost * prims.len() as f32;
+        match split.filter(|s| s.kind != SplitKind::Sah || s.cost < leaf_cost) {
+            Some(split) => self.split_cell(prims, cell, depth, split, out),
+            // Unreachable in practice (2^30 triangles in one cell): split at
+            // the middle rather than overflow the leaf's count field.
+            None if prims.len() as u32 > MAX_LEAF_TRIANGLES => {
+                let split = self.midpoint_split(&cell, cell.extent().max_position());
+                self.split_cell(prims, cell, depth, split, out)
+            }
+            None => out.push_leaf(&prims, LeafReason::Cost, depth),
+        }
+    }
+
+    fn split_cell(&self, prims: Vec<Prim>, cell: Aabb, depth: usize, split: Split, out: &mut Output) {
+        let n = prims.len();
+        let (below, below_cell, above, above_cell) = self.partition(prims, &cell, &split);
+        out.count_split(split.kind, depth);
+        let index = out.nodes.len();
+        out.nodes.push(KdNode::leaf(0, 0)); // replaced below
+        if n > PARALLEL_BELOW {
+            let build = |prims, cell| {
+                let mut sub = Output::default();
+                self.build_cell(prims, cell, depth + 1, &mut sub);
+                sub
+            };
+            let (b, a) = rayon::join(|| build(below, below_cell), || build(above, above_cell));
+            out.append(b);
+            let above_index = out.nodes.len() as u32;
+            out.append(a);
+            out.nodes[index] = KdNode::interior(split.axis, split.pos, above_index);
+        } else {
+            self.build_cell(below, below_cell, depth + 1, out);
+            let above_index = out.nodes.len() as u32;
+            self.build_cell(above, above_cell, depth + 1, out);
+            out.nodes[index] = KdNode::interior(split.axis, split.pos, above_index);
+        }
+    }
+
+    fn midpoint_split(&self, cell: &Aabb, axis: usize) -> Split {
+        Split {
+            axis,
+            pos: cell.center()[axis],
+            planar_below: true,
+            kind: SplitKind::Sah,
+            cost: 0.0,
+        }
+    }
+
+    /// Rule 1: the largest empty slab at a side of the cell, if it exceeds the
+    /// volume threshold. For a flat cell the volume ratio is measured on the
+    /// cell's non-degenerate extent, which is the same ratio.
+    fn empty_cut(&self, prims: &[Prim], cell: &Aabb) -> Option<Split> {
+        let used = prims.iter().fold(Aabb::EMPTY, |b, p| b.union(p.bounds));
+        let extent = cell.extent();
+        let mut best: Option<(f32, Split)> = None;
+        for axis in 0..3 {
+            if extent[axis] <= 0.0 {
+                continue;
+            }
+            for (gap, pos, planar_below) in [
+                (used.min[axis] - cell.min[axis], used.min[axis], false),
+                (cell.max[axis] - used.max[axis], used.max[axis], true),
+            ] {
+                let ratio = gap / extent[axis];
+                if ratio > self.params.empty_cell_volume && best.is_none_or(|(r, _)| ratio > r) {
+                    let split = Split {
+                        axis,
+                        pos,
+                        planar_below,
+                        kind: SplitKind::EmptyCut,
+                        cost: 0.0,
+                    };
+                    best = Some((ratio, split));
+                }
+            }
+        }
+        best.map(|(_, s)| s)
+    }
+
+    /// Rule 2: a plane entirely covered by triangles lying in it. Coverage is
+    /// judged by area: the coplanar triangles' areas inside the cell add up to
+    /// the cell's cross-section (a mesh's triangles do not overlap).
+    fn covered_plane(&self, prims: &[Prim], cell: &Aabb) -> Option<Split> {
+        if !self.params.coplanar_rule {
+            return None;
+        }
+        let extent = cell.extent();
+        for axis in 0..3 {
+            if extent[axis] <= 0.0 {
+                continue;
+            }
+            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+            let cross_section = extent[u] * extent[v];
+            if cross_section <= 0.0 {
+                continue;
+            }
+            let is_planar = |p: &&Prim| p.bounds.min[axis] == p.bounds.max[axis];
+            if !prims.iter().any(|p| is_planar(&p)) {
+                continue;
+            }
+            let mut planar: Vec<(f32, u32)> = prims
+                .iter()
+                .filter(is_planar)
+                .map(|p| (p.bounds.min[axis], p.tri))
+                .collect();
+            planar.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+            for group in planar.chunk_by(|a, b| a.0 == b.0) {
+                let pos = group[0].0;
+                let area: f32 = group
+                    .iter()
+                    .map(|&(_, t)| clip_triangle(&self.triangles[t as usize], cell).area())
+                    .sum();
+                if area >= cross_section * (1.0 - 1e-4) {
+                    let below_volume = pos - cell.min[axis];
+                    let above_volume = cell.max[axis] - pos;
+                    // A covered plane on the boundary with nothing else in the
+                    // cell would split off an identical flat cell forever.
+                    if group.len() == prims.len() && (below_volume == 0.0 || above_volume == 0.0) {
+                        continue;
+                    }
+                    return Some(Split {
+                        axis,
+                        pos,
+                        planar_below: below_volume <= above_volume,
+                        kind: SplitKind::CoveredPlane,
+                        cost: 0.0,
+                    });
+                }
+            }
+        }
+        None
+    }
+
+    fn sah(&self, cell: &Aabb, axis: usize) -> Sah {
+        let e = cell.extent();
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        let inv_area = 1.0 / cell.surface_area();
+        Sah {
+            lo: cell.min[axis],
+            hi: cell.max[axis],
+            // SA(child) / SA(cell) = (2 e_u e_v + 2 len (e_u + e_v)) / SA(cell)
+            constant: 2.0 * e[u] * e[v] * inv_area,
+            per_length: 2.0 * (e[u] + e[v]) * inv_area,
+            traversal: self.params.traversal_cost,
+            intersection: self.params.intersection_cost,
+            empty_factor: 1.0 - self.params.empty_bonus,
+        }
+    }
+
+    fn best_sah_split(&self, prims: &[Prim], cell: &Aabb) -> Option<Split> {
+        if cell.surface_area() <= 0.0 {
+            return None;
+        }
+        let mut events = Vec::new();
+        (0..3)
+            .filter(|&axis| cell.extent()[axis] > 0.0)
+            .filter_map(|axis| {
+                if prims.len() > self.params.exact_sah_below {
+                    self.binned_split(prims, cell, axis)
+                } else {
+                    self.swept_split(prims, cell, axis, &mut events)
+                }
+            })
+            .min_by(|a, b| a.cost.total_cmp(&b.cost))
+    }
+
+    /// Exact SAH: sweep the sorted start, end and planar events of one axis.
+    fn swept_split(&self, prims: &[Prim], cell: &Aabb, axis: usize, events: &mut Vec<u64>) -> Option<Split> {
+        const END: u64 = 0;
+        const PLANAR: u64 = 1;
+        const START: u64 = 2;
+        events.clear();
+        for p in prims {
+            let (lo, hi) = (p.bounds.min[axis], p.bounds.max[axis]);
+            if lo == hi {
+                events.push(sort_key(lo) << 2 | PLANAR);
+            } else {
+                events.push(sort_key(lo) << 2 | START);
+                events.push(sort_key(hi) << 2 | END);
+            }
+        }
+        events.sort_unstable();
+        let (lo, hi) = (cell.min[axis], cell.max[axis]);
+        let sah = self.sah(cell, axis);
+        let mut best: Option<Split> = None;
+        let (mut n_below, mut n_above) = (0usize, prims.len());
+        let mut i = 0;
+        while i < events.len() {
+            let key = events[i] >> 2;
+            let pos = from_sort_key(key);
+            let mut count = [0usize; 3];
+            while i < events.len() && events[i] >> 2 == key {
+                count[(events[i] & 3) as usize] += 1;
+                i += 1;
+            }
+            let (ends, planar, starts) = (count[0], count[1], count[2]);
+            n_above -= planar + ends;
+            if pos > lo && pos < hi {
+                for planar_below in [true, false] {
+                    let (nb, na) = if planar_below {
+                        (n_below + planar, n_above)
+                    } else {
+                        (n_below, n_above + planar)
+                    };
+                    let cost = sah.cost(pos, nb, na);
+                    if best.is_none_or(|b| cost < b.cost) {
+                        best = Some(Split {
+                            axis,
+                            pos,
+                            planar_below,
+                            kind: SplitKind::Sah,
+                            cost,
+                        });
+                    }
+                    if planar == 0 {
+                        break;
+                    }
+                }
+            }
+            n_below += starts + planar;
+        }
+        best
+    }
+
+    /// Binned SAH over `bins` evenly spaced planes; the partition that follows
+    /// is exact, so binning only affects which plane is chosen.
+    fn binned_split(&self, prims: &[Prim], cell: &Aabb, axis: usize) -> Option<Split> {
+        let bins = self.params.bins.max(2);
+        let (lo, extent) = (cell.min[axis], cell.extent()[axis]);
+        let scale = bins as f32 / extent;
+        let bin = |x: f32| (((x - lo) * scale) as usize).min(bins - 1);
+        let mut starts = vec![0usize; bins];
+        let mut ends = vec![0usize; bins];
+        for p in prims {
+            starts[bin(p.bounds.min[axis])] += 1;
+            ends[bin(p.bounds.max[axis])] += 1;
+        }
+        let sah = self.sah(cell, axis);
+        let mut best: Option<Split> = None;
+        let mut n_below = starts[0];
+        let mut n_above = prims.len();
+        for k in 1..bins {
+            n_above -= ends[k - 1];
+            let pos = lo + extent * (k as f32 / bins as f32);
+            let cost = sah.cost(pos, n_below, n_above);
+            if best.is_none_or(|b| cost < b.cost) {
+                best = Some(Split {
+                    axis,
+                    pos,
+                    planar_below: true,
+                    kind: SplitKind::Sah,
+                    cost,
+                });
+            }
+            n_below += starts[k];
+        }
+        best
+    }
+
+    /// Sends each triangle to the children it overlaps, clipping the bounds of
+    /// those that straddle the plane.
+    fn partition(&self, prims: Vec<Prim>, cell: &Aabb, s: &Split) -> (Vec<Prim>, Aabb, Vec<Prim>, Aabb) {
+        let (a, pos) = (s.axis, s.pos);
+        let mut below_cell = *cell;
+        below_cell.max[a] = pos;
+        let mut above_cell = *cell;
+        above_cell.min[a] = pos;
+        let mut below = Vec::with_capacity(prims.len() / 2 + 1);
+        let mut above = Vec::with_capacity(prims.len() / 2 + 1);
+        for p in prims {
+            let (lo, hi) = (p.bounds.min[a], p.bounds.max[a]);
+            if lo == pos && hi == pos {
+                if s.planar_below {
+                    below.push(p);
+                } else {
+                    above.push(p);
+                }
+            } else if hi <= pos {
+                below.push(p);
+            } else if lo >= pos {
+                above.push(p);
+            } else {
+                let tri = &self.triangles[p.tri as usize];
+                for (cell, side) in [(&below_cell, &mut below), (&above_cell, &mut above)] {
+                    let bounds = clipped_bounds(tri, cell);
+                    if !bounds.is_empty() {
+                        side.push(Prim { bounds, tri: p.tri });
+                    }
+                }
+            }
+        }
+        (below, below_cell, above, above_cell)
+    }
+}
+
+/// Maps an f32 to a u64 whose unsigned order is the float order (-0 < +0).
+fn sort_key(x: f32) -> u64 {
+    let bits = x.to_bits();
+    (if bits & 0x8000_0000 != 0 {
+        !bits
+    } else {
+        bits | 0x8000_0000
+    }) as u64
+}
+
+fn from_sort_key(key: u64) -> f32 {
+    let bits = key as u32;
+    f32::from_bits(if bits & 0x8000_0000 != 0 {
+        bits & 0x7fff_ffff
+    } else {
+        !bits
+    })
+}
+
+/// Statistics of a built tree, as `penumbra trace --json` reports them.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct BuildStats {
+    pub triangles: usize,
+    pub nodes: usize,
+    pub leaves: usize,
+    pub empty_leaves: usize,
+    pub depth: usize,
+    pub depth_limit: usize,
+    /// Triangle references in leaves (a triangle may be in several).
+    pub leaf_references: usize,
+    pub max_triangles_per_leaf: usize,
+    /// Mean over non-empty leaves.
+    pub mean_triangles_per_leaf: f64,
+    pub empty_cuts: usize,
+    pub covered_plane_splits: usize,
+    pub small_cell_leaves: usize,
+    pub depth_limited_leaves: usize,
+    pub build_ms: f64,
+}
+
+/// Fills in the statistics that need the whole tree.
+pub(super) fn finish_stats(out: &mut Output) {
+    let s = &mut out.stats;
+    let non_empty = s.leaves - s.empty_leaves;
+    s.nodes = out.nodes.len();
+    s.leaf_references = out.leaf_triangles.len();
+    s.mean_triangles_per_leaf = if non_empty > 0 {
+        out.leaf_triangles.len() as f64 / non_empty as f64
+    } else {
+        0.0
+    };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sort_keys_order_like_floats() {
+        let xs = [-f32::INFINITY, -2.5, -1e-30, -0.0, 0.0, 1e-30, 3.0, f32::INFINITY];
+        for w in xs.windows(2) {
+            assert!(sort_key(w[0]) < sort_key(w[1]), "{} {}", w[0], w[1]);
+        }
+        for x in xs {
+            assert_eq!(from_sort_key(sort_key(x)).to_bits(), x.to_bits());
+        }
+    }
+}

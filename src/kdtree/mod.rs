@@ -1,0 +1,147 @@
+//! Ray casting against a triangle mesh: an SAH kd-tree built on the CPU
+//! (MLRTA paper, section 3.1), watertight intersection, and single-ray
+//! closest-hit / any-hit traversal. `gpu.rs` runs the same traversal in WGSL
+//! over the same buffers.
+
+mod build;
+mod clip;
+pub mod gpu;
+pub mod node;
+mod traverse;
+pub mod watertight;
+
+use std::time::Instant;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+pub use build::{BuildStats, KdTreeParams};
+pub use node::{KdNode, MAX_TREE_DEPTH};
+pub use traverse::{Counters, NoCounts, TraversalCounts};
+
+use crate::aabb::Aabb;
+use crate::error::{Error, Result};
+use crate::ray::{Hit, Ray};
+use crate::scene::Mesh;
+
+/// A kd-tree over a triangle soup. The three arrays are the GPU layout too:
+/// `nodes` (8 bytes each, see `node`), `leaf_triangles` (u32 triangle
+/// indices, a leaf's range of them), and `triangles` (three f32x3 vertices,
+/// 36 bytes each, in the mesh's triangle order).
+#[derive(Debug, Clone)]
+pub struct KdTree {
+    pub nodes: Vec<KdNode>,
+    pub leaf_triangles: Vec<u32>,
+    pub triangles: Vec<[Vec3; 3]>,
+    /// Root cell: the bounds of all triangles.
+    pub bounds: Aabb,
+    pub stats: BuildStats,
+}
+
+impl KdTree {
+    /// Builds the tree over all triangles of a mesh (validated first).
+    pub fn build(mesh: &Mesh, params: &KdTreeParams) -> Result<KdTree> {
+        mesh.validate()?;
+        let triangles = (0..mesh.triangles.len()).map(|t| mesh.triangle(t)).collect();
+        Self::from_triangles(triangles, params)
+    }
+
+    /// Builds the tree over a triangle soup; a triangle's index in the soup is
+    /// the index hits report.
+    pub fn from_triangles(triangles: Vec<[Vec3; 3]>, params: &KdTreeParams) -> Result<KdTree> {
+        validate_params(params)?;
+        if triangles.is_empty() {
+            return Err(Error::input(
+                "mesh",
+                "has no triangles (an empty mesh cannot be traced)",
+            ));
+        }
+        if triangles.len() >= u32::MAX as usize {
+            return Err(Error::input("mesh", "has 2^32-1 or more triangles"));
+        }
+        if let Some(t) = triangles.iter().position(|t| t.iter().any(|v| !v.is_finite())) {
+            return Err(Error::input(
+                format!("triangle {t}"),
+                "has a non-finite vertex coordinate",
+            ));
+        }
+        let start = Instant::now();
+        let bounds = triangles.iter().flatten().fold(Aabb::EMPTY, |b, &p| b.grow(p));
+        let builder = build::Builder::new(&triangles, params, &bounds);
+        let mut out = builder.build(bounds);
+        build::finish_stats(&mut out);
+        let build::Output {
+            nodes,
+            leaf_triangles,
+            mut stats,
+        } = out;
+        stats.triangles = triangles.len();
+        stats.depth_limit = params.depth_limit(triangles.len());
+        if leaf_triangles.len() >= u32::MAX as usize || nodes.len() >= 1 << 30 {
+            return Err(Error::input(
+                "mesh",
+                format!(
+                    "kd-tree too large: {} nodes, {} leaf references (limits 2^30 and 2^32)",
+                    nodes.len(),
+                    leaf_triangles.len()
+                ),
+            ));
+        }
+        stats.build_ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(KdTree {
+            nodes,
+            leaf_triangles,
+            triangles,
+            bounds,
+            stats,
+        })
+    }
+
+    /// Closest hits of many rays, in parallel on the current rayon pool.
+    pub fn trace_closest(&self, rays: &[Ray]) -> Vec<Hit> {
+        rays.par_iter()
+            .with_min_len(1024)
+            .map(|r| self.closest_hit(r.o(), r.d(), f32::INFINITY))
+            .collect()
+    }
+}
+
+fn validate_params(p: &KdTreeParams) -> Result<()> {
+    let positive = [
+        ("traversal_cost", p.traversal_cost),
+        ("intersection_cost", p.intersection_cost),
+    ];
+    for (name, v) in positive {
+        if !(v > 0.0 && v.is_finite()) {
+            return Err(Error::param(
+                format!("kd-tree {name}"),
+                format!("must be positive and finite, got {v}"),
+            ));
+        }
+    }
+    let unit = [("empty_bonus", p.empty_bonus), ("min_cell_area", p.min_cell_area)];
+    for (name, v) in unit {
+        if !(0.0..=1.0).contains(&v) {
+            return Err(Error::param(
+                format!("kd-tree {name}"),
+                format!("must be in [0, 1], got {v}"),
+            ));
+        }
+    }
+    if p.empty_cell_volume.is_nan() || p.empty_cell_volume < 0.0 {
+        return Err(Error::param("kd-tree empty_cell_volume", "must be >= 0"));
+    }
+    if p.max_depth == Some(0) || p.max_depth.is_some_and(|d| d > MAX_TREE_DEPTH) {
+        return Err(Error::param(
+            "kd-tree max_depth",
+            format!("must be between 1 and {MAX_TREE_DEPTH}"),
+        ));
+    }
+    if p.bins < 2 {
+        return Err(Error::param("kd-tree bins", "must be at least 2"));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests;

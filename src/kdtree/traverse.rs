@@ -1,0 +1,164 @@
+//! Single-ray kd-tree traversal (closest hit and any hit), the CPU twin of
+//! `wgsl/kdtree_traverse.wgsl`.
+//!
+//! The classic recursive ray traversal (Havran 2000, "TA_B^rec"; Wald 2004)
+//! with an explicit stack: at an interior node the ray's parametric interval
+//! `[t_min, t_max]` in the cell is compared with the distance to the split
+//! plane to visit the near child, the far child, or both (far one pushed).
+//! Leaves test all their triangles; a hit inside the current cell ends the
+//! search, since every cell still on the stack lies farther along the ray.
+
+use glam::Vec3;
+
+use super::KdTree;
+use super::node::MAX_TREE_DEPTH;
+use super::watertight::ShearedRay;
+use crate::ray::Hit;
+
+/// Receives traversal events; the statistics of `penumbra trace` count them,
+/// the fast path compiles them away.
+pub trait Counters {
+    fn cell(&mut self);
+    fn intersection(&mut self);
+}
+
+/// Counts nothing.
+pub struct NoCounts;
+
+impl Counters for NoCounts {
+    #[inline(always)]
+    fn cell(&mut self) {}
+    #[inline(always)]
+    fn intersection(&mut self) {}
+}
+
+/// Traversal steps (interior and leaf cells visited) and ray–triangle tests.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct TraversalCounts {
+    pub cells: u64,
+    pub intersections: u64,
+}
+
+impl Counters for TraversalCounts {
+    #[inline(always)]
+    fn cell(&mut self) {
+        self.cells += 1;
+    }
+    #[inline(always)]
+    fn intersection(&mut self) {
+        self.intersections += 1;
+    }
+}
+
+impl std::ops::AddAssign for TraversalCounts {
+    fn add_assign(&mut self, o: Self) {
+        self.cells += o.cells;
+        self.intersections += o.intersections;
+    }
+}
+
+/// Relative slack of every cell interval. Rounding in the distance to a split
+/// plane is a few ulps; a ray through a point where cells meet (a vertex on
+/// two split planes, say) may touch the cell holding the triangle that
+/// accepts the hit only at that point, and rounding could exclude it. Cells
+/// are therefore entered when the ray comes within this relative distance of
+/// them. Termination compares hits with the unwidened exit distance, so the
+/// closest hit stays exact.
+pub const TRAVERSAL_SLACK: f32 = 1e-6;
+
+impl KdTree {
+    /// Closest hit with `0 < t < t_max`, or `Hit::MISS`.
+    #[inline]
+    pub fn closest_hit(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Hit {
+        self.traverse::<false, _>(origin, dir, t_max, &mut NoCounts)
+    }
+
+    /// Closest hit, counting traversal steps and intersection tests.
+    pub fn closest_hit_counted(&self, origin: Vec3, dir: Vec3, t_max: f32, counts: &mut TraversalCounts) -> Hit {
+        self.traverse::<false, _>(origin, dir, t_max, counts)
+    }
+
+    /// Whether anything is hit with `0 < t < t_max` (occlusion / shadow rays).
+    #[inline]
+    pub fn any_hit(&self, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
+        self.traverse::<true, _>(origin, dir, t_max, &mut NoCounts).is_hit()
+    }
+
+    #[inline(always)]
+    fn traverse<const ANY: bool, C: Counters>(&self, origin: Vec3, dir: Vec3, t_max: f32, counts: &mut C) -> Hit {
+        let Some((t0, t1)) = self.bounds.clip_ray(origin, dir, 0.0, t_max) else {
+            return Hit::MISS;
+        };
+        let mut t_min = t0 * (1.0 - TRAVERSAL_SLACK);
+        let mut t_cell_max = t1 * (1.0 + TRAVERSAL_SLACK);
+        let ray = ShearedRay::new(origin, dir);
+        let inv_dir = dir.recip();
+        let mut stack = [(0u32, 0.0f32, 0.0f32); MAX_TREE_DEPTH];
+        let mut sp = 0usize;
+        let mut node_index = 0u32;
+        let mut best = Hit {
+            t: t_max,
+            triangle: Hit::MISS_INDEX,
+        };
+        loop {
+            counts.cell();
+            let node = self.nodes[node_index as usize];
+            if !node.is_leaf() {
+                let axis = node.axis();
+                let split = node.split();
+                let o = origin[axis];
+                let t_plane = (split - o) * inv_dir[axis];
+                let below_first = o < split || (o == split && dir[axis] <= 0.0);
+                let (first, second) = if below_first {
+                    (node_index + 1, node.above_child())
+                } else {
+                    (node.above_child(), node_index + 1)
+                };
+                if t_plane <= 0.0 || t_plane * (1.0 - TRAVERSAL_SLACK) > t_cell_max {
+                    node_index = first;
+                } else if t_plane * (1.0 + TRAVERSAL_SLACK) < t_min {
+                    node_index = second;
+                } else {
+                    // Both children. A NaN t_plane means the ray lies in the
+                    // split plane: both children keep the whole interval.
+                    if t_plane.is_nan() {
+                        stack[sp] = (second, t_min, t_cell_max);
+                    } else {
+                        stack[sp] = (second, t_min.max(t_plane * (1.0 - TRAVERSAL_SLACK)), t_cell_max);
+                        t_cell_max = t_cell_max.min(t_plane * (1.0 + TRAVERSAL_SLACK));
+                    }
+                    sp += 1;
+                    node_index = first;
+                }
+                continue;
+            }
+
+            for &tri in &self.leaf_triangles[node.leaf_range()] {
+                counts.intersection();
+                let [v0, v1, v2] = self.triangles[tri as usize];
+                if let Some(t) = ray.intersect(v0, v1, v2, best.t) {
+                    best = Hit { t, triangle: tri };
+                    if ANY {
+                        return best;
+                    }
+                }
+            }
+            // A hit inside this cell is the closest: the remaining cells lie
+            // beyond its exit. (A hit beyond it may still be beaten by a
+            // triangle in a later cell, so the search goes on.)
+            if best.is_hit() && best.t * (1.0 + TRAVERSAL_SLACK) <= t_cell_max {
+                return best;
+            }
+            loop {
+                if sp == 0 {
+                    return if best.is_hit() { best } else { Hit::MISS };
+                }
+                sp -= 1;
+                (node_index, t_min, t_cell_max) = stack[sp];
+                if t_min <= best.t {
+                    break;
+                }
+            }
+        }
+    }
+}

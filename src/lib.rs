@@ -1,0 +1,20 @@
+//! penumbra: visibility on the GPU — ambient occlusion, soft self-shadowing
+//! and ray casting through wgpu/WGSL compute kernels, headless, with a CPU
+//! reference path for every kernel.
+//!
+//! Every WGSL kernel in `wgsl/` has a CPU twin with the same name and data
+//! layout (see `wgsl` for the list); tests run both and compare.
+
+pub mod aabb;
+pub mod ao;
+pub mod cli;
+pub mod error;
+pub mod gpu;
+pub mod kdtree;
+pub mod progress;
+pub mod ray;
+pub mod sampling;
+pub mod scene;
+pub mod wgsl;
+
+pub use error::{Error, Result};

@@ -1,0 +1,16 @@
+//! Sample generation shared bit for bit by the CPU and the WGSL kernels
+//! (`wgsl/sampling.wgsl` is the twin of this module).
+//!
+//! * `sequence`: Owen-scrambled Sobol points, seeded, integer arithmetic only,
+//!   so a seed gives the same points on every device.
+//! * `concentric`: Shirley and Chiu's concentric square-to-disk map and its inverse.
+//! * `hemisphere`: Malley's method (cosine-weighted hemisphere directions by
+//!   lifting concentric-disk points), and an orthonormal basis around a normal.
+
+pub mod concentric;
+pub mod hemisphere;
+pub mod sequence;
+
+pub use concentric::{concentric_disk, concentric_square};
+pub use hemisphere::{Frame, cosine_hemisphere, malley_inverse};
+pub use sequence::{SampleSequence, hash_u32, unit_float};

@@ -1,0 +1,144 @@
+//! A deterministic low-discrepancy sequence with a seed: the first two Sobol
+//! dimensions with hash-based nested uniform (Owen) scrambling and index
+//! shuffling, after Burley, "Practical Hash-based Owen Scrambling", JCGT 9(4),
+//! 2020. Everything is 32-bit integer arithmetic, which WGSL reproduces
+//! exactly, so a ray's direction depends only on (seed, point, sample index).
+
+/// One stream of 2D points: a seed and a point index (a vertex, a pixel)
+/// select an independent scramble of the same Sobol points.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SampleSequence {
+    pub seed: u32,
+}
+
+impl SampleSequence {
+    pub fn new(seed: u32) -> Self {
+        SampleSequence { seed }
+    }
+
+    /// Scramble seed of one point's stream.
+    #[inline]
+    pub fn stream_seed(&self, point: u32) -> u32 {
+        hash_u32(self.seed ^ hash_u32(point.wrapping_add(0x9e37_79b9)))
+    }
+
+    /// Sample `index` of stream `point`, as two 32-bit fixed-point numbers.
+    #[inline]
+    pub fn sample_bits(&self, point: u32, index: u32) -> [u32; 2] {
+        owen_sobol_2d(index, self.stream_seed(point))
+    }
+
+    /// Sample `index` of stream `point`, in `[0, 1)^2`.
+    #[inline]
+    pub fn sample(&self, point: u32, index: u32) -> [f32; 2] {
+        self.sample_bits(point, index).map(unit_float)
+    }
+}
+
+/// Integer hash ("lowbias32", Chris Wellons' hash-prospector).
+#[inline]
+pub fn hash_u32(mut x: u32) -> u32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^= x >> 16;
+    x
+}
+
+/// The top 24 bits as a float in [0, 1): exact, so identical on every device.
+#[inline]
+pub fn unit_float(bits: u32) -> f32 {
+    (bits >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// Laine–Karras style permutation that scrambles bits only upward, which on
+/// bit-reversed input is a nested uniform scramble (Burley 2020, listing 2).
+#[inline]
+fn laine_karras_permutation(mut x: u32, seed: u32) -> u32 {
+    x = x.wrapping_add(seed);
+    x ^= x.wrapping_mul(0x6c50_b47c);
+    x ^= x.wrapping_mul(0xb82f_1e52);
+    x ^= x.wrapping_mul(0xc7af_e638);
+    x ^= x.wrapping_mul(0x8d22_f6e6);
+    x
+}
+
+#[inline]
+fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
+    laine_karras_permutation(x.reverse_bits(), seed).reverse_bits()
+}
+
+/// Sobol dimension 0 (van der Corput) and 1, as 32-bit fractions.
+#[inline]
+fn sobol_2d(index: u32) -> [u32; 2] {
+    let x = index.reverse_bits();
+    // Dimension 1: generator matrix columns v_k = v_{k-1} ^ (v_{k-1} >> 1),
+    // starting from 1 << 31.
+    let mut y = 0u32;
+    let mut v = 1u32 << 31;
+    let mut i = index;
+    while i != 0 {
+        if i & 1 != 0 {
+            y ^= v;
+        }
+        i >>= 1;
+        v ^= v >> 1;
+    }
+    [x, y]
+}
+
+/// Burley's shuffled, scrambled Sobol 2D point.
+#[inline]
+pub fn owen_sobol_2d(index: u32, seed: u32) -> [u32; 2] {
+    let shuffled = nested_uniform_scramble(index, seed);
+    let [x, y] = sobol_2d(shuffled);
+    [
+        nested_uniform_scramble(x, hash_u32(seed ^ 0xa511_e9b3)),
+        nested_uniform_scramble(y, hash_u32(seed ^ 0x63d8_3595)),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unscrambled_sobol_is_the_known_sequence() {
+        // First points of Sobol dims 0 and 1: (0,0) (.5,.5) (.25,.75) (.75,.25).
+        let expect = [[0.0, 0.0], [0.5, 0.5], [0.25, 0.75], [0.75, 0.25]];
+        for (i, e) in expect.iter().enumerate() {
+            let p = sobol_2d(i as u32).map(unit_float);
+            assert_eq!(p, *e);
+        }
+    }
+
+    #[test]
+    fn scrambled_points_are_stratified() {
+        // Any 2^k consecutive-from-zero points of a (0,2)-sequence put exactly
+        // one point in each cell of every 2^a x 2^b elementary grid, a+b = k.
+        let seq = SampleSequence::new(7);
+        let n = 256u32;
+        for (a, b) in [(8, 0), (4, 4), (0, 8), (3, 5)] {
+            let mut seen = vec![false; n as usize];
+            for i in 0..n {
+                let [x, y] = seq.sample_bits(12345, i);
+                let cell = ((x >> (32 - a)) << b) | if b == 0 { 0 } else { y >> (32 - b) };
+                assert!(!std::mem::replace(&mut seen[cell as usize], true), "grid {a}x{b}");
+            }
+        }
+    }
+
+    #[test]
+    fn seeds_and_streams_differ_and_repeat() {
+        let a = SampleSequence::new(1);
+        let b = SampleSequence::new(2);
+        assert_eq!(a.sample(3, 5), a.sample(3, 5));
+        assert_ne!(a.sample(3, 5), b.sample(3, 5));
+        assert_ne!(a.sample(3, 5), a.sample(4, 5));
+        for i in 0..1000 {
+            let [x, y] = a.sample(9, i);
+            assert!((0.0..1.0).contains(&x) && (0.0..1.0).contains(&y));
+        }
+    }
+}

@@ -1,0 +1,201 @@
+//! Indexed triangle meshes, as the command-line contract numbers them.
+
+use std::ops::Range;
+
+use glam::Vec3;
+
+use crate::aabb::Aabb;
+use crate::error::{Error, Result};
+
+/// A named run of consecutive triangles: one `o`/`g` block of an OBJ file or
+/// one instance of a scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshObject {
+    pub name: String,
+    pub triangles: Range<u32>,
+}
+
+/// An indexed triangle mesh. Vertex and triangle indices are the contract's:
+/// file order for vertices, fan order across all objects for triangles.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Mesh {
+    pub positions: Vec<Vec3>,
+    pub triangles: Vec<[u32; 3]>,
+    /// Per-object triangle ranges, in order, covering all triangles.
+    pub objects: Vec<MeshObject>,
+}
+
+impl Mesh {
+    /// Builds a mesh with a single object and validates it.
+    pub fn new(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Result<Self> {
+        let n = triangles.len() as u32;
+        let mesh = Mesh {
+            positions,
+            triangles,
+            objects: vec![MeshObject {
+                name: "mesh".into(),
+                triangles: 0..n,
+            }],
+        };
+        mesh.validate()?;
+        Ok(mesh)
+    }
+
+    /// Checks what every consumer relies on: at least one triangle, finite
+    /// coordinates, indices in range, and a triangle count that fits the
+    /// 32-bit indices of the GPU layout (with `u32::MAX` reserved for a miss).
+    pub fn validate(&self) -> Result<()> {
+        if self.triangles.is_empty() {
+            return Err(Error::input(
+                "mesh",
+                "has no triangles (an empty mesh cannot be traced)",
+            ));
+        }
+        if self.triangles.len() >= u32::MAX as usize || self.positions.len() >= u32::MAX as usize {
+            return Err(Error::input("mesh", "has more than 2^32-1 triangles or vertices"));
+        }
+        for (i, p) in self.positions.iter().enumerate() {
+            for (axis, c) in ["x", "y", "z"].iter().zip(p.to_array()) {
+                if !c.is_finite() {
+                    return Err(Error::input(
+                        format!("vertex {}", i + 1),
+                        format!("coordinate {axis} is {c}; vertices must be finite"),
+                    ));
+                }
+            }
+        }
+        let nv = self.positions.len() as u32;
+        for (t, tri) in self.triangles.iter().enumerate() {
+            if let Some(&bad) = tri.iter().find(|&&v| v >= nv) {
+                return Err(Error::input(
+                    format!("triangle {t}"),
+                    format!("vertex index {} out of range (mesh has {nv} vertices)", bad + 1),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    pub fn triangle(&self, t: usize) -> [Vec3; 3] {
+        let [a, b, c] = self.triangles[t];
+        [
+            self.positions[a as usize],
+            self.positions[b as usize],
+            self.positions[c as usize],
+        ]
+    }
+
+    /// Bounds of the vertices that triangles use.
+    pub fn bounds(&self) -> Aabb {
+        self.triangles
+            .iter()
+            .flatten()
+            .fold(Aabb::EMPTY, |b, &v| b.grow(self.positions[v as usize]))
+    }
+
+    /// Face normal as the contract defines it: `cross(v1 - v0, v2 - v0)`,
+    /// unnormalised, so its length is twice the triangle's area.
+    pub fn face_normal(&self, t: usize) -> Vec3 {
+        let [a, b, c] = self.triangle(t);
+        (b - a).cross(c - a)
+    }
+
+    /// Vertex normals as the contract defines them: the area-weighted sum of
+    /// the adjacent face normals, normalised. A vertex no triangle uses, or
+    /// whose adjacent triangles all have zero area, gets the zero vector.
+    pub fn vertex_normals(&self) -> Vec<Vec3> {
+        let mut sums = vec![glam::DVec3::ZERO; self.positions.len()];
+        for t in 0..self.triangles.len() {
+            // Sum in f64: a vertex shared by thousands of needle triangles
+            // would otherwise lose the small ones.
+            let n = self.face_normal(t).as_dvec3();
+            for &v in &self.triangles[t] {
+                sums[v as usize] += n;
+            }
+        }
+        sums.into_iter()
+            .map(|s| s.try_normalize().map_or(Vec3::ZERO, |n| n.as_vec3()))
+            .collect()
+    }
+
+    /// Appends `other`, renumbering its vertices and shifting its objects.
+    pub fn append(&mut self, other: &Mesh) {
+        let v0 = self.positions.len() as u32;
+        let t0 = self.triangles.len() as u32;
+        self.positions.extend_from_slice(&other.positions);
+        self.triangles.extend(other.triangles.iter().map(|t| t.map(|v| v + v0)));
+        self.objects.extend(other.objects.iter().map(|o| MeshObject {
+            name: o.name.clone(),
+            triangles: o.triangles.start + t0..o.triangles.end + t0,
+        }));
+    }
+
+    /// The mesh with every vertex mapped by `f` (a rigid motion with uniform
+    /// scale keeps the normals' directions; see `scene::Transform`).
+    pub fn map_positions(&self, f: impl Fn(Vec3) -> Vec3) -> Mesh {
+        Mesh {
+            positions: self.positions.iter().map(|&p| f(p)).collect(),
+            triangles: self.triangles.clone(),
+            objects: self.objects.clone(),
+        }
+    }
+
+    /// Object that contains triangle `t`.
+    pub fn object_of(&self, t: u32) -> Option<&MeshObject> {
+        let i = self.objects.partition_point(|o| o.triangles.end <= t);
+        self.objects.get(i).filter(|o| o.triangles.contains(&t))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quad() -> Mesh {
+        Mesh::new(
+            vec![
+                Vec3::new(0.0, 0.0, 0.0),
+                Vec3::new(2.0, 0.0, 0.0),
+                Vec3::new(2.0, 1.0, 0.0),
+                Vec3::new(0.0, 1.0, 0.0),
+            ],
+            vec![[0, 1, 2], [0, 2, 3]],
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn vertex_normals_are_area_weighted_and_normalised() {
+        let n = quad().vertex_normals();
+        for v in n {
+            assert!((v - Vec3::Z).length() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn rejects_empty_nonfinite_and_out_of_range() {
+        let e = Mesh::new(vec![Vec3::ZERO], vec![]).unwrap_err();
+        assert!(e.to_string().contains("no triangles"), "{e}");
+        let e = Mesh::new(
+            vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, f32::NAN, 0.0)],
+            vec![[0, 1, 2]],
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string().contains("vertex 3") && e.to_string().contains("NaN"),
+            "{e}"
+        );
+        let e = Mesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 3]]).unwrap_err();
+        assert!(e.to_string().contains("out of range"), "{e}");
+    }
+
+    #[test]
+    fn append_renumbers_and_finds_objects() {
+        let mut m = quad();
+        m.append(&quad());
+        assert_eq!(m.triangles[3], [4, 6, 7]);
+        assert_eq!(m.objects.len(), 2);
+        assert_eq!(m.object_of(3).unwrap().triangles, 2..4);
+        assert!(m.object_of(4).is_none());
+    }
+}

@@ -1,0 +1,254 @@
+//! The JSON scene file: meshes, instances with roles and rigid transforms,
+//! camera, lights and an environment map.
+//!
+//! ```json
+//! {
+//!   "meshes": { "corner": "corner.obj", "bunny": "$PENUMBRA_DATA/models/stanford-bunny.obj" },
+//!   "instances": [
+//!     { "mesh": "corner", "role": "receiver" },
+//!     { "mesh": "bunny", "role": "caster", "translate": [0.5, 0, 0.5],
+//!       "rotate": { "axis": [0, 1, 0], "degrees": 30 }, "scale": 4 }
+//!   ],
+//!   "camera": { "eye": [3, 2, 3], "target": [0, 0, 0], "fov": 45 },
+//!   "lights": [ { "point": { "position": [2, 3, 2], "intensity": [10, 10, 10] } } ],
+//!   "environment": { "map": "$PENUMBRA_DATA/probes/grace.hdr", "intensity": 1 }
+//! }
+//! ```
+//!
+//! Paths are relative to the scene file; a leading `$PENUMBRA_DATA` is the
+//! shared data folder named by that environment variable. Unknown fields are
+//! errors, so a typo does not silently fall back to a default.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use glam::{Quat, Vec3};
+use serde::Deserialize;
+
+use super::{Camera, Instance, Light, Role, Scene, SceneMesh, Transform, load_obj};
+use crate::error::{Error, Result};
+use crate::scene::environment::EnvironmentMap;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    meshes: BTreeMap<String, String>,
+    instances: Vec<InstanceFile>,
+    #[serde(default)]
+    camera: Option<CameraFile>,
+    #[serde(default)]
+    lights: Vec<LightFile>,
+    #[serde(default)]
+    environment: Option<EnvironmentFile>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct InstanceFile {
+    mesh: String,
+    #[serde(default)]
+    name: Option<String>,
+    #[serde(default)]
+    role: Role,
+    #[serde(default)]
+    translate: [f32; 3],
+    #[serde(default)]
+    rotate: Option<RotationFile>,
+    #[serde(default = "one")]
+    scale: f32,
+}
+
+fn one() -> f32 {
+    1.0
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RotationFile {
+    axis: [f32; 3],
+    degrees: f32,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraFile {
+    eye: [f32; 3],
+    target: [f32; 3],
+    #[serde(default = "default_fov")]
+    fov: f32,
+}
+
+fn default_fov() -> f32 {
+    45.0
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "lowercase")]
+enum LightFile {
+    Point { position: [f32; 3], intensity: [f32; 3] },
+    Directional { direction: [f32; 3], radiance: [f32; 3] },
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct EnvironmentFile {
+    map: String,
+    #[serde(default = "one")]
+    intensity: f32,
+    #[serde(default)]
+    rotation_degrees: f32,
+}
+
+/// Expands `$PENUMBRA_DATA` and makes the path relative to the scene's folder.
+fn resolve(scene: &Path, field: &str, text: &str) -> Result<PathBuf> {
+    if let Some(rest) = text.strip_prefix("$PENUMBRA_DATA") {
+        let data = std::env::var_os("PENUMBRA_DATA").ok_or_else(|| {
+            Error::file(
+                scene,
+                field,
+                "uses $PENUMBRA_DATA but that environment variable is not set",
+            )
+        })?;
+        return Ok(PathBuf::from(data).join(rest.trim_start_matches(['/', '\\'])));
+    }
+    let base = scene.parent().unwrap_or(Path::new("."));
+    Ok(base.join(text))
+}
+
+fn finite(scene: &Path, field: &str, v: &[f32]) -> Result<()> {
+    if v.iter().all(|c| c.is_finite()) {
+        Ok(())
+    } else {
+        Err(Error::file(scene, field, "must be finite"))
+    }
+}
+
+pub fn load_scene(path: &Path) -> Result<Scene> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::read(path, e))?;
+    let file: SceneFile = serde_json::from_str(&text)
+        .map_err(|e| Error::file(path, format!("line {} column {}", e.line(), e.column()), e.to_string()))?;
+
+    let mut meshes = Vec::new();
+    let mut index_of = BTreeMap::new();
+    for (name, mesh_path) in &file.meshes {
+        let field = format!("meshes.{name}");
+        let resolved = resolve(path, &field, mesh_path)?;
+        let mesh = load_obj(&resolved)?;
+        index_of.insert(name.clone(), meshes.len());
+        meshes.push(SceneMesh {
+            name: name.clone(),
+            path: resolved,
+            mesh,
+        });
+    }
+    if file.instances.is_empty() {
+        return Err(Error::file(
+            path,
+            "instances",
+            "is empty; a scene needs at least one instance",
+        ));
+    }
+    let mut instances = Vec::new();
+    for (i, inst) in file.instances.iter().enumerate() {
+        let field = format!("instances[{i}]");
+        let &mesh = index_of.get(&inst.mesh).ok_or_else(|| {
+            Error::file(
+                path,
+                format!("{field}.mesh"),
+                format!("no mesh named '{}' in \"meshes\"", inst.mesh),
+            )
+        })?;
+        finite(path, &format!("{field}.translate"), &inst.translate)?;
+        if !(inst.scale > 0.0 && inst.scale.is_finite()) {
+            return Err(Error::file(
+                path,
+                format!("{field}.scale"),
+                format!("must be positive, got {}", inst.scale),
+            ));
+        }
+        let rotation = match &inst.rotate {
+            None => Quat::IDENTITY,
+            Some(r) => {
+                finite(
+                    path,
+                    &format!("{field}.rotate"),
+                    &[r.axis[0], r.axis[1], r.axis[2], r.degrees],
+                )?;
+                let axis = Vec3::from_array(r.axis)
+                    .try_normalize()
+                    .ok_or_else(|| Error::file(path, format!("{field}.rotate.axis"), "must not be the zero vector"))?;
+                Quat::from_axis_angle(axis, r.degrees.to_radians())
+            }
+        };
+        instances.push(Instance {
+            name: inst.name.clone().unwrap_or_else(|| format!("{}#{i}", inst.mesh)),
+            mesh,
+            role: inst.role,
+            transform: Transform {
+                translation: Vec3::from_array(inst.translate),
+                rotation,
+                scale: inst.scale,
+            },
+        });
+    }
+    let camera = match &file.camera {
+        None => None,
+        Some(c) => {
+            let camera = Camera {
+                eye: Vec3::from_array(c.eye),
+                target: Vec3::from_array(c.target),
+                fov_degrees: c.fov,
+            };
+            camera
+                .validate()
+                .map_err(|e| Error::file(path, "camera", e.to_string()))?;
+            Some(camera)
+        }
+    };
+    let mut lights = Vec::new();
+    for (i, l) in file.lights.iter().enumerate() {
+        let field = format!("lights[{i}]");
+        lights.push(match l {
+            LightFile::Point { position, intensity } => {
+                finite(path, &field, &[position.as_slice(), intensity.as_slice()].concat())?;
+                Light::Point {
+                    position: Vec3::from_array(*position),
+                    intensity: Vec3::from_array(*intensity),
+                }
+            }
+            LightFile::Directional { direction, radiance } => {
+                finite(path, &field, &[direction.as_slice(), radiance.as_slice()].concat())?;
+                let direction = Vec3::from_array(*direction)
+                    .try_normalize()
+                    .ok_or_else(|| Error::file(path, format!("{field}.direction"), "must not be zero"))?;
+                Light::Directional {
+                    direction,
+                    radiance: Vec3::from_array(*radiance),
+                }
+            }
+        });
+    }
+    let environment = match &file.environment {
+        None => None,
+        Some(env) => {
+            let map_path = resolve(path, "environment.map", &env.map)?;
+            if !(env.intensity >= 0.0 && env.intensity.is_finite()) {
+                return Err(Error::file(path, "environment.intensity", "must be finite and >= 0"));
+            }
+            finite(path, "environment.rotation_degrees", &[env.rotation_degrees])?;
+            Some(super::Environment {
+                map: EnvironmentMap::load(&map_path)?,
+                path: map_path,
+                intensity: env.intensity,
+                rotation_degrees: env.rotation_degrees,
+            })
+        }
+    };
+    Ok(Scene {
+        meshes,
+        instances,
+        camera,
+        lights,
+        environment,
+    })
+}

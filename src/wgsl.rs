@@ -1,0 +1,132 @@
+//! The WGSL sources in `wgsl/`, compiled into the library with `include_str!`,
+//! and how kernels are composed from them.
+//!
+//! WGSL has no `#include`: a kernel module is the concatenation of the
+//! self-contained library files it needs and its own file. Validation maps an
+//! error's line in the composed text back to the file and line it came from.
+
+/// One file of `wgsl/`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WgslFile {
+    /// Path relative to the crate root, for messages.
+    pub path: &'static str,
+    pub text: &'static str,
+}
+
+macro_rules! wgsl_file {
+    ($name:literal) => {
+        WgslFile {
+            path: concat!("wgsl/", $name),
+            text: include_str!(concat!("../wgsl/", $name)),
+        }
+    };
+}
+
+pub const SAMPLING: WgslFile = wgsl_file!("sampling.wgsl");
+pub const KDTREE_TRAVERSE: WgslFile = wgsl_file!("kdtree_traverse.wgsl");
+pub const TRACE_RAYS: WgslFile = wgsl_file!("trace_rays.wgsl");
+pub const AO_RAYS: WgslFile = wgsl_file!("ao_rays.wgsl");
+
+/// Every file compiled in (the validation test checks this against `wgsl/`).
+pub const FILES: &[WgslFile] = &[SAMPLING, KDTREE_TRAVERSE, TRACE_RAYS, AO_RAYS];
+
+/// A shader module made of several files, in order.
+#[derive(Debug, Clone, Copy)]
+pub struct Composition {
+    pub name: &'static str,
+    pub parts: &'static [WgslFile],
+}
+
+pub const TRACE_RAYS_MODULE: Composition = Composition {
+    name: "trace_rays",
+    parts: &[KDTREE_TRAVERSE, TRACE_RAYS],
+};
+
+pub const AO_RAYS_MODULE: Composition = Composition {
+    name: "ao_rays",
+    parts: &[SAMPLING, KDTREE_TRAVERSE, AO_RAYS],
+};
+
+/// Every kernel module the library builds pipelines from.
+pub const MODULES: &[Composition] = &[TRACE_RAYS_MODULE, AO_RAYS_MODULE];
+
+impl Composition {
+    pub fn source(&self) -> String {
+        let mut s = String::new();
+        for part in self.parts {
+            s.push_str(part.text);
+            if !part.text.ends_with('\n') {
+                s.push('\n');
+            }
+        }
+        s
+    }
+
+    /// The file and 1-based line that line `line` of `source()` came from.
+    pub fn locate(&self, line: u32) -> (&'static str, u32) {
+        let mut first = 1u32;
+        for part in self.parts {
+            let lines = part.text.lines().count() as u32;
+            if line < first + lines {
+                return (part.path, line - first + 1);
+            }
+            first += lines;
+        }
+        (self.parts.last().map_or("?", |p| p.path), line)
+    }
+
+    /// Parses and validates the composed module with naga. An error names the
+    /// original file and line.
+    pub fn validate(&self) -> Result<naga::Module, String> {
+        let source = self.source();
+        validate_source(&source, |line| self.locate(line))
+    }
+}
+
+impl WgslFile {
+    /// Parses and validates the file on its own.
+    pub fn validate(&self) -> Result<naga::Module, String> {
+        validate_source(self.text, |line| (self.path, line))
+    }
+}
+
+/// Marker path given to naga's diagnostic renderer, so the line it reports
+/// can be found and mapped back.
+const MARK: &str = "@composed@";
+
+/// The first `@composed@:LINE:COL` in a rendered naga diagnostic. (naga's
+/// `location()` uses the first label, which can have an undefined span and
+/// then points at line 1; the rendered text skips undefined spans.)
+fn rendered_line(rendered: &str) -> Option<u32> {
+    let at = rendered.find(&format!("{MARK}:"))? + MARK.len() + 1;
+    rendered[at..].split(':').next()?.parse().ok()
+}
+
+fn validate_source(source: &str, locate: impl Fn(u32) -> (&'static str, u32)) -> Result<naga::Module, String> {
+    let describe = |rendered: String, kind: &str, message: String| {
+        let at = rendered_line(&rendered)
+            .map(&locate)
+            .map_or("?".to_string(), |(f, l)| format!("{f}:{l}"));
+        format!("{at}: {kind}: {message}\n{rendered}")
+    };
+    let module = naga::front::wgsl::parse_str(source).map_err(|e| {
+        describe(
+            e.emit_to_string_with_path(source, MARK),
+            "parse error",
+            e.message().to_string(),
+        )
+    })?;
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::default(),
+    )
+    .validate(&module)
+    .map_err(|e| {
+        describe(
+            e.emit_to_string_with_path(source, MARK),
+            "validation error",
+            e.as_inner().to_string(),
+        )
+    })?;
+    Ok(module)
+}

@@ -1,0 +1,235 @@
+//! Every WGSL kernel against its CPU twin, with per-quantity tolerances and
+//! the worst deviation printed.
+//!
+//! Tolerances:
+//! * trace_rays: hit/miss identical for >= 99.99% of rays; where both hit,
+//!   |t_gpu - t_cpu| <= 1e-5 t; traversal counts identical for >= 99.9%.
+//!   (The kernel does the CPU's arithmetic; differences come only from a GPU
+//!   compiler fusing multiply-adds, which moves results by an ulp.)
+//! * ao_samples: the sample points bit-identical (integer arithmetic);
+//!   directions within 1e-5 (sin/cos of the GPU differ by ulps).
+//! * ao_rays: >= 99.9% of individual ray results identical.
+
+mod common;
+
+use common::{Rng, asset, data_model, gpu};
+use glam::Vec3;
+use penumbra::ao::gpu::{ray_samples_gpu, visibility_gpu};
+use penumbra::ao::points::vertex_points;
+use penumbra::ao::raycast::visibility_cpu;
+use penumbra::ao::{AoPoint, AoSettings, ray_direction};
+use penumbra::gpu::GpuContext;
+use penumbra::kdtree::gpu::{GpuKdTree, TraceMode, trace_rays};
+use penumbra::kdtree::{KdTree, KdTreeParams, TraversalCounts};
+use penumbra::progress::Progress;
+use penumbra::ray::Ray;
+use penumbra::sampling::SampleSequence;
+use penumbra::scene::{Camera, Mesh, load_obj};
+
+fn compare_traces(ctx: &GpuContext, name: &str, mesh: &Mesh, rays: &[Ray]) {
+    let tree = KdTree::build(mesh, &KdTreeParams::default()).unwrap();
+    let gpu_tree = GpuKdTree::upload(&ctx.device, &tree).unwrap();
+    let gpu = trace_rays(ctx, &gpu_tree, rays, TraceMode::ClosestCounted, f32::INFINITY).unwrap();
+    let any = trace_rays(ctx, &gpu_tree, rays, TraceMode::Any, f32::INFINITY).unwrap();
+    let counts = gpu.counts.unwrap();
+    let (mut disagree, mut worst_t, mut count_diff, mut any_wrong) = (0usize, 0f32, 0usize, 0usize);
+    for (i, r) in rays.iter().enumerate() {
+        let mut c = TraversalCounts::default();
+        let cpu = tree.closest_hit_counted(r.o(), r.d(), f32::INFINITY, &mut c);
+        let g = gpu.hits[i];
+        if cpu.is_hit() != g.is_hit() {
+            disagree += 1;
+        } else if cpu.is_hit() {
+            worst_t = worst_t.max((g.t - cpu.t).abs() / cpu.t);
+        }
+        if [c.cells as u32, c.intersections as u32] != counts[i] {
+            count_diff += 1;
+        }
+        if any.hits[i].is_hit() != cpu.is_hit() {
+            any_wrong += 1;
+        }
+    }
+    let n = rays.len() as f64;
+    println!(
+        "{name}: {} rays, hit/miss disagreements {disagree} ({:.4}%), worst relative t difference {worst_t:.3e}, \
+         rays with different traversal counts {count_diff}, any-hit disagreements {any_wrong}",
+        rays.len(),
+        100.0 * disagree as f64 / n
+    );
+    assert!(disagree as f64 <= 1e-4 * n, "{name}: hit/miss disagreement above 0.01%");
+    assert!(any_wrong as f64 <= 1e-4 * n, "{name}: any-hit disagreement above 0.01%");
+    assert!(worst_t <= 1e-5, "{name}: t differs by {worst_t}");
+    assert!(
+        count_diff as f64 <= 1e-3 * n,
+        "{name}: traversal differs for {count_diff} rays"
+    );
+}
+
+fn random_rays(mesh: &Mesh, n: usize, seed: u64) -> Vec<Ray> {
+    let b = mesh.bounds();
+    let mut rng = Rng(seed);
+    (0..n)
+        .map(|_| {
+            let o = b.center() + (rng.vec3(-1.5, 1.5)) * b.extent();
+            let target = b.min + rng.vec3(0.0, 1.0) * b.extent();
+            Ray::new(o, target - o)
+        })
+        .collect()
+}
+
+#[test]
+fn trace_rays_kernel_equals_cpu_on_procedural_scenes() {
+    let Some(ctx) = gpu() else { return };
+    for name in [
+        "corner.obj",
+        "cube-with-hole.obj",
+        "sphere-on-plane.obj",
+        "closed-box.obj",
+        "cylindrical-well.obj",
+    ] {
+        let mesh = load_obj(&asset(name)).unwrap();
+        let mut rays = random_rays(&mesh, 20_000, 42);
+        rays.extend(Camera::default_for(&mesh.bounds()).primary_rays(96, 96));
+        compare_traces(&ctx, name, &mesh, &rays);
+    }
+}
+
+#[test]
+fn trace_rays_kernel_equals_cpu_on_shared_models() {
+    let Some(ctx) = gpu() else { return };
+    for model in ["stanford-bunny.obj", "dragon100k.obj", "kitchen.obj"] {
+        let Some(path) = data_model(model) else { return };
+        let mesh = load_obj(&path).unwrap();
+        let mut rays = random_rays(&mesh, 100_000, 7);
+        rays.extend(Camera::default_for(&mesh.bounds()).primary_rays(256, 256));
+        compare_traces(&ctx, model, &mesh, &rays);
+    }
+}
+
+#[test]
+fn ao_sample_kernel_equals_cpu_sequence() {
+    let Some(ctx) = gpu() else { return };
+    let mut rng = Rng(3);
+    let mut points: Vec<AoPoint> = (0..200)
+        .map(|i| AoPoint::new(rng.vec3(-1.0, 1.0), rng.vec3(-1.0, 1.0).normalize(), i * 7919))
+        .collect();
+    // Normals where the frame construction has special cases.
+    for (k, n) in [
+        Vec3::Z,
+        -Vec3::Z,
+        Vec3::X,
+        Vec3::new(0.0, 1.0, -0.0),
+        Vec3::new(1e-30, 0.0, -1.0),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        points.push(AoPoint::new(Vec3::ZERO, n, 1000 + k as u32));
+    }
+    let settings = AoSettings {
+        rays_per_point: 67,
+        radius: f32::INFINITY,
+        seed: 99,
+    };
+    let gpu = ray_samples_gpu(&ctx, &points, &settings).unwrap();
+    let seq = SampleSequence::new(settings.seed);
+    let (mut uv_diff, mut worst_dir) = (0usize, 0f32);
+    for (p, point) in points.iter().enumerate() {
+        for j in 0..settings.rays_per_point {
+            let (uv, dir) = gpu[p * settings.rays_per_point as usize + j as usize];
+            if uv != seq.sample(point.stream, j) {
+                uv_diff += 1;
+            }
+            let cpu = ray_direction(&seq, point.stream, j, Vec3::from_array(point.normal));
+            worst_dir = worst_dir.max((Vec3::from_array(dir) - cpu).abs().max_element());
+        }
+    }
+    println!(
+        "ao samples: {} rays, sample points differing {uv_diff}, worst direction difference {worst_dir:.3e}",
+        gpu.len()
+    );
+    assert_eq!(uv_diff, 0, "the sequence must be bit-identical on the GPU");
+    assert!(worst_dir <= 1e-5);
+}
+
+fn compare_ao(ctx: &GpuContext, name: &str, mesh: &Mesh, rays_per_point: u32) {
+    let tree = KdTree::build(mesh, &KdTreeParams::default()).unwrap();
+    let gpu_tree = GpuKdTree::upload(&ctx.device, &tree).unwrap();
+    let points = vertex_points(mesh);
+    let settings = AoSettings {
+        rays_per_point,
+        radius: f32::INFINITY,
+        seed: 1,
+    };
+    let cpu = visibility_cpu(&tree, &points, &settings, &Progress::hidden());
+    let gpu = visibility_gpu(ctx, &gpu_tree, &points, &settings, &Progress::hidden()).unwrap();
+    let total = points.len() as u64 * rays_per_point as u64;
+    let differing = cpu.differing_rays(&gpu.masks);
+    let worst_ao = cpu
+        .accessibility()
+        .iter()
+        .zip(gpu.masks.accessibility())
+        .map(|(a, b)| (a - b).abs())
+        .fold(0f32, f32::max);
+    println!(
+        "{name}: {total} AO rays, {differing} differ ({:.5}%), worst per-vertex AO difference {worst_ao}",
+        100.0 * differing as f64 / total as f64
+    );
+    assert!(
+        differing as f64 <= 1e-3 * total as f64,
+        "{name}: more than 0.1% of AO rays differ"
+    );
+}
+
+#[test]
+fn ao_kernel_equals_cpu_on_procedural_scenes() {
+    let Some(ctx) = gpu() else { return };
+    for name in [
+        "corner.obj",
+        "cube-with-hole.obj",
+        "sphere-on-plane.obj",
+        "cylindrical-well.obj",
+    ] {
+        compare_ao(&ctx, name, &load_obj(&asset(name)).unwrap(), 64);
+    }
+}
+
+#[test]
+fn ao_kernel_equals_cpu_on_the_bunny() {
+    let Some(ctx) = gpu() else { return };
+    let Some(path) = data_model("stanford-bunny.obj") else {
+        return;
+    };
+    compare_ao(&ctx, "stanford-bunny (per vertex)", &load_obj(&path).unwrap(), 64);
+}
+
+#[test]
+fn large_requests_are_split_into_batches_with_the_same_results() {
+    let Some(ctx) = gpu() else { return };
+    let mesh = load_obj(&asset("sphere-on-plane.obj")).unwrap();
+    let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+    let gpu_tree = GpuKdTree::upload(&ctx.device, &tree).unwrap();
+    let rays = random_rays(&mesh, 10_007, 5);
+    let whole = trace_rays(&ctx, &gpu_tree, &rays, TraceMode::Closest, f32::INFINITY).unwrap();
+    let split =
+        penumbra::kdtree::gpu::trace_rays_batched(&ctx, &gpu_tree, &rays, TraceMode::Closest, f32::INFINITY, 999)
+            .unwrap();
+    assert_eq!(whole.hits, split.hits, "11 batches of <= 999 rays");
+
+    let points = vertex_points(&mesh);
+    let settings = AoSettings {
+        rays_per_point: 40,
+        radius: 0.5,
+        seed: 4,
+    };
+    let whole = visibility_gpu(&ctx, &gpu_tree, &points, &settings, &Progress::hidden()).unwrap();
+    let split =
+        penumbra::ao::gpu::visibility_gpu_batched(&ctx, &gpu_tree, &points, &settings, &Progress::hidden(), 4000)
+            .unwrap();
+    assert_eq!(whole.masks, split.masks, "batches of 100 points");
+    println!(
+        "{} rays and {} AO points: batched results identical",
+        rays.len(),
+        points.len()
+    );
+}
