@@ -233,3 +233,78 @@ fn large_requests_are_split_into_batches_with_the_same_results() {
         points.len()
     );
 }
+
+/// The embedding path: a host engine makes its own device with WebGPU's
+/// default limits, builds the pass for it and records into its own encoder,
+/// between its own commands.
+#[test]
+fn passes_record_into_a_host_engines_encoder() {
+    use penumbra::gpu::{WORKGROUP_SIZE, dispatch_grid};
+    use penumbra::kdtree::gpu::{TraceParams, TraceRaysPass};
+    use wgpu::util::DeviceExt;
+
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+        backends: wgpu::Backends::all() - wgpu::Backends::GL,
+        ..wgpu::InstanceDescriptor::new_without_display_handle()
+    });
+    let Ok(adapter) = pollster::block_on(instance.request_adapter(&Default::default())) else {
+        println!("no adapter: host-embedding test skipped");
+        return;
+    };
+    let (device, queue) = pollster::block_on(adapter.request_device(&Default::default())).unwrap();
+
+    let mesh = load_obj(&asset("cube-with-hole.obj")).unwrap();
+    let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+    let rays = random_rays(&mesh, 3000, 11);
+    let pass = TraceRaysPass::new(&device);
+    let gpu_tree = GpuKdTree::upload(&device, &tree).unwrap();
+    let init = |label, contents: &[u8], usage| {
+        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents,
+            usage,
+        })
+    };
+    let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+    let ray_buf = init("host rays", bytemuck::cast_slice(&rays), storage);
+    let hit_buf = init("host hits", &vec![0u8; rays.len() * 8], storage);
+    let counts = init("host counts", &[0u8; 8], storage);
+    let (gx, gy, pitch) = dispatch_grid(rays.len() as u32, device.limits().max_compute_workgroups_per_dimension);
+    assert_eq!(pitch % WORKGROUP_SIZE, 0);
+    let params = TraceParams {
+        ray_count: rays.len() as u32,
+        row_pitch: pitch,
+        t_max: f32::MAX,
+        _pad: 0,
+    };
+    let params_buf = init("host params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("host readback"),
+        size: (rays.len() * 8) as u64,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let io = pass.io_bind_group(&device, &ray_buf, &hit_buf, &params_buf, &counts);
+
+    // The host's frame: its own command, penumbra's pass, its own copy.
+    let mut encoder = device.create_command_encoder(&Default::default());
+    encoder.clear_buffer(&hit_buf, 0, None);
+    pass.record(&mut encoder, None, &gpu_tree, &io, TraceMode::Closest, (gx, gy));
+    encoder.copy_buffer_to_buffer(&hit_buf, 0, &readback, 0, (rays.len() * 8) as u64);
+    queue.submit([encoder.finish()]);
+    let hits: Vec<penumbra::ray::Hit> = penumbra::gpu::buffers::read_back(&device, &readback, rays.len()).unwrap();
+
+    let cpu = tree.trace_closest(&rays);
+    let same = hits
+        .iter()
+        .zip(&cpu)
+        .filter(|(g, c)| g.triangle == c.triangle && (!c.is_hit() || g.t == c.t))
+        .count();
+    println!("host device: {same} of {} hits identical to the CPU", rays.len());
+    assert_eq!(same, rays.len());
+
+    // And the blocking helpers work on an adopted device too.
+    let ctx = GpuContext::from_host(&device, &queue);
+    let traced = trace_rays(&ctx, &gpu_tree, &rays, TraceMode::Closest, f32::INFINITY).unwrap();
+    assert_eq!(traced.hits, hits);
+}

@@ -16,6 +16,7 @@ use super::trace_rays::mrays_per_s;
 use crate::error::{Error, Result};
 use crate::kdtree::gpu::{GpuKdTree, TraceMode, trace_rays};
 use crate::kdtree::{KdTree, TraversalCounts};
+use crate::progress::Progress;
 use crate::ray::{Hit, Ray};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -69,6 +70,7 @@ pub fn run(args: &TraceArgs) -> Result<Value> {
     let rays = camera.primary_rays(args.width, args.height);
 
     // Timed run without counters, then a counted run for the statistics.
+    let progress = Progress::spinner(&format!("tracing {}x{} primary rays", args.width, args.height));
     let (hits, trace_ms, timing, counts) = match &device {
         Device::Cpu => {
             let start = Instant::now();
@@ -96,6 +98,7 @@ pub fn run(args: &TraceArgs) -> Result<Value> {
             (timed.hits, ms, timing, counts)
         }
     };
+    progress.finish();
     let packets = (args.width.div_ceil(PACKET) as u64 * args.height.div_ceil(PACKET) as u64) as f64;
     if let Some(out) = &out {
         write_grey_png(out, args.width, args.height, &shading(&mesh, &rays, &hits))?;

@@ -10,6 +10,7 @@ use super::args::{Common, build_tree, check_output};
 use super::io::{read_rays, write_hits};
 use crate::error::Result;
 use crate::kdtree::gpu::{GpuKdTree, TraceMode, trace_rays};
+use crate::progress::Progress;
 use crate::scene::load_obj;
 
 #[derive(clap::Args)]
@@ -35,6 +36,7 @@ pub fn run(args: &TraceRaysArgs) -> Result<Value> {
     let device = Device::open(args.common.device)?;
     let tree = build_tree(&mesh, "trace-rays")?;
 
+    let progress = Progress::spinner(&format!("tracing {} rays", rays.len()));
     let (hits, trace_ms, timing) = match &device {
         Device::Cpu => {
             let start = Instant::now();
@@ -50,6 +52,7 @@ pub fn run(args: &TraceRaysArgs) -> Result<Value> {
             }
         }
     };
+    progress.finish();
     write_hits(&out, &hits)?;
     let hit_count = hits.iter().filter(|h| h.is_hit()).count();
     Ok(json!({

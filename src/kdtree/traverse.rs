@@ -92,7 +92,9 @@ impl KdTree {
         let mut t_min = t0 * (1.0 - TRAVERSAL_SLACK);
         let mut t_cell_max = t1 * (1.0 + TRAVERSAL_SLACK);
         let ray = ShearedRay::new(origin, dir);
-        let inv_dir = dir.recip();
+        // Plain arrays: indexing glam vectors by a run-time axis is a match.
+        let inv_dir = dir.recip().to_array();
+        let (origin_a, dir_a) = (origin.to_array(), dir.to_array());
         let mut stack = [(0u32, 0.0f32, 0.0f32); MAX_TREE_DEPTH];
         let mut sp = 0usize;
         let mut node_index = 0u32;
@@ -106,9 +108,9 @@ impl KdTree {
             if !node.is_leaf() {
                 let axis = node.axis();
                 let split = node.split();
-                let o = origin[axis];
+                let o = origin_a[axis];
                 let t_plane = (split - o) * inv_dir[axis];
-                let below_first = o < split || (o == split && dir[axis] <= 0.0);
+                let below_first = o < split || (o == split && dir_a[axis] <= 0.0);
                 let (first, second) = if below_first {
                     (node_index + 1, node.above_child())
                 } else {

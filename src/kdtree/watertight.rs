@@ -63,9 +63,10 @@ impl ShearedRay {
     #[inline(always)]
     pub fn intersect(&self, v0: Vec3, v1: Vec3, v2: Vec3, t_max: f32) -> Option<f32> {
         let (kx, ky, kz) = (self.kx, self.ky, self.kz);
-        let a = v0 - self.origin;
-        let b = v1 - self.origin;
-        let c = v2 - self.origin;
+        // Plain arrays: indexing glam vectors by a run-time axis is a match.
+        let a = (v0 - self.origin).to_array();
+        let b = (v1 - self.origin).to_array();
+        let c = (v2 - self.origin).to_array();
         let ax = a[kx] - self.sx * a[kz];
         let ay = a[ky] - self.sy * a[kz];
         let bx = b[kx] - self.sx * b[kz];

@@ -123,7 +123,10 @@ mod tests {
             let mut seen = vec![false; n as usize];
             for i in 0..n {
                 let [x, y] = seq.sample_bits(12345, i);
-                let cell = ((x >> (32 - a)) << b) | if b == 0 { 0 } else { y >> (32 - b) };
+                // The top a bits of x and the top b bits of y (a shift by 32
+                // is not zero in Rust, hence the checked shifts).
+                let top = |v: u32, bits: u32| v.checked_shr(32 - bits).unwrap_or(0);
+                let cell = (top(x, a) << b) | top(y, b);
                 assert!(!std::mem::replace(&mut seen[cell as usize], true), "grid {a}x{b}");
             }
         }

@@ -252,3 +252,59 @@ pub fn load_scene(path: &Path) -> Result<Scene> {
         environment,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    #[test]
+    fn instances_are_placed_and_roles_select_geometry() {
+        let dir = std::env::temp_dir().join(format!("penumbra-scene-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        write(&dir, "tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+        let scene = write(
+            &dir,
+            "scene.json",
+            r#"{
+              "meshes": { "tri": "tri.obj" },
+              "instances": [
+                { "mesh": "tri", "role": "receiver" },
+                { "mesh": "tri", "role": "caster", "name": "moved",
+                  "translate": [10, 0, 0], "rotate": { "axis": [0, 0, 1], "degrees": 90 }, "scale": 2 },
+                { "mesh": "tri" }
+              ],
+              "camera": { "eye": [0, 0, 5], "target": [0, 0, 0] },
+              "lights": [ { "point": { "position": [1, 2, 3], "intensity": [4, 4, 4] } },
+                          { "directional": { "direction": [0, -2, 0], "radiance": [1, 1, 1] } } ]
+            }"#,
+        );
+        let s = load_scene(&scene).unwrap();
+        assert_eq!(s.meshes.len(), 1, "one mesh shared by three instances");
+        assert_eq!(s.instances[2].role, Role::Both, "role defaults to both");
+        assert_eq!(s.camera.unwrap().fov_degrees, 45.0);
+        assert_eq!(
+            s.lights[1],
+            Light::Directional {
+                direction: -Vec3::Y,
+                radiance: Vec3::ONE
+            }
+        );
+
+        let casters = s.occluders();
+        assert_eq!(casters.objects.len(), 2);
+        assert_eq!(casters.objects[0].name, "moved");
+        // (1,0,0) scaled by 2, rotated 90 degrees about z, moved by (10,0,0).
+        let moved = casters.positions[1];
+        assert!((moved - Vec3::new(10.0, 2.0, 0.0)).length() < 1e-5, "{moved}");
+        let receivers = s.receivers();
+        assert_eq!(receivers.objects.len(), 2);
+        assert_eq!(receivers.positions[1], Vec3::X);
+        let _ = std::fs::remove_dir_all(dir);
+    }
+}
