@@ -81,7 +81,23 @@ impl Aabb {
     /// Parametric interval `[t0, t1]` where the ray `o + t d` is inside the box,
     /// or `None`. Directions with zero components are handled: the ray is then
     /// inside the slab for all t or for none.
+    #[inline]
     pub fn clip_ray(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<(f32, f32)> {
+        if d.cmpne(Vec3::ZERO).all() {
+            // All slabs restrict t: three lanes at once, no NaN possible
+            // (finite box and origin, non-zero direction).
+            let inv = d.recip();
+            let a = (self.min - o) * inv;
+            let b = (self.max - o) * inv;
+            let t0 = a.min(b).max_element().max(t_min);
+            let t1 = a.max(b).min_element().min(t_max);
+            return (t0 <= t1).then_some((t0, t1));
+        }
+        self.clip_ray_axis_parallel(o, d, t_min, t_max)
+    }
+
+    /// `clip_ray` for directions with zero components.
+    fn clip_ray_axis_parallel(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<(f32, f32)> {
         let mut t0 = t_min;
         let mut t1 = t_max;
         for a in 0..3 {

@@ -27,6 +27,16 @@ pub fn clip_triangle(tri: &[Vec3; 3], cell: &Aabb) -> ClippedPolygon {
                 return poly;
             }
             let inside = |p: Vec3| if keep_below { p[axis] <= plane } else { p[axis] >= plane };
+            // Most planes of a cell do not cut a triangle that straddles one
+            // of them: skip those without rebuilding the polygon.
+            let kept = poly.vertices[..poly.len].iter().filter(|&&p| inside(p)).count();
+            if kept == poly.len {
+                continue;
+            }
+            if kept == 0 {
+                poly.len = 0;
+                return poly;
+            }
             let mut n = 0;
             for i in 0..poly.len {
                 let a = poly.vertices[i];

@@ -24,15 +24,23 @@ use crate::error::{Error, Result};
 use crate::ray::{Hit, Ray};
 use crate::scene::Mesh;
 
-/// A kd-tree over a triangle soup. The three arrays are the GPU layout too:
+/// A kd-tree over a triangle soup.
+///
 /// `nodes` (8 bytes each, see `node`), `leaf_triangles` (u32 triangle
-/// indices, a leaf's range of them), and `triangles` (three f32x3 vertices,
-/// 36 bytes each, in the mesh's triangle order).
+/// indices, a leaf's range of them) and `triangles` (three f32x3 vertices,
+/// 36 bytes each, in the mesh's triangle order) are the GPU layout, uploaded
+/// as they are. The CPU traversal reads `leaf_vertices` instead of going
+/// through `triangles`: the same vertices copied in leaf order (36 bytes per
+/// leaf reference), which saves a dependent load per intersection test
+/// (+4% on primary rays of the bunny, +30% on kitchen, +25% on random rays).
+/// The GPU keeps the compact indirection so large meshes stay within its
+/// storage-binding limits; both read identical vertex values.
 #[derive(Debug, Clone)]
 pub struct KdTree {
     pub nodes: Vec<KdNode>,
     pub leaf_triangles: Vec<u32>,
     pub triangles: Vec<[Vec3; 3]>,
+    pub leaf_vertices: Vec<[Vec3; 3]>,
     /// Root cell: the bounds of all triangles.
     pub bounds: Aabb,
     pub stats: BuildStats,
@@ -87,11 +95,13 @@ impl KdTree {
                 ),
             ));
         }
+        let leaf_vertices = leaf_triangles.iter().map(|&t| triangles[t as usize]).collect();
         stats.build_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(KdTree {
             nodes,
             leaf_triangles,
             triangles,
+            leaf_vertices,
             bounds,
             stats,
         })

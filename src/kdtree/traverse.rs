@@ -8,6 +8,8 @@
 //! Leaves test all their triangles; a hit inside the current cell ends the
 //! search, since every cell still on the stack lies farther along the ray.
 
+use std::mem::MaybeUninit;
+
 use glam::Vec3;
 
 use super::KdTree;
@@ -66,6 +68,10 @@ impl std::ops::AddAssign for TraversalCounts {
 /// closest hit stays exact.
 pub const TRAVERSAL_SLACK: f32 = 1e-6;
 
+/// Traversal stack: a power of two at least `MAX_TREE_DEPTH`.
+const STACK_SIZE: usize = MAX_TREE_DEPTH.next_power_of_two();
+const STACK_MASK: usize = STACK_SIZE - 1;
+
 impl KdTree {
     /// Closest hit with `0 < t < t_max`, or `Hit::MISS`.
     #[inline]
@@ -92,10 +98,20 @@ impl KdTree {
         let mut t_min = t0 * (1.0 - TRAVERSAL_SLACK);
         let mut t_cell_max = t1 * (1.0 + TRAVERSAL_SLACK);
         let ray = ShearedRay::new(origin, dir);
-        // Plain arrays: indexing glam vectors by a run-time axis is a match.
-        let inv_dir = dir.recip().to_array();
-        let (origin_a, dir_a) = (origin.to_array(), dir.to_array());
-        let mut stack = [(0u32, 0.0f32, 0.0f32); MAX_TREE_DEPTH];
+        // Per-axis ray data in 4-element arrays, indexed by `word1 & 3`
+        // (the compiler sees that is below 4: no bounds checks, and no match
+        // as glam's run-time indexing has). Which child comes first when the
+        // origin lies on the split plane depends only on the direction's sign.
+        let quad = |v: Vec3| [v.x, v.y, v.z, 0.0];
+        let (o4, inv4) = (quad(origin), quad(dir.recip()));
+        let below_on_plane = [dir.x <= 0.0, dir.y <= 0.0, dir.z <= 0.0, false];
+        // The stack never holds more entries than the tree is deep (at most
+        // MAX_TREE_DEPTH); indexing with `sp & STACK_MASK` lets the compiler
+        // drop the bounds checks without changing any index. It is left
+        // uninitialised: zeroing 768 bytes per ray was a tenth of the time of
+        // a primary ray. Slots below `sp` are always written before they are
+        // read.
+        let mut stack = [const { MaybeUninit::<(u32, f32, f32)>::uninit() }; STACK_SIZE];
         let mut sp = 0usize;
         let mut node_index = 0u32;
         let mut best = Hit {
@@ -106,11 +122,11 @@ impl KdTree {
             counts.cell();
             let node = self.nodes[node_index as usize];
             if !node.is_leaf() {
-                let axis = node.axis();
+                let axis = (node.word1 & 3) as usize;
                 let split = node.split();
-                let o = origin_a[axis];
-                let t_plane = (split - o) * inv_dir[axis];
-                let below_first = o < split || (o == split && dir_a[axis] <= 0.0);
+                let o = o4[axis];
+                let t_plane = (split - o) * inv4[axis];
+                let below_first = o < split || (o == split && below_on_plane[axis]);
                 let (first, second) = if below_first {
                     (node_index + 1, node.above_child())
                 } else {
@@ -124,9 +140,10 @@ impl KdTree {
                     // Both children. A NaN t_plane means the ray lies in the
                     // split plane: both children keep the whole interval.
                     if t_plane.is_nan() {
-                        stack[sp] = (second, t_min, t_cell_max);
+                        stack[sp & STACK_MASK].write((second, t_min, t_cell_max));
                     } else {
-                        stack[sp] = (second, t_min.max(t_plane * (1.0 - TRAVERSAL_SLACK)), t_cell_max);
+                        let far_entry = t_min.max(t_plane * (1.0 - TRAVERSAL_SLACK));
+                        stack[sp & STACK_MASK].write((second, far_entry, t_cell_max));
                         t_cell_max = t_cell_max.min(t_plane * (1.0 + TRAVERSAL_SLACK));
                     }
                     sp += 1;
@@ -135,9 +152,13 @@ impl KdTree {
                 continue;
             }
 
-            for &tri in &self.leaf_triangles[node.leaf_range()] {
+            let range = node.leaf_range();
+            for (&tri, verts) in self.leaf_triangles[range.clone()]
+                .iter()
+                .zip(&self.leaf_vertices[range])
+            {
                 counts.intersection();
-                let [v0, v1, v2] = self.triangles[tri as usize];
+                let [v0, v1, v2] = *verts;
                 if let Some(t) = ray.intersect(v0, v1, v2, best.t) {
                     best = Hit { t, triangle: tri };
                     if ANY {
@@ -156,7 +177,9 @@ impl KdTree {
                     return if best.is_hit() { best } else { Hit::MISS };
                 }
                 sp -= 1;
-                (node_index, t_min, t_cell_max) = stack[sp];
+                // SAFETY: entry `sp` was written by the push that raised the
+                // stack pointer above it, and entries are never read twice.
+                (node_index, t_min, t_cell_max) = unsafe { stack[sp & STACK_MASK].assume_init() };
                 if t_min <= best.t {
                     break;
                 }

@@ -33,8 +33,10 @@ pub struct ShearedRay {
 }
 
 impl ShearedRay {
+    #[inline]
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
         let a = dir.abs();
+        let dir = dir.to_array();
         let kz = if a.x >= a.y && a.x >= a.z {
             0
         } else if a.y >= a.z {
