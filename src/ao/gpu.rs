@@ -7,6 +7,7 @@ use bytemuck::{Pod, Zeroable};
 use super::{AoPoint, AoSettings, VisibilityMasks};
 use crate::error::Result;
 use crate::gpu::buffers::{check_storage_size, read_back, storage_buffer, uniform_buffer, zeroed_buffer};
+use crate::gpu::kernels::record_dispatch;
 use crate::gpu::timer::PassTimer;
 use crate::gpu::{GpuContext, dispatch_grid};
 use crate::kdtree::gpu::{GpuKdTree, bind_group, kdtree_bind_group_layout, storage_entry, uniform_entry};
@@ -88,14 +89,14 @@ impl AoRaysPass {
         io: &wgpu::BindGroup,
         grid: (u32, u32),
     ) {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("ao rays"),
+        record_dispatch(
+            encoder,
+            "ao rays",
             timestamp_writes,
-        });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &tree.bind_group, &[]);
-        pass.set_bind_group(1, io, &[]);
-        pass.dispatch_workgroups(grid.0, grid.1, 1);
+            &self.pipeline,
+            &[&tree.bind_group, io],
+            grid,
+        );
     }
 }
 
@@ -139,7 +140,12 @@ pub fn visibility_gpu_batched(
     let batch_points = ((rays_per_batch / n).max(1) as usize).min(points.len().max(1));
     check_storage_size(device, "AO points", (batch_points * 32) as u64)?;
     check_storage_size(device, "AO visibility masks", (batch_points * words * 4) as u64)?;
-    let point_buf = storage_buffer(device, "ao points", &vec![0u8; batch_points * 32])?;
+    let point_buf = zeroed_buffer(
+        device,
+        "ao points",
+        (batch_points * 32) as u64,
+        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+    );
     let visible_buf = zeroed_buffer(
         device,
         "ao visible",
@@ -193,15 +199,7 @@ pub fn visibility_gpu_batched(
         bits.extend(read_back::<u32>(device, &readback, chunk.len() * words)?);
         progress.inc(chunk.len() as u64);
     }
-    let gpu_ms = match timer {
-        Some(t) => {
-            let mut encoder = device.create_command_encoder(&Default::default());
-            t.resolve(&mut encoder);
-            ctx.queue.submit([encoder.finish()]);
-            Some(t.total_ms(device)?)
-        }
-        None => None,
-    };
+    let gpu_ms = PassTimer::finish(timer, ctx)?;
     Ok(GpuAo {
         masks: VisibilityMasks {
             rays_per_point: settings.rays_per_point,
@@ -254,16 +252,15 @@ pub fn ray_samples_gpu(
     let io = pass.io_bind_group(device, &point_buf, &unused_visible, &params_buf, &samples);
     let tree = placeholder_tree(device)?;
     let mut encoder = device.create_command_encoder(&Default::default());
-    {
-        let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("ao samples"),
-            timestamp_writes: None,
-        });
-        cpass.set_pipeline(&pass.samples_pipeline);
-        cpass.set_bind_group(0, &tree.bind_group, &[]);
-        cpass.set_bind_group(1, &io, &[]);
-        cpass.dispatch_workgroups(gx, gy, 1);
-    }
+    let groups = [&tree.bind_group, &io];
+    record_dispatch(
+        &mut encoder,
+        "ao samples",
+        None,
+        &pass.samples_pipeline,
+        &groups,
+        (gx, gy),
+    );
     encoder.copy_buffer_to_buffer(&samples, 0, &readback, 0, rays as u64 * 32);
     ctx.queue.submit([encoder.finish()]);
     let raw: Vec<[f32; 8]> = read_back(device, &readback, rays)?;

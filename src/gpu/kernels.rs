@@ -55,3 +55,24 @@ pub(crate) fn compute_pipelines(
         })
         .collect()
 }
+
+/// Records one compute pass: `pipeline` with bind groups 0, 1, ... over a
+/// 2D grid of workgroups (from `gpu::dispatch_grid`).
+pub(crate) fn record_dispatch(
+    encoder: &mut wgpu::CommandEncoder,
+    label: &str,
+    timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    pipeline: &wgpu::ComputePipeline,
+    bind_groups: &[&wgpu::BindGroup],
+    grid: (u32, u32),
+) {
+    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some(label),
+        timestamp_writes,
+    });
+    pass.set_pipeline(pipeline);
+    for (i, group) in bind_groups.iter().enumerate() {
+        pass.set_bind_group(i as u32, *group, &[]);
+    }
+    pass.dispatch_workgroups(grid.0, grid.1, 1);
+}

@@ -69,6 +69,16 @@ impl PassTimer {
         encoder.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, self.used as u64 * 16);
     }
 
+    /// Resolves the queries in a submission of their own and returns the
+    /// passes' total in milliseconds; `None` without a timer.
+    pub fn finish(timer: Option<PassTimer>, ctx: &crate::gpu::GpuContext) -> Result<Option<f64>> {
+        let Some(timer) = timer else { return Ok(None) };
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        timer.resolve(&mut encoder);
+        ctx.queue.submit([encoder.finish()]);
+        timer.total_ms(&ctx.device).map(Some)
+    }
+
     /// Sum of the passes' durations in milliseconds (after submission).
     pub fn total_ms(&self, device: &wgpu::Device) -> Result<f64> {
         let stamps: Vec<u64> = read_back(device, &self.readback, 2 * self.used as usize)?;

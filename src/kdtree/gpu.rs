@@ -8,6 +8,7 @@ use bytemuck::{Pod, Zeroable};
 use super::KdTree;
 use crate::error::{Error, Result};
 use crate::gpu::buffers::{read_back, storage_buffer, uniform_buffer, zeroed_buffer};
+use crate::gpu::kernels::record_dispatch;
 use crate::gpu::timer::PassTimer;
 use crate::gpu::{GpuContext, dispatch_grid};
 use crate::ray::{Hit, Ray};
@@ -216,18 +217,19 @@ impl TraceRaysPass {
         mode: TraceMode,
         grid: (u32, u32),
     ) {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("trace rays"),
-            timestamp_writes,
-        });
-        pass.set_pipeline(match mode {
+        let pipeline = match mode {
             TraceMode::Closest => &self.closest,
             TraceMode::Any => &self.any,
             TraceMode::ClosestCounted => &self.counted,
-        });
-        pass.set_bind_group(0, &tree.bind_group, &[]);
-        pass.set_bind_group(1, io, &[]);
-        pass.dispatch_workgroups(grid.0, grid.1, 1);
+        };
+        record_dispatch(
+            encoder,
+            "trace rays",
+            timestamp_writes,
+            pipeline,
+            &[&tree.bind_group, io],
+            grid,
+        );
     }
 }
 
@@ -340,15 +342,7 @@ pub fn trace_rays_batched(
             c.extend_from_slice(&words[batch..batch + n]);
         }
     }
-    let gpu_ms = match timer {
-        Some(t) => {
-            let mut encoder = device.create_command_encoder(&Default::default());
-            t.resolve(&mut encoder);
-            ctx.queue.submit([encoder.finish()]);
-            Some(t.total_ms(device)?)
-        }
-        None => None,
-    };
+    let gpu_ms = PassTimer::finish(timer, ctx)?;
     if hits.len() != rays.len() {
         return Err(Error::internal("GPU trace returned the wrong number of hits"));
     }
