@@ -11,6 +11,7 @@ pub mod cli;
 pub mod error;
 pub mod gpu;
 pub mod kdtree;
+pub mod mlrta;
 pub mod progress;
 pub mod ray;
 pub mod sampling;

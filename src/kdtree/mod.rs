@@ -4,7 +4,7 @@
 //! over the same buffers.
 
 mod build;
-mod clip;
+pub(crate) mod clip;
 pub mod gpu;
 pub mod node;
 mod traverse;
@@ -17,7 +17,7 @@ use rayon::prelude::*;
 
 pub use build::{BuildStats, KdTreeParams};
 pub use node::{KdNode, MAX_TREE_DEPTH};
-pub use traverse::{Counters, NoCounts, TraversalCounts};
+pub use traverse::{Counters, NoCounts, TRAVERSAL_SLACK, TraversalCounts};
 
 use crate::aabb::Aabb;
 use crate::error::{Error, Result};

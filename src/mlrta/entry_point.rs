@@ -1,0 +1,234 @@
+//! Entry-point (EP) search, section 4.1 of the MLRTA paper.
+//!
+//! A depth-first walk of the cells the group may enter (inverse frustum
+//! culling, `Frustum::split_children`), nearest child first, that keeps the
+//! "bifurcation" nodes (both children entered) on a stack:
+//!
+//! 1. until the first leaf with potential intersections (triangles, and the
+//!    group's frustum may enter the leaf's box: equation (2)) is found, which
+//!    becomes the candidate entry point;
+//! 2. then each bifurcation node is taken from the stack and its far subtree
+//!    searched for another leaf with potential intersections; if there is
+//!    one, that node becomes the candidate and the rest of its subtree is
+//!    abandoned (it cannot move the entry point lower);
+//! 3. the search ends, returning the candidate, when the stack is empty or
+//!    when every ray of the group must end in the current leaf (stopping rule
+//!    (4)): a covered plane all rays cross, or an empty leaf inside a closed
+//!    object that all rays enter (the "empty occluder").
+//!
+//! Every leaf with potential intersections lies in the candidate's subtree,
+//! except behind an occluder that stopped the search. Such an entry point is
+//! *speculative*: rays that find no hit in its subtree are traced again from
+//! the root, so a coverage judgement that is wrong at some seam, or an origin
+//! inside an object, costs time, never a hit.
+
+use crate::aabb::Aabb;
+use crate::mlrta::frustum::Frustum;
+use crate::mlrta::prepared::{Occluder, Prepared};
+
+/// Where a group starts its traversal.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EntryPoint {
+    pub node: u32,
+    pub cell: Aabb,
+    /// Reached through a stopping rule: see the module documentation.
+    pub speculative: bool,
+}
+
+/// The two children of interior node `i` of cell `cell`: (below, above).
+#[inline]
+pub fn children(p: &Prepared, i: u32, cell: &Aabb) -> ((u32, Aabb), (u32, Aabb)) {
+    let node = p.tree.nodes[i as usize];
+    let (axis, split) = (node.axis(), node.split());
+    let mut below = *cell;
+    below.max[axis] = split;
+    let mut above = *cell;
+    above.min[axis] = split;
+    ((i + 1, below), (node.above_child(), above))
+}
+
+/// The children of interior node `i` the group may enter, nearest first.
+fn entered_children(p: &Prepared, f: &Frustum, i: u32, cell: &Aabb) -> [Option<(u32, Aabb)>; 2] {
+    let node = p.tree.nodes[i as usize];
+    let (axis, split) = (node.axis(), node.split());
+    let c = f.split_children(axis, split, cell);
+    let (below, above) = children(p, i, cell);
+    let o = f.origin[axis];
+    let near_below = o < split || (o == split && !f.positive[axis]);
+    let (below, above) = (c.below.then_some(below), c.above.then_some(above));
+    if near_below { [below, above] } else { [above, below] }
+}
+
+/// What the search knows about one leaf.
+enum Leaf {
+    /// No triangle the group may hit.
+    Nothing,
+    /// Triangles the group may hit.
+    Potential,
+    /// Every ray of the group ends here (stopping rule (4)); `potential`
+    /// says whether it is a leaf with triangles.
+    Ends { potential: bool },
+}
+
+/// Leaves with more triangles than this are not checked for one that ends
+/// every ray (the check is a few ray tests per triangle).
+const MAX_OCCLUDER_CANDIDATES: usize = 8;
+
+/// Stopping rule (4), first case: "the leaf has some objects, and all rays
+/// ... intersect one of these objects inside the cell". Checked for single
+/// triangles: the part of a triangle inside the cell is a convex polygon, and
+/// the directions from the origin that hit a convex polygon form a convex
+/// set, so if the group's four corner directions hit it (before `t_max`),
+/// every ray of the group does. (Each corner ray's t is extreme over the
+/// group: t along rays hitting a plane is a linear-fractional function of the
+/// direction, extreme at the corners.)
+fn a_triangle_ends_all_rays(p: &Prepared, f: &Frustum, i: u32, cell: &Aabb) -> bool {
+    let range = p.tree.nodes[i as usize].leaf_range();
+    if range.len() > MAX_OCCLUDER_CANDIDATES {
+        return false;
+    }
+    let corners = f.corner_directions();
+    p.tree.leaf_vertices[range].iter().any(|tri| {
+        let poly = crate::kdtree::clip::clip_triangle(tri, cell);
+        if poly.len < 3 {
+            return false;
+        }
+        let v = &poly.vertices[..poly.len];
+        corners.iter().all(|&d| {
+            let ray = crate::kdtree::watertight::ShearedRay::new(f.origin, d);
+            (1..v.len() - 1).any(|k| ray.intersect(v[0], v[k], v[k + 1], f.t_max).is_some())
+        })
+    })
+}
+
+/// Stopping rule (4) at an interior node whose subtree is one merged
+/// occluder: `Some(potential)` if every ray of the group ends in it.
+fn subtree_ends_all_rays(p: &Prepared, f: &Frustum, i: u32, cell: &Aabb, origin_inside: Option<u32>) -> Option<bool> {
+    match p.occluders[i as usize] {
+        Occluder::CoveredPlane { axis } => {
+            let a = axis as usize;
+            f.all_cross_rectangle(a, cell.min[a], cell).then_some(true)
+        }
+        Occluder::Inside { object } if origin_inside != Some(object) => f.all_enter_box(cell).then_some(false),
+        _ => None,
+    }
+}
+
+fn classify_leaf(p: &Prepared, f: &Frustum, i: u32, cell: &Aabb, origin_inside: Option<u32>) -> Leaf {
+    let node = p.tree.nodes[i as usize];
+    let has_triangles = !node.leaf_range().is_empty();
+    match p.occluders[i as usize] {
+        Occluder::CoveredPlane { axis } if f.may_hit_box(cell) => {
+            let a = axis as usize;
+            if f.all_cross_rectangle(a, cell.min[a], cell) {
+                Leaf::Ends { potential: true }
+            } else {
+                Leaf::Potential
+            }
+        }
+        Occluder::Inside { object } if origin_inside != Some(object) && f.all_enter_box(cell) => {
+            Leaf::Ends { potential: false }
+        }
+        _ if has_triangles && f.may_hit_box(cell) => {
+            if a_triangle_ends_all_rays(p, f, i, cell) {
+                Leaf::Ends { potential: true }
+            } else {
+                Leaf::Potential
+            }
+        }
+        _ => Leaf::Nothing,
+    }
+}
+
+/// Searches the entry point of the group `f`, starting at `start` (the root,
+/// or the entry point of an enclosing tile). `origin_inside` is the closed
+/// object containing the group's origin, if any (its empty occluders do not
+/// apply). Counts visited nodes in `steps`. `None`: the group can hit nothing.
+pub fn entry_point(
+    p: &Prepared,
+    f: &Frustum,
+    start: (u32, Aabb),
+    origin_inside: Option<u32>,
+    steps: &mut u64,
+) -> Option<EntryPoint> {
+    if !f.may_hit_box(&start.1) {
+        return None;
+    }
+    let leaf = |ep: (u32, Aabb), speculative| EntryPoint {
+        node: ep.0,
+        cell: ep.1,
+        speculative,
+    };
+    // Phase 1: nearest-first descent to the first leaf with potential hits.
+    let mut bifurcations: Vec<((u32, Aabb), (u32, Aabb))> = Vec::new();
+    let mut current = Some(start);
+    let mut candidate = loop {
+        let Some((i, cell)) = current.take() else {
+            // Dead end: continue in the far child of the last bifurcation
+            // (which, having nothing on its near side, is no longer one).
+            match bifurcations.pop() {
+                Some((_, far)) => {
+                    current = Some(far);
+                    continue;
+                }
+                None => return None,
+            }
+        };
+        *steps += 1;
+        if p.tree.nodes[i as usize].is_leaf() {
+            match classify_leaf(p, f, i, &cell, origin_inside) {
+                Leaf::Nothing | Leaf::Ends { potential: false } => continue,
+                Leaf::Potential => break (i, cell),
+                Leaf::Ends { potential: true } => return Some(leaf((i, cell), true)),
+            }
+        }
+        // Every ray ends in this subtree, and nothing before it has potential
+        // hits: it is the entry point. (The inside of an object reached before
+        // any surface means the origin is inside after all: no rule then.)
+        if subtree_ends_all_rays(p, f, i, &cell, origin_inside) == Some(true) {
+            return Some(leaf((i, cell), true));
+        }
+        match entered_children(p, f, i, &cell) {
+            [Some(near), Some(far)] => {
+                bifurcations.push(((i, cell), far));
+                current = Some(near);
+            }
+            [Some(only), None] | [None, Some(only)] => current = Some(only),
+            [None, None] => {}
+        }
+    };
+    // Phase 2: each bifurcation's far subtree, until one potential leaf.
+    let mut local: Vec<(u32, Aabb)> = Vec::new();
+    while let Some((node, far)) = bifurcations.pop() {
+        local.clear();
+        local.push(far);
+        while let Some((i, cell)) = local.pop() {
+            *steps += 1;
+            if p.tree.nodes[i as usize].is_leaf() {
+                match classify_leaf(p, f, i, &cell, origin_inside) {
+                    Leaf::Nothing => continue,
+                    Leaf::Potential => {
+                        candidate = node;
+                        break;
+                    }
+                    Leaf::Ends { potential } => {
+                        if potential {
+                            candidate = node;
+                        }
+                        return Some(leaf(candidate, true));
+                    }
+                }
+            }
+            if let Some(potential) = subtree_ends_all_rays(p, f, i, &cell, origin_inside) {
+                if potential {
+                    candidate = node;
+                }
+                return Some(leaf(candidate, true));
+            }
+            let [near, far] = entered_children(p, f, i, &cell);
+            local.extend(far);
+            local.extend(near);
+        }
+    }
+    Some(leaf(candidate, false))
+}

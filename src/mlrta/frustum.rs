@@ -1,0 +1,416 @@
+//! What MLRTA knows about a group of rays: condition (3) of section 4.1.
+//!
+//! A group has a common origin `o` and directions whose components share
+//! their signs axis by axis. On the axis-aligned plane `x_a = s` a ray of the
+//! group crosses at `x_b = o_b + (s - o_a) * d_b / d_a`, so the interval of
+//! slopes `d_b / d_a` over the group bounds the crossing rectangle exactly
+//! (condition 3: "a rectangle inside this plane which contains all possible
+//! ray/plane intersection points"); the interval of `1 / d_a` bounds the
+//! parameter `t` of the crossings. Everything MLRTA decides for the group is
+//! derived from these intervals, never from particular rays (section 3.3), so
+//! it holds for every ray of the group whether or not it is known yet.
+//!
+//! Every interval is widened by `SLACK` (relative) so that decisions made with
+//! it enclose what each ray's own arithmetic computes: the packet then visits
+//! a superset of the cells each of its rays would.
+
+use glam::{Vec3, Vec3A};
+
+use crate::aabb::Aabb;
+use crate::kdtree::TRAVERSAL_SLACK;
+
+/// Relative widening of the group's intervals.
+pub const SLACK: f32 = 4.0 * TRAVERSAL_SLACK;
+
+/// `x` moved towards minus infinity by `SLACK` of its magnitude.
+#[inline]
+pub fn down(x: f32) -> f32 {
+    x - x.abs() * SLACK
+}
+
+/// `x` moved towards plus infinity by `SLACK` of its magnitude.
+#[inline]
+pub fn up(x: f32) -> f32 {
+    x + x.abs() * SLACK
+}
+
+/// A closed interval `[lo, hi]` of f32.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Interval {
+    pub lo: f32,
+    pub hi: f32,
+}
+
+impl Interval {
+    pub const EMPTY: Interval = Interval {
+        lo: f32::INFINITY,
+        hi: f32::NEG_INFINITY,
+    };
+
+    pub fn include(&mut self, x: f32) {
+        self.lo = self.lo.min(x);
+        self.hi = self.hi.max(x);
+    }
+
+    /// `self * s` for a scalar `s` (the ends swap when `s < 0`).
+    #[inline]
+    pub fn scale(self, s: f32) -> Interval {
+        let (a, b) = (self.lo * s, self.hi * s);
+        if a <= b {
+            Interval { lo: a, hi: b }
+        } else {
+            Interval { lo: b, hi: a }
+        }
+    }
+
+    #[inline]
+    pub fn offset(self, x: f32) -> Interval {
+        Interval {
+            lo: self.lo + x,
+            hi: self.hi + x,
+        }
+    }
+
+    /// Widened by `SLACK` relative to its magnitude.
+    pub fn widened(self) -> Interval {
+        Interval {
+            lo: down(self.lo),
+            hi: up(self.hi),
+        }
+    }
+}
+
+/// Which children of an interior node a group may enter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Children {
+    pub below: bool,
+    pub above: bool,
+}
+
+/// Accumulates a group's intervals ray by ray (SIMD min/max over the three
+/// axes at once; this runs for every ray of every tile and packet).
+pub struct FrustumBounds {
+    class: Option<u32>,
+    inv_lo: Vec3A,
+    inv_hi: Vec3A,
+    /// `slope_lo[a]`: per b, the minimum of `d_b / d_a` (a = b unused).
+    slope_lo: [Vec3A; 3],
+    slope_hi: [Vec3A; 3],
+}
+
+impl Default for FrustumBounds {
+    fn default() -> Self {
+        FrustumBounds {
+            class: None,
+            inv_lo: Vec3A::INFINITY,
+            inv_hi: Vec3A::NEG_INFINITY,
+            slope_lo: [Vec3A::INFINITY; 3],
+            slope_hi: [Vec3A::NEG_INFINITY; 3],
+        }
+    }
+}
+
+impl FrustumBounds {
+    /// Adds direction `d` with its reciprocal `inv`; `None` if it has a zero
+    /// component or another sign class than the rays before it.
+    #[inline]
+    pub fn add(&mut self, d: Vec3, inv: Vec3) -> Option<()> {
+        let (d, inv) = (Vec3A::from(d), Vec3A::from(inv));
+        if d.cmpeq(Vec3A::ZERO).any() || !d.is_finite() {
+            return None;
+        }
+        let class = d.is_negative_bitmask();
+        if *self.class.get_or_insert(class) != class {
+            return None;
+        }
+        self.inv_lo = self.inv_lo.min(inv);
+        self.inv_hi = self.inv_hi.max(inv);
+        // Slopes as d_b * (1 / d_a): the intervals are widened anyway.
+        for a in 0..3 {
+            let s = d * inv[a];
+            self.slope_lo[a] = self.slope_lo[a].min(s);
+            self.slope_hi[a] = self.slope_hi[a].max(s);
+        }
+        Some(())
+    }
+
+    pub fn finish(self, origin: Vec3, t_max: f32) -> Option<Frustum> {
+        let class = self.class?;
+        let interval = |lo: f32, hi: f32| Interval { lo, hi }.widened();
+        Some(Frustum {
+            origin,
+            positive: [class & 1 == 0, class & 2 == 0, class & 4 == 0],
+            inv: std::array::from_fn(|a| interval(self.inv_lo[a], self.inv_hi[a])),
+            slope: std::array::from_fn(|a| std::array::from_fn(|b| interval(self.slope_lo[a][b], self.slope_hi[a][b]))),
+            t_max,
+        })
+    }
+}
+
+/// A group of rays with a common origin and same-sign directions.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frustum {
+    pub origin: Vec3,
+    /// Per axis, whether the directions' components are positive.
+    pub positive: [bool; 3],
+    /// Per axis, the interval of `1 / d_a` (widened).
+    pub inv: [Interval; 3],
+    /// `slope[a][b]`: the interval of `d_b / d_a` (widened); unused for a = b.
+    pub slope: [[Interval; 3]; 3],
+    /// Rays end at `t_max` (in units of their directions).
+    pub t_max: f32,
+}
+
+/// The sign class of a direction: bit a set when component a is negative;
+/// `None` when a component is zero (or not finite) and the ray can join no
+/// group.
+pub fn sign_class(d: Vec3) -> Option<u8> {
+    let mut class = 0u8;
+    for a in 0..3 {
+        let c = d[a];
+        if !(c != 0.0 && c.is_finite()) {
+            return None;
+        }
+        if c < 0.0 {
+            class |= 1 << a;
+        }
+    }
+    Some(class)
+}
+
+impl Frustum {
+    /// The group of rays from `origin` along `dirs`, or `None` if the
+    /// directions do not all share one sign class (a diverging group).
+    pub fn new(origin: Vec3, dirs: impl IntoIterator<Item = Vec3>, t_max: f32) -> Option<Frustum> {
+        let mut bounds = FrustumBounds::default();
+        for d in dirs {
+            bounds.add(d, d.recip())?;
+        }
+        bounds.finish(origin, t_max)
+    }
+
+    /// The interval of `t` at which the group crosses the plane `x_a = s`.
+    #[inline]
+    pub fn plane_t(&self, a: usize, s: f32) -> Interval {
+        self.inv[a].scale(s - self.origin[a])
+    }
+
+    /// The interval of coordinate `b` where the group crosses `x_a = s`.
+    #[inline]
+    pub fn crossing(&self, a: usize, s: f32, b: usize) -> Interval {
+        self.slope[a][b].scale(s - self.origin[a]).offset(self.origin[b])
+    }
+
+    /// Inverse frustum culling at an interior node (section 3.3, assessment
+    /// (1)): which children of `cell`, split at `x_axis = split`, the group
+    /// may enter, given that it may enter `cell`.
+    ///
+    /// The group crosses the split plane inside the rectangle of `crossing`.
+    /// Where that rectangle lies entirely beyond the cell in another axis b,
+    /// the rays cross outside the cell; moving along `d_b` they were even
+    /// farther out before the crossing, or get farther out after it, so the
+    /// child on that side of the plane cannot be entered. Rays that do not
+    /// reach the plane (behind the origin, or beyond `t_max`) stay on the
+    /// origin's side.
+    pub fn split_children(&self, axis: usize, split: f32, cell: &Aabb) -> Children {
+        let o = self.origin[axis];
+        let pos = self.positive[axis];
+        // Side the rays start on ("near") and the side they cross into.
+        let near_below = o < split || (o == split && !pos);
+        let side = |near: bool| {
+            if near == near_below {
+                Children {
+                    below: true,
+                    above: false,
+                }
+            } else {
+                Children {
+                    below: false,
+                    above: true,
+                }
+            }
+        };
+        let t = self.plane_t(axis, split);
+        if t.hi <= 0.0 || t.lo > self.t_max * (1.0 + SLACK) {
+            return side(true);
+        }
+        let (mut near, mut far) = (true, true);
+        for b in [(axis + 1) % 3, (axis + 2) % 3] {
+            let r = self.crossing(axis, split, b);
+            if r.hi < cell.min[b] {
+                // Crosses below the cell in b.
+                if self.positive[b] { near = false } else { far = false }
+            } else if r.lo > cell.max[b] {
+                if self.positive[b] { far = false } else { near = false }
+            }
+        }
+        let n = side(true);
+        let f = side(false);
+        Children {
+            below: (near && n.below) || (far && f.below),
+            above: (near && n.above) || (far && f.above),
+        }
+    }
+
+    /// Per axis, the intervals of `t` at which the group enters and leaves
+    /// the slab of `b` along that axis.
+    #[inline]
+    fn slabs(&self, b: &Aabb) -> ([Interval; 3], [Interval; 3]) {
+        let mut entry = [Interval::EMPTY; 3];
+        let mut exit = [Interval::EMPTY; 3];
+        for a in 0..3 {
+            let (near, far) = if self.positive[a] {
+                (b.min[a], b.max[a])
+            } else {
+                (b.max[a], b.min[a])
+            };
+            entry[a] = self.plane_t(a, near);
+            exit[a] = self.plane_t(a, far);
+        }
+        (entry, exit)
+    }
+
+    /// Whether any ray of the group may pass through the box (section 3.3,
+    /// equation (2), for all three pairs of axes at once, and the group's
+    /// range of `t`): false when every ray enters some slab only after it
+    /// has left another one.
+    pub fn may_hit_box(&self, b: &Aabb) -> bool {
+        let (entry, exit) = self.slabs(b);
+        let latest_entry = entry[0].lo.max(entry[1].lo).max(entry[2].lo);
+        let earliest_exit = exit[0].hi.min(exit[1].hi).min(exit[2].hi).min(self.t_max);
+        down(latest_entry) <= up(earliest_exit) && up(earliest_exit) >= 0.0
+    }
+
+    /// Whether every ray of the group passes through the box before `t_max`:
+    /// some face of the box facing the group contains the whole crossing
+    /// rectangle of its plane, ahead of the origin.
+    pub fn all_enter_box(&self, b: &Aabb) -> bool {
+        (0..3).any(|a| {
+            let s = if self.positive[a] { b.min[a] } else { b.max[a] };
+            self.all_cross_rectangle(a, s, b)
+        })
+    }
+
+    /// The four extreme directions of the group: the corners of its box of
+    /// slopes relative to its dominant axis. Every direction of the group is a
+    /// convex combination of them (up to scale), so a convex target that all
+    /// four hit from the origin is hit by every ray of the group.
+    pub fn corner_directions(&self) -> [Vec3; 4] {
+        // The dominant axis has the narrowest interval of 1/d.
+        let a = (0..3)
+            .min_by(|&x, &y| {
+                let w = |i: usize| self.inv[i].lo.abs().min(self.inv[i].hi.abs());
+                w(x).total_cmp(&w(y))
+            })
+            .unwrap_or(0);
+        let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+        let s = if self.positive[a] { 1.0 } else { -1.0 };
+        let corner = |kb: f32, kc: f32| {
+            let mut d = Vec3::ZERO;
+            d[a] = s;
+            d[b] = kb * s;
+            d[c] = kc * s;
+            d
+        };
+        let (sb, sc) = (self.slope[a][b], self.slope[a][c]);
+        [
+            corner(sb.lo, sc.lo),
+            corner(sb.lo, sc.hi),
+            corner(sb.hi, sc.lo),
+            corner(sb.hi, sc.hi),
+        ]
+    }
+
+    /// Whether every ray crosses the plane `x_a = s` inside the rectangle of
+    /// `b` in the two other axes, at `0 < t < t_max`.
+    pub fn all_cross_rectangle(&self, a: usize, s: f32, b: &Aabb) -> bool {
+        let t = self.plane_t(a, s);
+        if !(t.lo > 0.0 && t.hi < self.t_max) {
+            return false;
+        }
+        [(a + 1) % 3, (a + 2) % 3].iter().all(|&c| {
+            let r = self.crossing(a, s, c);
+            r.lo >= b.min[c] && r.hi <= b.max[c]
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid_dirs(center: Vec3, spread: f32, n: usize) -> Vec<Vec3> {
+        let mut v = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                let u = (i as f32 / (n - 1) as f32 - 0.5) * spread;
+                let w = (j as f32 / (n - 1) as f32 - 0.5) * spread;
+                v.push(center + Vec3::new(u, w, 0.37 * u));
+            }
+        }
+        v
+    }
+
+    #[test]
+    fn diverging_groups_are_refused() {
+        let o = Vec3::ZERO;
+        assert!(Frustum::new(o, [Vec3::new(1.0, 1.0, 1.0), Vec3::new(-1.0, 1.0, 1.0)], 1.0).is_none());
+        assert!(Frustum::new(o, [Vec3::new(1.0, 0.0, 1.0)], 1.0).is_none());
+        let f = Frustum::new(o, [Vec3::new(-1.0, 2.0, -3.0), Vec3::new(-2.0, 1.0, -1.0)], 1.0).unwrap();
+        assert_eq!(f.positive, [false, true, false]);
+    }
+
+    /// Everything the frustum claims must hold for each ray, tested by
+    /// clipping each ray against random boxes and split planes.
+    #[test]
+    fn decisions_are_conservative_for_every_ray() {
+        let mut seed = 12345u64;
+        let mut rnd = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let (mut culled_boxes, mut culled_children, mut all_enter) = (0, 0, 0);
+        for _ in 0..300 {
+            let origin = Vec3::new(rnd(), rnd(), rnd()) * 4.0 - 2.0;
+            let center = Vec3::new(rnd() + 0.2, rnd() + 0.2, rnd() + 0.2) * Vec3::new(1.0, -1.0, 1.0);
+            let dirs = grid_dirs(center, rnd() * 0.3, 5);
+            let Some(f) = Frustum::new(origin, dirs.iter().copied(), 10.0) else {
+                continue;
+            };
+            for _ in 0..50 {
+                let lo = Vec3::new(rnd(), rnd(), rnd()) * 6.0 - 3.0;
+                let cell = Aabb::new(lo, lo + Vec3::new(rnd(), rnd(), rnd()) * 3.0 + Vec3::splat(0.01));
+                let hits = |b: &Aabb| dirs.iter().any(|&d| b.clip_ray(origin, d, 0.0, 10.0).is_some());
+                if !f.may_hit_box(&cell) {
+                    culled_boxes += 1;
+                }
+                if hits(&cell) {
+                    assert!(f.may_hit_box(&cell), "culled a box a ray passes through");
+                    let axis = (rnd() * 3.0) as usize % 3;
+                    let split = cell.min[axis] + rnd() * (cell.max[axis] - cell.min[axis]);
+                    let mut below = cell;
+                    below.max[axis] = split;
+                    let mut above = cell;
+                    above.min[axis] = split;
+                    let c = f.split_children(axis, split, &cell);
+                    if !(c.below && c.above) {
+                        culled_children += 1;
+                    }
+                    assert!(c.below || !hits(&below), "a ray enters the culled child below");
+                    assert!(c.above || !hits(&above), "a ray enters the culled child above");
+                }
+                if f.all_enter_box(&cell) {
+                    all_enter += 1;
+                    for &d in &dirs {
+                        assert!(cell.clip_ray(origin, d, 0.0, 10.0).is_some(), "claimed all rays enter");
+                    }
+                }
+            }
+        }
+        // The test only means something if the frustum decides things.
+        println!("culled boxes {culled_boxes}, culled children {culled_children}, all-enter {all_enter}");
+        assert!(culled_boxes > 100 && culled_children > 100 && all_enter > 10);
+    }
+}

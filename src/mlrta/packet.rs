@@ -1,0 +1,376 @@
+//! Packets of up to 16 rays (4x4) traced together: the interval traversal of
+//! section 4.3 (the "XP search").
+//!
+//! The packet keeps one interval `t_cell = [t0, t1]` for the current cell: the
+//! earliest entry and the latest exit over its rays. At an interior node the
+//! interval `t_plane` of the rays' distances to the split plane decides, for
+//! all rays at once, whether only the nearest child, only the farthest, or
+//! both are traversed (the paper's listing). At a leaf the packet is first
+//! clipped against the leaf's box with equation (2) (`Frustum::may_hit_box`);
+//! then each triangle is tested against the rays still active: a ray whose
+//! closest hit lies before the cell's earliest entry cannot find a closer one
+//! there and is masked. The packet stops when every ray's hit lies before the
+//! next cell on the stack.
+//!
+//! Each ray's hit is the single-ray path's: the packet's intervals (widened by
+//! the same slack as single rays use) enclose each ray's own, so the packet
+//! visits every cell each of its rays would, in front-to-back order, and tests
+//! triangles with the same watertight arithmetic.
+
+use std::mem::MaybeUninit;
+
+use glam::Vec3;
+
+use crate::aabb::Aabb;
+use crate::kdtree::MAX_TREE_DEPTH;
+use crate::kdtree::watertight::ShearedRay;
+use crate::mlrta::entry_point::EntryPoint;
+use crate::mlrta::frustum::{Frustum, FrustumBounds, down, up};
+use crate::mlrta::prepared::Prepared;
+use crate::ray::Hit;
+
+/// Rays per packet (4x4).
+pub const PACKET: usize = 16;
+
+/// Statistics counted as in the MLRTA paper's Table 2: traversal steps and
+/// intersection tests per packet (a triangle tested against any number of
+/// the packet's rays counts once), entry-point steps.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct MlrtaCounts {
+    /// 4x4 packets the statistics are normalised by.
+    pub packets: u64,
+    /// Entry-point searches.
+    pub ep_searches: u64,
+    /// Nodes visited by entry-point searches.
+    pub ep_steps: u64,
+    /// Nodes visited by packets (intersection search).
+    pub xp_cells: u64,
+    /// Triangle tests by packets with at least one active ray.
+    pub isects: u64,
+    /// Ray-triangle tests (each active ray of each packet test).
+    pub ray_tests: u64,
+    /// Leaves packets visited, and how many of them were empty.
+    pub xp_leaves: u64,
+    pub xp_empty_leaves: u64,
+    /// Leaves skipped by equation (2).
+    pub leaves_clipped: u64,
+    /// Rays traced one by one: diverging directions (a zero component) and
+    /// re-traces after a speculative entry point.
+    pub single_rays: u64,
+    /// Nodes those single rays visited.
+    pub single_cells: u64,
+    /// Their ray-triangle tests.
+    pub single_isects: u64,
+}
+
+impl std::ops::AddAssign for MlrtaCounts {
+    fn add_assign(&mut self, o: Self) {
+        self.packets += o.packets;
+        self.ep_searches += o.ep_searches;
+        self.ep_steps += o.ep_steps;
+        self.xp_cells += o.xp_cells;
+        self.isects += o.isects;
+        self.ray_tests += o.ray_tests;
+        self.xp_leaves += o.xp_leaves;
+        self.xp_empty_leaves += o.xp_empty_leaves;
+        self.leaves_clipped += o.leaves_clipped;
+        self.single_rays += o.single_rays;
+        self.single_cells += o.single_cells;
+        self.single_isects += o.single_isects;
+    }
+}
+
+/// Up to 16 rays with a common origin and same-sign directions, with what
+/// each lane needs precomputed.
+pub struct Packet {
+    pub frustum: Frustum,
+    pub len: usize,
+    pub dirs: [Vec3; PACKET],
+    /// `1 / d` per axis and lane, for the lanes' own slab tests at leaves.
+    inv: [[f32; PACKET]; 3],
+    sheared: [ShearedRay; PACKET],
+    /// The lanes' shear constants side by side, when every lane uses the
+    /// same axis permutation (the usual case): triangles are then tested
+    /// against all lanes at once.
+    common: Option<CommonShear>,
+}
+
+/// `ShearedRay` constants of all lanes, for one axis permutation.
+struct CommonShear {
+    k: [usize; 3],
+    sx: [f32; PACKET],
+    sy: [f32; PACKET],
+    sz: [f32; PACKET],
+}
+
+impl Packet {
+    /// A packet of `dirs` from `origin`, or `None` if the directions do not
+    /// share one sign class (or there are none, or more than 16).
+    pub fn new(origin: Vec3, dirs: &[Vec3], t_max: f32) -> Option<Packet> {
+        if dirs.is_empty() || dirs.len() > PACKET {
+            return None;
+        }
+        let mut bounds = FrustumBounds::default();
+        // Unused lanes get infinite inverses: their slab tests never pass.
+        let mut inv = [[f32::INFINITY; PACKET]; 3];
+        let mut sheared = [ShearedRay::new(origin, Vec3::ONE); PACKET];
+        let mut own = [Vec3::ZERO; PACKET];
+        for (r, &d) in dirs.iter().enumerate() {
+            let i = d.recip();
+            bounds.add(d, i)?;
+            for a in 0..3 {
+                inv[a][r] = i[a];
+            }
+            own[r] = d;
+            sheared[r] = ShearedRay::new(origin, d);
+        }
+        let k = |s: &ShearedRay| [s.kx, s.ky, s.kz];
+        let common = sheared[..dirs.len()]
+            .iter()
+            .all(|s| k(s) == k(&sheared[0]))
+            .then(|| CommonShear {
+                k: k(&sheared[0]),
+                sx: std::array::from_fn(|r| sheared[r].sx),
+                sy: std::array::from_fn(|r| sheared[r].sy),
+                sz: std::array::from_fn(|r| sheared[r].sz),
+            });
+        Some(Packet {
+            frustum: bounds.finish(origin, t_max)?,
+            len: dirs.len(),
+            dirs: own,
+            inv,
+            sheared,
+            common,
+        })
+    }
+
+    /// Whether lane `r` passes through `cell` at `0 <= t <= limit` (widened
+    /// like the traversal's intervals): a lane that does not cannot hit a
+    /// triangle there that it would not also hit in a cell it does pass.
+    /// Every lane's interval `(near, far)` in `cell`, clamped to
+    /// `[0, limit[r]]`, computed for all lanes at once (the directions have no
+    /// zero component, so no NaN arises in used lanes).
+    #[inline]
+    fn lane_slabs(&self, cell: &Aabb, limit: &[f32; PACKET]) -> ([f32; PACKET], [f32; PACKET]) {
+        let o = self.frustum.origin;
+        let mut near = [0.0f32; PACKET];
+        let mut far = *limit;
+        for a in 0..3 {
+            let (lo, hi) = (cell.min[a] - o[a], cell.max[a] - o[a]);
+            for r in 0..PACKET {
+                let t1 = lo * self.inv[a][r];
+                let t2 = hi * self.inv[a][r];
+                let (n, f) = if t1 < t2 { (t1, t2) } else { (t2, t1) };
+                near[r] = if n > near[r] { n } else { near[r] };
+                far[r] = if f < far[r] { f } else { far[r] };
+            }
+        }
+        (near, far)
+    }
+
+    /// Tests one triangle against the lanes in `active` with the shared
+    /// shear constants: the watertight test of `ShearedRay::intersect`, the
+    /// same operations in the same order for each lane, without branches so
+    /// that the lanes run side by side. Updates the lanes' closest hits and
+    /// returns the lanes that hit.
+    #[inline]
+    fn test_common(
+        &self,
+        c: &CommonShear,
+        tri: [Vec3; 3],
+        active: &[bool; PACKET],
+        best_t: &mut [f32; PACKET],
+    ) -> [bool; PACKET] {
+        let o = self.frustum.origin;
+        let [kx, ky, kz] = c.k;
+        let a = (tri[0] - o).to_array();
+        let b = (tri[1] - o).to_array();
+        let v = (tri[2] - o).to_array();
+        let mut hit = [false; PACKET];
+        for r in 0..PACKET {
+            let ax = a[kx] - c.sx[r] * a[kz];
+            let ay = a[ky] - c.sy[r] * a[kz];
+            let bx = b[kx] - c.sx[r] * b[kz];
+            let by = b[ky] - c.sy[r] * b[kz];
+            let cx = v[kx] - c.sx[r] * v[kz];
+            let cy = v[ky] - c.sy[r] * v[kz];
+            let u = cx * by - cy * bx;
+            let vv = ax * cy - ay * cx;
+            let w = bx * ay - by * ax;
+            let outside = (u < 0.0 || vv < 0.0 || w < 0.0) & (u > 0.0 || vv > 0.0 || w > 0.0);
+            let det = u + vv + w;
+            let t_scaled = u * (c.sz[r] * a[kz]) + vv * (c.sz[r] * b[kz]) + w * (c.sz[r] * v[kz]);
+            let wrong_side = (det > 0.0 && t_scaled <= 0.0) | (det < 0.0 && t_scaled >= 0.0);
+            let t = t_scaled / det;
+            let h = active[r] & !outside & (det != 0.0) & !wrong_side & (t > 0.0) & (t < best_t[r]);
+            best_t[r] = if h { t } else { best_t[r] };
+            hit[r] = h;
+        }
+        hit
+    }
+}
+
+/// Traces the packet from `entry` (closest hits, or any hit with `any_hit`).
+/// Returns one hit per ray (`Hit::MISS` where nothing was hit in the entry
+/// point's subtree).
+pub fn trace_packet(
+    p: &Prepared,
+    packet: &Packet,
+    entry: &EntryPoint,
+    any_hit: bool,
+    counts: &mut MlrtaCounts,
+) -> [Hit; PACKET] {
+    let f = &packet.frustum;
+    let n = packet.len;
+    let origin = f.origin;
+    let tree = p.tree;
+    let mut best_t = [f.t_max; PACKET];
+    let mut best_tri = [Hit::MISS_INDEX; PACKET];
+    let mut hits = [Hit::MISS; PACKET];
+    // The packet's interval in the entry cell; rays that miss the cell are
+    // done (nothing they can hit lies outside it).
+    let mut done = [true; PACKET];
+    let (mut t0, mut t1) = (f32::INFINITY, f32::NEG_INFINITY);
+    let (near, far) = packet.lane_slabs(&entry.cell, &[f.t_max; PACKET]);
+    for r in 0..n {
+        if near[r] <= far[r] {
+            t0 = t0.min(near[r]);
+            t1 = t1.max(far[r]);
+            done[r] = false;
+        }
+    }
+    if t0 > t1 {
+        return hits;
+    }
+    let (mut t0, mut t1) = (down(t0), up(t1));
+    let mut stack = [const { MaybeUninit::<(u32, f32, f32, Aabb)>::uninit() }; MAX_TREE_DEPTH];
+    let mut sp = 0usize;
+    let (mut node_index, mut cell) = (entry.node, entry.cell);
+    loop {
+        counts.xp_cells += 1;
+        let node = tree.nodes[node_index as usize];
+        if !node.is_leaf() {
+            let (axis, split) = (node.axis(), node.split());
+            let o = origin[axis];
+            let near_below = o < split || (o == split && !f.positive[axis]);
+            let (below, above) = (node_index + 1, node.above_child());
+            // The child cells: the current cell cut at the split plane.
+            let cut = |cell: &mut Aabb, is_below: bool| {
+                if is_below {
+                    cell.max[axis] = split
+                } else {
+                    cell.min[axis] = split
+                }
+            };
+            let tp = f.plane_t(axis, split);
+            if tp.hi <= 0.0 || down(tp.lo) > t1 {
+                node_index = if near_below { below } else { above };
+                cut(&mut cell, near_below);
+            } else if up(tp.hi) < t0 {
+                node_index = if near_below { above } else { below };
+                cut(&mut cell, !near_below);
+            } else {
+                let mut far_cell = cell;
+                cut(&mut far_cell, !near_below);
+                let far = if near_below { above } else { below };
+                // Stack entries never outnumber the tree's depth.
+                stack[sp].write((far, t0.max(down(tp.lo)), t1, far_cell));
+                sp += 1;
+                t1 = t1.min(up(tp.hi));
+                node_index = if near_below { below } else { above };
+                cut(&mut cell, near_below);
+            }
+            continue;
+        }
+
+        let range = node.leaf_range();
+        counts.xp_leaves += 1;
+        if range.is_empty() {
+            counts.xp_empty_leaves += 1;
+        } else {
+            if f.may_hit_box(&cell) {
+                // Lanes whose hit lies before this cell's earliest entry, or
+                // that do not pass through the cell, are masked.
+                let entry_limit = down(t0);
+                let (near, far) = packet.lane_slabs(&cell, &best_t);
+                let mut active = [false; PACKET];
+                let mut m = 0;
+                for r in 0..n {
+                    active[r] = !done[r] && best_t[r] >= entry_limit && down(near[r]) <= up(far[r]);
+                    m += active[r] as u64;
+                }
+                if m > 0 {
+                    for (&tri, verts) in tree.leaf_triangles[range.clone()]
+                        .iter()
+                        .zip(&tree.leaf_vertices[range])
+                    {
+                        counts.isects += 1;
+                        counts.ray_tests += m;
+                        // Few active lanes: testing them one by one beats
+                        // running all sixteen side by side.
+                        match packet.common.as_ref().filter(|_| m > 4) {
+                            Some(c) => {
+                                let hit = packet.test_common(c, *verts, &active, &mut best_t);
+                                for r in 0..n {
+                                    if hit[r] {
+                                        best_tri[r] = tri;
+                                        if any_hit {
+                                            done[r] = true;
+                                            active[r] = false;
+                                        }
+                                    }
+                                }
+                            }
+                            None => {
+                                let [v0, v1, v2] = *verts;
+                                for r in 0..n {
+                                    if !active[r] {
+                                        continue;
+                                    }
+                                    if let Some(t) = packet.sheared[r].intersect(v0, v1, v2, best_t[r]) {
+                                        best_t[r] = t;
+                                        best_tri[r] = tri;
+                                        if any_hit {
+                                            done[r] = true;
+                                            active[r] = false;
+                                        }
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+            } else {
+                counts.leaves_clipped += 1;
+            }
+        }
+        // Next cell: skip those that start beyond every open ray's hit.
+        let mut latest = f32::NEG_INFINITY;
+        for r in 0..n {
+            if !done[r] {
+                latest = latest.max(best_t[r]);
+            }
+        }
+        loop {
+            if sp == 0 {
+                for r in 0..n {
+                    if best_tri[r] != Hit::MISS_INDEX {
+                        hits[r] = Hit {
+                            t: best_t[r],
+                            triangle: best_tri[r],
+                        };
+                    }
+                }
+                return hits;
+            }
+            sp -= 1;
+            // SAFETY: entry `sp` was written by the push that raised the
+            // stack pointer above it, and entries are never read twice.
+            let (i, a, b, c) = unsafe { stack[sp].assume_init() };
+            if down(a) <= latest {
+                (node_index, t0, t1, cell) = (i, a, b, c);
+                break;
+            }
+        }
+    }
+}

@@ -1,0 +1,378 @@
+//! The kd-tree prepared for multi-level ray tracing: subtree sizes (the
+//! geometric complexity of section 4.2) and occluder leaves (the stopping
+//! rules (4) of section 4.1).
+//!
+//! Two kinds of leaf end every ray of a group that passes through them:
+//!
+//! * a **covered plane**: a flat (2D) leaf whose coplanar triangles cover its
+//!   whole rectangle, as rule 2 of the build creates them (coverage judged by
+//!   clipped area, like the build rule);
+//! * an **empty occluder**: an empty leaf inside a closed (watertight,
+//!   consistently oriented) object. A ray reaching it from outside must have
+//!   crossed the object's surface first. It is inside when the closest hit
+//!   from its centre is a back face of that object (front faces point out: the
+//!   orientation comes from the object's signed volume).
+//!
+//! Occluders merge upwards: an interior node is a covered plane when it is
+//! flat and both children are covered planes (a wall split in its own plane
+//! into several leaves), and an empty occluder when both children are empty
+//! occluders of the same object (the inside of a closed object, carved into
+//! many empty leaves). A group's whole frustum fits such a merged occluder far
+//! more often than one of its leaves.
+//!
+//! Either judgement can only be wrong at measure-zero boundaries, and a wrong
+//! one never costs a hit: rays that find no hit below an entry point reached
+//! by a stopping rule are traced again from the root (see `entry_point`).
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::aabb::Aabb;
+use crate::kdtree::KdTree;
+use crate::scene::Mesh;
+
+/// What kind of occluder a leaf is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Occluder {
+    None,
+    /// Flat leaf on `axis`, covered by coplanar triangles.
+    CoveredPlane {
+        axis: u8,
+    },
+    /// Empty leaf inside closed object `object`.
+    Inside {
+        object: u32,
+    },
+}
+
+/// A kd-tree with what MLRTA needs on top of it.
+pub struct Prepared<'a> {
+    pub tree: &'a KdTree,
+    /// One past the last node of each node's subtree (depth-first layout).
+    pub subtree_end: Vec<u32>,
+    /// Per node (leaves and merged interior nodes).
+    pub occluders: Vec<Occluder>,
+    /// Per triangle, the closed object it belongs to (or `u32::MAX`).
+    pub closed_object_of: Vec<u32>,
+    /// Per closed object, +1 if its faces point outwards, -1 if inwards.
+    orientation: Vec<f32>,
+}
+
+/// Statistics of the preparation, for reports.
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct PreparedStats {
+    pub closed_objects: usize,
+    pub covered_plane_leaves: usize,
+    pub empty_occluder_leaves: usize,
+    /// Interior nodes whose whole subtree is one occluder.
+    pub merged_occluders: usize,
+    pub prepare_ms: f64,
+}
+
+impl<'a> Prepared<'a> {
+    /// Prepares `tree`, built from `mesh` (whose objects tell which triangles
+    /// form closed surfaces).
+    pub fn new(tree: &'a KdTree, mesh: &Mesh) -> (Prepared<'a>, PreparedStats) {
+        let start = std::time::Instant::now();
+        let subtree_end = subtree_ends(tree);
+        let (closed_object_of, orientation) = closed_objects(mesh);
+        let mut prepared = Prepared {
+            tree,
+            subtree_end,
+            occluders: vec![Occluder::None; tree.nodes.len()],
+            closed_object_of,
+            orientation,
+        };
+        let leaves = leaf_cells(tree);
+        let found: Vec<(u32, Occluder)> = leaves
+            .par_iter()
+            .filter_map(|&(node, cell)| {
+                let kind = prepared.classify_leaf(node, &cell);
+                (kind != Occluder::None).then_some((node, kind))
+            })
+            .collect();
+        let mut stats = PreparedStats {
+            closed_objects: prepared.orientation.len(),
+            ..Default::default()
+        };
+        for (node, kind) in found {
+            match kind {
+                Occluder::CoveredPlane { .. } => stats.covered_plane_leaves += 1,
+                Occluder::Inside { .. } => stats.empty_occluder_leaves += 1,
+                Occluder::None => {}
+            }
+            prepared.occluders[node as usize] = kind;
+        }
+        // Merge upwards; children come after their parent in the layout.
+        for i in (0..tree.nodes.len()).rev() {
+            let node = tree.nodes[i];
+            if node.is_leaf() {
+                continue;
+            }
+            let below = prepared.occluders[i + 1];
+            let above = prepared.occluders[node.above_child() as usize];
+            let merged = match (below, above) {
+                (Occluder::CoveredPlane { axis: a }, Occluder::CoveredPlane { axis: b })
+                    if a == b && node.axis() != a as usize =>
+                {
+                    Occluder::CoveredPlane { axis: a }
+                }
+                (Occluder::Inside { object: a }, Occluder::Inside { object: b }) if a == b => {
+                    Occluder::Inside { object: a }
+                }
+                _ => Occluder::None,
+            };
+            if merged != Occluder::None {
+                stats.merged_occluders += 1;
+            }
+            prepared.occluders[i] = merged;
+        }
+        stats.prepare_ms = start.elapsed().as_secs_f64() * 1e3;
+        (prepared, stats)
+    }
+
+    /// Nodes in the subtree of `node`, itself included.
+    pub fn subtree_size(&self, node: u32) -> u32 {
+        self.subtree_end[node as usize] - node
+    }
+
+    fn classify_leaf(&self, node: u32, cell: &Aabb) -> Occluder {
+        let tree = self.tree;
+        let range = tree.nodes[node as usize].leaf_range();
+        let tris = &tree.leaf_triangles[range];
+        if tris.is_empty() {
+            if self.orientation.is_empty() {
+                return Occluder::None;
+            }
+            return match self.inside_object(cell.center()) {
+                Some(object) => Occluder::Inside { object },
+                None => Occluder::None,
+            };
+        }
+        let extent = cell.extent();
+        let Some(axis) = (0..3).find(|&a| extent[a] == 0.0) else {
+            return Occluder::None;
+        };
+        let s = cell.min[axis];
+        let coplanar = tris
+            .iter()
+            .all(|&t| tree.triangles[t as usize].iter().all(|v| v[axis] == s));
+        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+        let cross_section = extent[u] * extent[v];
+        if !coplanar || cross_section <= 0.0 {
+            return Occluder::None;
+        }
+        let area: f32 = tris
+            .iter()
+            .map(|&t| crate::kdtree::clip::clip_triangle(&tree.triangles[t as usize], cell).area())
+            .sum();
+        if area >= cross_section * (1.0 - 1e-4) {
+            Occluder::CoveredPlane { axis: axis as u8 }
+        } else {
+            Occluder::None
+        }
+    }
+
+    /// The closed object whose inside contains `p`, judged by the closest
+    /// surface seen from `p` along a fixed skew direction.
+    pub fn inside_object(&self, p: Vec3) -> Option<u32> {
+        if self.orientation.is_empty() {
+            return None;
+        }
+        let dir = Vec3::new(0.5773, 0.6201, 0.5313);
+        let hit = self.tree.closest_hit(p, dir, f32::INFINITY);
+        if !hit.is_hit() {
+            return None;
+        }
+        let object = self.closed_object_of[hit.triangle as usize];
+        if object == u32::MAX {
+            return None;
+        }
+        let [a, b, c] = self.tree.triangles[hit.triangle as usize];
+        let facing = (b - a).cross(c - a).dot(dir) * self.orientation[object as usize];
+        (facing > 0.0).then_some(object)
+    }
+}
+
+/// `subtree_end[i]`: one past the last node of node i's subtree.
+fn subtree_ends(tree: &KdTree) -> Vec<u32> {
+    let n = tree.nodes.len();
+    let mut end = vec![0u32; n];
+    // Nodes in reverse order: children come after their parent.
+    for i in (0..n).rev() {
+        let node = tree.nodes[i];
+        end[i] = if node.is_leaf() {
+            i as u32 + 1
+        } else {
+            end[node.above_child() as usize]
+        };
+    }
+    end
+}
+
+/// Every leaf with its cell.
+pub fn leaf_cells(tree: &KdTree) -> Vec<(u32, Aabb)> {
+    let mut out = Vec::new();
+    let mut stack = vec![(0u32, tree.bounds)];
+    while let Some((i, cell)) = stack.pop() {
+        let node = tree.nodes[i as usize];
+        if node.is_leaf() {
+            out.push((i, cell));
+            continue;
+        }
+        let (axis, split) = (node.axis(), node.split());
+        let mut below = cell;
+        below.max[axis] = split;
+        let mut above = cell;
+        above.min[axis] = split;
+        stack.push((node.above_child(), above));
+        stack.push((i + 1, below));
+    }
+    out
+}
+
+/// Which triangles form closed surfaces. Triangles are grouped into
+/// connected surfaces through shared edges (vertices welded by position, so
+/// objects split across OBJ groups or with duplicated vertices still join); a
+/// surface is closed when every edge is used by exactly two triangles, once
+/// in each direction. Returns per triangle its closed surface's index, and per
+/// closed surface the sign of its signed volume (+1: faces point out).
+///
+/// Sorting instead of hashing: welded vertex ids come from sorting the
+/// positions, edges from sorting (vertex, vertex) pairs.
+fn closed_objects(mesh: &Mesh) -> (Vec<u32>, Vec<f32>) {
+    let n = mesh.triangles.len();
+    // Weld: vertices with bit-identical positions get one id.
+    let key = |v: usize| mesh.positions[v].to_array().map(f32::to_bits);
+    let mut order: Vec<u32> = (0..mesh.positions.len() as u32).collect();
+    order.sort_unstable_by_key(|&v| key(v as usize));
+    let mut weld = vec![0u32; mesh.positions.len()];
+    let mut id = 0u32;
+    for w in 0..order.len() {
+        if w > 0 && key(order[w] as usize) != key(order[w - 1] as usize) {
+            id += 1;
+        }
+        weld[order[w] as usize] = id;
+    }
+    // Edges as (low vertex, high vertex, forward?, triangle), sorted.
+    let mut edges: Vec<(u32, u32, bool, u32)> = Vec::with_capacity(3 * n);
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let [a, b, c] = tri.map(|v| weld[v as usize]);
+        for (p, q) in [(a, b), (b, c), (c, a)] {
+            edges.push((p.min(q), p.max(q), p < q, t as u32));
+        }
+    }
+    edges.sort_unstable();
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    fn root(parent: &mut [u32], mut i: u32) -> u32 {
+        while parent[i as usize] != i {
+            parent[i as usize] = parent[parent[i as usize] as usize];
+            i = parent[i as usize];
+        }
+        i
+    }
+    let mut open_triangles = Vec::new();
+    for group in edges.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1)) {
+        let (x, y) = (
+            root(&mut parent, group[0].3),
+            root(&mut parent, group[group.len() - 1].3),
+        );
+        parent[x as usize] = y;
+        let manifold = group.len() == 2 && group[0].2 != group[1].2;
+        if !manifold {
+            open_triangles.extend(group.iter().map(|e| e.3));
+        }
+    }
+    let mut open = vec![false; n];
+    for t in open_triangles {
+        let r = root(&mut parent, t);
+        open[r as usize] = true;
+    }
+    let mut volume = vec![0.0f64; n];
+    for t in 0..n {
+        let r = root(&mut parent, t as u32) as usize;
+        if !open[r] {
+            let [a, b, c] = mesh.triangle(t).map(|v| v.as_dvec3());
+            volume[r] += a.dot(b.cross(c)) / 6.0;
+        }
+    }
+    let mut id_of = vec![u32::MAX; n];
+    let mut orientation = Vec::new();
+    let mut object_of = vec![u32::MAX; n];
+    for (t, slot) in object_of.iter_mut().enumerate() {
+        let r = root(&mut parent, t as u32) as usize;
+        if open[r] || volume[r] == 0.0 {
+            continue;
+        }
+        if id_of[r] == u32::MAX {
+            id_of[r] = orientation.len() as u32;
+            orientation.push(volume[r].signum() as f32);
+        }
+        *slot = id_of[r];
+    }
+    (object_of, orientation)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kdtree::KdTreeParams;
+    use crate::scene::procedural::{closed_box, cube_with_hole, open_plane};
+
+    #[test]
+    fn subtree_ends_cover_the_tree() {
+        let mesh = cube_with_hole();
+        let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+        let (p, _) = Prepared::new(&tree, &mesh);
+        assert_eq!(p.subtree_size(0) as usize, tree.nodes.len());
+        for (i, n) in tree.nodes.iter().enumerate() {
+            if n.is_leaf() {
+                assert_eq!(p.subtree_size(i as u32), 1);
+            } else {
+                let below = p.subtree_size(i as u32 + 1);
+                let above = p.subtree_size(n.above_child());
+                assert_eq!(p.subtree_size(i as u32), 1 + below + above);
+            }
+        }
+    }
+
+    #[test]
+    fn closed_objects_and_their_inside() {
+        // The cube with a hole is closed with outward faces; its solid part is
+        // inside, the hole and the surroundings are not.
+        let mesh = cube_with_hole();
+        let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+        let (p, stats) = Prepared::new(&tree, &mesh);
+        assert_eq!(stats.closed_objects, 1);
+        assert_eq!(p.inside_object(Vec3::new(0.7, 0.1, 0.2)), Some(0));
+        assert_eq!(p.inside_object(Vec3::new(0.0, 0.0, 0.0)), None, "in the hole");
+        assert_eq!(p.inside_object(Vec3::new(3.0, 0.0, 0.0)), None, "outside");
+        // The closed box has inward faces (negative volume): its inside is
+        // still its inside.
+        let boxed = closed_box(1.0);
+        let tree = KdTree::build(&boxed, &KdTreeParams::default()).unwrap();
+        let (p, _) = Prepared::new(&tree, &boxed);
+        assert_eq!(p.inside_object(Vec3::splat(0.5)), Some(0));
+        assert_eq!(p.inside_object(Vec3::splat(1.5)), None);
+        // An open plane is no closed object.
+        let plane = open_plane(10.0);
+        let tree = KdTree::build(&plane, &KdTreeParams::default()).unwrap();
+        assert_eq!(Prepared::new(&tree, &plane).1.closed_objects, 0);
+    }
+
+    #[test]
+    fn occluder_leaves_are_found() {
+        let mesh = cube_with_hole();
+        let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+        let (p, stats) = Prepared::new(&tree, &mesh);
+        println!("{stats:?}");
+        assert!(stats.empty_occluder_leaves > 0, "the solid part has empty inner leaves");
+        for (node, cell) in leaf_cells(&tree) {
+            match p.occluders[node as usize] {
+                Occluder::Inside { .. } => assert!(p.inside_object(cell.center()).is_some()),
+                Occluder::CoveredPlane { axis } => assert_eq!(cell.extent()[axis as usize], 0.0),
+                Occluder::None => {}
+            }
+        }
+    }
+}

@@ -1,0 +1,451 @@
+//! Tile splitting, section 4.2: primary rays are grouped by image tiles; each
+//! tile searches its entry point (starting from its parent tile's) and is
+//! split into `split_factor` pieces until it is no larger than `min_tile` or
+//! its entry point is a leaf; the 4x4 packets of a final tile are traced from
+//! its entry point. Tiles whose rays do not share their directions' signs
+//! ("diverging", red in the paper's Figure 7) skip the entry-point search: each
+//! of their packets is traced in same-sign sub-groups from the tile's start.
+//!
+//! Shadow rays go from a point light to the primary hits (section 6: "tracing
+//! them from the light sources to the hit points"), so that each packet's
+//! shadow rays share an origin too and use the same machinery.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::mlrta::entry_point::{EntryPoint, entry_point};
+use crate::mlrta::frustum::sign_class;
+use crate::mlrta::packet::{MlrtaCounts, PACKET, Packet, trace_packet};
+use crate::mlrta::prepared::Prepared;
+use crate::ray::{Hit, Ray};
+
+/// The knobs of section 4.2.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct MlrtaParams {
+    /// Entry-point search on (MLRTA) or off (every packet from the root: the
+    /// paper's "no MLRT" rows).
+    pub entry_points: bool,
+    /// Initial tile side in pixels (ITS); the paper's best: 128.
+    pub initial_tile: u32,
+    /// Tiles no larger than this are not split (MTS).
+    pub min_tile: u32,
+    /// Pieces a tile is split into (SF), a square: 4 (2x2), 16 (4x4), 64 (8x8).
+    pub split_factor: u32,
+}
+
+impl Default for MlrtaParams {
+    fn default() -> Self {
+        MlrtaParams {
+            entry_points: true,
+            initial_tile: 128,
+            min_tile: 8,
+            split_factor: 16,
+        }
+    }
+}
+
+impl MlrtaParams {
+    pub fn validate(&self) -> Result<()> {
+        let side = (self.split_factor as f64).sqrt() as u32;
+        if self.split_factor < 4 || side * side != self.split_factor {
+            return Err(Error::param(
+                "--split-factor",
+                format!(
+                    "must be a square of at least 4 (4, 16, 64...), got {}",
+                    self.split_factor
+                ),
+            ));
+        }
+        if self.min_tile < 4 || self.initial_tile < self.min_tile {
+            return Err(Error::param(
+                "--tile/--min-tile",
+                format!(
+                    "need 4 <= min tile <= initial tile, got {} and {}",
+                    self.min_tile, self.initial_tile
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A pixel rectangle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct Rect {
+    pub x: u32,
+    pub y: u32,
+    pub w: u32,
+    pub h: u32,
+}
+
+/// What happened to one final tile (for the complexity map and Figure 7).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct TileReport {
+    pub rect: Rect,
+    /// Splitting level (0 = initial tile).
+    pub level: u32,
+    /// Entry point node; `None` when the tile can hit nothing.
+    pub entry: Option<u32>,
+    /// Nodes in the entry point's subtree: the geometric complexity of the
+    /// tile's view (section 4.2); 0 when it hits nothing.
+    pub complexity: u32,
+    /// Directions of different signs: no entry-point search.
+    pub diverging: bool,
+    /// The search stopped at an occluder (stopping rule (4)).
+    pub stopped: bool,
+}
+
+/// The result of tracing an image of rays.
+pub struct ImageTrace {
+    pub hits: Vec<Hit>,
+    /// Per pixel, whether the primary hit is in shadow (with a light).
+    pub shadowed: Option<Vec<bool>>,
+    pub counts: MlrtaCounts,
+    pub shadow_counts: MlrtaCounts,
+    pub tiles: Vec<TileReport>,
+}
+
+/// Shadow rays end this far (relative) before the shaded point.
+pub const SHADOW_EPSILON: f32 = 1e-4;
+
+struct Ctx<'p, 'a> {
+    p: &'p Prepared<'a>,
+    params: &'p MlrtaParams,
+    origin: Vec3,
+    rays: &'p [Ray],
+    width: u32,
+    light: Option<Vec3>,
+    origin_inside: Option<u32>,
+    light_inside: Option<u32>,
+}
+
+/// Output of one tile: (pixel, hit, shadowed) and statistics.
+#[derive(Default)]
+struct TileOut {
+    pixels: Vec<(u32, Hit, bool)>,
+    counts: MlrtaCounts,
+    shadow_counts: MlrtaCounts,
+    tiles: Vec<TileReport>,
+}
+
+/// Traces a `width x height` image of rays (row-major) that share their
+/// origin, e.g. a camera's primary rays, with MLRTA; with a `light`, also the
+/// shadow rays from the light to every hit. Tiles run in parallel on the
+/// current rayon pool.
+pub fn trace_image(
+    p: &Prepared,
+    rays: &[Ray],
+    width: u32,
+    height: u32,
+    params: &MlrtaParams,
+    light: Option<Vec3>,
+) -> Result<ImageTrace> {
+    params.validate()?;
+    if rays.len() != width as usize * height as usize || rays.is_empty() {
+        return Err(Error::input("rays", "must be a non-empty width x height image"));
+    }
+    let origin = rays[0].o();
+    if rays.iter().any(|r| r.o() != origin) {
+        return Err(Error::input(
+            "rays",
+            "MLRTA image tracing needs one common origin (a pinhole camera)",
+        ));
+    }
+    let ctx = Ctx {
+        p,
+        params,
+        origin,
+        rays,
+        width,
+        light,
+        origin_inside: p.inside_object(origin),
+        light_inside: light.and_then(|l| p.inside_object(l)),
+    };
+    let its = params.initial_tile;
+    let mut initial = Vec::new();
+    for y in (0..height).step_by(its as usize) {
+        for x in (0..width).step_by(its as usize) {
+            initial.push(Rect {
+                x,
+                y,
+                w: its.min(width - x),
+                h: its.min(height - y),
+            });
+        }
+    }
+    let root = (0u32, p.tree.bounds);
+    let outs: Vec<TileOut> = initial
+        .par_iter()
+        .map(|&rect| {
+            let mut out = TileOut::default();
+            let start = EntryPoint {
+                node: root.0,
+                cell: root.1,
+                speculative: false,
+            };
+            trace_tile(&ctx, rect, start, 0, &mut out);
+            out
+        })
+        .collect();
+    let mut hits = vec![Hit::MISS; rays.len()];
+    let mut shadowed = light.map(|_| vec![false; rays.len()]);
+    let mut counts = MlrtaCounts::default();
+    let mut shadow_counts = MlrtaCounts::default();
+    let mut tiles = Vec::new();
+    for out in outs {
+        for (i, h, s) in out.pixels {
+            hits[i as usize] = h;
+            if let Some(sh) = shadowed.as_mut() {
+                sh[i as usize] = s;
+            }
+        }
+        counts += out.counts;
+        shadow_counts += out.shadow_counts;
+        tiles.extend(out.tiles);
+    }
+    let packets = width.div_ceil(4) as u64 * height.div_ceil(4) as u64;
+    counts.packets = packets;
+    shadow_counts.packets = packets;
+    Ok(ImageTrace {
+        hits,
+        shadowed,
+        counts,
+        shadow_counts,
+        tiles,
+    })
+}
+
+fn pixels(rect: Rect, width: u32) -> impl Iterator<Item = u32> {
+    (rect.y..rect.y + rect.h).flat_map(move |y| (rect.x..rect.x + rect.w).map(move |x| y * width + x))
+}
+
+/// Splits a rectangle into `k x k` pieces aligned to 4-pixel packets.
+fn split(rect: Rect, k: u32) -> Vec<Rect> {
+    let step = |len: u32| len.div_ceil(k).next_multiple_of(4).max(4);
+    let (sx, sy) = (step(rect.w), step(rect.h));
+    let mut out = Vec::new();
+    for y in (rect.y..rect.y + rect.h).step_by(sy as usize) {
+        for x in (rect.x..rect.x + rect.w).step_by(sx as usize) {
+            out.push(Rect {
+                x,
+                y,
+                w: sx.min(rect.x + rect.w - x),
+                h: sy.min(rect.y + rect.h - y),
+            });
+        }
+    }
+    out
+}
+
+fn trace_tile(ctx: &Ctx, rect: Rect, start: EntryPoint, level: u32, out: &mut TileOut) {
+    let p = ctx.p;
+    let dirs = pixels(rect, ctx.width).map(|i| ctx.rays[i as usize].d());
+    let frustum = crate::mlrta::frustum::Frustum::new(ctx.origin, dirs, f32::INFINITY);
+    let report = |entry: Option<&EntryPoint>, diverging| TileReport {
+        rect,
+        level,
+        entry: entry.map(|e| e.node),
+        complexity: entry.map_or(0, |e| p.subtree_size(e.node)),
+        diverging,
+        stopped: entry.is_some_and(|e| e.speculative),
+    };
+    let Some(frustum) = frustum else {
+        out.tiles.push(report(Some(&start), true));
+        trace_packets(ctx, rect, &start, out);
+        return;
+    };
+    let entry = if ctx.params.entry_points {
+        out.counts.ep_searches += 1;
+        match entry_point(
+            p,
+            &frustum,
+            (start.node, start.cell),
+            ctx.origin_inside,
+            &mut out.counts.ep_steps,
+        ) {
+            Some(mut e) => {
+                e.speculative |= start.speculative;
+                e
+            }
+            None => {
+                out.tiles.push(report(None, false));
+                out.pixels
+                    .extend(pixels(rect, ctx.width).map(|i| (i, Hit::MISS, false)));
+                return;
+            }
+        }
+    } else {
+        start
+    };
+    let is_leaf = p.tree.nodes[entry.node as usize].is_leaf();
+    if ctx.params.entry_points && rect.w.max(rect.h) > ctx.params.min_tile && !is_leaf {
+        let k = (ctx.params.split_factor as f64).sqrt() as u32;
+        for sub in split(rect, k) {
+            trace_tile(ctx, sub, entry, level + 1, out);
+        }
+        return;
+    }
+    out.tiles.push(report(Some(&entry), false));
+    trace_packets(ctx, rect, &entry, out);
+}
+
+/// The 4x4 packets of a final tile, each split into same-sign sub-groups
+/// (one, unless the tile diverges); rays with a zero direction component go
+/// alone. With a light, each packet's shadow rays follow.
+fn trace_packets(ctx: &Ctx, rect: Rect, entry: &EntryPoint, out: &mut TileOut) {
+    for py in (rect.y..rect.y + rect.h).step_by(4) {
+        for px in (rect.x..rect.x + rect.w).step_by(4) {
+            let block = Rect {
+                x: px,
+                y: py,
+                w: 4.min(rect.x + rect.w - px),
+                h: 4.min(rect.y + rect.h - py),
+            };
+            let mut ids = [0u32; PACKET];
+            let mut dirs = [Vec3::ZERO; PACKET];
+            let mut m = 0;
+            for i in pixels(block, ctx.width) {
+                ids[m] = i;
+                dirs[m] = ctx.rays[i as usize].d();
+                m += 1;
+            }
+            let (ids, dirs) = (&ids[..m], &dirs[..m]);
+            let group = Group {
+                origin: ctx.origin,
+                dirs,
+                t_max: f32::INFINITY,
+                any_hit: false,
+            };
+            let hits = trace_group(ctx.p, &group, entry, None, &mut out.counts);
+            let shadows = match ctx.light {
+                Some(light) => shadow_group(ctx, light, dirs, &hits, &mut out.shadow_counts),
+                None => [false; PACKET],
+            };
+            for (k, &i) in ids.iter().enumerate() {
+                out.pixels.push((i, hits[k], shadows[k]));
+            }
+        }
+    }
+}
+
+/// Shadow rays from the light to the hits of one packet, each same-sign
+/// sub-group with its own entry point (MLRTA on) or from the root.
+fn shadow_group(
+    ctx: &Ctx,
+    light: Vec3,
+    dirs: &[Vec3],
+    hits: &[Hit; PACKET],
+    counts: &mut MlrtaCounts,
+) -> [bool; PACKET] {
+    let lit: Vec<usize> = (0..dirs.len()).filter(|&k| hits[k].is_hit()).collect();
+    let mut shadowed = [false; PACKET];
+    if lit.is_empty() {
+        return shadowed;
+    }
+    let to_points: Vec<Vec3> = lit.iter().map(|&k| ctx.origin + hits[k].t * dirs[k] - light).collect();
+    let root = EntryPoint {
+        node: 0,
+        cell: ctx.p.tree.bounds,
+        speculative: false,
+    };
+    let search = ctx.params.entry_points.then_some(ctx.light_inside);
+    let group = Group {
+        origin: light,
+        dirs: &to_points,
+        t_max: 1.0 - SHADOW_EPSILON,
+        any_hit: true,
+    };
+    let blocked = trace_group(ctx.p, &group, &root, search, counts);
+    for (j, &k) in lit.iter().enumerate() {
+        shadowed[k] = blocked[j].is_hit();
+    }
+    shadowed
+}
+
+/// Up to 16 rays from one origin.
+pub struct Group<'a> {
+    pub origin: Vec3,
+    pub dirs: &'a [Vec3],
+    pub t_max: f32,
+    pub any_hit: bool,
+}
+
+/// Traces a group of up to 16 rays: same-sign sub-groups as packets from
+/// `start` (or, with `search = Some(origin_inside)`, from each sub-group's own
+/// entry point searched below `start`); rays with a zero direction component
+/// alone from the root. Rays that a speculative entry point found nothing for
+/// are traced again from the root.
+pub fn trace_group(
+    p: &Prepared,
+    g: &Group,
+    start: &EntryPoint,
+    search: Option<Option<u32>>,
+    counts: &mut MlrtaCounts,
+) -> [Hit; PACKET] {
+    let mut result = [Hit::MISS; PACKET];
+    // Lanes by sign class (8 = a zero component); most groups have one class.
+    let mut class_of = [8u8; PACKET];
+    let mut present = 0u16;
+    for (k, &d) in g.dirs.iter().enumerate() {
+        class_of[k] = sign_class(d).unwrap_or(8);
+        present |= 1 << class_of[k];
+    }
+    for class in (0..9u8).filter(|c| present & (1 << c) != 0) {
+        let mut lanes = [0usize; PACKET];
+        let mut dirs = [Vec3::ZERO; PACKET];
+        let mut m = 0;
+        for k in (0..g.dirs.len()).filter(|&k| class_of[k] == class) {
+            lanes[m] = k;
+            dirs[m] = g.dirs[k];
+            m += 1;
+        }
+        let lanes = &lanes[..m];
+        let single = |k: usize, counts: &mut MlrtaCounts| single_ray(p, g.origin, g.dirs[k], g.t_max, counts);
+        if class == 8 {
+            for &k in lanes {
+                result[k] = single(k, counts);
+            }
+            continue;
+        }
+        let packet = Packet::new(g.origin, &dirs[..m], g.t_max).expect("one sign class");
+        let entry = match search {
+            None => Some(*start),
+            Some(inside) => {
+                counts.ep_searches += 1;
+                entry_point(
+                    p,
+                    &packet.frustum,
+                    (start.node, start.cell),
+                    inside,
+                    &mut counts.ep_steps,
+                )
+                .map(|e| EntryPoint {
+                    speculative: e.speculative || start.speculative,
+                    ..e
+                })
+            }
+        };
+        let Some(entry) = entry else { continue };
+        let h = trace_packet(p, &packet, &entry, g.any_hit, counts);
+        for (j, &k) in lanes.iter().enumerate() {
+            result[k] = if entry.speculative && !h[j].is_hit() {
+                single(k, counts)
+            } else {
+                h[j]
+            };
+        }
+    }
+    result
+}
+
+/// One ray from the root, counted. (Closest hit serves any-hit queries too:
+/// the path is rare.)
+fn single_ray(p: &Prepared, origin: Vec3, dir: Vec3, t_max: f32, counts: &mut MlrtaCounts) -> Hit {
+    let mut c = crate::kdtree::TraversalCounts::default();
+    let hit = p.tree.closest_hit_counted(origin, dir, t_max, &mut c);
+    counts.single_rays += 1;
+    counts.single_cells += c.cells;
+    counts.single_isects += c.intersections;
+    hit
+}

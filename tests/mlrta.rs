@@ -1,0 +1,248 @@
+//! MLRTA against the single-ray path: every ray's hit must be the same.
+//!
+//! Tolerances (as for the GPU kernel of the foundation): hit/miss identical
+//! for >= 99.99% of rays; where both hit, |t - t_single| <= 1e-5 t. (The
+//! packet path runs the single-ray arithmetic, so in practice they agree
+//! exactly; the triangle may differ only where two triangles tie.)
+
+mod common;
+
+use common::{Rng, asset, data_model};
+use glam::Vec3;
+use penumbra::ao::AoSettings;
+use penumbra::ao::points::vertex_points;
+use penumbra::ao::raycast::visibility_cpu;
+use penumbra::kdtree::{KdTree, KdTreeParams};
+use penumbra::mlrta::ao::visibility_mlrta;
+use penumbra::mlrta::entry_point::EntryPoint;
+use penumbra::mlrta::tiles::{Group, trace_group};
+use penumbra::mlrta::{MlrtaParams, Prepared, trace_image};
+use penumbra::progress::Progress;
+use penumbra::ray::Hit;
+use penumbra::scene::{Camera, Mesh, load_obj};
+
+struct Agreement {
+    rays: usize,
+    disagree: usize,
+    worst_t: f32,
+    triangle_ties: usize,
+}
+
+fn agreement(a: &[Hit], b: &[Hit]) -> Agreement {
+    let mut r = Agreement {
+        rays: a.len(),
+        disagree: 0,
+        worst_t: 0.0,
+        triangle_ties: 0,
+    };
+    for (x, y) in a.iter().zip(b) {
+        if x.is_hit() != y.is_hit() {
+            r.disagree += 1;
+        } else if x.is_hit() {
+            r.worst_t = r.worst_t.max((x.t - y.t).abs() / y.t);
+            r.triangle_ties += (x.triangle != y.triangle) as usize;
+        }
+    }
+    r
+}
+
+fn check(name: &str, a: &Agreement) {
+    println!(
+        "{name}: {} rays, {} hit/miss disagreements, worst relative t difference {:.2e}, {} triangle ties",
+        a.rays, a.disagree, a.worst_t, a.triangle_ties
+    );
+    assert!(
+        a.disagree as f64 <= 1e-4 * a.rays as f64,
+        "{name}: hit/miss disagreement"
+    );
+    assert!(a.worst_t <= 1e-5, "{name}: t differs");
+}
+
+/// Primary rays with and without entry points, and shadow rays to a light,
+/// against single rays.
+fn compare_image(name: &str, mesh: &Mesh, camera: &Camera, size: u32, params: MlrtaParams) {
+    let tree = KdTree::build(mesh, &KdTreeParams::default()).unwrap();
+    let (prepared, _) = Prepared::new(&tree, mesh);
+    let rays = camera.primary_rays(size, size);
+    let single: Vec<Hit> = rays
+        .iter()
+        .map(|r| tree.closest_hit(r.o(), r.d(), f32::INFINITY))
+        .collect();
+    let b = mesh.bounds();
+    let light = b.center() + Vec3::new(-0.4, 1.0, 0.3).normalize() * b.diagonal();
+    for entry_points in [false, true] {
+        let p = MlrtaParams {
+            entry_points,
+            ..params.clone()
+        };
+        let traced = trace_image(&prepared, &rays, size, size, &p, Some(light)).unwrap();
+        check(
+            &format!("{name} primary, entry points {entry_points}"),
+            &agreement(&traced.hits, &single),
+        );
+        // Shadows against single any-hit rays from the light to the points.
+        let shadowed = traced.shadowed.unwrap();
+        let mut differ = 0;
+        for (i, h) in single.iter().enumerate() {
+            if !h.is_hit() {
+                continue;
+            }
+            let point = rays[i].o() + h.t * rays[i].d();
+            let blocked = tree.any_hit(light, point - light, 1.0 - penumbra::mlrta::tiles::SHADOW_EPSILON);
+            differ += (blocked != shadowed[i]) as usize;
+        }
+        println!("{name} shadows, entry points {entry_points}: {differ} differ");
+        assert!(differ as f64 <= 1e-4 * rays.len() as f64, "{name}: shadow rays differ");
+        let c = traced.counts;
+        assert!(c.xp_cells > 0 && c.packets == (size as u64 / 4).pow(2));
+    }
+}
+
+#[test]
+fn primary_and_shadow_rays_equal_single_rays_on_procedural_scenes() {
+    for name in [
+        "corner.obj",
+        "cube-with-hole.obj",
+        "sphere-on-plane.obj",
+        "closed-box.obj",
+        "cylindrical-well.obj",
+    ] {
+        let mesh = load_obj(&asset(name)).unwrap();
+        let camera = Camera::default_for(&mesh.bounds());
+        // Small tiles so that the splitting and the stopping rules run.
+        let params = MlrtaParams {
+            initial_tile: 32,
+            min_tile: 4,
+            split_factor: 4,
+            ..Default::default()
+        };
+        compare_image(name, &mesh, &camera, 128, params);
+    }
+}
+
+#[test]
+fn a_camera_inside_a_closed_object() {
+    // Inside the closed box every empty leaf is "inside"; the rule must not
+    // end rays there, and if it did, the fallback would still find the walls.
+    let mesh = load_obj(&asset("closed-box.obj")).unwrap();
+    let camera = Camera {
+        eye: Vec3::new(0.3, 0.4, 0.5),
+        target: Vec3::new(0.9, 0.2, 0.1),
+        fov_degrees: 100.0,
+    };
+    compare_image("inside the closed box", &mesh, &camera, 96, MlrtaParams::default());
+}
+
+#[test]
+fn primary_and_shadow_rays_equal_single_rays_on_shared_models() {
+    for model in ["stanford-bunny.obj", "dragon100k.obj", "kitchen.obj"] {
+        let Some(path) = data_model(model) else { return };
+        let mesh = load_obj(&path).unwrap();
+        compare_image(
+            model,
+            &mesh,
+            &Camera::default_for(&mesh.bounds()),
+            512,
+            MlrtaParams::default(),
+        );
+    }
+    if let Some(path) = data_model("kitchen.obj") {
+        let mesh = load_obj(&path).unwrap();
+        let interior = Camera {
+            eye: Vec3::new(3.2, 1.6, 2.2),
+            target: Vec3::new(-1.0, 0.9, -1.5),
+            fov_degrees: 60.0,
+        };
+        compare_image("kitchen interior", &mesh, &interior, 512, MlrtaParams::default());
+    }
+}
+
+#[test]
+fn groups_with_zero_components_and_mixed_signs() {
+    let mesh = load_obj(&asset("cube-with-hole.obj")).unwrap();
+    let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+    let (prepared, _) = Prepared::new(&tree, &mesh);
+    let origin = Vec3::new(0.1, 0.2, 3.0);
+    let mut rng = Rng(4);
+    let mut dirs: Vec<Vec3> = (0..12).map(|_| rng.vec3(-1.0, 1.0) - Vec3::Z).collect();
+    dirs.extend([
+        -Vec3::Z,
+        Vec3::new(0.0, 0.3, -1.0),
+        Vec3::new(0.5, 0.0, -1.0),
+        Vec3::new(-0.2, 0.1, -1.0),
+    ]);
+    let root = EntryPoint {
+        node: 0,
+        cell: tree.bounds,
+        speculative: false,
+    };
+    for (search, any_hit) in [(None, false), (Some(None), false), (Some(None), true)] {
+        let group = Group {
+            origin,
+            dirs: &dirs,
+            t_max: f32::INFINITY,
+            any_hit,
+        };
+        let mut counts = Default::default();
+        let hits = trace_group(&prepared, &group, &root, search, &mut counts);
+        for (k, d) in dirs.iter().enumerate() {
+            let single = tree.closest_hit(origin, *d, f32::INFINITY);
+            assert_eq!(hits[k].is_hit(), single.is_hit(), "ray {k}");
+            if !any_hit && single.is_hit() {
+                assert_eq!(hits[k].t, single.t, "ray {k}");
+            }
+        }
+        assert_eq!(counts.single_rays, 3, "the three rays with a zero component go alone");
+    }
+}
+
+#[test]
+fn ao_groups_equal_the_cpu_reference() {
+    let mut meshes = vec![("corner.obj".to_string(), load_obj(&asset("corner.obj")).unwrap())];
+    if let Some(path) = data_model("stanford-bunny.obj") {
+        meshes.push(("stanford-bunny.obj".into(), load_obj(&path).unwrap()));
+    }
+    for (name, mesh) in meshes {
+        let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+        let (prepared, _) = Prepared::new(&tree, &mesh);
+        let points = vertex_points(&mesh);
+        let settings = AoSettings {
+            rays_per_point: 32,
+            radius: f32::INFINITY,
+            seed: 3,
+        };
+        let cpu = visibility_cpu(&tree, &points, &settings, &Progress::hidden());
+        let (packets, counts) = visibility_mlrta(&prepared, &points, &settings, &Progress::hidden());
+        let differ = cpu.differing_rays(&packets);
+        let total = points.len() as u64 * 32;
+        println!(
+            "{name}: {total} AO rays in packets, {differ} differ from single rays; {} entry-point searches",
+            counts.ep_searches
+        );
+        assert!(differ as f64 <= 1e-4 * total as f64);
+    }
+}
+
+#[test]
+fn parameters_are_validated() {
+    let bad = [
+        MlrtaParams {
+            split_factor: 8,
+            ..Default::default()
+        },
+        MlrtaParams {
+            min_tile: 2,
+            ..Default::default()
+        },
+        MlrtaParams {
+            initial_tile: 4,
+            min_tile: 8,
+            ..Default::default()
+        },
+    ];
+    for p in bad {
+        let e = p.validate().unwrap_err();
+        assert_eq!(e.exit_code(), 2, "{e}");
+    }
+    assert!(MlrtaParams::default().validate().is_ok());
+}
