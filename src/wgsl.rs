@@ -26,9 +26,10 @@ pub const SAMPLING: WgslFile = wgsl_file!("sampling.wgsl");
 pub const KDTREE_TRAVERSE: WgslFile = wgsl_file!("kdtree_traverse.wgsl");
 pub const TRACE_RAYS: WgslFile = wgsl_file!("trace_rays.wgsl");
 pub const AO_RAYS: WgslFile = wgsl_file!("ao_rays.wgsl");
+pub const PACKET_TRAVERSE: WgslFile = wgsl_file!("packet_traverse.wgsl");
 
 /// Every file compiled in (the validation test checks this against `wgsl/`).
-pub const FILES: &[WgslFile] = &[SAMPLING, KDTREE_TRAVERSE, TRACE_RAYS, AO_RAYS];
+pub const FILES: &[WgslFile] = &[SAMPLING, KDTREE_TRAVERSE, TRACE_RAYS, AO_RAYS, PACKET_TRAVERSE];
 
 /// A shader module made of several files, in order.
 #[derive(Debug, Clone, Copy)]
@@ -47,8 +48,13 @@ pub const AO_RAYS_MODULE: Composition = Composition {
     parts: &[SAMPLING, KDTREE_TRAVERSE, AO_RAYS],
 };
 
+pub const PACKET_TRAVERSE_MODULE: Composition = Composition {
+    name: "packet_traverse",
+    parts: &[KDTREE_TRAVERSE, PACKET_TRAVERSE],
+};
+
 /// Every kernel module the library builds pipelines from.
-pub const MODULES: &[Composition] = &[TRACE_RAYS_MODULE, AO_RAYS_MODULE];
+pub const MODULES: &[Composition] = &[TRACE_RAYS_MODULE, AO_RAYS_MODULE, PACKET_TRAVERSE_MODULE];
 
 impl Composition {
     pub fn source(&self) -> String {

@@ -275,10 +275,18 @@ impl Frustum {
     /// range of `t`): false when every ray enters some slab only after it
     /// has left another one.
     pub fn may_hit_box(&self, b: &Aabb) -> bool {
+        let (latest_entry, earliest_exit) = self.box_interval(b);
+        down(latest_entry) <= up(earliest_exit) && up(earliest_exit) >= 0.0
+    }
+
+    /// `(latest entry, earliest exit)` of the box over the group: a lower
+    /// bound of every ray's entry and an upper bound of every ray's exit
+    /// (capped at `t_max`).
+    pub fn box_interval(&self, b: &Aabb) -> (f32, f32) {
         let (entry, exit) = self.slabs(b);
         let latest_entry = entry[0].lo.max(entry[1].lo).max(entry[2].lo);
         let earliest_exit = exit[0].hi.min(exit[1].hi).min(exit[2].hi).min(self.t_max);
-        down(latest_entry) <= up(earliest_exit) && up(earliest_exit) >= 0.0
+        (latest_entry, earliest_exit)
     }
 
     /// Whether every ray of the group passes through the box before `t_max`:

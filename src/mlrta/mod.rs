@@ -16,6 +16,7 @@
 pub mod ao;
 pub mod entry_point;
 pub mod frustum;
+pub mod gpu;
 pub mod packet;
 pub mod prepared;
 pub mod tiles;

@@ -227,22 +227,19 @@ pub fn trace_packet(
     let mut best_t = [f.t_max; PACKET];
     let mut best_tri = [Hit::MISS_INDEX; PACKET];
     let mut hits = [Hit::MISS; PACKET];
-    // The packet's interval in the entry cell; rays that miss the cell are
-    // done (nothing they can hit lies outside it).
-    let mut done = [true; PACKET];
-    let (mut t0, mut t1) = (f32::INFINITY, f32::NEG_INFINITY);
-    let (near, far) = packet.lane_slabs(&entry.cell, &[f.t_max; PACKET]);
-    for r in 0..n {
-        if near[r] <= far[r] {
-            t0 = t0.min(near[r]);
-            t1 = t1.max(far[r]);
-            done[r] = false;
-        }
-    }
+    // The packet's interval in the entry cell, from its frustum (the GPU
+    // twin computes it the same way, without a reduction over lanes); rays
+    // that miss the cell are done (nothing they can hit lies outside it).
+    let (entry_t0, entry_t1) = f.box_interval(&entry.cell);
+    let (mut t0, mut t1) = (down(entry_t0.max(0.0)), up(entry_t1));
     if t0 > t1 {
         return hits;
     }
-    let (mut t0, mut t1) = (down(t0), up(t1));
+    let mut done = [true; PACKET];
+    let (near, far) = packet.lane_slabs(&entry.cell, &[f.t_max; PACKET]);
+    for r in 0..n {
+        done[r] = !(down(near[r]) <= up(far[r]));
+    }
     let mut stack = [const { MaybeUninit::<(u32, f32, f32, Aabb)>::uninit() }; MAX_TREE_DEPTH];
     let mut sp = 0usize;
     let (mut node_index, mut cell) = (entry.node, entry.cell);

@@ -109,24 +109,24 @@ pub struct ImageTrace {
 /// Shadow rays end this far (relative) before the shaded point.
 pub const SHADOW_EPSILON: f32 = 1e-4;
 
-struct Ctx<'p, 'a> {
-    p: &'p Prepared<'a>,
-    params: &'p MlrtaParams,
-    origin: Vec3,
-    rays: &'p [Ray],
-    width: u32,
-    light: Option<Vec3>,
-    origin_inside: Option<u32>,
-    light_inside: Option<u32>,
+pub(crate) struct Ctx<'p, 'a> {
+    pub p: &'p Prepared<'a>,
+    pub params: &'p MlrtaParams,
+    pub origin: Vec3,
+    pub rays: &'p [Ray],
+    pub width: u32,
+    pub light: Option<Vec3>,
+    pub origin_inside: Option<u32>,
+    pub light_inside: Option<u32>,
 }
 
 /// Output of one tile: (pixel, hit, shadowed) and statistics.
 #[derive(Default)]
-struct TileOut {
-    pixels: Vec<(u32, Hit, bool)>,
-    counts: MlrtaCounts,
-    shadow_counts: MlrtaCounts,
-    tiles: Vec<TileReport>,
+pub(crate) struct TileOut {
+    pub pixels: Vec<(u32, Hit, bool)>,
+    pub counts: MlrtaCounts,
+    pub shadow_counts: MlrtaCounts,
+    pub tiles: Vec<TileReport>,
 }
 
 /// Traces a `width x height` image of rays (row-major) that share their
@@ -141,82 +141,107 @@ pub fn trace_image(
     params: &MlrtaParams,
     light: Option<Vec3>,
 ) -> Result<ImageTrace> {
-    params.validate()?;
-    if rays.len() != width as usize * height as usize || rays.is_empty() {
-        return Err(Error::input("rays", "must be a non-empty width x height image"));
-    }
-    let origin = rays[0].o();
-    if rays.iter().any(|r| r.o() != origin) {
-        return Err(Error::input(
-            "rays",
-            "MLRTA image tracing needs one common origin (a pinhole camera)",
-        ));
-    }
-    let ctx = Ctx {
-        p,
-        params,
-        origin,
-        rays,
-        width,
-        light,
-        origin_inside: p.inside_object(origin),
-        light_inside: light.and_then(|l| p.inside_object(l)),
-    };
-    let its = params.initial_tile;
-    let mut initial = Vec::new();
-    for y in (0..height).step_by(its as usize) {
-        for x in (0..width).step_by(its as usize) {
-            initial.push(Rect {
-                x,
-                y,
-                w: its.min(width - x),
-                h: its.min(height - y),
-            });
-        }
-    }
-    let root = (0u32, p.tree.bounds);
-    let outs: Vec<TileOut> = initial
+    let ctx = Ctx::new(p, rays, width, height, params, light)?;
+    let outs: Vec<TileOut> = ctx
+        .initial_tiles(height)
         .par_iter()
         .map(|&rect| {
             let mut out = TileOut::default();
-            let start = EntryPoint {
-                node: root.0,
-                cell: root.1,
-                speculative: false,
-            };
-            trace_tile(&ctx, rect, start, 0, &mut out);
+            let mut emit = |entry: &EntryPoint, block: Rect, out: &mut TileOut| trace_block(&ctx, block, entry, out);
+            split_tiles(&ctx, rect, ctx.root(), 0, &mut out, &mut emit);
             out
         })
         .collect();
-    let mut hits = vec![Hit::MISS; rays.len()];
-    let mut shadowed = light.map(|_| vec![false; rays.len()]);
-    let mut counts = MlrtaCounts::default();
-    let mut shadow_counts = MlrtaCounts::default();
-    let mut tiles = Vec::new();
-    for out in outs {
-        for (i, h, s) in out.pixels {
-            hits[i as usize] = h;
-            if let Some(sh) = shadowed.as_mut() {
-                sh[i as usize] = s;
-            }
-        }
-        counts += out.counts;
-        shadow_counts += out.shadow_counts;
-        tiles.extend(out.tiles);
-    }
-    let packets = width.div_ceil(4) as u64 * height.div_ceil(4) as u64;
-    counts.packets = packets;
-    shadow_counts.packets = packets;
-    Ok(ImageTrace {
-        hits,
-        shadowed,
-        counts,
-        shadow_counts,
-        tiles,
-    })
+    Ok(ctx.gather(outs, height))
 }
 
-fn pixels(rect: Rect, width: u32) -> impl Iterator<Item = u32> {
+impl<'p, 'a> Ctx<'p, 'a> {
+    pub(crate) fn new(
+        p: &'p Prepared<'a>,
+        rays: &'p [Ray],
+        width: u32,
+        height: u32,
+        params: &'p MlrtaParams,
+        light: Option<Vec3>,
+    ) -> Result<Ctx<'p, 'a>> {
+        params.validate()?;
+        if rays.len() != width as usize * height as usize || rays.is_empty() {
+            return Err(Error::input("rays", "must be a non-empty width x height image"));
+        }
+        let origin = rays[0].o();
+        if rays.iter().any(|r| r.o() != origin) {
+            return Err(Error::input(
+                "rays",
+                "MLRTA image tracing needs one common origin (a pinhole camera)",
+            ));
+        }
+        Ok(Ctx {
+            p,
+            params,
+            origin,
+            rays,
+            width,
+            light,
+            origin_inside: p.inside_object(origin),
+            light_inside: light.and_then(|l| p.inside_object(l)),
+        })
+    }
+
+    pub(crate) fn root(&self) -> EntryPoint {
+        EntryPoint {
+            node: 0,
+            cell: self.p.tree.bounds,
+            speculative: false,
+        }
+    }
+
+    pub(crate) fn initial_tiles(&self, height: u32) -> Vec<Rect> {
+        let its = self.params.initial_tile;
+        let mut initial = Vec::new();
+        for y in (0..height).step_by(its as usize) {
+            for x in (0..self.width).step_by(its as usize) {
+                initial.push(Rect {
+                    x,
+                    y,
+                    w: its.min(self.width - x),
+                    h: its.min(height - y),
+                });
+            }
+        }
+        initial
+    }
+
+    pub(crate) fn gather(&self, outs: Vec<TileOut>, height: u32) -> ImageTrace {
+        let mut hits = vec![Hit::MISS; self.rays.len()];
+        let mut shadowed = self.light.map(|_| vec![false; self.rays.len()]);
+        let mut counts = MlrtaCounts::default();
+        let mut shadow_counts = MlrtaCounts::default();
+        let mut tiles = Vec::new();
+        for out in outs {
+            for (i, h, s) in out.pixels {
+                hits[i as usize] = h;
+                if let Some(sh) = shadowed.as_mut() {
+                    sh[i as usize] = s;
+                }
+            }
+            counts += out.counts;
+            shadow_counts += out.shadow_counts;
+            tiles.extend(out.tiles);
+        }
+        let packets = self.width.div_ceil(4) as u64 * height.div_ceil(4) as u64;
+        counts.packets = packets;
+        shadow_counts.packets = packets;
+        ImageTrace {
+            hits,
+            shadowed,
+            counts,
+            shadow_counts,
+            tiles,
+        }
+    }
+}
+
+pub(crate) fn pixels(rect: Rect, width: u32) -> impl Iterator<Item = u32> {
     (rect.y..rect.y + rect.h).flat_map(move |y| (rect.x..rect.x + rect.w).map(move |x| y * width + x))
 }
 
@@ -238,7 +263,11 @@ fn split(rect: Rect, k: u32) -> Vec<Rect> {
     out
 }
 
-fn trace_tile(ctx: &Ctx, rect: Rect, start: EntryPoint, level: u32, out: &mut TileOut) {
+/// The emitter gets each final 4x4 block with the entry point to trace it from.
+pub(crate) type Emit<'e> = dyn FnMut(&EntryPoint, Rect, &mut TileOut) + 'e;
+
+/// Section 4.2's recursion: entry point of the tile, split or emit blocks.
+pub(crate) fn split_tiles(ctx: &Ctx, rect: Rect, start: EntryPoint, level: u32, out: &mut TileOut, emit: &mut Emit) {
     let p = ctx.p;
     let dirs = pixels(rect, ctx.width).map(|i| ctx.rays[i as usize].d());
     let frustum = crate::mlrta::frustum::Frustum::new(ctx.origin, dirs, f32::INFINITY);
@@ -252,7 +281,7 @@ fn trace_tile(ctx: &Ctx, rect: Rect, start: EntryPoint, level: u32, out: &mut Ti
     };
     let Some(frustum) = frustum else {
         out.tiles.push(report(Some(&start), true));
-        trace_packets(ctx, rect, &start, out);
+        blocks(rect, &start, out, emit);
         return;
     };
     let entry = if ctx.params.entry_points {
@@ -282,50 +311,55 @@ fn trace_tile(ctx: &Ctx, rect: Rect, start: EntryPoint, level: u32, out: &mut Ti
     if ctx.params.entry_points && rect.w.max(rect.h) > ctx.params.min_tile && !is_leaf {
         let k = (ctx.params.split_factor as f64).sqrt() as u32;
         for sub in split(rect, k) {
-            trace_tile(ctx, sub, entry, level + 1, out);
+            split_tiles(ctx, sub, entry, level + 1, out, emit);
         }
         return;
     }
     out.tiles.push(report(Some(&entry), false));
-    trace_packets(ctx, rect, &entry, out);
+    blocks(rect, &entry, out, emit);
 }
 
-/// The 4x4 packets of a final tile, each split into same-sign sub-groups
-/// (one, unless the tile diverges); rays with a zero direction component go
-/// alone. With a light, each packet's shadow rays follow.
-fn trace_packets(ctx: &Ctx, rect: Rect, entry: &EntryPoint, out: &mut TileOut) {
-    for py in (rect.y..rect.y + rect.h).step_by(4) {
-        for px in (rect.x..rect.x + rect.w).step_by(4) {
+/// The 4x4 blocks of a final tile.
+fn blocks(rect: Rect, entry: &EntryPoint, out: &mut TileOut, emit: &mut Emit) {
+    for y in (rect.y..rect.y + rect.h).step_by(4) {
+        for x in (rect.x..rect.x + rect.w).step_by(4) {
             let block = Rect {
-                x: px,
-                y: py,
-                w: 4.min(rect.x + rect.w - px),
-                h: 4.min(rect.y + rect.h - py),
+                x,
+                y,
+                w: 4.min(rect.x + rect.w - x),
+                h: 4.min(rect.y + rect.h - y),
             };
-            let mut ids = [0u32; PACKET];
-            let mut dirs = [Vec3::ZERO; PACKET];
-            let mut m = 0;
-            for i in pixels(block, ctx.width) {
-                ids[m] = i;
-                dirs[m] = ctx.rays[i as usize].d();
-                m += 1;
-            }
-            let (ids, dirs) = (&ids[..m], &dirs[..m]);
-            let group = Group {
-                origin: ctx.origin,
-                dirs,
-                t_max: f32::INFINITY,
-                any_hit: false,
-            };
-            let hits = trace_group(ctx.p, &group, entry, None, &mut out.counts);
-            let shadows = match ctx.light {
-                Some(light) => shadow_group(ctx, light, dirs, &hits, &mut out.shadow_counts),
-                None => [false; PACKET],
-            };
-            for (k, &i) in ids.iter().enumerate() {
-                out.pixels.push((i, hits[k], shadows[k]));
-            }
+            emit(entry, block, out);
         }
+    }
+}
+
+/// Traces one 4x4 block on the CPU: same-sign sub-groups (one, unless the
+/// tile diverges) as packets, rays with a zero direction component alone;
+/// with a light, the block's shadow rays follow.
+fn trace_block(ctx: &Ctx, block: Rect, entry: &EntryPoint, out: &mut TileOut) {
+    let mut ids = [0u32; PACKET];
+    let mut dirs = [Vec3::ZERO; PACKET];
+    let mut m = 0;
+    for i in pixels(block, ctx.width) {
+        ids[m] = i;
+        dirs[m] = ctx.rays[i as usize].d();
+        m += 1;
+    }
+    let (ids, dirs) = (&ids[..m], &dirs[..m]);
+    let group = Group {
+        origin: ctx.origin,
+        dirs,
+        t_max: f32::INFINITY,
+        any_hit: false,
+    };
+    let hits = trace_group(ctx.p, &group, entry, None, &mut out.counts);
+    let shadows = match ctx.light {
+        Some(light) => shadow_group(ctx, light, dirs, &hits, &mut out.shadow_counts),
+        None => [false; PACKET],
+    };
+    for (k, &i) in ids.iter().enumerate() {
+        out.pixels.push((i, hits[k], shadows[k]));
     }
 }
 
