@@ -1,15 +1,14 @@
 // Kernel: MLRTA packets on the GPU, the twin of src/mlrta/packet.rs
 // (`trace_packet`). Composed after kdtree_traverse.wgsl.
 //
-// A workgroup traces one packet (up to 16 rays with a common origin and
-// same-sign directions) from the packet's entry point, found on the CPU.
+// Sixteen invocations trace one packet (up to 16 rays with a common origin
+// and same-sign directions) from the packet's entry point, found on the CPU.
 // Every invocation runs the packet's interval traversal (section 4.3 of the
 // MLRTA paper): the decisions at interior nodes use only the packet record,
-// so all lanes take them alike and read the same nodes; leaves are clipped
-// against the packet's frustum (equation (2)), then each lane tests the
-// triangles for its own ray if the ray passes through the leaf. A lane stops
-// when its hit lies before the next cell on the stack. No barriers are
-// needed: the shared decisions are computed redundantly.
+// so all lanes take them alike and read the same nodes; each lane tests a
+// leaf's triangles for its own ray where its own interval (below) says the
+// ray passes. A lane stops when it has nothing left on the stack. No
+// barriers are needed: the shared decisions are computed redundantly.
 //
 // A packet whose entry point came from a stopping rule ("speculative") traces
 // lanes that found nothing again from the root with kd_traverse, as the CPU
@@ -34,7 +33,7 @@ struct PacketRecord {
 
 struct PacketParams {
     packet_count: u32,
-    // Packets per row of the 2D dispatch grid.
+    // Workgroups per row of the 2D dispatch grid.
     row_pitch: u32,
     _pad0: u32,
     _pad1: u32,
@@ -95,26 +94,17 @@ fn pk_box_interval(pk: PacketRecord, lo: vec3<f32>, hi: vec3<f32>) -> vec2<f32> 
     return vec2<f32>(latest_entry, earliest_exit);
 }
 
-// Frustum::may_hit_box.
-fn pk_may_hit_box(pk: PacketRecord, lo: vec3<f32>, hi: vec3<f32>) -> bool {
-    let t = pk_box_interval(pk, lo, hi);
-    return pk_down(t.x) <= pk_up(t.y) && pk_up(t.y) >= 0.0;
-}
-
-// Packet::lane_slabs for this lane: does the ray pass the box within [0, limit]?
-fn pk_lane_enters(o: vec3<f32>, inv: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>, limit: f32) -> bool {
-    let t1 = (lo - o) * inv;
-    let t2 = (hi - o) * inv;
-    let n = min(t1, t2);
-    let f = max(t1, t2);
-    let near = max(max(n.x, n.y), max(n.z, 0.0));
-    let far = min(min(f.x, f.y), min(f.z, limit));
-    return pk_down(near) <= pk_up(far);
-}
-
 var<private> pk_cells: u32;
 var<private> pk_isects: u32;
 
+// The lane follows the packet's decisions but carries its own interval
+// [lt0, lt1], cut at each split plane exactly as the single-ray traversal
+// cuts its interval (kd_traverse): it is the single ray's interval on the
+// ray's own path and empty in cells the packet visits without it. So the
+// lane tests the single ray's triangles, and stops where the single ray
+// would, without carrying the cells' boxes. (The CPU packet clips lanes
+// against the leaf's box instead, and the packet against it with
+// equation (2); the GPU saves that private memory.)
 fn packet_traverse(pk: PacketRecord, d: vec3<f32>) -> Hit {
     let any_hit = (pk.flags & FLAG_ANY_HIT) != 0u;
     let o = pk.origin;
@@ -123,21 +113,24 @@ fn packet_traverse(pk: PacketRecord, d: vec3<f32>) -> Hit {
     var best: Hit;
     best.t = pk.t_max;
     best.triangle = MISS_INDEX;
-    // The packet's interval in the entry cell (from its frustum, as on the CPU).
+    // The packet's interval in the entry cell (from its frustum, as on the
+    // CPU) and the lane's own, widened like the single ray's root interval.
     let entry = pk_box_interval(pk, pk.cell_min, pk.cell_max);
     var t0 = pk_down(max(entry.x, 0.0));
     var t1 = pk_up(entry.y);
-    if (t0 > t1 || !pk_lane_enters(o, inv, pk.cell_min, pk.cell_max, pk.t_max)) {
+    let lt1_0 = (pk.cell_min - o) * inv;
+    let lt2_0 = (pk.cell_max - o) * inv;
+    let n0 = min(lt1_0, lt2_0);
+    let f0 = max(lt1_0, lt2_0);
+    var lt0 = max(max(n0.x, n0.y), max(n0.z, 0.0)) * (1.0 - TRAVERSAL_SLACK);
+    var lt1 = min(min(f0.x, f0.y), min(f0.z, pk.t_max)) * (1.0 + TRAVERSAL_SLACK);
+    if (t0 > t1 || lt0 > lt1) {
         return best;
     }
     var stack_node: array<u32, MAX_TREE_DEPTH>;
-    var stack_t: array<vec2<f32>, MAX_TREE_DEPTH>;
-    var stack_lo: array<vec3<f32>, MAX_TREE_DEPTH>;
-    var stack_hi: array<vec3<f32>, MAX_TREE_DEPTH>;
+    var stack_t: array<vec4<f32>, MAX_TREE_DEPTH>;
     var sp = 0u;
     var node_index = pk.entry_node;
-    var lo = pk.cell_min;
-    var hi = pk.cell_max;
     loop {
         pk_cells = pk_cells + 1u;
         let node = kd_nodes[node_index];
@@ -150,71 +143,68 @@ fn packet_traverse(pk: PacketRecord, d: vec3<f32>) -> Hit {
             let above = node.y >> 2u;
             let near = select(above, below, near_below);
             let far = select(below, above, near_below);
-            // The near and far cells: the current one cut at the plane.
-            var near_lo = lo;
-            var near_hi = hi;
-            var far_lo = lo;
-            var far_hi = hi;
-            if (near_below) {
-                near_hi[axis] = split;
-                far_lo[axis] = split;
-            } else {
-                near_lo[axis] = split;
-                far_hi[axis] = split;
+            // The lane's parts of its interval on either side of the plane.
+            let ltp = (split - oa) * inv[axis];
+            var near_t = vec2<f32>(lt0, lt1);
+            var far_t = vec2<f32>(1.0, 0.0);
+            if (ltp > 0.0) {
+                near_t = vec2<f32>(lt0, min(lt1, ltp * (1.0 + TRAVERSAL_SLACK)));
+                far_t = vec2<f32>(max(lt0, ltp * (1.0 - TRAVERSAL_SLACK)), lt1);
             }
             let tp = pk_plane_t(pk, axis, split);
             if (tp.y <= 0.0 || pk_down(tp.x) > t1) {
                 node_index = near;
-                lo = near_lo;
-                hi = near_hi;
+                lt0 = near_t.x;
+                lt1 = near_t.y;
             } else if (pk_up(tp.y) < t0) {
                 node_index = far;
-                lo = far_lo;
-                hi = far_hi;
+                lt0 = far_t.x;
+                lt1 = far_t.y;
             } else {
                 stack_node[sp] = far;
-                stack_t[sp] = vec2<f32>(max(t0, pk_down(tp.x)), t1);
-                stack_lo[sp] = far_lo;
-                stack_hi[sp] = far_hi;
+                stack_t[sp] = vec4<f32>(max(t0, pk_down(tp.x)), t1, far_t.x, far_t.y);
                 sp = sp + 1u;
                 t1 = min(t1, pk_up(tp.y));
                 node_index = near;
-                lo = near_lo;
-                hi = near_hi;
+                lt0 = near_t.x;
+                lt1 = near_t.y;
             }
             continue;
         }
         let count = node.y >> 2u;
-        if (count > 0u && pk_may_hit_box(pk, lo, hi)) {
-            // This lane is masked if its hit lies before the cell's earliest
-            // entry, or if it does not pass through the cell.
-            if (best.t >= pk_down(t0) && pk_lane_enters(o, inv, lo, hi, best.t)) {
-                for (var k = 0u; k < count; k = k + 1u) {
-                    pk_isects = pk_isects + 1u;
-                    let tri = kd_leaf_triangles[node.x + k];
-                    let t = intersect_triangle(ray, tri, best.t);
-                    if (t > 0.0) {
-                        best.t = t;
-                        best.triangle = tri;
-                        if (any_hit) {
-                            return best;
-                        }
+        // The lane is masked where its own interval is empty or starts
+        // beyond its hit.
+        if (count > 0u && lt0 <= lt1 && lt0 <= best.t) {
+            for (var k = 0u; k < count; k = k + 1u) {
+                pk_isects = pk_isects + 1u;
+                let tri = kd_leaf_triangles[node.x + k];
+                let t = intersect_triangle(ray, tri, best.t);
+                if (t > 0.0) {
+                    best.t = t;
+                    best.triangle = tri;
+                    if (any_hit) {
+                        return best;
                     }
                 }
             }
+            // A hit inside the lane's part of this cell is its closest.
+            if (best.triangle != MISS_INDEX && best.t * (1.0 + TRAVERSAL_SLACK) <= lt1) {
+                return best;
+            }
         }
-        // Next cell on the stack that starts before this lane's hit.
+        // Next cell on the stack where this lane has something left to do.
         loop {
             if (sp == 0u) {
                 return best;
             }
             sp = sp - 1u;
-            if (pk_down(stack_t[sp].x) <= best.t) {
+            let e = stack_t[sp];
+            if (e.z <= e.w && e.z <= best.t) {
                 node_index = stack_node[sp];
-                t0 = stack_t[sp].x;
-                t1 = stack_t[sp].y;
-                lo = stack_lo[sp];
-                hi = stack_hi[sp];
+                t0 = e.x;
+                t1 = e.y;
+                lt0 = e.z;
+                lt1 = e.w;
                 break;
             }
         }
@@ -222,12 +212,17 @@ fn packet_traverse(pk: PacketRecord, d: vec3<f32>) -> Hit {
     return best;
 }
 
-@compute @workgroup_size(16)
+// Four packets per workgroup: they never synchronise, and larger
+// workgroups cost less to schedule (on lavapipe notably).
+const PACKETS_PER_WORKGROUP: u32 = 4u;
+
+@compute @workgroup_size(64)
 fn trace_packets(
     @builtin(workgroup_id) wid: vec3<u32>,
-    @builtin(local_invocation_index) lane: u32,
+    @builtin(local_invocation_index) local: u32,
 ) {
-    let index = wid.x + wid.y * packet_params.row_pitch;
+    let lane = local % 16u;
+    let index = (wid.x + wid.y * packet_params.row_pitch) * PACKETS_PER_WORKGROUP + local / 16u;
     if (index >= packet_params.packet_count) {
         return;
     }

@@ -38,6 +38,8 @@ pub struct PacketRecord {
     pub flags: u32,
 }
 
+/// Packets in one workgroup of the kernel.
+const PACKETS_PER_WORKGROUP: u32 = 4;
 const FLAG_SPECULATIVE: u32 = 8;
 const FLAG_ANY_HIT: u32 = 16;
 const FLAG_SINGLE: u32 = 32;
@@ -81,8 +83,8 @@ impl PacketPass {
         PacketPass { io_layout, pipeline }
     }
 
-    /// Records one dispatch: a workgroup per packet over a 2D grid whose rows
-    /// hold `row_pitch` packets (in the params).
+    /// Records one dispatch: a workgroup per `PACKETS_PER_WORKGROUP` packets
+    /// over a 2D grid whose rows hold `row_pitch` workgroups (in the params).
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -384,7 +386,8 @@ fn run_packets(ctx: &GpuContext, tree: &GpuKdTree, batch: &Batch) -> Result<(Vec
     for chunk in &chunks {
         let records = storage_buffer(device, "packet records", bytemuck::cast_slice(chunk))?;
         let n = chunk.len() as u32;
-        let x = n.min(max_dim);
+        let groups = n.div_ceil(PACKETS_PER_WORKGROUP);
+        let x = groups.min(max_dim);
         let params = uniform_buffer(
             device,
             "packet params",
@@ -406,12 +409,13 @@ fn run_packets(ctx: &GpuContext, tree: &GpuKdTree, batch: &Batch) -> Result<(Vec
                 (4, &counts_buf),
             ],
         );
+        let grid = (x, groups.div_ceil(x));
         pass.record(
             &mut encoder,
             timer.as_mut().and_then(|t| t.next_pass()),
             tree,
             &io,
-            (x, n.div_ceil(x)),
+            grid,
         );
         keep.push((records, params, io));
     }
