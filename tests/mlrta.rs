@@ -70,16 +70,15 @@ fn compare_image(name: &str, mesh: &Mesh, camera: &Camera, size: u32, params: Ml
         .collect();
     let b = mesh.bounds();
     let light = b.center() + Vec3::new(-0.4, 1.0, 0.3).normalize() * b.diagonal();
-    for entry_points in [false, true] {
+    for (entry_points, corner_frusta) in [(false, false), (true, false), (true, true)] {
         let p = MlrtaParams {
             entry_points,
+            corner_frusta,
             ..params.clone()
         };
         let traced = trace_image(&prepared, &rays, size, size, &p, Some(light)).unwrap();
-        check(
-            &format!("{name} primary, entry points {entry_points}"),
-            &agreement(&traced.hits, &single),
-        );
+        let label = format!("{name} primary, entry points {entry_points}, corner frusta {corner_frusta}");
+        check(&label, &agreement(&traced.hits, &single));
         // Shadows against single any-hit rays from the light to the points.
         let shadowed = traced.shadowed.unwrap();
         let mut differ = 0;
@@ -171,11 +170,7 @@ fn groups_with_zero_components_and_mixed_signs() {
         Vec3::new(0.5, 0.0, -1.0),
         Vec3::new(-0.2, 0.1, -1.0),
     ]);
-    let root = EntryPoint {
-        node: 0,
-        cell: tree.bounds,
-        speculative: false,
-    };
+    let root = EntryPoint::root(&prepared);
     for (search, any_hit) in [(None, false), (Some(None), false), (Some(None), true)] {
         let group = Group {
             origin,

@@ -29,6 +29,12 @@ struct PacketRecord {
     // Bits 0..2: direction component positive; 3: speculative; 4: any hit;
     // 5: single ray.
     flags: u32,
+    // Every ray ends by this distance (EntryPoint::t_limit, <= t_max): the
+    // packet traversal stops there; re-traces use t_max.
+    t_limit: f32,
+    _pad0: f32,
+    _pad1: f32,
+    _pad2: f32,
 }
 
 struct PacketParams {
@@ -80,7 +86,7 @@ fn pk_plane_t(pk: PacketRecord, axis: u32, s: f32) -> vec2<f32> {
 // over the packet's rays, for the box [lo, hi].
 fn pk_box_interval(pk: PacketRecord, lo: vec3<f32>, hi: vec3<f32>) -> vec2<f32> {
     var latest_entry = -T_INFINITE;
-    var earliest_exit = pk.t_max;
+    var earliest_exit = pk.t_limit;
     for (var a = 0u; a < 3u; a = a + 1u) {
         var near = lo[a];
         var far = hi[a];
@@ -111,7 +117,7 @@ fn packet_traverse(pk: PacketRecord, d: vec3<f32>) -> Hit {
     let inv = 1.0 / d;
     let ray = make_sheared_ray(o, d);
     var best: Hit;
-    best.t = pk.t_max;
+    best.t = pk.t_limit;
     best.triangle = MISS_INDEX;
     // The packet's interval in the entry cell (from its frustum, as on the
     // CPU) and the lane's own, widened like the single ray's root interval.
@@ -123,7 +129,7 @@ fn packet_traverse(pk: PacketRecord, d: vec3<f32>) -> Hit {
     let n0 = min(lt1_0, lt2_0);
     let f0 = max(lt1_0, lt2_0);
     var lt0 = max(max(n0.x, n0.y), max(n0.z, 0.0)) * (1.0 - TRAVERSAL_SLACK);
-    var lt1 = min(min(f0.x, f0.y), min(f0.z, pk.t_max)) * (1.0 + TRAVERSAL_SLACK);
+    var lt1 = min(min(f0.x, f0.y), min(f0.z, pk.t_limit)) * (1.0 + TRAVERSAL_SLACK);
     if (t0 > t1 || lt0 > lt1) {
         return best;
     }

@@ -87,7 +87,7 @@ impl CameraArgs {
     }
 }
 
-fn parse_vec3(s: &str) -> std::result::Result<Vec3, String> {
+pub(crate) fn parse_vec3(s: &str) -> std::result::Result<Vec3, String> {
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();
     if parts.len() != 3 {
         return Err(format!("expected X,Y,Z, got '{s}'"));

@@ -83,3 +83,12 @@ pub fn write_grey_png(path: &Path, width: u32, height: u32, values: &[Option<f32
     }
     img.save(path).map_err(|e| Error::write(path, e))
 }
+
+/// An RGB image, 8 bits per channel.
+pub fn write_rgb_png(path: &Path, width: u32, height: u32, pixels: &[[u8; 3]]) -> Result<()> {
+    let mut img = image::RgbImage::new(width, height);
+    for (p, v) in img.pixels_mut().zip(pixels) {
+        *p = image::Rgb(*v);
+    }
+    img.save(path).map_err(|e| Error::write(path, e))
+}

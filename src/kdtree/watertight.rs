@@ -32,23 +32,28 @@ pub struct ShearedRay {
     pub sz: f32,
 }
 
+/// The shear's axes for a direction: `kz` the axis of the largest |component|,
+/// `kx` and `ky` the others, in an order that keeps the triangles' winding
+/// (swapped when `d[kz] < 0`).
+#[inline]
+pub fn shear_axes(dir: Vec3) -> [usize; 3] {
+    let a = dir.abs();
+    let kz = if a.x >= a.y && a.x >= a.z {
+        0
+    } else if a.y >= a.z {
+        1
+    } else {
+        2
+    };
+    let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
+    if dir[kz] < 0.0 { [ky, kx, kz] } else { [kx, ky, kz] }
+}
+
 impl ShearedRay {
     #[inline]
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
-        let a = dir.abs();
+        let [kx, ky, kz] = shear_axes(dir);
         let dir = dir.to_array();
-        let kz = if a.x >= a.y && a.x >= a.z {
-            0
-        } else if a.y >= a.z {
-            1
-        } else {
-            2
-        };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if dir[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
         ShearedRay {
             origin,
             kx,

@@ -68,11 +68,7 @@ fn point_visibility(
     // Rays sorted by octant, so that packets are coherent.
     let mut order: Vec<u32> = (0..n).collect();
     order.sort_by_key(|&j| sign_class(dirs[j as usize]).unwrap_or(8));
-    let root = EntryPoint {
-        node: 0,
-        cell: p.tree.bounds,
-        speculative: false,
-    };
+    let root = EntryPoint::root(p);
     let origin_inside = p.inside_object(origin);
     for chunk in order.chunks(PACKET) {
         let group_dirs: Vec<Vec3> = chunk.iter().map(|&j| dirs[j as usize]).collect();

@@ -33,6 +33,25 @@ pub struct EntryPoint {
     pub cell: Aabb,
     /// Reached through a stopping rule: see the module documentation.
     pub speculative: bool,
+    /// Every ray of the group ends by this distance (a triangle all of them
+    /// hit was found): the packets need not look further.
+    pub t_limit: f32,
+    /// Whether `t_limit` comes from one triangle (or covered plane) that
+    /// every ray of the group hits.
+    pub covered: bool,
+}
+
+impl EntryPoint {
+    /// The root of the tree, for groups that search no entry point.
+    pub fn root(p: &Prepared) -> EntryPoint {
+        EntryPoint {
+            node: 0,
+            cell: p.tree.bounds,
+            speculative: false,
+            t_limit: f32::INFINITY,
+            covered: false,
+        }
+    }
 }
 
 /// The two children of interior node `i` of cell `cell`: (below, above).
@@ -71,34 +90,37 @@ enum Leaf {
 }
 
 /// Leaves with more triangles than this are not checked for one that ends
-/// every ray (the check is a few ray tests per triangle).
+/// every ray (the check is four ray tests per triangle).
 const MAX_OCCLUDER_CANDIDATES: usize = 8;
 
-/// Stopping rule (4), first case: "the leaf has some objects, and all rays
-/// ... intersect one of these objects inside the cell". Checked for single
-/// triangles: the part of a triangle inside the cell is a convex polygon, and
-/// the directions from the origin that hit a convex polygon form a convex
-/// set, so if the group's four corner directions hit it (before `t_max`),
-/// every ray of the group does. (Each corner ray's t is extreme over the
-/// group: t along rays hitting a plane is a linear-fractional function of the
-/// direction, extreme at the corners.)
-fn a_triangle_ends_all_rays(p: &Prepared, f: &Frustum, i: u32, cell: &Aabb) -> bool {
+/// Stopping rule (4), first case, generalised: "the leaf has some objects,
+/// and all rays ... intersect one of these objects". The directions from the
+/// origin that hit a triangle form a convex set, so if the group's four
+/// corner directions hit one of the leaf's triangles before `t_max`, every
+/// ray of the group does; and along rays hitting a plane, t is a
+/// linear-fractional function of the direction, extreme at the corners.
+/// Returns the largest corner hit distance: every ray of the group ends by
+/// it, so the search may shorten the group to it, and what lies beyond (the
+/// far subtrees of the bifurcation stack, behind the triangle) is culled.
+fn covering_distance(p: &Prepared, f: &Frustum, i: u32) -> Option<f32> {
     let range = p.tree.nodes[i as usize].leaf_range();
     if range.len() > MAX_OCCLUDER_CANDIDATES {
-        return false;
+        return None;
     }
-    let corners = f.corner_directions();
-    p.tree.leaf_vertices[range].iter().any(|tri| {
-        let poly = crate::kdtree::clip::clip_triangle(tri, cell);
-        if poly.len < 3 {
-            return false;
-        }
-        let v = &poly.vertices[..poly.len];
-        corners.iter().all(|&d| {
-            let ray = crate::kdtree::watertight::ShearedRay::new(f.origin, d);
-            (1..v.len() - 1).any(|k| ray.intersect(v[0], v[k], v[k + 1], f.t_max).is_some())
+    let corners = f
+        .corner_directions()
+        .map(|d| crate::kdtree::watertight::ShearedRay::new(f.origin, d));
+    p.tree.leaf_vertices[range]
+        .iter()
+        .filter_map(|&[a, b, c]| {
+            corners
+                .iter()
+                .map(|ray| ray.intersect(a, b, c, f32::INFINITY))
+                .try_fold(0.0f32, |far, t| t.map(|t| far.max(t)))
         })
-    })
+        .map(|t| f.corner_t_to_ray_t(t))
+        .filter(|&t| t < f.t_max)
+        .min_by(f32::total_cmp)
 }
 
 /// Stopping rule (4) at an interior node whose subtree is one merged
@@ -129,13 +151,7 @@ fn classify_leaf(p: &Prepared, f: &Frustum, i: u32, cell: &Aabb, origin_inside: 
         Occluder::Inside { object } if origin_inside != Some(object) && f.all_enter_box(cell) => {
             Leaf::Ends { potential: false }
         }
-        _ if has_triangles && f.may_hit_box(cell) => {
-            if a_triangle_ends_all_rays(p, f, i, cell) {
-                Leaf::Ends { potential: true }
-            } else {
-                Leaf::Potential
-            }
-        }
+        _ if has_triangles && f.may_hit_box(cell) => Leaf::Potential,
         _ => Leaf::Nothing,
     }
 }
@@ -154,10 +170,16 @@ pub fn entry_point(
     if !f.may_hit_box(&start.1) {
         return None;
     }
-    let leaf = |ep: (u32, Aabb), speculative| EntryPoint {
-        node: ep.0,
-        cell: ep.1,
-        speculative,
+    // The group, shortened whenever a triangle that ends all its rays is found.
+    let mut f = *f;
+    let mut speculative = false;
+    let mut covered = false;
+    let mut at_potential_leaf = |i: u32, f: &mut Frustum| {
+        if let Some(t) = covering_distance(p, f, i) {
+            f.t_max = t;
+            speculative = true;
+            covered = true;
+        }
     };
     // Phase 1: nearest-first descent to the first leaf with potential hits.
     let mut bifurcations: Vec<((u32, Aabb), (u32, Aabb))> = Vec::new();
@@ -176,19 +198,36 @@ pub fn entry_point(
         };
         *steps += 1;
         if p.tree.nodes[i as usize].is_leaf() {
-            match classify_leaf(p, f, i, &cell, origin_inside) {
+            match classify_leaf(p, &f, i, &cell, origin_inside) {
                 Leaf::Nothing | Leaf::Ends { potential: false } => continue,
-                Leaf::Potential => break (i, cell),
-                Leaf::Ends { potential: true } => return Some(leaf((i, cell), true)),
+                Leaf::Potential => {
+                    at_potential_leaf(i, &mut f);
+                    break (i, cell);
+                }
+                Leaf::Ends { potential: true } => {
+                    return Some(EntryPoint {
+                        node: i,
+                        cell,
+                        speculative: true,
+                        t_limit: f.t_max,
+                        covered: true,
+                    });
+                }
             }
         }
         // Every ray ends in this subtree, and nothing before it has potential
         // hits: it is the entry point. (The inside of an object reached before
         // any surface means the origin is inside after all: no rule then.)
-        if subtree_ends_all_rays(p, f, i, &cell, origin_inside) == Some(true) {
-            return Some(leaf((i, cell), true));
+        if subtree_ends_all_rays(p, &f, i, &cell, origin_inside) == Some(true) {
+            return Some(EntryPoint {
+                node: i,
+                cell,
+                speculative: true,
+                t_limit: f.t_max,
+                covered: true,
+            });
         }
-        match entered_children(p, f, i, &cell) {
+        match entered_children(p, &f, i, &cell) {
             [Some(near), Some(far)] => {
                 bifurcations.push(((i, cell), far));
                 current = Some(near);
@@ -199,36 +238,51 @@ pub fn entry_point(
     };
     // Phase 2: each bifurcation's far subtree, until one potential leaf.
     let mut local: Vec<(u32, Aabb)> = Vec::new();
-    while let Some((node, far)) = bifurcations.pop() {
+    'bifurcations: while let Some((node, far)) = bifurcations.pop() {
+        // Beyond the (possibly shortened) group: nothing to find there.
+        if !f.may_hit_box(&far.1) {
+            continue;
+        }
         local.clear();
         local.push(far);
         while let Some((i, cell)) = local.pop() {
             *steps += 1;
             if p.tree.nodes[i as usize].is_leaf() {
-                match classify_leaf(p, f, i, &cell, origin_inside) {
+                match classify_leaf(p, &f, i, &cell, origin_inside) {
                     Leaf::Nothing => continue,
                     Leaf::Potential => {
                         candidate = node;
-                        break;
+                        at_potential_leaf(i, &mut f);
+                        continue 'bifurcations;
                     }
                     Leaf::Ends { potential } => {
                         if potential {
                             candidate = node;
                         }
-                        return Some(leaf(candidate, true));
+                        speculative = true;
+                        covered |= potential;
+                        break 'bifurcations;
                     }
                 }
             }
-            if let Some(potential) = subtree_ends_all_rays(p, f, i, &cell, origin_inside) {
+            if let Some(potential) = subtree_ends_all_rays(p, &f, i, &cell, origin_inside) {
                 if potential {
                     candidate = node;
                 }
-                return Some(leaf(candidate, true));
+                speculative = true;
+                covered |= potential;
+                break 'bifurcations;
             }
-            let [near, far] = entered_children(p, f, i, &cell);
+            let [near, far] = entered_children(p, &f, i, &cell);
             local.extend(far);
             local.extend(near);
         }
     }
-    Some(leaf(candidate, false))
+    Some(EntryPoint {
+        node: candidate.0,
+        cell: candidate.1,
+        speculative,
+        t_limit: f.t_max,
+        covered,
+    })
 }

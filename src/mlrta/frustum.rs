@@ -304,13 +304,7 @@ impl Frustum {
     /// convex combination of them (up to scale), so a convex target that all
     /// four hit from the origin is hit by every ray of the group.
     pub fn corner_directions(&self) -> [Vec3; 4] {
-        // The dominant axis has the narrowest interval of 1/d.
-        let a = (0..3)
-            .min_by(|&x, &y| {
-                let w = |i: usize| self.inv[i].lo.abs().min(self.inv[i].hi.abs());
-                w(x).total_cmp(&w(y))
-            })
-            .unwrap_or(0);
+        let a = self.dominant_axis();
         let (b, c) = ((a + 1) % 3, (a + 2) % 3);
         let s = if self.positive[a] { 1.0 } else { -1.0 };
         let corner = |kb: f32, kc: f32| {
@@ -327,6 +321,26 @@ impl Frustum {
             corner(sb.hi, sc.lo),
             corner(sb.hi, sc.hi),
         ]
+    }
+
+    /// A corner direction's `t` is in its own units, where its component on
+    /// the dominant axis a is 1: it is the hit's offset from the origin along
+    /// a. Over the group that offset is largest at a corner, so a ray of the
+    /// group (whose direction has any length) reaches a hit at offset `t` by
+    /// `t * max |1 / d_a|`.
+    pub fn corner_t_to_ray_t(&self, t: f32) -> f32 {
+        let a = self.dominant_axis();
+        up(t * self.inv[a].lo.abs().max(self.inv[a].hi.abs()))
+    }
+
+    /// The dominant axis: the narrowest interval of 1/d.
+    fn dominant_axis(&self) -> usize {
+        (0..3)
+            .min_by(|&x, &y| {
+                let w = |i: usize| self.inv[i].lo.abs().min(self.inv[i].hi.abs());
+                w(x).total_cmp(&w(y))
+            })
+            .unwrap_or(0)
     }
 
     /// Whether every ray crosses the plane `x_a = s` inside the rectangle of

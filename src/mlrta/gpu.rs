@@ -15,11 +15,13 @@ use crate::gpu::buffers::{check_storage_size, read_back, storage_buffer, uniform
 use crate::gpu::kernels::record_dispatch;
 use crate::gpu::timer::PassTimer;
 use crate::kdtree::gpu::{GpuKdTree, bind_group, kdtree_bind_group_layout, storage_entry, uniform_entry};
-use crate::mlrta::entry_point::{EntryPoint, entry_point};
+use crate::mlrta::entry_point::EntryPoint;
 use crate::mlrta::frustum::sign_class;
 use crate::mlrta::packet::{MlrtaCounts, PACKET, Packet};
 use crate::mlrta::prepared::Prepared;
-use crate::mlrta::tiles::{Ctx, ImageTrace, MlrtaParams, Rect, SHADOW_EPSILON, TileOut, pixels, split_tiles};
+use crate::mlrta::tiles::{
+    Ctx, ImageTrace, MlrtaParams, Rect, SHADOW_EPSILON, TileOut, pixels, search_below, split_tiles,
+};
 use crate::ray::{Hit, Ray};
 
 /// `PacketRecord` in `wgsl/packet_traverse.wgsl`.
@@ -36,6 +38,9 @@ pub struct PacketRecord {
     pub ray_count: u32,
     pub cell_max: [f32; 3],
     pub flags: u32,
+    /// `EntryPoint::t_limit` (at most `t_max`).
+    pub t_limit: f32,
+    pub _pad: [f32; 3],
 }
 
 /// Packets in one workgroup of the kernel.
@@ -156,6 +161,7 @@ impl Batch {
                     let single = PacketRecord {
                         origin: origin.to_array(),
                         t_max: t_max_gpu,
+                        t_limit: t_max_gpu,
                         flags: FLAG_SINGLE | any,
                         ..Zeroable::zeroed()
                     };
@@ -170,17 +176,16 @@ impl Batch {
                 None => Some(*start),
                 Some(inside) => {
                     counts.ep_searches += 1;
-                    entry_point(p, f, (start.node, start.cell), inside, &mut counts.ep_steps).map(|e| EntryPoint {
-                        speculative: e.speculative || start.speculative,
-                        ..e
-                    })
+                    search_below(p, f, start, inside, &mut counts.ep_steps)
                 }
             };
             let Some(entry) = entry else { continue };
             let positive = (0..3).fold(0, |bits, a| bits | ((f.positive[a] as u32) << a));
+            let limit = t_max.min(entry.t_limit);
             let record = PacketRecord {
                 origin: origin.to_array(),
                 t_max: t_max_gpu,
+                t_limit: if limit.is_finite() { limit } else { f32::MAX },
                 inv_lo: std::array::from_fn(|a| f.inv[a].lo),
                 entry_node: entry.node,
                 inv_hi: std::array::from_fn(|a| f.inv[a].hi),
@@ -435,4 +440,4 @@ fn run_packets(ctx: &GpuContext, tree: &GpuKdTree, batch: &Batch) -> Result<(Vec
     Ok((hits, words[n_rays..].to_vec(), gpu_ms))
 }
 
-const _: () = assert!(std::mem::size_of::<PacketRecord>() == 80 && PACKET == 16);
+const _: () = assert!(std::mem::size_of::<PacketRecord>() == 96 && PACKET == 16);

@@ -13,6 +13,7 @@
 //! packet's decisions are conservative for each of its rays, and entry points
 //! reached by a stopping rule re-trace the rays they found nothing for.
 
+pub mod aa;
 pub mod ao;
 pub mod entry_point;
 pub mod frustum;

@@ -23,7 +23,7 @@ use glam::Vec3;
 
 use crate::aabb::Aabb;
 use crate::kdtree::MAX_TREE_DEPTH;
-use crate::kdtree::watertight::ShearedRay;
+use crate::kdtree::watertight::{ShearedRay, shear_axes};
 use crate::mlrta::entry_point::EntryPoint;
 use crate::mlrta::frustum::{Frustum, FrustumBounds, down, up};
 use crate::mlrta::prepared::Prepared;
@@ -81,72 +81,89 @@ impl std::ops::AddAssign for MlrtaCounts {
 }
 
 /// Up to 16 rays with a common origin and same-sign directions, with what
-/// each lane needs precomputed.
+/// each lane needs precomputed, lane by lane side by side (unused lanes
+/// repeat lane 0, so that the arithmetic stays valid for all sixteen).
 pub struct Packet {
     pub frustum: Frustum,
     pub len: usize,
     pub dirs: [Vec3; PACKET],
     /// `1 / d` per axis and lane, for the lanes' own slab tests at leaves.
     inv: [[f32; PACKET]; 3],
-    sheared: [ShearedRay; PACKET],
-    /// The lanes' shear constants side by side, when every lane uses the
-    /// same axis permutation (the usual case): triangles are then tested
-    /// against all lanes at once.
-    common: Option<CommonShear>,
-}
-
-/// `ShearedRay` constants of all lanes, for one axis permutation.
-struct CommonShear {
-    k: [usize; 3],
+    /// The lanes' `ShearedRay` axes and constants.
+    k: [[usize; 3]; PACKET],
     sx: [f32; PACKET],
     sy: [f32; PACKET],
     sz: [f32; PACKET],
+    /// Whether every lane uses the same axis permutation (the usual case):
+    /// triangles are then tested against all lanes at once.
+    common_axes: bool,
 }
 
 impl Packet {
     /// A packet of `dirs` from `origin`, or `None` if the directions do not
     /// share one sign class (or there are none, or more than 16).
     pub fn new(origin: Vec3, dirs: &[Vec3], t_max: f32) -> Option<Packet> {
-        if dirs.is_empty() || dirs.len() > PACKET {
+        let n = dirs.len();
+        if n == 0 || n > PACKET {
             return None;
         }
-        let mut bounds = FrustumBounds::default();
-        // Unused lanes get infinite inverses: their slab tests never pass.
-        let mut inv = [[f32::INFINITY; PACKET]; 3];
-        let mut sheared = [ShearedRay::new(origin, Vec3::ONE); PACKET];
-        let mut own = [Vec3::ZERO; PACKET];
-        for (r, &d) in dirs.iter().enumerate() {
-            let i = d.recip();
-            bounds.add(d, i)?;
+        let mut own = [dirs[0]; PACKET];
+        own[..n].copy_from_slice(dirs);
+        let mut d = [[0.0f32; PACKET]; 3];
+        for (r, v) in own.iter().enumerate() {
             for a in 0..3 {
-                inv[a][r] = i[a];
+                d[a][r] = v[a];
             }
-            own[r] = d;
-            sheared[r] = ShearedRay::new(origin, d);
         }
-        let k = |s: &ShearedRay| [s.kx, s.ky, s.kz];
-        let common = sheared[..dirs.len()]
-            .iter()
-            .all(|s| k(s) == k(&sheared[0]))
-            .then(|| CommonShear {
-                k: k(&sheared[0]),
-                sx: std::array::from_fn(|r| sheared[r].sx),
-                sy: std::array::from_fn(|r| sheared[r].sy),
-                sz: std::array::from_fn(|r| sheared[r].sz),
-            });
+        let mut inv = [[0.0f32; PACKET]; 3];
+        for a in 0..3 {
+            for r in 0..PACKET {
+                inv[a][r] = 1.0 / d[a][r];
+            }
+        }
+        let mut bounds = FrustumBounds::default();
+        for r in 0..n {
+            bounds.add(own[r], Vec3::new(inv[0][r], inv[1][r], inv[2][r]))?;
+        }
+        // ShearedRay::new lane by lane: the axes, then the constants (the
+        // same divisions as there, so that hits are bit-identical).
+        let k = own.map(shear_axes);
+        let (mut sx, mut sy, mut sz) = ([0.0f32; PACKET], [0.0f32; PACKET], [0.0f32; PACKET]);
+        for r in 0..PACKET {
+            let [kx, ky, kz] = k[r];
+            sx[r] = d[kx][r] / d[kz][r];
+            sy[r] = d[ky][r] / d[kz][r];
+            sz[r] = 1.0 / d[kz][r];
+        }
+        let common_axes = k[..n].iter().all(|x| *x == k[0]);
         Some(Packet {
             frustum: bounds.finish(origin, t_max)?,
-            len: dirs.len(),
+            len: n,
             dirs: own,
             inv,
-            sheared,
-            common,
+            k,
+            sx,
+            sy,
+            sz,
+            common_axes,
         })
     }
 
-    /// Whether lane `r` passes through `cell` at `0 <= t <= limit` (widened
-    /// like the traversal's intervals): a lane that does not cannot hit a
-    /// triangle there that it would not also hit in a cell it does pass.
+    /// Lane `r` as a single `ShearedRay`.
+    #[inline]
+    fn sheared(&self, r: usize) -> ShearedRay {
+        let [kx, ky, kz] = self.k[r];
+        ShearedRay {
+            origin: self.frustum.origin,
+            kx,
+            ky,
+            kz,
+            sx: self.sx[r],
+            sy: self.sy[r],
+            sz: self.sz[r],
+        }
+    }
+
     /// Every lane's interval `(near, far)` in `cell`, clamped to
     /// `[0, limit[r]]`, computed for all lanes at once (the directions have no
     /// zero component, so no NaN arises in used lanes).
@@ -174,15 +191,10 @@ impl Packet {
     /// that the lanes run side by side. Updates the lanes' closest hits and
     /// returns the lanes that hit.
     #[inline]
-    fn test_common(
-        &self,
-        c: &CommonShear,
-        tri: [Vec3; 3],
-        active: &[bool; PACKET],
-        best_t: &mut [f32; PACKET],
-    ) -> [bool; PACKET] {
+    fn test_common(&self, tri: [Vec3; 3], active: &[bool; PACKET], best_t: &mut [f32; PACKET]) -> [bool; PACKET] {
+        let c = self;
         let o = self.frustum.origin;
-        let [kx, ky, kz] = c.k;
+        let [kx, ky, kz] = self.k[0];
         let a = (tri[0] - o).to_array();
         let b = (tri[1] - o).to_array();
         let v = (tri[2] - o).to_array();
@@ -220,7 +232,10 @@ pub fn trace_packet(
     any_hit: bool,
     counts: &mut MlrtaCounts,
 ) -> [Hit; PACKET] {
-    let f = &packet.frustum;
+    // Every ray ends by the entry point's limit: no need to look further.
+    let mut shortened = packet.frustum;
+    shortened.t_max = shortened.t_max.min(entry.t_limit);
+    let f = &shortened;
     let n = packet.len;
     let origin = f.origin;
     let tree = p.tree;
@@ -243,8 +258,14 @@ pub fn trace_packet(
     let mut stack = [const { MaybeUninit::<(u32, f32, f32, Aabb)>::uninit() }; MAX_TREE_DEPTH];
     let mut sp = 0usize;
     let (mut node_index, mut cell) = (entry.node, entry.cell);
+    // The latest hit (or limit) over the lanes still open.
+    let mut latest = (0..n)
+        .filter(|&r| !done[r])
+        .map(|r| best_t[r])
+        .fold(f32::NEG_INFINITY, f32::max);
     loop {
         counts.xp_cells += 1;
+        let mut tested = false;
         let node = tree.nodes[node_index as usize];
         if !node.is_leaf() {
             let (axis, split) = (node.axis(), node.split());
@@ -297,6 +318,7 @@ pub fn trace_packet(
                     m += active[r] as u64;
                 }
                 if m > 0 {
+                    tested = true;
                     for (&tri, verts) in tree.leaf_triangles[range.clone()]
                         .iter()
                         .zip(&tree.leaf_vertices[range])
@@ -305,9 +327,9 @@ pub fn trace_packet(
                         counts.ray_tests += m;
                         // Few active lanes: testing them one by one beats
                         // running all sixteen side by side.
-                        match packet.common.as_ref().filter(|_| m > 4) {
-                            Some(c) => {
-                                let hit = packet.test_common(c, *verts, &active, &mut best_t);
+                        match packet.common_axes && m > 4 {
+                            true => {
+                                let hit = packet.test_common(*verts, &active, &mut best_t);
                                 for r in 0..n {
                                     if hit[r] {
                                         best_tri[r] = tri;
@@ -318,13 +340,13 @@ pub fn trace_packet(
                                     }
                                 }
                             }
-                            None => {
+                            false => {
                                 let [v0, v1, v2] = *verts;
                                 for r in 0..n {
                                     if !active[r] {
                                         continue;
                                     }
-                                    if let Some(t) = packet.sheared[r].intersect(v0, v1, v2, best_t[r]) {
+                                    if let Some(t) = packet.sheared(r).intersect(v0, v1, v2, best_t[r]) {
                                         best_t[r] = t;
                                         best_tri[r] = tri;
                                         if any_hit {
@@ -341,11 +363,14 @@ pub fn trace_packet(
                 counts.leaves_clipped += 1;
             }
         }
-        // Next cell: skip those that start beyond every open ray's hit.
-        let mut latest = f32::NEG_INFINITY;
-        for r in 0..n {
-            if !done[r] {
-                latest = latest.max(best_t[r]);
+        // Next cell: skip those that start beyond every open ray's hit. (The
+        // lanes' hits change only at leaves with triangles.)
+        if tested {
+            latest = f32::NEG_INFINITY;
+            for r in 0..n {
+                if !done[r] && best_t[r] > latest {
+                    latest = best_t[r];
+                }
             }
         }
         loop {

@@ -3,8 +3,9 @@
 //! split into `split_factor` pieces until it is no larger than `min_tile` or
 //! its entry point is a leaf; the 4x4 packets of a final tile are traced from
 //! its entry point. Tiles whose rays do not share their directions' signs
-//! ("diverging", red in the paper's Figure 7) skip the entry-point search: each
-//! of their packets is traced in same-sign sub-groups from the tile's start.
+//! ("diverging", red in the paper's Figure 7) are split without a search until
+//! they reach the minimum size; the packets of a diverging final tile are
+//! traced in same-sign sub-groups from the tile's start.
 //!
 //! Shadow rays go from a point light to the primary hits (section 6: "tracing
 //! them from the light sources to the hit points"), so that each packet's
@@ -32,6 +33,13 @@ pub struct MlrtaParams {
     pub min_tile: u32,
     /// Pieces a tile is split into (SF), a square: 4 (2x2), 16 (4x4), 64 (8x8).
     pub split_factor: u32,
+    /// The rays are a pinhole camera's image (like `Camera::primary_rays`):
+    /// a tile's frustum then comes from its four corner rays instead of all
+    /// its rays. Directions are linear in the pixel position up to
+    /// normalisation, so each component's sign, and each slope d_b / d_a (a
+    /// linear-fractional function), is extreme at the corners. Wrong for
+    /// other ray images, hence off by default.
+    pub corner_frusta: bool,
 }
 
 impl Default for MlrtaParams {
@@ -41,6 +49,7 @@ impl Default for MlrtaParams {
             initial_tile: 128,
             min_tile: 8,
             split_factor: 16,
+            corner_frusta: false,
         }
     }
 }
@@ -155,6 +164,30 @@ pub fn trace_image(
     Ok(ctx.gather(outs, height))
 }
 
+/// `trace_image` restricted to some rectangles of the image (their pixels'
+/// hits; the others stay `Hit::MISS`): how adaptive anti-aliasing traces its
+/// extra samples only where the geometry is complex.
+pub fn trace_rects(
+    p: &Prepared,
+    rays: &[Ray],
+    width: u32,
+    height: u32,
+    params: &MlrtaParams,
+    rects: &[Rect],
+) -> Result<ImageTrace> {
+    let ctx = Ctx::new(p, rays, width, height, params, None)?;
+    let outs: Vec<TileOut> = rects
+        .par_iter()
+        .map(|&rect| {
+            let mut out = TileOut::default();
+            let mut emit = |entry: &EntryPoint, block: Rect, out: &mut TileOut| trace_block(&ctx, block, entry, out);
+            split_tiles(&ctx, rect, ctx.root(), 0, &mut out, &mut emit);
+            out
+        })
+        .collect();
+    Ok(ctx.gather(outs, height))
+}
+
 impl<'p, 'a> Ctx<'p, 'a> {
     pub(crate) fn new(
         p: &'p Prepared<'a>,
@@ -188,11 +221,7 @@ impl<'p, 'a> Ctx<'p, 'a> {
     }
 
     pub(crate) fn root(&self) -> EntryPoint {
-        EntryPoint {
-            node: 0,
-            cell: self.p.tree.bounds,
-            speculative: false,
-        }
+        EntryPoint::root(self.p)
     }
 
     pub(crate) fn initial_tiles(&self, height: u32) -> Vec<Rect> {
@@ -269,8 +298,15 @@ pub(crate) type Emit<'e> = dyn FnMut(&EntryPoint, Rect, &mut TileOut) + 'e;
 /// Section 4.2's recursion: entry point of the tile, split or emit blocks.
 pub(crate) fn split_tiles(ctx: &Ctx, rect: Rect, start: EntryPoint, level: u32, out: &mut TileOut, emit: &mut Emit) {
     let p = ctx.p;
-    let dirs = pixels(rect, ctx.width).map(|i| ctx.rays[i as usize].d());
-    let frustum = crate::mlrta::frustum::Frustum::new(ctx.origin, dirs, f32::INFINITY);
+    let frustum = if ctx.params.corner_frusta {
+        let (x1, y1) = (rect.x + rect.w - 1, rect.y + rect.h - 1);
+        let corners = [(rect.x, rect.y), (x1, rect.y), (rect.x, y1), (x1, y1)];
+        let dirs = corners.map(|(x, y)| ctx.rays[(y * ctx.width + x) as usize].d());
+        crate::mlrta::frustum::Frustum::new(ctx.origin, dirs, f32::INFINITY)
+    } else {
+        let dirs = pixels(rect, ctx.width).map(|i| ctx.rays[i as usize].d());
+        crate::mlrta::frustum::Frustum::new(ctx.origin, dirs, f32::INFINITY)
+    };
     let report = |entry: Option<&EntryPoint>, diverging| TileReport {
         rect,
         level,
@@ -279,24 +315,25 @@ pub(crate) fn split_tiles(ctx: &Ctx, rect: Rect, start: EntryPoint, level: u32, 
         diverging,
         stopped: entry.is_some_and(|e| e.speculative),
     };
+    let k = (ctx.params.split_factor as f64).sqrt() as u32;
+    let splittable = ctx.params.entry_points && rect.w.max(rect.h) > ctx.params.min_tile;
     let Some(frustum) = frustum else {
+        // Diverging: split down to the minimum tile size, so that only the
+        // tiles the sign change runs through stay without an entry point.
+        if splittable {
+            for sub in split(rect, k) {
+                split_tiles(ctx, sub, start, level + 1, out, emit);
+            }
+            return;
+        }
         out.tiles.push(report(Some(&start), true));
         blocks(rect, &start, out, emit);
         return;
     };
     let entry = if ctx.params.entry_points {
         out.counts.ep_searches += 1;
-        match entry_point(
-            p,
-            &frustum,
-            (start.node, start.cell),
-            ctx.origin_inside,
-            &mut out.counts.ep_steps,
-        ) {
-            Some(mut e) => {
-                e.speculative |= start.speculative;
-                e
-            }
+        match search_below(p, &frustum, &start, ctx.origin_inside, &mut out.counts.ep_steps) {
+            Some(e) => e,
             None => {
                 out.tiles.push(report(None, false));
                 out.pixels
@@ -308,8 +345,7 @@ pub(crate) fn split_tiles(ctx: &Ctx, rect: Rect, start: EntryPoint, level: u32, 
         start
     };
     let is_leaf = p.tree.nodes[entry.node as usize].is_leaf();
-    if ctx.params.entry_points && rect.w.max(rect.h) > ctx.params.min_tile && !is_leaf {
-        let k = (ctx.params.split_factor as f64).sqrt() as u32;
+    if splittable && !is_leaf {
         for sub in split(rect, k) {
             split_tiles(ctx, sub, entry, level + 1, out, emit);
         }
@@ -378,11 +414,7 @@ fn shadow_group(
         return shadowed;
     }
     let to_points: Vec<Vec3> = lit.iter().map(|&k| ctx.origin + hits[k].t * dirs[k] - light).collect();
-    let root = EntryPoint {
-        node: 0,
-        cell: ctx.p.tree.bounds,
-        speculative: false,
-    };
+    let root = EntryPoint::root(ctx.p);
     let search = ctx.params.entry_points.then_some(ctx.light_inside);
     let group = Group {
         origin: light,
@@ -447,17 +479,7 @@ pub fn trace_group(
             None => Some(*start),
             Some(inside) => {
                 counts.ep_searches += 1;
-                entry_point(
-                    p,
-                    &packet.frustum,
-                    (start.node, start.cell),
-                    inside,
-                    &mut counts.ep_steps,
-                )
-                .map(|e| EntryPoint {
-                    speculative: e.speculative || start.speculative,
-                    ..e
-                })
+                search_below(p, &packet.frustum, start, inside, &mut counts.ep_steps)
             }
         };
         let Some(entry) = entry else { continue };
@@ -482,4 +504,23 @@ fn single_ray(p: &Prepared, origin: Vec3, dir: Vec3, t_max: f32, counts: &mut Ml
     counts.single_cells += c.cells;
     counts.single_isects += c.intersections;
     hit
+}
+
+/// The entry point of a group below `start`, an entry point of a group that
+/// contains it: the sub-group inherits what is known of its parent (its rays
+/// end by the parent's `t_limit`; a speculative parent makes it speculative).
+pub(crate) fn search_below(
+    p: &Prepared,
+    f: &crate::mlrta::frustum::Frustum,
+    start: &EntryPoint,
+    origin_inside: Option<u32>,
+    steps: &mut u64,
+) -> Option<EntryPoint> {
+    let mut f = *f;
+    f.t_max = f.t_max.min(start.t_limit);
+    entry_point(p, &f, (start.node, start.cell), origin_inside, steps).map(|e| EntryPoint {
+        speculative: e.speculative || start.speculative,
+        covered: e.covered || start.covered,
+        ..e
+    })
 }

@@ -64,14 +64,20 @@ impl Camera {
     /// Primary rays, row 0 at the top, pixel centres at half-integer offsets,
     /// unit-length directions (so t is a distance).
     pub fn primary_rays(&self, width: u32, height: u32) -> Vec<Ray> {
+        self.primary_rays_at(width, height, 0.5, 0.5)
+    }
+
+    /// Primary rays through the point `(ox, oy)` of each pixel, offsets in
+    /// [0, 1) from the pixel's top-left corner (0.5, 0.5 is its centre).
+    pub fn primary_rays_at(&self, width: u32, height: u32, ox: f32, oy: f32) -> Vec<Ray> {
         let (right, up, forward) = self.basis();
         let tan_half = (0.5 * self.fov_degrees.to_radians()).tan();
         let aspect = width as f32 / height as f32;
         let mut rays = Vec::with_capacity(width as usize * height as usize);
         for y in 0..height {
-            let py = (1.0 - 2.0 * (y as f32 + 0.5) / height as f32) * tan_half;
+            let py = (1.0 - 2.0 * (y as f32 + oy) / height as f32) * tan_half;
             for x in 0..width {
-                let px = (2.0 * (x as f32 + 0.5) / width as f32 - 1.0) * tan_half * aspect;
+                let px = (2.0 * (x as f32 + ox) / width as f32 - 1.0) * tan_half * aspect;
                 let d = (forward + px * right + py * up).normalize();
                 rays.push(Ray::new(self.eye, d));
             }

@@ -1,0 +1,233 @@
+//! Adaptive anti-aliasing driven by geometric complexity (section 4.2 of the
+//! MLRTA paper: "the size of the sub-tree underneath any given node ...
+//! serves as an indication of the geometrical complexity"; "when an EP is a
+//! 2D leaf completely covered by triangles, we could cast rays sparingly and
+//! reserve more of the ray budget for more complicated regions").
+//!
+//! A final tile whose entry point is nothing (it hits nothing), or a leaf at
+//! which the search stopped because every ray ends on one triangle or one
+//! covered plane, contains no geometric edge: one ray per pixel renders it
+//! exactly. Every other tile gets `samples` rays per pixel on a stratified
+//! grid, traced with MLRTA again.
+//!
+//! Edge quality is measured against a reference of 16 rays per pixel (4x4
+//! grid) everywhere: *edge pixels* are those whose 16 reference samples do
+//! not all hit the same triangle (or all miss); the error is the RMSE of the
+//! shaded value (|cos| between ray and triangle, 0 for background) over the
+//! edge pixels.
+
+use std::time::Instant;
+
+use clap::ValueEnum;
+use serde_json::{Value, json};
+
+use crate::error::{Error, Result};
+use crate::mlrta::tiles::{Rect, TileReport, trace_image, trace_rects};
+use crate::mlrta::{MlrtaParams, Prepared};
+use crate::ray::{Hit, Ray};
+use crate::scene::Camera;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AaMode {
+    /// One ray per pixel.
+    None,
+    /// Extra rays only in tiles with complex geometry.
+    Adaptive,
+    /// Extra rays everywhere (for comparison).
+    Uniform,
+}
+
+/// Rays per anti-aliased pixel must be a square grid of 4 to 64.
+pub fn validate_samples(n: u32) -> Result<()> {
+    let k = (n as f64).sqrt() as u32;
+    if k * k != n || !(4..=64).contains(&n) {
+        return Err(Error::param(
+            "--aa-samples",
+            format!("must be a square from 4 to 64, got {n}"),
+        ));
+    }
+    Ok(())
+}
+
+/// Whether a final tile may contain an edge (see the module documentation).
+pub fn is_complex(p: &Prepared, t: &TileReport) -> bool {
+    match t.entry {
+        None => false,
+        Some(node) => !(p.tree.nodes[node as usize].is_leaf() && t.stopped),
+    }
+}
+
+/// An anti-aliased image.
+pub struct AaResult {
+    pub mode: AaMode,
+    pub samples: u32,
+    /// Shaded value per pixel.
+    pub image: Vec<f32>,
+    /// Rays per pixel.
+    pub spp: Vec<u32>,
+    pub rays: u64,
+    pub complex_tiles: usize,
+    pub tiles: usize,
+    pub ms: f64,
+}
+
+/// The 16-ray reference: shaded values and edge pixels.
+pub struct Reference {
+    pub image: Vec<f32>,
+    pub edges: Vec<bool>,
+    /// The same scene with uniform supersampling at the samples asked for.
+    pub uniform: Option<AaResult>,
+}
+
+fn shade(p: &Prepared, r: &Ray, h: &Hit) -> f32 {
+    if !h.is_hit() {
+        return 0.0;
+    }
+    let [a, b, c] = p.tree.triangles[h.triangle as usize];
+    (b - a).cross(c - a).normalize_or_zero().dot(r.d().normalize()).abs()
+}
+
+fn offsets(samples: u32) -> Vec<(f32, f32)> {
+    let k = (samples as f64).sqrt() as u32;
+    (0..k * k)
+        .map(|s| ((s % k) as f32 + 0.5, (s / k) as f32 + 0.5))
+        .map(|(x, y)| (x / k as f32, y / k as f32))
+        .collect()
+}
+
+/// Renders the image with `mode`, reusing the one-ray pass's tiles.
+#[allow(clippy::too_many_arguments)]
+pub fn render(
+    p: &Prepared,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    params: &MlrtaParams,
+    mode: AaMode,
+    samples: u32,
+    tiles: &[TileReport],
+) -> Result<AaResult> {
+    validate_samples(samples)?;
+    let start = Instant::now();
+    let n = width as usize * height as usize;
+    let centre = camera.primary_rays(width, height);
+    let base = trace_image(p, &centre, width, height, params, None)?;
+    let mut image: Vec<f32> = centre.iter().zip(&base.hits).map(|(r, h)| shade(p, r, h)).collect();
+    let mut spp = vec![1u32; n];
+    let complex: Vec<Rect> = match mode {
+        AaMode::None => Vec::new(),
+        AaMode::Uniform => vec![Rect {
+            x: 0,
+            y: 0,
+            w: width,
+            h: height,
+        }],
+        AaMode::Adaptive => tiles.iter().filter(|t| is_complex(p, t)).map(|t| t.rect).collect(),
+    };
+    let mut rays = n as u64;
+    if !complex.is_empty() {
+        let mut mask = vec![false; n];
+        for r in &complex {
+            for y in r.y..r.y + r.h {
+                for x in r.x..r.x + r.w {
+                    mask[(y * width + x) as usize] = true;
+                }
+            }
+        }
+        let mut sum = vec![0.0f32; n];
+        for (ox, oy) in offsets(samples) {
+            let sample_rays = camera.primary_rays_at(width, height, ox, oy);
+            let traced = trace_rects(p, &sample_rays, width, height, params, &complex)?;
+            for i in (0..n).filter(|&i| mask[i]) {
+                sum[i] += shade(p, &sample_rays[i], &traced.hits[i]);
+            }
+        }
+        for i in (0..n).filter(|&i| mask[i]) {
+            image[i] = sum[i] / samples as f32;
+            spp[i] = samples;
+            // The centre ray was only needed to find the tiles.
+            rays += samples as u64 - 1;
+        }
+    }
+    Ok(AaResult {
+        mode,
+        samples,
+        image,
+        spp,
+        rays,
+        complex_tiles: if mode == AaMode::Adaptive { complex.len() } else { 0 },
+        tiles: tiles.len(),
+        ms: start.elapsed().as_secs_f64() * 1e3,
+    })
+}
+
+/// The 16-ray reference (4x4 grid in every pixel).
+pub fn reference(p: &Prepared, camera: &Camera, width: u32, height: u32) -> Reference {
+    let n = width as usize * height as usize;
+    let params = MlrtaParams::default();
+    let mut sum = vec![0.0f32; n];
+    let mut first = vec![u32::MAX - 1; n];
+    let mut edges = vec![false; n];
+    for (k, (ox, oy)) in offsets(16).into_iter().enumerate() {
+        let rays = camera.primary_rays_at(width, height, ox, oy);
+        let traced = trace_image(p, &rays, width, height, &params, None).expect("valid image");
+        for i in 0..n {
+            let h = &traced.hits[i];
+            sum[i] += shade(p, &rays[i], h);
+            if k == 0 {
+                first[i] = h.triangle;
+            } else if h.triangle != first[i] {
+                edges[i] = true;
+            }
+        }
+    }
+    Reference {
+        image: sum.iter().map(|s| s / 16.0).collect(),
+        edges,
+        uniform: None,
+    }
+}
+
+fn rmse(a: &[f32], b: &[f32], mask: Option<&[bool]>) -> f64 {
+    let (mut sum, mut count) = (0.0f64, 0usize);
+    for i in 0..a.len() {
+        if mask.is_none_or(|m| m[i]) {
+            let d = (a[i] - b[i]) as f64;
+            sum += d * d;
+            count += 1;
+        }
+    }
+    if count == 0 { 0.0 } else { (sum / count as f64).sqrt() }
+}
+
+impl AaResult {
+    /// The JSON report; with a reference, the errors on edge pixels.
+    pub fn report(&self, reference: Option<Reference>) -> Value {
+        let pixels = self.spp.len() as u64;
+        let uniform_rays = pixels * self.samples as u64;
+        let mut v = json!({
+            "mode": self.mode,
+            "samples": self.samples,
+            "rays": self.rays,
+            "rays_uniform": uniform_rays,
+            "saved_vs_uniform": 1.0 - self.rays as f64 / uniform_rays as f64,
+            "tiles": self.tiles,
+            "complex_tiles": self.complex_tiles,
+            "aa_ms": self.ms,
+        });
+        if let Some(r) = reference {
+            let edge_pixels = r.edges.iter().filter(|&&e| e).count();
+            v["reference"] = json!({
+                "samples": 16,
+                "edge_pixels": edge_pixels,
+                "rmse_edges": rmse(&self.image, &r.image, Some(&r.edges)),
+                "rmse_all": rmse(&self.image, &r.image, None),
+            });
+            if let Some(u) = r.uniform {
+                v["reference"]["uniform_rmse_edges"] = json!(rmse(&u.image, &r.image, Some(&r.edges)));
+            }
+        }
+        v
+    }
+}
