@@ -532,10 +532,18 @@ fn trace_parameter_errors() {
 }
 
 #[test]
-fn trace_mlrta_on_is_not_available_yet() {
-    trace("--width 16 --height 16 --mlrta on").bad_input(&["--mlrta", "not available"]);
-    trace("--width 16 --height 16 --mlrta on --json").bad_input(&["--mlrta", "not available"]);
-    trace("--width 16 --height 16 --mlrta off --json").ok().json();
+fn trace_mlrta_parameter_errors() {
+    trace("--width 16 --height 16 --split-factor 8").bad_input(&["--split-factor", "square", "8"]);
+    trace("--width 16 --height 16 --split-factor 1").bad_input(&["--split-factor"]);
+    trace("--width 16 --height 16 --min-tile 2").bad_input(&["--min-tile", "2"]);
+    trace("--width 16 --height 16 --tile 8 --min-tile 16").bad_input(&["--tile", "--min-tile"]);
+    trace("--width 16 --height 16 --tile -1").bad_input(&["--tile"]);
+    trace("--width 16 --height 16 --aa adaptive --aa-samples 5").bad_input(&["--aa-samples", "square"]);
+    trace("--width 16 --height 16 --aa adaptive --aa-samples 0").bad_input(&["--aa-samples"]);
+    trace("--width 16 --height 16 --aa sometimes").bad_input(&["--aa"]);
+    trace("--width 16 --height 16 --mlrta maybe").bad_input(&["--mlrta"]);
+    trace("--width 16 --height 16 --light 1,2").bad_input(&["--light", "1,2"]);
+    trace("--width 16 --height 16 --single-ray --mlrta on").bad_input(&["--single-ray", "--mlrta"]);
 }
 
 #[test]
@@ -954,6 +962,163 @@ fn without_json_stdout_is_a_readable_summary() {
 }
 
 // ---------------------------------------------------------------------------
+// 6b. trace: multi-level ray tracing options
+// ---------------------------------------------------------------------------
+
+/// `trace` on `mesh` into `d`, writing the shaded image to `png`, with JSON.
+fn trace_png(d: &TempDir, mesh: &str, png: &str, rest: &str) -> (Value, Vec<u8>) {
+    let (mesh, path) = (asset_s(mesh), d.p(png));
+    let out = pen(
+        &format!("trace --mesh {{mesh}} --out {{png}} --device cpu --json {rest}"),
+        &[("mesh", &mesh), ("png", &path)],
+    );
+    let json = out.ok().json();
+    (json, std::fs::read(&path).unwrap())
+}
+
+/// Packets with and without entry points, and single rays, are the same
+/// geometric answer: the same hits, the same shadows, byte-identical images.
+#[test]
+fn trace_modes_give_identical_images() {
+    let d = TempDir::new("trace_modes");
+    for mesh in ["sphere-on-plane.obj", "closed-box.obj", "cube-with-hole.obj"] {
+        let size = "--width 72 --height 40 --tile 32 --min-tile 4 --shadows";
+        let (on, on_png) = trace_png(&d, mesh, "on.png", &format!("{size} --mlrta on"));
+        let (off, off_png) = trace_png(&d, mesh, "off.png", &format!("{size} --mlrta off"));
+        let (single, single_png) = trace_png(&d, mesh, "single.png", &format!("{size} --single-ray"));
+        assert_eq!((on["mlrta"].as_str(), off["mlrta"].as_str()), (Some("on"), Some("off")));
+        assert_eq!(single["mlrta"], "single-ray");
+        for (name, other) in [("off", &off), ("single-ray", &single)] {
+            assert_eq!(on["hits"], other["hits"], "{mesh}: hits with --mlrta on and {name}");
+            assert_eq!(
+                on["shadows"]["shadowed_hits"], other["shadows"]["shadowed_hits"],
+                "{mesh}: shadowed hits with --mlrta on and {name}"
+            );
+        }
+        assert!(
+            on["hits"].as_u64().unwrap() > 0,
+            "{mesh}: the default camera sees the mesh"
+        );
+        assert_eq!(on_png, off_png, "{mesh}: --mlrta on and off images differ");
+        assert_eq!(on_png, single_png, "{mesh}: --mlrta on and --single-ray images differ");
+        // Statistics: entry-point steps only with entry points; every packet
+        // visits at least one cell; tiles split below the initial size.
+        assert_eq!(off["ep_steps_per_packet"], 0.0, "{mesh}");
+        assert!(on["ep_steps_per_packet"].as_f64().unwrap() > 0.0, "{mesh}");
+        for j in [&on, &off] {
+            assert!(j["cells_per_packet"].as_f64().unwrap() >= 1.0, "{mesh}: {j}");
+            assert!(j["isects_per_packet"].as_f64().unwrap() >= 0.0, "{mesh}: {j}");
+            assert!(
+                j["shadows"]["cells_per_packet"].as_f64() > j["cells_per_packet"].as_f64(),
+                "{mesh}: {j}"
+            );
+        }
+        let tiles = &on["tiles"];
+        assert_eq!((tiles["initial"].as_u64(), tiles["min"].as_u64()), (Some(32), Some(4)));
+        // 72x40 in 32-pixel tiles is 3x2 tiles before any split.
+        assert!(tiles["final"].as_u64().unwrap() >= 6, "{mesh}: {tiles}");
+    }
+}
+
+#[test]
+fn trace_light_and_default_shadows() {
+    let d = TempDir::new("trace_light");
+    let size = "--width 48 --height 48";
+    let (plain, _) = trace_png(&d, "sphere-on-plane.obj", "plain.png", size);
+    assert!(
+        plain.get("shadows").is_none(),
+        "no shadows without --light or --shadows: {plain}"
+    );
+    let (lit, _) = trace_png(&d, "sphere-on-plane.obj", "lit.png", &format!("{size} --shadows"));
+    let shadows = &lit["shadows"];
+    assert_eq!(shadows["shadow_rays"], lit["hits"], "one shadow ray per hit: {lit}");
+    let shadowed = shadows["shadowed_hits"].as_u64().unwrap();
+    assert!(
+        shadowed > 0 && shadowed < lit["hits"].as_u64().unwrap(),
+        "the sphere shadows part of the plane: {lit}"
+    );
+    // A light far below the plane: everything the camera sees from above is
+    // in the plane's shadow or faces away.
+    let (below, _) = trace_png(
+        &d,
+        "sphere-on-plane.obj",
+        "below.png",
+        &format!("{size} --light 0,-1000,0"),
+    );
+    assert_eq!(below["shadows"]["light"], json!([0.0, -1000.0, 0.0]));
+    assert!(
+        below["shadows"]["shadowed_hits"].as_u64().unwrap() >= shadowed,
+        "{below}"
+    );
+}
+
+#[test]
+fn trace_dump_rays_feed_trace_rays() {
+    let d = TempDir::new("trace_dump_rays");
+    let (mesh, rays, hits) = (asset_s("corner.obj"), d.p("rays.f32"), d.p("hits.bin"));
+    let vars = [
+        ("mesh", mesh.as_str()),
+        ("rays", rays.as_str()),
+        ("hits", hits.as_str()),
+    ];
+    let traced = pen(
+        "trace --mesh {mesh} --width 20 --height 12 --dump-rays {rays} --device cpu --json",
+        &vars,
+    )
+    .ok()
+    .json();
+    assert_eq!(std::fs::metadata(&rays).unwrap().len(), 20 * 12 * 24);
+    pen(
+        "trace-rays --mesh {mesh} --rays {rays} --out {hits} --device cpu",
+        &vars,
+    )
+    .ok();
+    let hit_count = read_hits(&hits).iter().filter(|(t, _)| t.is_finite()).count();
+    assert_eq!(traced["hits"].as_u64(), Some(hit_count as u64), "{traced}");
+}
+
+#[test]
+fn trace_adaptive_aa_spends_fewer_rays_than_uniform() {
+    let d = TempDir::new("trace_aa");
+    let (mesh, aa_png, tiles_png) = (asset_s("sphere-on-plane.obj"), d.p("aa.png"), d.p("tiles.png"));
+    let run = |mode: &str| -> Value {
+        let template = format!(
+            "trace --mesh {{mesh}} --width 64 --height 64 --tile 32 --min-tile 4 --aa {mode} --aa-samples 4 \
+             --aa-reference --aa-image {{aa}} --tiles-image {{tiles}} --device cpu --json"
+        );
+        let vars = [
+            ("mesh", mesh.as_str()),
+            ("aa", aa_png.as_str()),
+            ("tiles", tiles_png.as_str()),
+        ];
+        pen(&template, &vars).ok().json()
+    };
+    let uniform = run("uniform");
+    assert_eq!(uniform["aa"]["rays"].as_u64(), Some(64 * 64 * 4), "{uniform}");
+    let adaptive = run("adaptive");
+    let aa = &adaptive["aa"];
+    let rays = aa["rays"].as_u64().unwrap();
+    assert!(rays >= 64 * 64 && rays < 64 * 64 * 4, "{aa}");
+    assert!(
+        aa["complex_tiles"].as_u64().unwrap() > 0,
+        "the sphere's outline is complex: {aa}"
+    );
+    let reference = &aa["reference"];
+    let (adaptive_rmse, uniform_rmse) = (
+        reference["rmse_edges"].as_f64().unwrap(),
+        reference["uniform_rmse_edges"].as_f64().unwrap(),
+    );
+    println!("edge RMSE against 16 spp: adaptive {adaptive_rmse:.5}, uniform {uniform_rmse:.5}");
+    assert!(reference["edge_pixels"].as_u64().unwrap() > 0, "{aa}");
+    assert!(
+        adaptive_rmse <= uniform_rmse * 1.25 + 1e-4,
+        "adaptive anti-aliasing must keep the edge quality of uniform: {aa}"
+    );
+    assert_eq!(image::image_dimensions(&aa_png).unwrap(), (64, 64));
+    assert_eq!(image::image_dimensions(&tiles_png).unwrap(), (64, 64));
+}
+
+// ---------------------------------------------------------------------------
 // 7. Determinism
 // ---------------------------------------------------------------------------
 
@@ -1167,5 +1332,40 @@ fn degenerate_mesh_is_handled_or_named() {
         if out.code != 0 {
             out.bad_input(&[&mesh]);
         }
+    }
+}
+
+/// The GPU packet kernel draws the CPU's image, with entry points and
+/// shadows (the hits themselves are compared in tests/mlrta.rs).
+#[test]
+fn gpu_trace_packets_match_cpu() {
+    if !gpu_available() {
+        return;
+    }
+    let d = TempDir::new("gpu_trace_packets");
+    let mesh = asset_s("sphere-on-plane.obj");
+    let image = |device: &str, mlrta: &str| -> (Value, Vec<u8>) {
+        let png = d.p(&format!("{device}-{mlrta}.png"));
+        let out = pen(
+            "trace --mesh {mesh} --width 80 --height 56 --tile 32 --shadows --mlrta {mlrta} --out {png} \
+             --device {device} --json",
+            &[("mesh", &mesh), ("png", &png), ("device", device), ("mlrta", mlrta)],
+        );
+        let json = out.ok().json();
+        assert_eq!(json["device"], device, "{}", out.describe());
+        (json, std::fs::read(&png).unwrap())
+    };
+    let (cpu, cpu_png) = image("cpu", "on");
+    for mlrta in ["on", "off"] {
+        let (gpu, gpu_png) = image("gpu", mlrta);
+        assert_eq!(gpu["hits"], cpu["hits"], "--mlrta {mlrta}");
+        assert_eq!(
+            gpu["shadows"]["shadowed_hits"], cpu["shadows"]["shadowed_hits"],
+            "--mlrta {mlrta}"
+        );
+        assert!(
+            gpu_png == cpu_png,
+            "--mlrta {mlrta}: the GPU's image differs from the CPU's"
+        );
     }
 }

@@ -46,6 +46,17 @@ pub fn read_rays(path: &Path) -> Result<Vec<Ray>> {
     Ok(rays)
 }
 
+/// Writes rays as N records of 6 little-endian f32 (origin, direction).
+pub fn write_rays(path: &Path, rays: &[Ray]) -> Result<()> {
+    let mut bytes = Vec::with_capacity(rays.len() * 24);
+    for r in rays {
+        for c in r.origin.iter().chain(&r.dir) {
+            bytes.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    std::fs::write(path, bytes).map_err(|e| Error::write(path, e))
+}
+
 /// Writes N records of (f32 t, u32 triangle), little-endian; a miss is
 /// (+inf, 0xFFFFFFFF).
 pub fn write_hits(path: &Path, hits: &[Hit]) -> Result<()> {

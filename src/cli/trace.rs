@@ -88,6 +88,10 @@ pub struct TraceArgs {
     /// Where anti-aliasing put its rays: brightness = rays per pixel.
     #[arg(long)]
     pub aa_image: Option<PathBuf>,
+    /// Write the primary rays traced, in the RAYS.f32 format of trace-rays
+    /// (so that another tracer can run exactly the same rays).
+    #[arg(long)]
+    pub dump_rays: Option<PathBuf>,
     #[command(flatten)]
     pub camera: CameraArgs,
     #[command(flatten)]
@@ -114,6 +118,7 @@ pub fn run(args: &TraceArgs) -> Result<Value> {
         (&args.out, "--out"),
         (&args.tiles_image, "--tiles-image"),
         (&args.aa_image, "--aa-image"),
+        (&args.dump_rays, "--dump-rays"),
     ];
     for (path, option) in outputs {
         if let Some(p) = path {
@@ -131,6 +136,9 @@ pub fn run(args: &TraceArgs) -> Result<Value> {
     let device = Device::open(args.common.device)?;
     let tree = build_tree(&mesh, "trace")?;
     let rays = camera.primary_rays(args.width, args.height);
+    if let Some(path) = &args.dump_rays {
+        super::io::write_rays(path, &rays)?;
+    }
     let packets = (args.width.div_ceil(PACKET) as u64 * args.height.div_ceil(PACKET) as u64) as f64;
 
     let mut report = json!({
