@@ -412,6 +412,7 @@ def packets_speed(args, exe: Path) -> int:
         ("mlrta on", ["--mlrta", "on"], 2),
         ("mlrta off", ["--mlrta", "off"], 1),
         ("single ray", ["--single-ray"], 1),
+        ("single ray", ["--single-ray"], 2),
     ]
     rows = []
     for model in resolve_models(args.models):
@@ -450,6 +451,14 @@ def packets_speed(args, exe: Path) -> int:
     for r in rows:
         print(f"| {r['model']} | {r['mode']} | {r['threads']} | {r['mrays_per_s']:.2f} | {r['embree_mrays_per_s']:.2f} "
               f"| {r['ratio']:.2f} | {r['cells_per_packet']:.2f} | {r['isects_per_packet']:.2f} |")
+    print("\nTwo threads against one (the same best-of rounds):\n")
+    print("| model | mode | 1 thread Mrays/s | 2 threads Mrays/s | speed-up |")
+    print("|---|---|---:|---:|---:|")
+    by_key = {(r["model"], r["mode"], r["threads"]): r["mrays_per_s"] for r in rows}
+    for (model, mode, threads), two in by_key.items():
+        one = by_key.get((model, mode, 1))
+        if threads == 2 and one:
+            print(f"| {model} | {mode} | {one:.2f} | {two:.2f} | {two / one:.2f} |")
     if args.json:
         args.json.write_text(json.dumps({"packets": rows}, indent=1))
     return 0

@@ -21,85 +21,17 @@
 //!   is 512x512 instead of 1024x1024, as the id says;
 //!   `PENUMBRA_BENCH_GPU_SIZE=N` forces NxN.
 
+mod common;
+
 use std::hint::black_box;
-use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+use common::{CPU_IMAGE, Model, gpu_image_size, is_software, load_models, primary_rays};
 use criterion::{BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
-use penumbra::gpu::{GpuContext, enumerate_adapters};
+use penumbra::gpu::GpuContext;
 use penumbra::kdtree::gpu::{GpuKdTree, TraceMode, trace_rays};
 use penumbra::kdtree::{KdTree, KdTreeParams};
 use penumbra::ray::{Hit, Ray};
-use penumbra::scene::{Camera, Mesh, load_obj};
-
-const DATA_MODELS: [&str; 3] = ["stanford-bunny", "dragon100k", "kitchen"];
-const FALLBACK_MODELS: [&str; 3] = ["sphere-on-plane", "corner", "cube-with-hole"];
-const CPU_IMAGE: u32 = 1024;
-const GPU_IMAGE_HARDWARE: u32 = 1024;
-const GPU_IMAGE_SOFTWARE: u32 = 512;
-
-struct Model {
-    name: String,
-    mesh: Mesh,
-    tree: KdTree,
-}
-
-fn model_paths() -> Vec<(String, PathBuf)> {
-    match std::env::var_os("PENUMBRA_DATA") {
-        Some(data) => {
-            let dir = Path::new(&data).join("models");
-            DATA_MODELS
-                .iter()
-                .filter_map(|m| {
-                    let path = dir.join(format!("{m}.obj"));
-                    if path.is_file() {
-                        Some((m.to_string(), path))
-                    } else {
-                        eprintln!("note: {} not found; skipping {m}", path.display());
-                        None
-                    }
-                })
-                .collect()
-        }
-        None => {
-            let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
-            eprintln!(
-                "note: PENUMBRA_DATA is not set; benchmarking the procedural scenes in {} \
-                 ({}) instead of {}. Set PENUMBRA_DATA to the folder holding models/ for real numbers.",
-                dir.display(),
-                FALLBACK_MODELS.join(", "),
-                DATA_MODELS.join(", ")
-            );
-            FALLBACK_MODELS
-                .iter()
-                .map(|m| (m.to_string(), dir.join(format!("{m}.obj"))))
-                .collect()
-        }
-    }
-}
-
-fn load_models() -> Vec<Model> {
-    model_paths()
-        .into_iter()
-        .map(|(name, path)| {
-            let mesh = load_obj(&path).unwrap_or_else(|e| panic!("loading {}: {e}", path.display()));
-            let tree = KdTree::build(&mesh, &KdTreeParams::default())
-                .unwrap_or_else(|e| panic!("building the kd-tree of {}: {e}", path.display()));
-            eprintln!(
-                "{name}: {} triangles, kd-tree {} nodes, depth {}, built in {:.1} ms",
-                mesh.triangles.len(),
-                tree.stats.nodes,
-                tree.stats.depth,
-                tree.stats.build_ms
-            );
-            Model { name, mesh, tree }
-        })
-        .collect()
-}
-
-fn primary_rays(mesh: &Mesh, size: u32) -> Vec<Ray> {
-    Camera::default_for(&mesh.bounds()).primary_rays(size, size)
-}
 
 fn trace_sequential(tree: &KdTree, rays: &[Ray]) -> Vec<Hit> {
     rays.iter()
@@ -146,17 +78,6 @@ fn bench_cpu(c: &mut Criterion, models: &[Model]) {
     group.finish();
 }
 
-/// Whether the adapter the context was created on is a software rasteriser.
-fn is_software(ctx: &GpuContext) -> bool {
-    let name = ctx.name.to_lowercase();
-    name.contains("llvmpipe")
-        || name.contains("lavapipe")
-        || name.contains("swiftshader")
-        || enumerate_adapters()
-            .iter()
-            .any(|a| a.name == ctx.name && a.device_type == "cpu")
-}
-
 fn bench_gpu(c: &mut Criterion, models: &[Model]) {
     let ctx = match GpuContext::headless() {
         Ok(ctx) => ctx,
@@ -166,15 +87,7 @@ fn bench_gpu(c: &mut Criterion, models: &[Model]) {
         }
     };
     let software = is_software(&ctx);
-    let size = std::env::var("PENUMBRA_BENCH_GPU_SIZE")
-        .ok()
-        .and_then(|s| s.parse::<u32>().ok())
-        .filter(|&n| n > 0)
-        .unwrap_or(if software {
-            GPU_IMAGE_SOFTWARE
-        } else {
-            GPU_IMAGE_HARDWARE
-        });
+    let size = gpu_image_size(&ctx);
     eprintln!(
         "trace_gpu: adapter {}{}; {size}x{size} primary rays; timestamps {}",
         ctx.name,

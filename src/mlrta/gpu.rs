@@ -257,7 +257,11 @@ pub fn trace_image_gpu(
     }
     let mut cpu_ms = start.elapsed().as_secs_f64() * 1e3;
     let mut image = c.gather(outs, height);
-    let (hits, counts, mut gpu_ms) = run_packets(ctx, gpu_tree, &batch)?;
+    let PacketOutput {
+        hits,
+        counts,
+        mut gpu_ms,
+    } = run_packets(ctx, gpu_tree, &batch)?;
     image.hits = vec![Hit::MISS; rays.len()];
     scatter(&batch, &hits, &counts, &mut image.hits, &mut image.counts);
 
@@ -302,7 +306,11 @@ pub fn trace_image_gpu(
             }
         }
         cpu_ms += cpu_start.elapsed().as_secs_f64() * 1e3;
-        let (blocked, counts, ms) = run_packets(ctx, gpu_tree, &shadow)?;
+        let PacketOutput {
+            hits: blocked,
+            counts,
+            gpu_ms: ms,
+        } = run_packets(ctx, gpu_tree, &shadow)?;
         let mut shadow_hits = vec![Hit::MISS; rays.len()];
         scatter(&shadow, &blocked, &counts, &mut shadow_hits, &mut shadow_counts);
         shadow_counts.packets = image.counts.packets;
@@ -356,10 +364,22 @@ fn scatter(batch: &Batch, hits: &[Hit], lane_counts: &[[u32; 2]], out: &mut [Hit
 /// Packets per dispatch: a dispatch's grid and the storage bindings bound it.
 const PACKETS_PER_BATCH: usize = 1 << 16;
 
-fn run_packets(ctx: &GpuContext, tree: &GpuKdTree, batch: &Batch) -> Result<(Vec<Hit>, Vec<[u32; 2]>, Option<f64>)> {
+/// What one batch of packets gives back: a hit per ray, the ray's
+/// (cells, intersections) counts, and the kernel time when timed.
+struct PacketOutput {
+    hits: Vec<Hit>,
+    counts: Vec<[u32; 2]>,
+    gpu_ms: Option<f64>,
+}
+
+fn run_packets(ctx: &GpuContext, tree: &GpuKdTree, batch: &Batch) -> Result<PacketOutput> {
     let n_rays = batch.targets.len();
     if batch.records.is_empty() {
-        return Ok((Vec::new(), Vec::new(), Some(0.0)));
+        return Ok(PacketOutput {
+            hits: Vec::new(),
+            counts: Vec::new(),
+            gpu_ms: Some(0.0),
+        });
     }
     let device = &ctx.device;
     let pass = ctx.kernels.get_or_insert(|| PacketPass::new(device));
@@ -437,7 +457,11 @@ fn run_packets(ctx: &GpuContext, tree: &GpuKdTree, batch: &Batch) -> Result<(Vec
         })
         .collect();
     let gpu_ms = PassTimer::finish(timer, ctx)?;
-    Ok((hits, words[n_rays..].to_vec(), gpu_ms))
+    Ok(PacketOutput {
+        hits,
+        counts: words[n_rays..].to_vec(),
+        gpu_ms,
+    })
 }
 
 const _: () = assert!(std::mem::size_of::<PacketRecord>() == 96 && PACKET == 16);

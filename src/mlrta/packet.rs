@@ -253,7 +253,8 @@ pub fn trace_packet(
     let mut done = [true; PACKET];
     let (near, far) = packet.lane_slabs(&entry.cell, &[f.t_max; PACKET]);
     for r in 0..n {
-        done[r] = !(down(near[r]) <= up(far[r]));
+        // NaN bounds (a degenerate lane) count as a miss.
+        done[r] = down(near[r]).partial_cmp(&up(far[r])).is_none_or(|o| o.is_gt());
     }
     let mut stack = [const { MaybeUninit::<(u32, f32, f32, Aabb)>::uninit() }; MAX_TREE_DEPTH];
     let mut sp = 0usize;

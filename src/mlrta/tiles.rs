@@ -80,7 +80,7 @@ impl MlrtaParams {
 }
 
 /// A pixel rectangle.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 pub struct Rect {
     pub x: u32,
     pub y: u32,
@@ -129,13 +129,29 @@ pub(crate) struct Ctx<'p, 'a> {
     pub light_inside: Option<u32>,
 }
 
-/// Output of one tile: (pixel, hit, shadowed) and statistics.
+/// Output of one initial tile: its pixels' hits and shadow flags, row-major
+/// within `rect` (empty where the GPU traces the pixels), and statistics.
 #[derive(Default)]
 pub(crate) struct TileOut {
-    pub pixels: Vec<(u32, Hit, bool)>,
+    pub rect: Rect,
+    pub hits: Vec<Hit>,
+    pub shadowed: Vec<bool>,
     pub counts: MlrtaCounts,
     pub shadow_counts: MlrtaCounts,
     pub tiles: Vec<TileReport>,
+}
+
+impl TileOut {
+    /// With pixel buffers for `rect`: misses until traced.
+    fn for_rect(rect: Rect) -> TileOut {
+        let n = rect.w as usize * rect.h as usize;
+        TileOut {
+            rect,
+            hits: vec![Hit::MISS; n],
+            shadowed: vec![false; n],
+            ..TileOut::default()
+        }
+    }
 }
 
 /// Traces a `width x height` image of rays (row-major) that share their
@@ -155,7 +171,7 @@ pub fn trace_image(
         .initial_tiles(height)
         .par_iter()
         .map(|&rect| {
-            let mut out = TileOut::default();
+            let mut out = TileOut::for_rect(rect);
             let mut emit = |entry: &EntryPoint, block: Rect, out: &mut TileOut| trace_block(&ctx, block, entry, out);
             split_tiles(&ctx, rect, ctx.root(), 0, &mut out, &mut emit);
             out
@@ -179,7 +195,7 @@ pub fn trace_rects(
     let outs: Vec<TileOut> = rects
         .par_iter()
         .map(|&rect| {
-            let mut out = TileOut::default();
+            let mut out = TileOut::for_rect(rect);
             let mut emit = |entry: &EntryPoint, block: Rect, out: &mut TileOut| trace_block(&ctx, block, entry, out);
             split_tiles(&ctx, rect, ctx.root(), 0, &mut out, &mut emit);
             out
@@ -202,7 +218,7 @@ impl<'p, 'a> Ctx<'p, 'a> {
             return Err(Error::input("rays", "must be a non-empty width x height image"));
         }
         let origin = rays[0].o();
-        if rays.iter().any(|r| r.o() != origin) {
+        if rays.par_chunks(1 << 14).any(|c| c.iter().any(|r| r.o() != origin)) {
             return Err(Error::input(
                 "rays",
                 "MLRTA image tracing needs one common origin (a pinhole camera)",
@@ -240,23 +256,42 @@ impl<'p, 'a> Ctx<'p, 'a> {
         initial
     }
 
+    /// The tiles' outputs as one image. Rows are copied in parallel: on two
+    /// cores a sequential copy of a 1024x1024 image is a tenth of the work.
     pub(crate) fn gather(&self, outs: Vec<TileOut>, height: u32) -> ImageTrace {
-        let mut hits = vec![Hit::MISS; self.rays.len()];
-        let mut shadowed = self.light.map(|_| vec![false; self.rays.len()]);
+        let (n, width) = (self.rays.len(), self.width as usize);
+        let mut hits = Vec::with_capacity(n);
+        hits.par_extend(rayon::iter::repeat_n(Hit::MISS, n));
+        let mut shadowed = vec![false; n];
+        // Which tiles cover each row.
+        let mut row_tiles: Vec<Vec<usize>> = vec![Vec::new(); height as usize];
+        for (k, out) in outs.iter().enumerate().filter(|(_, o)| !o.hits.is_empty()) {
+            for y in out.rect.y..out.rect.y + out.rect.h {
+                row_tiles[y as usize].push(k);
+            }
+        }
+        hits.par_chunks_mut(width)
+            .zip(shadowed.par_chunks_mut(width))
+            .zip(&row_tiles)
+            .enumerate()
+            .for_each(|(y, ((hit_row, shadow_row), tiles))| {
+                for &k in tiles {
+                    let (r, out) = (outs[k].rect, &outs[k]);
+                    let (x, local) = (r.x as usize, (y - r.y as usize) * r.w as usize);
+                    let w = r.w as usize;
+                    hit_row[x..x + w].copy_from_slice(&out.hits[local..local + w]);
+                    shadow_row[x..x + w].copy_from_slice(&out.shadowed[local..local + w]);
+                }
+            });
         let mut counts = MlrtaCounts::default();
         let mut shadow_counts = MlrtaCounts::default();
         let mut tiles = Vec::new();
         for out in outs {
-            for (i, h, s) in out.pixels {
-                hits[i as usize] = h;
-                if let Some(sh) = shadowed.as_mut() {
-                    sh[i as usize] = s;
-                }
-            }
             counts += out.counts;
             shadow_counts += out.shadow_counts;
             tiles.extend(out.tiles);
         }
+        let shadowed = self.light.map(|_| shadowed);
         let packets = self.width.div_ceil(4) as u64 * height.div_ceil(4) as u64;
         counts.packets = packets;
         shadow_counts.packets = packets;
@@ -335,9 +370,8 @@ pub(crate) fn split_tiles(ctx: &Ctx, rect: Rect, start: EntryPoint, level: u32, 
         match search_below(p, &frustum, &start, ctx.origin_inside, &mut out.counts.ep_steps) {
             Some(e) => e,
             None => {
+                // Its pixels stay misses.
                 out.tiles.push(report(None, false));
-                out.pixels
-                    .extend(pixels(rect, ctx.width).map(|i| (i, Hit::MISS, false)));
                 return;
             }
         }
@@ -394,8 +428,12 @@ fn trace_block(ctx: &Ctx, block: Rect, entry: &EntryPoint, out: &mut TileOut) {
         Some(light) => shadow_group(ctx, light, dirs, &hits, &mut out.shadow_counts),
         None => [false; PACKET],
     };
+    let (tile, width) = (out.rect, ctx.width as usize);
     for (k, &i) in ids.iter().enumerate() {
-        out.pixels.push((i, hits[k], shadows[k]));
+        let (x, y) = (i as usize % width, i as usize / width);
+        let local = (y - tile.y as usize) * tile.w as usize + (x - tile.x as usize);
+        out.hits[local] = hits[k];
+        out.shadowed[local] = shadows[k];
     }
 }
 

@@ -1,0 +1,104 @@
+//! What the benches share: the models (from `PENUMBRA_DATA`, or the
+//! procedural assets without it), their kd-trees and primary rays.
+
+use std::path::{Path, PathBuf};
+
+use penumbra::gpu::{GpuContext, enumerate_adapters};
+use penumbra::kdtree::{KdTree, KdTreeParams};
+use penumbra::ray::Ray;
+use penumbra::scene::{Camera, Mesh, load_obj};
+
+const DATA_MODELS: [&str; 3] = ["stanford-bunny", "dragon100k", "kitchen"];
+const FALLBACK_MODELS: [&str; 3] = ["sphere-on-plane", "corner", "cube-with-hole"];
+/// Side of the CPU benches' images.
+pub const CPU_IMAGE: u32 = 1024;
+const GPU_IMAGE_HARDWARE: u32 = 1024;
+const GPU_IMAGE_SOFTWARE: u32 = 512;
+
+pub struct Model {
+    pub name: String,
+    pub mesh: Mesh,
+    pub tree: KdTree,
+}
+
+fn model_paths() -> Vec<(String, PathBuf)> {
+    match std::env::var_os("PENUMBRA_DATA") {
+        Some(data) => {
+            let dir = Path::new(&data).join("models");
+            DATA_MODELS
+                .iter()
+                .filter_map(|m| {
+                    let path = dir.join(format!("{m}.obj"));
+                    if path.is_file() {
+                        Some((m.to_string(), path))
+                    } else {
+                        eprintln!("note: {} not found; skipping {m}", path.display());
+                        None
+                    }
+                })
+                .collect()
+        }
+        None => {
+            let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
+            eprintln!(
+                "note: PENUMBRA_DATA is not set; benchmarking the procedural scenes in {} \
+                 ({}) instead of {}. Set PENUMBRA_DATA to the folder holding models/ for real numbers.",
+                dir.display(),
+                FALLBACK_MODELS.join(", "),
+                DATA_MODELS.join(", ")
+            );
+            FALLBACK_MODELS
+                .iter()
+                .map(|m| (m.to_string(), dir.join(format!("{m}.obj"))))
+                .collect()
+        }
+    }
+}
+
+pub fn load_models() -> Vec<Model> {
+    model_paths()
+        .into_iter()
+        .map(|(name, path)| {
+            let mesh = load_obj(&path).unwrap_or_else(|e| panic!("loading {}: {e}", path.display()));
+            let tree = KdTree::build(&mesh, &KdTreeParams::default())
+                .unwrap_or_else(|e| panic!("building the kd-tree of {}: {e}", path.display()));
+            eprintln!(
+                "{name}: {} triangles, kd-tree {} nodes, depth {}, built in {:.1} ms",
+                mesh.triangles.len(),
+                tree.stats.nodes,
+                tree.stats.depth,
+                tree.stats.build_ms
+            );
+            Model { name, mesh, tree }
+        })
+        .collect()
+}
+
+pub fn primary_rays(mesh: &Mesh, size: u32) -> Vec<Ray> {
+    Camera::default_for(&mesh.bounds()).primary_rays(size, size)
+}
+
+/// Whether the adapter the context was created on is a software rasteriser.
+pub fn is_software(ctx: &GpuContext) -> bool {
+    let name = ctx.name.to_lowercase();
+    name.contains("llvmpipe")
+        || name.contains("lavapipe")
+        || name.contains("swiftshader")
+        || enumerate_adapters()
+            .iter()
+            .any(|a| a.name == ctx.name && a.device_type == "cpu")
+}
+
+/// Side of the GPU benches' images: 1024 on hardware, 512 on a software
+/// adapter (lavapipe), `PENUMBRA_BENCH_GPU_SIZE=N` to force NxN.
+pub fn gpu_image_size(ctx: &GpuContext) -> u32 {
+    std::env::var("PENUMBRA_BENCH_GPU_SIZE")
+        .ok()
+        .and_then(|s| s.parse::<u32>().ok())
+        .filter(|&n| n > 0)
+        .unwrap_or(if is_software(ctx) {
+            GPU_IMAGE_SOFTWARE
+        } else {
+            GPU_IMAGE_HARDWARE
+        })
+}
