@@ -20,7 +20,8 @@ use crate::mlrta::frustum::sign_class;
 use crate::mlrta::packet::{MlrtaCounts, PACKET, Packet};
 use crate::mlrta::prepared::Prepared;
 use crate::mlrta::tiles::{
-    Ctx, ImageTrace, MlrtaParams, Rect, SHADOW_EPSILON, TileOut, pixels, search_below, split_tiles,
+    Ctx, ImageTrace, MlrtaParams, Rect, SHADOW_EPSILON, ShadowRays, TileOut, block_rects, pixels, search_below,
+    shadow_tile_entry, split_tiles,
 };
 use crate::ray::{Hit, Ray};
 
@@ -269,38 +270,26 @@ pub fn trace_image_gpu(
         let cpu_start = Instant::now();
         let mut shadow = Batch::default();
         let mut shadow_counts = MlrtaCounts::default();
-        let root = c.root();
-        for by in (0..height).step_by(4) {
-            for bx in (0..width).step_by(4) {
-                let block = Rect {
-                    x: bx,
-                    y: by,
-                    w: 4.min(width - bx),
-                    h: 4.min(height - by),
-                };
-                let lit: Vec<u32> = pixels(block, width)
-                    .filter(|&i| image.hits[i as usize].is_hit())
-                    .collect();
-                if lit.is_empty() {
+        // As on the CPU: an entry point per final tile, packets from it.
+        let hit = |i: u32| image.hits[i as usize];
+        for tile in image.tiles.iter().filter(|t| t.entry.is_some()) {
+            let Some(start) = shadow_tile_entry(&c, light, tile.rect, hit, &mut shadow_counts) else {
+                continue;
+            };
+            for block in block_rects(tile.rect) {
+                let rays = ShadowRays::new(&c, light, block, hit);
+                if rays.len == 0 {
                     continue;
                 }
-                let to_points: Vec<Vec3> = lit
-                    .iter()
-                    .map(|&i| {
-                        let r = &rays[i as usize];
-                        r.o() + image.hits[i as usize].t * r.d() - light
-                    })
-                    .collect();
-                let search = params.entry_points.then_some(c.light_inside);
                 shadow.add_group(
                     p,
                     light,
-                    &to_points,
-                    &lit,
+                    &rays.to_points[..rays.len],
+                    &rays.pixels[..rays.len],
                     1.0 - SHADOW_EPSILON,
                     true,
-                    &root,
-                    search,
+                    &start,
+                    None,
                     &mut shadow_counts,
                 );
             }
