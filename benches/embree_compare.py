@@ -410,6 +410,8 @@ def packets_speed(args, exe: Path) -> int:
     modes = [
         ("mlrta on", ["--mlrta", "on"], 1),
         ("mlrta on", ["--mlrta", "on"], 2),
+        ("mlrta on, min tile 32", ["--mlrta", "on", "--min-tile", "32"], 1),
+        ("mlrta on, min tile 32", ["--mlrta", "on", "--min-tile", "32"], 2),
         ("mlrta off", ["--mlrta", "off"], 1),
         ("single ray", ["--single-ray"], 1),
         ("single ray", ["--single-ray"], 2),

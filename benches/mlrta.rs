@@ -13,7 +13,8 @@
 //!   1024x1024 primary rays of the default camera through
 //!   `mlrta::trace_image` in a rayon pool of that many threads; modes
 //!   `single-ray` (the kd-tree's closest hit per ray, in the same pool),
-//!   `packets` (`--mlrta off`), `mlrta` (`--mlrta on`) and `mlrta+shadows`
+//!   `packets` (`--mlrta off`), `mlrta` (`--mlrta on`), `mlrta-min-tile-8`
+//!   (`--min-tile 8`: fewest traversal steps) and `mlrta+shadows`
 //!   (plus a shadow ray per hit to the CLI's default light; the rays counted
 //!   are the primary ones).
 //! - `mlrta_gpu/<model>/<mode>/<W>x<H>`: `mlrta::gpu::trace_image_gpu`
@@ -31,6 +32,7 @@ use glam::Vec3;
 use penumbra::gpu::GpuContext;
 use penumbra::kdtree::gpu::GpuKdTree;
 use penumbra::mlrta::gpu::trace_image_gpu;
+use penumbra::mlrta::tiles::DEFAULT_MIN_TILE;
 use penumbra::mlrta::{MlrtaParams, Prepared, trace_image};
 use penumbra::ray::{Hit, Ray};
 use rayon::prelude::*;
@@ -41,9 +43,10 @@ fn default_light(m: &Model) -> Vec3 {
     b.center() + Vec3::new(-0.4, 1.0, 0.3).normalize() * b.diagonal()
 }
 
-fn params(entry_points: bool) -> MlrtaParams {
+fn params(entry_points: bool, min_tile: u32) -> MlrtaParams {
     MlrtaParams {
         entry_points,
+        min_tile,
         corner_frusta: true,
         ..MlrtaParams::default()
     }
@@ -94,7 +97,16 @@ fn bench_cpu(c: &mut Criterion, models: &[Model], threads: usize) {
         // Once untimed: the packets' hits must be the single rays'.
         let reference = pool.install(|| single_rays(m, &rays));
         let traced = pool
-            .install(|| trace_image(&prepared, &rays, CPU_IMAGE, CPU_IMAGE, &params(true), None))
+            .install(|| {
+                trace_image(
+                    &prepared,
+                    &rays,
+                    CPU_IMAGE,
+                    CPU_IMAGE,
+                    &params(true, DEFAULT_MIN_TILE),
+                    None,
+                )
+            })
             .expect("trace_image");
         let differ = traced.hits.iter().zip(&reference).filter(|(a, b)| a != b).count();
         eprintln!(
@@ -107,12 +119,13 @@ fn bench_cpu(c: &mut Criterion, models: &[Model], threads: usize) {
             b.iter(|| pool.install(|| single_rays(m, black_box(&rays))))
         });
         let modes = [
-            ("packets", false, None),
-            ("mlrta", true, None),
-            ("mlrta+shadows", true, Some(light)),
+            ("packets", false, DEFAULT_MIN_TILE, None),
+            ("mlrta", true, DEFAULT_MIN_TILE, None),
+            ("mlrta-min-tile-8", true, 8, None),
+            ("mlrta+shadows", true, DEFAULT_MIN_TILE, Some(light)),
         ];
-        for (mode, entry_points, light) in modes {
-            let p = params(entry_points);
+        for (mode, entry_points, min_tile, light) in modes {
+            let p = params(entry_points, min_tile);
             group.bench_function(BenchmarkId::new(m.name.as_str(), mode), |b| {
                 b.iter(|| {
                     pool.install(|| trace_image(&prepared, black_box(&rays), CPU_IMAGE, CPU_IMAGE, &p, light))
@@ -142,8 +155,13 @@ fn bench_gpu(c: &mut Criterion, models: &[Model]) {
         let gpu_tree = GpuKdTree::upload(&ctx.device, &m.tree).expect("uploading the kd-tree");
         let rays = primary_rays(&m.mesh, size);
         group.throughput(Throughput::Elements(rays.len() as u64));
-        for (mode, entry_points) in [("packets", false), ("mlrta", true)] {
-            let p = params(entry_points);
+        let modes = [
+            ("packets", false, DEFAULT_MIN_TILE),
+            ("mlrta", true, DEFAULT_MIN_TILE),
+            ("mlrta-min-tile-8", true, 8),
+        ];
+        for (mode, entry_points, min_tile) in modes {
+            let p = params(entry_points, min_tile);
             let first = trace_image_gpu(&ctx, &gpu_tree, &prepared, &rays, size, size, &p, None).expect("GPU packets");
             eprintln!(
                 "mlrta_gpu/{}/{mode}: wall {:.1} ms (CPU part {:.1} ms), kernel {}",

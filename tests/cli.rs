@@ -1100,7 +1100,7 @@ fn trace_adaptive_aa_spends_fewer_rays_than_uniform() {
     let rays = aa["rays"].as_u64().unwrap();
     assert!((64 * 64..64 * 64 * 4).contains(&rays), "{aa}");
     assert!(
-        aa["complex_tiles"].as_u64().unwrap() > 0,
+        aa["complex_units"].as_u64().unwrap() > 0,
         "the sphere's outline is complex: {aa}"
     );
     let reference = &aa["reference"];
@@ -1110,8 +1110,10 @@ fn trace_adaptive_aa_spends_fewer_rays_than_uniform() {
     );
     println!("edge RMSE against 16 spp: adaptive {adaptive_rmse:.5}, uniform {uniform_rmse:.5}");
     assert!(reference["edge_pixels"].as_u64().unwrap() > 0, "{aa}");
+    // Every edge pixel that shading can tell from its neighbours gets the
+    // uniform samples, so the error is the same up to rounding.
     assert!(
-        adaptive_rmse <= uniform_rmse * 1.25 + 1e-4,
+        adaptive_rmse <= uniform_rmse * 1.001 + 1e-6,
         "adaptive anti-aliasing must keep the edge quality of uniform: {aa}"
     );
     assert_eq!(image::image_dimensions(&aa_png).unwrap(), (64, 64));

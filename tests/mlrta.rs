@@ -15,7 +15,7 @@ use penumbra::ao::raycast::visibility_cpu;
 use penumbra::kdtree::{KdTree, KdTreeParams};
 use penumbra::mlrta::ao::visibility_mlrta;
 use penumbra::mlrta::entry_point::EntryPoint;
-use penumbra::mlrta::tiles::{Group, trace_group};
+use penumbra::mlrta::tiles::{DEFAULT_MIN_TILE, Group, trace_group};
 use penumbra::mlrta::{MlrtaParams, Prepared, trace_image};
 use penumbra::progress::Progress;
 use penumbra::ray::Hit;
@@ -137,13 +137,13 @@ fn primary_and_shadow_rays_equal_single_rays_on_shared_models() {
     for model in ["stanford-bunny.obj", "dragon100k.obj", "kitchen.obj"] {
         let Some(path) = data_model(model) else { return };
         let mesh = load_obj(&path).unwrap();
-        compare_image(
-            model,
-            &mesh,
-            &Camera::default_for(&mesh.bounds()),
-            512,
-            MlrtaParams::default(),
-        );
+        let camera = Camera::default_for(&mesh.bounds());
+        compare_image(model, &mesh, &camera, 512, MlrtaParams::default());
+        let deep = MlrtaParams {
+            min_tile: 8,
+            ..MlrtaParams::default()
+        };
+        compare_image(&format!("{model}, min tile 8"), &mesh, &camera, 512, deep);
     }
     if let Some(path) = data_model("kitchen.obj") {
         let mesh = load_obj(&path).unwrap();
@@ -256,15 +256,19 @@ fn compare_gpu(ctx: &penumbra::gpu::GpuContext, name: &str, mesh: &Mesh, camera:
         .iter()
         .map(|r| tree.closest_hit(r.o(), r.d(), f32::INFINITY))
         .collect();
-    for entry_points in [false, true] {
+    // Without entry points, and with them at the default and the smallest
+    // practical minimum tile (deeper splits, more stopping rules).
+    for (entry_points, min_tile) in [(false, DEFAULT_MIN_TILE), (true, DEFAULT_MIN_TILE), (true, 8)] {
         let params = MlrtaParams {
             entry_points,
+            min_tile,
+            corner_frusta: true,
             ..Default::default()
         };
         let cpu = trace_image(&prepared, &rays, size, size, &params, Some(light)).unwrap();
         let gpu = trace_image_gpu(ctx, &gpu_tree, &prepared, &rays, size, size, &params, Some(light)).unwrap();
         check(
-            &format!("{name} GPU packets, entry points {entry_points}"),
+            &format!("{name} GPU packets, entry points {entry_points}, min tile {min_tile}"),
             &agreement(&gpu.image.hits, &single),
         );
         let shadows_differ = cpu
@@ -274,7 +278,9 @@ fn compare_gpu(ctx: &penumbra::gpu::GpuContext, name: &str, mesh: &Mesh, camera:
             .zip(gpu.image.shadowed.unwrap())
             .filter(|(a, b)| **a != *b)
             .count();
-        println!("{name} GPU shadows, entry points {entry_points}: {shadows_differ} differ from the CPU");
+        println!(
+            "{name} GPU shadows, entry points {entry_points}, min tile {min_tile}: {shadows_differ} differ from the CPU"
+        );
         assert!(shadows_differ as f64 <= 1e-4 * rays.len() as f64);
     }
 }
@@ -295,5 +301,43 @@ fn gpu_packets_equal_cpu_on_shared_models() {
         let Some(path) = data_model(model) else { return };
         let mesh = load_obj(&path).unwrap();
         compare_gpu(&ctx, model, &mesh, &Camera::default_for(&mesh.bounds()), 256);
+    }
+}
+
+/// Adaptive anti-aliasing on the shared models: the edge error of uniform
+/// 4x supersampling (against 16 rays per pixel) with at least a third
+/// fewer rays.
+#[test]
+fn adaptive_aa_keeps_uniform_edge_quality_on_shared_models() {
+    use penumbra::mlrta::aa::{AaMode, reference, render};
+    for model in ["stanford-bunny.obj", "kitchen.obj"] {
+        let Some(path) = data_model(model) else { return };
+        let mesh = load_obj(&path).unwrap();
+        let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+        let (prepared, _) = Prepared::new(&tree, &mesh);
+        let camera = Camera::default_for(&mesh.bounds());
+        let size = 384;
+        let params = MlrtaParams {
+            corner_frusta: true,
+            ..MlrtaParams::default()
+        };
+        let rays = camera.primary_rays(size, size);
+        let tiles = trace_image(&prepared, &rays, size, size, &params, None).unwrap().tiles;
+        let adaptive = render(&prepared, &camera, size, size, &params, AaMode::Adaptive, 4, &tiles).unwrap();
+        let uniform = render(&prepared, &camera, size, size, &params, AaMode::Uniform, 4, &tiles).unwrap();
+        let mut r = reference(&prepared, &camera, size, size);
+        r.uniform = Some(uniform);
+        let report = adaptive.report(Some(r));
+        let (a, u) = (
+            report["reference"]["rmse_edges"].as_f64().unwrap(),
+            report["reference"]["uniform_rmse_edges"].as_f64().unwrap(),
+        );
+        let saved = report["saved_vs_uniform"].as_f64().unwrap();
+        println!(
+            "{model} {size}x{size}: edge RMSE adaptive {a:.5}, uniform {u:.5}; {:.1}% fewer rays",
+            saved * 100.0
+        );
+        assert!(a <= u * 1.001 + 1e-6, "{model}: {report}");
+        assert!(saved > 0.33, "{model}: {report}");
     }
 }

@@ -4,11 +4,17 @@
 //! 2D leaf completely covered by triangles, we could cast rays sparingly and
 //! reserve more of the ray budget for more complicated regions").
 //!
-//! A final tile whose entry point is nothing (it hits nothing), or a leaf at
-//! which the search stopped because every ray ends on one triangle or one
-//! covered plane, contains no geometric edge: one ray per pixel renders it
-//! exactly. Every other tile gets `samples` rays per pixel on a stratified
-//! grid, traced with MLRTA again.
+//! The units are the final tiles of the one-ray pass, and the 4x4 blocks of
+//! its diverging tiles (which have no entry point of their own). A unit is
+//! judged by the entry point of its *footprint*: the group of all rays
+//! through its pixels' area, where the extra samples fall (a pinhole
+//! camera's directions are extreme at the rectangle's corners, so its four
+//! corner rays bound the group). If the footprint hits nothing, or its
+//! search stopped at a leaf of coplanar triangles because every ray ends on
+//! one of them or on a covered plane, one ray per pixel renders it (a
+//! change of triangle within one plane changes no shading); every other unit gets
+//! `samples` rays per pixel on a stratified grid, traced with MLRTA again.
+//! The reference below measures what this misses.
 //!
 //! Edge quality is measured against a reference of 16 rays per pixel (4x4
 //! grid) everywhere: *edge pixels* are those whose 16 reference samples do
@@ -22,7 +28,11 @@ use clap::ValueEnum;
 use serde_json::{Value, json};
 
 use crate::error::{Error, Result};
-use crate::mlrta::tiles::{Rect, TileReport, trace_image, trace_rects};
+use rayon::prelude::*;
+
+use crate::mlrta::entry_point::entry_point;
+use crate::mlrta::frustum::Frustum;
+use crate::mlrta::tiles::{Rect, TileReport, block_rects, trace_image, trace_rects};
 use crate::mlrta::{MlrtaParams, Prepared};
 use crate::ray::{Hit, Ray};
 use crate::scene::Camera;
@@ -50,12 +60,70 @@ pub fn validate_samples(n: u32) -> Result<()> {
     Ok(())
 }
 
-/// Whether a final tile may contain an edge (see the module documentation).
-pub fn is_complex(p: &Prepared, t: &TileReport) -> bool {
-    match t.entry {
-        None => false,
-        Some(node) => !(p.tree.nodes[node as usize].is_leaf() && t.stopped),
+/// The rectangles that get extra rays: final tiles and blocks of diverging
+/// tiles whose footprint may contain an edge (see the module documentation).
+pub fn complex_units(p: &Prepared, camera: &Camera, width: u32, height: u32, tiles: &[TileReport]) -> Vec<Rect> {
+    let origin_inside = p.inside_object(camera.eye);
+    let units: Vec<Rect> = tiles
+        .iter()
+        .flat_map(|t| {
+            let blocks: Vec<Rect> = if t.diverging {
+                block_rects(t.rect).collect()
+            } else {
+                vec![t.rect]
+            };
+            blocks
+        })
+        .collect();
+    units
+        .into_par_iter()
+        .filter(|&r| !footprint_is_simple(p, camera, width, height, r, origin_inside))
+        .collect()
+}
+
+fn footprint_is_simple(
+    p: &Prepared,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    r: Rect,
+    origin_inside: Option<u32>,
+) -> bool {
+    let (x0, y0, x1, y1) = (r.x as f32, r.y as f32, (r.x + r.w) as f32, (r.y + r.h) as f32);
+    let corners = [(x0, y0), (x1, y0), (x0, y1), (x1, y1)].map(|(x, y)| camera.direction(width, height, x, y));
+    let Some(footprint) = Frustum::new(camera.eye, corners, f32::INFINITY) else {
+        return false;
+    };
+    let mut steps = 0;
+    match entry_point(p, &footprint, (0, p.tree.bounds), origin_inside, &mut steps) {
+        None => true,
+        Some(e) => e.covered && is_planar_leaf(p, e.node),
     }
+}
+
+/// A leaf whose triangles all lie in one plane: once every ray of a group
+/// ends on it (a covering triangle or covered plane), nothing in the leaf
+/// can stand in front of another and make an edge.
+fn is_planar_leaf(p: &Prepared, node: u32) -> bool {
+    let node = p.tree.nodes[node as usize];
+    if !node.is_leaf() {
+        return false;
+    }
+    let triangles = &p.tree.leaf_vertices[node.leaf_range()];
+    let Some(&[a, b, c]) = triangles.first() else {
+        return false;
+    };
+    let n = (b - a).cross(c - a).normalize_or_zero();
+    let scale = triangles
+        .iter()
+        .flatten()
+        .map(|v| v.abs().max_element())
+        .fold(1.0f32, f32::max);
+    n != glam::Vec3::ZERO
+        && triangles
+            .iter()
+            .flatten()
+            .all(|&v| (v - a).dot(n).abs() <= 1e-5 * scale)
 }
 
 /// An anti-aliased image.
@@ -67,7 +135,9 @@ pub struct AaResult {
     /// Rays per pixel.
     pub spp: Vec<u32>,
     pub rays: u64,
-    pub complex_tiles: usize,
+    /// Final tiles and diverging tiles' blocks that got extra rays.
+    pub complex_units: usize,
+    /// Final tiles of the one-ray pass.
     pub tiles: usize,
     pub ms: f64,
 }
@@ -123,7 +193,7 @@ pub fn render(
             w: width,
             h: height,
         }],
-        AaMode::Adaptive => tiles.iter().filter(|t| is_complex(p, t)).map(|t| t.rect).collect(),
+        AaMode::Adaptive => complex_units(p, camera, width, height, tiles),
     };
     let mut rays = n as u64;
     if !complex.is_empty() {
@@ -156,7 +226,7 @@ pub fn render(
         image,
         spp,
         rays,
-        complex_tiles: if mode == AaMode::Adaptive { complex.len() } else { 0 },
+        complex_units: if mode == AaMode::Adaptive { complex.len() } else { 0 },
         tiles: tiles.len(),
         ms: start.elapsed().as_secs_f64() * 1e3,
     })
@@ -213,7 +283,7 @@ impl AaResult {
             "rays_uniform": uniform_rays,
             "saved_vs_uniform": 1.0 - self.rays as f64 / uniform_rays as f64,
             "tiles": self.tiles,
-            "complex_tiles": self.complex_tiles,
+            "complex_units": self.complex_units,
             "aa_ms": self.ms,
         });
         if let Some(r) = reference {

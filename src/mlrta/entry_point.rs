@@ -23,6 +23,7 @@
 //! inside an object, costs time, never a hit.
 
 use crate::aabb::Aabb;
+use crate::kdtree::watertight::ShearedRay;
 use crate::mlrta::frustum::Frustum;
 use crate::mlrta::prepared::{Occluder, Prepared};
 
@@ -102,14 +103,11 @@ const MAX_OCCLUDER_CANDIDATES: usize = 8;
 /// Returns the largest corner hit distance: every ray of the group ends by
 /// it, so the search may shorten the group to it, and what lies beyond (the
 /// far subtrees of the bifurcation stack, behind the triangle) is culled.
-fn covering_distance(p: &Prepared, f: &Frustum, i: u32) -> Option<f32> {
+fn covering_distance(p: &Prepared, f: &Frustum, corners: &[ShearedRay; 4], i: u32) -> Option<f32> {
     let range = p.tree.nodes[i as usize].leaf_range();
     if range.len() > MAX_OCCLUDER_CANDIDATES {
         return None;
     }
-    let corners = f
-        .corner_directions()
-        .map(|d| crate::kdtree::watertight::ShearedRay::new(f.origin, d));
     p.tree.leaf_vertices[range]
         .iter()
         .filter_map(|&[a, b, c]| {
@@ -174,8 +172,11 @@ pub fn entry_point(
     let mut f = *f;
     let mut speculative = false;
     let mut covered = false;
+    // The corner rays, for covering triangles (shortening the group does
+    // not move them).
+    let corners = f.corner_directions().map(|d| ShearedRay::new(f.origin, d));
     let mut at_potential_leaf = |i: u32, f: &mut Frustum| {
-        if let Some(t) = covering_distance(p, f, i) {
+        if let Some(t) = covering_distance(p, f, &corners, i) {
             f.t_max = t;
             speculative = true;
             covered = true;

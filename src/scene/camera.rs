@@ -70,19 +70,31 @@ impl Camera {
     /// Primary rays through the point `(ox, oy)` of each pixel, offsets in
     /// [0, 1) from the pixel's top-left corner (0.5, 0.5 is its centre).
     pub fn primary_rays_at(&self, width: u32, height: u32, ox: f32, oy: f32) -> Vec<Ray> {
-        let (right, up, forward) = self.basis();
-        let tan_half = (0.5 * self.fov_degrees.to_radians()).tan();
-        let aspect = width as f32 / height as f32;
+        let direction = self.projection(width, height);
         let mut rays = Vec::with_capacity(width as usize * height as usize);
         for y in 0..height {
-            let py = (1.0 - 2.0 * (y as f32 + oy) / height as f32) * tan_half;
             for x in 0..width {
-                let px = (2.0 * (x as f32 + ox) / width as f32 - 1.0) * tan_half * aspect;
-                let d = (forward + px * right + py * up).normalize();
-                rays.push(Ray::new(self.eye, d));
+                rays.push(Ray::new(self.eye, direction(x as f32 + ox, y as f32 + oy)));
             }
         }
         rays
+    }
+
+    /// The unit direction through image point `(x, y)` of a `width x height`
+    /// image, in pixels from its top-left corner.
+    pub fn direction(&self, width: u32, height: u32, x: f32, y: f32) -> Vec3 {
+        self.projection(width, height)(x, y)
+    }
+
+    fn projection(&self, width: u32, height: u32) -> impl Fn(f32, f32) -> Vec3 {
+        let (right, up, forward) = self.basis();
+        let tan_half = (0.5 * self.fov_degrees.to_radians()).tan();
+        let aspect = width as f32 / height as f32;
+        move |x, y| {
+            let py = (1.0 - 2.0 * y / height as f32) * tan_half;
+            let px = (2.0 * x / width as f32 - 1.0) * tan_half * aspect;
+            (forward + px * right + py * up).normalize()
+        }
     }
 }
 
