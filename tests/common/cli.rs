@@ -1,0 +1,176 @@
+//! Running the `penumbra` binary in tests: command-line templates, the
+//! outcome of a run, and per-test temporary folders. Shared by every CLI
+//! test file (`tests/cli*.rs`).
+
+use std::path::PathBuf;
+use std::process::Command;
+
+use serde_json::Value;
+
+use super::asset;
+
+/// The argument list of a command-line template: whitespace-separated
+/// tokens, each `{name}` in a token replaced by the value of `name`.
+pub fn cmd(template: &str, vars: &[(&str, &str)]) -> Vec<String> {
+    template
+        .split_whitespace()
+        .map(|token| {
+            let mut t = token.to_string();
+            for (name, value) in vars {
+                t = t.replace(&format!("{{{name}}}"), value);
+            }
+            assert!(!t.contains('{'), "unbound variable in {token:?}");
+            t
+        })
+        .collect()
+}
+
+/// One finished run of the binary.
+pub struct Out {
+    pub args: String,
+    pub code: i32,
+    pub stdout: String,
+    pub stderr: String,
+}
+
+impl Out {
+    pub fn describe(&self) -> String {
+        format!(
+            "penumbra {}\nexit code: {}\n--- stdout ---\n{}\n--- stderr ---\n{}",
+            self.args, self.code, self.stdout, self.stderr
+        )
+    }
+
+    /// Exit 0.
+    pub fn ok(&self) -> &Self {
+        assert_eq!(self.code, 0, "expected success\n{}", self.describe());
+        self
+    }
+
+    /// Exit 2, nothing on stdout, and every phrase in stderr.
+    pub fn bad_input(&self, phrases: &[&str]) -> &Self {
+        assert_eq!(self.code, 2, "expected exit code 2 (bad input)\n{}", self.describe());
+        assert!(
+            self.stdout.is_empty(),
+            "stdout must be empty on error\n{}",
+            self.describe()
+        );
+        for p in phrases {
+            assert!(
+                self.stderr.contains(p),
+                "stderr must mention {p:?}\n{}",
+                self.describe()
+            );
+        }
+        self
+    }
+
+    /// The single JSON object on stdout: exactly one value, then one newline.
+    pub fn json(&self) -> Value {
+        assert!(
+            self.stdout.ends_with('\n') && self.stdout.trim_end().lines().count() == 1,
+            "--json stdout must be one line ending with a single newline\n{}",
+            self.describe()
+        );
+        let mut values = serde_json::Deserializer::from_str(&self.stdout).into_iter::<Value>();
+        let first = values
+            .next()
+            .unwrap_or_else(|| panic!("no JSON on stdout\n{}", self.describe()))
+            .unwrap_or_else(|e| panic!("stdout is not JSON ({e})\n{}", self.describe()));
+        assert!(
+            values.next().is_none(),
+            "more than one JSON value on stdout\n{}",
+            self.describe()
+        );
+        assert!(
+            first.is_object(),
+            "the JSON value is not an object\n{}",
+            self.describe()
+        );
+        first
+    }
+}
+
+/// Runs the binary with `args` and `env` changes (`None` removes a variable).
+/// Asserts what holds for every run: no panic (exit code 101 or a "panicked"
+/// message) and no death by a signal.
+pub fn run_env(args: &[String], env: &[(&str, Option<&str>)]) -> Out {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_penumbra"));
+    command.args(args);
+    for (k, v) in env {
+        match v {
+            Some(v) => command.env(k, v),
+            None => command.env_remove(k),
+        };
+    }
+    let output = command.output().expect("cannot start the penumbra binary");
+    let out = Out {
+        args: args.join(" "),
+        code: output.status.code().unwrap_or(-1),
+        stdout: String::from_utf8_lossy(&output.stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&output.stderr).into_owned(),
+    };
+    assert_ne!(out.code, 101, "the binary panicked\n{}", out.describe());
+    assert_ne!(out.code, -1, "the binary was killed by a signal\n{}", out.describe());
+    assert!(
+        !out.stderr.contains("panicked"),
+        "the binary panicked\n{}",
+        out.describe()
+    );
+    out
+}
+
+pub fn run(args: &[String]) -> Out {
+    run_env(args, &[])
+}
+
+/// `run(cmd(template, vars))`.
+pub fn pen(template: &str, vars: &[(&str, &str)]) -> Out {
+    run(&cmd(template, vars))
+}
+
+/// A per-test folder under the system temp dir, removed on drop.
+pub struct TempDir(pub PathBuf);
+
+impl TempDir {
+    pub fn new(test: &str) -> TempDir {
+        let dir = std::env::temp_dir().join(format!("penumbra-cli-{}-{test}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        TempDir(dir)
+    }
+
+    /// Path of `name` in the folder, as a command-line string.
+    pub fn p(&self, name: &str) -> String {
+        self.0.join(name).to_str().expect("UTF-8 temp path").to_string()
+    }
+
+    /// Writes `bytes` to `name`; returns its path.
+    pub fn write(&self, name: &str, bytes: impl AsRef<[u8]>) -> String {
+        std::fs::write(self.0.join(name), bytes).unwrap();
+        self.p(name)
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+pub fn asset_s(name: &str) -> String {
+    asset(name).to_str().unwrap().to_string()
+}
+
+pub fn gpu_available() -> bool {
+    match penumbra::gpu::GpuContext::headless() {
+        Ok(ctx) => {
+            println!("GPU adapter: {}", ctx.name);
+            true
+        }
+        Err(e) => {
+            println!("no GPU adapter ({e}): GPU test skipped");
+            false
+        }
+    }
+}
