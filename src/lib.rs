@@ -16,6 +16,7 @@ pub mod progress;
 pub mod ray;
 pub mod sampling;
 pub mod scene;
+pub mod sh;
 pub mod wgsl;
 
 pub use error::{Error, Result};

@@ -6,7 +6,14 @@ use std::path::Path;
 use crate::error::{Error, Result};
 
 /// Linear RGB radiance on a latitude-longitude grid: row 0 looks up (+y),
-/// column 0 at azimuth 0, width = 2 x height.
+/// width = 2 x height.
+///
+/// Texture coordinates (u, v) in [0, 1]² (u = column / width, v = row /
+/// height) map to the direction of the USC ICT / Probulator convention:
+/// `d = (sin θ sin α, cos θ, -sin θ cos α)` with `θ = π v`, `α = π (2u - 1)`.
+/// The image centre (u = 1/2) looks along -z, u = 3/4 along +x, and the seam
+/// (u = 0 = 1) along +z. Texel (c, r) covers `θ ∈ [π r/h, π (r+1)/h]` and a
+/// 2π/w slice of azimuth: solid angle `(2π / w) (cos θ0 - cos θ1)`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EnvironmentMap {
     pub width: u32,
@@ -41,6 +48,88 @@ impl EnvironmentMap {
             ));
         }
         Ok(EnvironmentMap { width, height, texels })
+    }
+
+    /// A map from texels in row-major order (row 0 up), checked like `load`.
+    pub fn from_texels(width: u32, height: u32, texels: Vec<[f32; 3]>) -> Result<EnvironmentMap> {
+        if height == 0 || width != 2 * height {
+            return Err(Error::input(
+                "environment map",
+                format!("{width}x{height} is not a 2:1 latitude-longitude map"),
+            ));
+        }
+        if texels.len() != (width * height) as usize {
+            return Err(Error::input(
+                "environment map",
+                format!("{} texels for a {width}x{height} map", texels.len()),
+            ));
+        }
+        if texels.iter().flatten().any(|c| !c.is_finite() || *c < 0.0) {
+            return Err(Error::input(
+                "environment map",
+                "radiance must be finite and non-negative",
+            ));
+        }
+        Ok(EnvironmentMap { width, height, texels })
+    }
+
+    /// A map of `height` rows whose texels hold `f` at their centre
+    /// direction.
+    pub fn from_fn(height: u32, f: impl Fn(glam::Vec3) -> [f32; 3]) -> Result<EnvironmentMap> {
+        let width = 2 * height;
+        let texels = (0..height)
+            .flat_map(|r| (0..width).map(move |c| (c, r)))
+            .map(|(c, r)| {
+                let d = Self::direction_f64((c as f64 + 0.5) / width as f64, (r as f64 + 0.5) / height as f64);
+                f(d.as_vec3())
+            })
+            .collect();
+        Self::from_texels(width, height, texels)
+    }
+
+    /// The direction of texture coordinates (u, v) (see the type's docs).
+    pub fn direction_f64(u: f64, v: f64) -> glam::DVec3 {
+        let theta = std::f64::consts::PI * v;
+        let alpha = std::f64::consts::PI * (2.0 * u - 1.0);
+        glam::DVec3::new(theta.sin() * alpha.sin(), theta.cos(), -theta.sin() * alpha.cos())
+    }
+
+    /// Texture coordinates (u, v) of a unit direction: the inverse of
+    /// `direction_f64`.
+    pub fn texcoord(d: glam::Vec3) -> (f32, f32) {
+        let u = 0.5 * (1.0 + d.x.atan2(-d.z) / std::f32::consts::PI);
+        let v = d.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI;
+        (u, v)
+    }
+
+    /// Solid angle of a texel of row `r`.
+    pub fn texel_solid_angle(&self, r: u32) -> f64 {
+        let h = self.height as f64;
+        let t0 = std::f64::consts::PI * r as f64 / h;
+        let t1 = std::f64::consts::PI * (r + 1) as f64 / h;
+        std::f64::consts::TAU / self.width as f64 * (t0.cos() - t1.cos())
+    }
+
+    /// Radiance seen in direction `d` (bilinear, wrapping in azimuth).
+    pub fn lookup(&self, d: glam::Vec3) -> [f32; 3] {
+        let (u, v) = Self::texcoord(d.normalize_or(glam::Vec3::Y));
+        let x = u * self.width as f32 - 0.5;
+        let y = (v * self.height as f32 - 0.5).clamp(0.0, (self.height - 1) as f32);
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let w = self.width as i64;
+        let col = |i: i64| (i.rem_euclid(w)) as usize;
+        let row = |j: f32| (j as usize).min(self.height as usize - 1);
+        let at = |c: usize, r: usize| self.texels[r * self.width as usize + c];
+        let (c0, c1) = (col(x0 as i64), col(x0 as i64 + 1));
+        let (r0, r1) = (row(y0), row(y0 + 1.0));
+        let mut out = [0.0; 3];
+        for (k, o) in out.iter_mut().enumerate() {
+            let top = at(c0, r0)[k] * (1.0 - fx) + at(c1, r0)[k] * fx;
+            let bottom = at(c0, r1)[k] * (1.0 - fx) + at(c1, r1)[k] * fx;
+            *o = top * (1.0 - fy) + bottom * fy;
+        }
+        out
     }
 }
 
