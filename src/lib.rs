@@ -13,6 +13,7 @@ pub mod gpu;
 pub mod kdtree;
 pub mod mlrta;
 pub mod progress;
+pub mod prt;
 pub mod ray;
 pub mod sampling;
 pub mod scene;

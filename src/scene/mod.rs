@@ -4,6 +4,7 @@
 //! points are taken from receivers.
 
 mod camera;
+pub mod animated;
 pub mod environment;
 mod mesh;
 mod obj;

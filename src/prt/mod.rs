@@ -1,0 +1,78 @@
+//! Precomputation-free radiance transfer by hemispherical rasterisation
+//! (Kautz, Lehtinen and Aila 2004): per-vertex visibility masks built every
+//! frame by rasterising blocker triangles onto the unit disk through a
+//! plane-bitmask LUT, integrated against spherical harmonics and the BRDF
+//! into transfer vectors, dotted with the lighting's SH coefficients.
+//!
+//! * `mask` — the disk grid, pixel areas and directions (section 3.1)
+//! * `lut` — the plane LUT with its cube-map index (3.1.1)
+//! * `clip` — blockers against the horizon (3.1.1)
+//! * `raster` — spherical rasterisation, CPU twin of `wgsl/hemi_raster.wgsl`
+//! * `transfer` — cells, integration, rotation, shading, twin of `wgsl/sh_transfer.wgsl` (3, 3.2)
+//! * `hierarchy` — two-level mesh and culling groups (3.2)
+//! * `pvs` — potentially visible sets from sampled frames (3.2)
+//! * `pipeline` — the per-frame loop on the CPU
+//! * `reference` — Monte Carlo ray-traced transfer (the error measure of Table 1)
+//! * `gpu` — the WGSL passes
+
+pub mod clip;
+pub mod hierarchy;
+pub mod lut;
+pub mod mask;
+pub mod pipeline;
+pub mod pvs;
+pub mod raster;
+pub mod reference;
+pub mod render;
+pub mod transfer;
+
+/// Compressed lists: `items[offsets[i]..offsets[i+1]]` is list i.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Csr {
+    pub offsets: Vec<u32>,
+    pub items: Vec<u32>,
+}
+
+impl Csr {
+    pub fn from_vecs(lists: &[Vec<u32>]) -> Csr {
+        let mut offsets = Vec::with_capacity(lists.len() + 1);
+        let mut items = Vec::with_capacity(lists.iter().map(Vec::len).sum());
+        offsets.push(0);
+        for l in lists {
+            items.extend_from_slice(l);
+            offsets.push(items.len() as u32);
+        }
+        Csr { offsets, items }
+    }
+
+    /// Lists of `n` keys from (key, item) pairs, items in pair order.
+    pub fn from_lists(n: usize, pairs: impl Iterator<Item = (usize, u32)> + Clone) -> Csr {
+        let mut counts = vec![0u32; n + 1];
+        for (k, _) in pairs.clone() {
+            counts[k + 1] += 1;
+        }
+        for i in 0..n {
+            counts[i + 1] += counts[i];
+        }
+        let mut fill = counts.clone();
+        let mut items = vec![0u32; counts[n] as usize];
+        for (k, item) in pairs {
+            items[fill[k] as usize] = item;
+            fill[k] += 1;
+        }
+        Csr { offsets: counts, items }
+    }
+
+    #[inline]
+    pub fn get(&self, i: usize) -> &[u32] {
+        &self.items[self.offsets[i] as usize..self.offsets[i + 1] as usize]
+    }
+
+    pub fn len(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}

@@ -1,0 +1,89 @@
+//! Monte Carlo ray-traced transfer: the ground truth of Table 1's error
+//! column. Per vertex, `rays` cosine-distributed directions (Malley's method
+//! on the seeded Owen-scrambled Sobol sequence of `sampling`) are traced
+//! against a kd-tree of the full-resolution mesh from the vertex lifted by
+//! the contract's offset along its normal; with the cosine density
+//! `cos θ / π`, equation 3 is estimated by
+//! `V*_i ≈ (1/N) Σ_j V(s_j) ρ(s_j) Y_i(s_j)` where `ρ = π f_r`.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::pipeline::ORIGIN_OFFSET;
+use super::transfer::Brdf;
+use crate::kdtree::KdTree;
+use crate::sampling::{Frame, SampleSequence, cosine_hemisphere};
+use crate::sh::{ShBasis, coefficient_count};
+
+/// Reference transfer vectors (world space, `bands²` per vertex) for the
+/// given shading normals (zero normal: zero transfer).
+#[allow(clippy::too_many_arguments)]
+pub fn reference_transfer(
+    tree: &KdTree,
+    positions: &[Vec3],
+    normals: &[Vec3],
+    scale: f32,
+    bands: usize,
+    brdf: &Brdf,
+    eye: Option<Vec3>,
+    rays: u32,
+    seed: u32,
+) -> Vec<f32> {
+    let n = coefficient_count(bands);
+    let basis = ShBasis::new(bands);
+    let seq = SampleSequence::new(seed);
+    let mut out = vec![0.0f32; positions.len() * n];
+    out.par_chunks_mut(n).enumerate().with_min_len(4).for_each(|(v, t)| {
+        let normal = normals[v];
+        if normal == Vec3::ZERO {
+            return;
+        }
+        let p = positions[v];
+        let origin = p + normal * (ORIGIN_OFFSET * scale);
+        let frame = Frame::from_normal(normal);
+        let reflected = match eye {
+            Some(e) => {
+                let view = (e - p).normalize_or(normal);
+                2.0 * normal.dot(view) * normal - view
+            }
+            None => normal,
+        };
+        let mut acc = vec![0.0f64; n];
+        let mut y = vec![0.0f32; n];
+        for j in 0..rays {
+            let [u, w] = seq.sample(v as u32, j);
+            let d = frame.to_world(cosine_hemisphere(u, w)).normalize();
+            if tree.any_hit(origin, d, f32::INFINITY) {
+                continue;
+            }
+            let rho = brdf.rho(d, reflected);
+            basis.eval(d, &mut y);
+            for (a, yi) in acc.iter_mut().zip(&y) {
+                *a += (rho * yi) as f64;
+            }
+        }
+        for (ti, a) in t.iter_mut().zip(&acc) {
+            *ti = (a / rays as f64) as f32;
+        }
+    });
+    out
+}
+
+/// Relative L2 error per vertex, `|T - T_ref| / |T_ref|`, averaged over
+/// vertices whose reference is not (nearly) zero. Returns (mean, vertices
+/// counted, vertices skipped).
+pub fn relative_l2_error(transfer: &[f32], reference: &[f32], coeffs: usize, floor: f32) -> (f64, usize, usize) {
+    let mut sum = 0.0f64;
+    let (mut counted, mut skipped) = (0, 0);
+    for (t, r) in transfer.chunks(coeffs).zip(reference.chunks(coeffs)) {
+        let norm: f32 = r.iter().map(|x| x * x).sum::<f32>().sqrt();
+        if norm <= floor {
+            skipped += 1;
+            continue;
+        }
+        let diff: f32 = t.iter().zip(r).map(|(a, b)| (a - b) * (a - b)).sum::<f32>().sqrt();
+        sum += (diff / norm) as f64;
+        counted += 1;
+    }
+    (if counted > 0 { sum / counted as f64 } else { 0.0 }, counted, skipped)
+}

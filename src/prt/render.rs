@@ -1,0 +1,86 @@
+//! Images of shaded frames: primary rays against a kd-tree of the frame's
+//! triangles, per-vertex exitant radiance interpolated barycentrically at
+//! the hit (Gouraud shading, as the paper's hardware rendering does), the
+//! environment behind, an exposure and the sRGB curve.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::error::Result;
+use crate::kdtree::{KdTree, KdTreeParams};
+use crate::scene::{Camera, EnvironmentMap};
+
+/// Renders one frame; returns 8-bit sRGB pixels, row 0 at the top.
+#[allow(clippy::too_many_arguments)]
+pub fn render(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    radiance: &[[f32; 3]],
+    albedo: Vec3,
+    env: Option<&EnvironmentMap>,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    exposure: f32,
+) -> Result<Vec<[u8; 3]>> {
+    let soup: Vec<[Vec3; 3]> = triangles.iter().map(|t| t.map(|i| positions[i as usize])).collect();
+    let tree = KdTree::from_triangles(soup, &KdTreeParams::default())?;
+    let rays = camera.primary_rays(width, height);
+    Ok(rays
+        .par_iter()
+        .map(|ray| {
+            let (o, d) = (ray.o(), ray.d());
+            let hit = tree.closest_hit(o, d, f32::INFINITY);
+            let c = if hit.is_hit() {
+                let t = triangles[hit.triangle as usize];
+                let [a, b, c] = t.map(|i| positions[i as usize]);
+                let p = o + d * hit.t;
+                let w = barycentric(p, a, b, c);
+                let rad = |k: usize| {
+                    w.x * radiance[t[0] as usize][k] + w.y * radiance[t[1] as usize][k] + w.z * radiance[t[2] as usize][k]
+                };
+                Vec3::new(rad(0), rad(1), rad(2)) * albedo
+            } else if let Some(env) = env {
+                Vec3::from_array(env.lookup(d.normalize()))
+            } else {
+                Vec3::ZERO
+            };
+            (c * exposure).to_array().map(srgb8)
+        })
+        .collect())
+}
+
+/// Barycentric coordinates of p (on the plane of abc).
+pub fn barycentric(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+    let (v0, v1, v2) = (b - a, c - a, p - a);
+    let (d00, d01, d11) = (v0.dot(v0), v0.dot(v1), v1.dot(v1));
+    let (d20, d21) = (v2.dot(v0), v2.dot(v1));
+    let denom = d00 * d11 - d01 * d01;
+    if denom.abs() < f32::MIN_POSITIVE {
+        return Vec3::new(1.0, 0.0, 0.0);
+    }
+    let v = (d11 * d20 - d01 * d21) / denom;
+    let w = (d00 * d21 - d01 * d20) / denom;
+    Vec3::new(1.0 - v - w, v, w).clamp(Vec3::ZERO, Vec3::ONE)
+}
+
+/// Linear value to 8-bit sRGB (clamped).
+pub fn srgb8(x: f32) -> u8 {
+    let x = x.clamp(0.0, 1.0);
+    let s = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
+    (s * 255.0).round() as u8
+}
+
+/// The exposure that maps the mean luminance of the shaded vertices to 0.45.
+pub fn auto_exposure(radiance: &[[f32; 3]], albedo: Vec3) -> f32 {
+    let lum: Vec<f32> = radiance
+        .iter()
+        .map(|r| 0.2126 * r[0] * albedo.x + 0.7152 * r[1] * albedo.y + 0.0722 * r[2] * albedo.z)
+        .filter(|l| *l > 0.0)
+        .collect();
+    if lum.is_empty() {
+        return 1.0;
+    }
+    let mean = lum.iter().sum::<f32>() / lum.len() as f32;
+    0.45 / mean.max(1e-12)
+}
