@@ -23,7 +23,7 @@ use super::Csr;
 use super::hierarchy::{Hierarchy, HierarchySettings, is_closed};
 use super::lut::PlaneLut;
 use super::mask::MaskGrid;
-use super::raster::{Fate, edge_planes, or_coverage};
+use super::raster::{BatchRefs, TriangleBatch, batch_or, batch_refs_inline};
 use super::transfer::{Brdf, CellTables, radiance};
 use crate::error::{Error, Result};
 use crate::sh::{MAX_BANDS, ShRotation, coefficient_count, tangent_frame};
@@ -145,6 +145,9 @@ pub struct Prt {
     pub hierarchy: Hierarchy,
     /// Per vertex, blocker ids (`far` index, or `far.len() + fine index`).
     pub pvs: Option<Csr>,
+    /// Per vertex, the blockers it always visits (near field, or its whole
+    /// PVS) with their vertices, for the transform loop.
+    own: OwnLists,
     pub cull_backfaces: bool,
     pub two_sided: bool,
     pub vertex_count: usize,
@@ -153,18 +156,79 @@ pub struct Prt {
     pub scale: f32,
     pub lut_ms: f64,
     pub setup_ms: f64,
+    avx2: bool,
+}
+
+/// Per-vertex blocker lists in local form: the distinct vertices they use
+/// and the triangles as indices into those.
+#[derive(Debug, Clone, Default)]
+struct OwnLists {
+    verts: Csr,
+    tri_offsets: Vec<u32>,
+    tris: Vec<[u16; 3]>,
+    /// Largest number of blockers any vertex may gather.
+    max_candidates: usize,
+}
+
+impl OwnLists {
+    /// From per-vertex triangle lists (each triangle as 3 global vertices).
+    fn build(lists: impl Iterator<Item = Vec<[u32; 3]>>) -> OwnLists {
+        let mut verts = Vec::new();
+        let mut tri_offsets = vec![0u32];
+        let mut tris = Vec::new();
+        let mut map = std::collections::HashMap::new();
+        for list in lists {
+            map.clear();
+            let mut vs = Vec::new();
+            for t in list {
+                tris.push(t.map(|g| {
+                    let next = vs.len() as u16;
+                    *map.entry(g).or_insert_with(|| {
+                        vs.push(g);
+                        next
+                    })
+                }));
+            }
+            verts.push(vs);
+            tri_offsets.push(tris.len() as u32);
+        }
+        OwnLists {
+            verts: Csr::from_vecs(&verts),
+            tri_offsets,
+            tris,
+            max_candidates: 0,
+        }
+    }
+
+    fn tris(&self, v: usize) -> &[[u16; 3]] {
+        &self.tris[self.tri_offsets[v] as usize..self.tri_offsets[v + 1] as usize]
+    }
 }
 
 /// Per-thread scratch, reused across vertices and frames.
 #[derive(Default)]
 struct Scratch {
-    tris: Vec<[Vec3; 3]>,
-    local: Vec<Vec3>,
+    tris: TriangleBatch,
+    refs: BatchRefs,
+    local: [Vec<f32>; 3],
+    gathered: [Vec<f32>; 3],
     excluded: Vec<u64>,
 }
 
 thread_local! {
     static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
+}
+
+/// Per-frame data shared by all vertices.
+struct FrameShared<'a> {
+    positions: &'a [Vec3],
+    normals: &'a [Vec3],
+    eye: Option<Vec3>,
+    lighting: &'a [f32],
+    boxes: Vec<(Vec3, Vec3)>,
+    /// Group vertices (`Hierarchy::group_verts` order) in SoA.
+    far_xyz: [Vec<f32>; 3],
+    profile: bool,
 }
 
 impl Prt {
@@ -176,6 +240,10 @@ impl Prt {
         }
         if let Some(i) = rest.iter().position(|p| !p.is_finite()) {
             return Err(Error::input(format!("vertex {}", i + 1), "has a non-finite coordinate"));
+        }
+        let nv = rest.len() as u32;
+        if let Some((t, _)) = triangles.iter().enumerate().find(|(_, t)| t.iter().any(|&v| v >= nv)) {
+            return Err(Error::input(format!("triangle {t}"), "has a vertex index out of range"));
         }
         let start = Instant::now();
         let grid = MaskGrid::new(settings.mask_side)?;
@@ -196,7 +264,11 @@ impl Prt {
         };
         let bounds = crate::aabb::Aabb::from_points(rest.iter());
         let scale = bounds.diagonal().max(f32::MIN_POSITIVE);
-        Ok(Prt {
+        #[cfg(target_arch = "x86_64")]
+        let avx2 = std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma");
+        #[cfg(not(target_arch = "x86_64"))]
+        let avx2 = false;
+        let mut prt = Prt {
             settings: settings.clone(),
             grid,
             lut,
@@ -204,13 +276,48 @@ impl Prt {
             rotation,
             hierarchy,
             pvs: None,
+            own: OwnLists::default(),
             cull_backfaces,
             two_sided,
             vertex_count: rest.len(),
             scale,
             lut_ms,
-            setup_ms: start.elapsed().as_secs_f64() * 1e3,
-        })
+            setup_ms: 0.0,
+            avx2,
+        };
+        prt.build_own_lists();
+        prt.setup_ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(prt)
+    }
+
+    /// Uses a potentially visible set (per vertex, blocker ids as
+    /// `pvs::build_pvs` makes them) instead of the hierarchy's lists.
+    pub fn set_pvs(&mut self, pvs: Option<Csr>) {
+        self.pvs = pvs;
+        self.build_own_lists();
+    }
+
+    fn build_own_lists(&mut self) {
+        let h = &self.hierarchy;
+        let far = h.far.len() as u32;
+        let nv = self.vertex_count;
+        let mut own = match &self.pvs {
+            Some(pvs) => OwnLists::build((0..nv).map(|v| {
+                pvs.get(v)
+                    .iter()
+                    .map(|&id| if id < far { h.far[id as usize] } else { h.fine[(id - far) as usize] })
+                    .collect()
+            })),
+            None => OwnLists::build((0..nv).map(|v| h.near.get(v).iter().map(|&f| h.fine[f as usize]).collect())),
+        };
+        own.max_candidates = (0..nv)
+            .map(|v| match &self.pvs {
+                Some(p) => p.get(v).len(),
+                None => h.candidates(v),
+            })
+            .max()
+            .unwrap_or(0);
+        self.own = own;
     }
 
     pub fn coeffs(&self) -> usize {
@@ -245,7 +352,7 @@ impl Prt {
     /// Computes one frame: transfer and radiance at every vertex.
     /// `lighting` is planar RGB SH (`3 x coeffs`); `eye` the camera (for
     /// two-sided meshes and glossy BRDFs). With `keep_masks` the masks are
-    /// returned too.
+    /// returned too (u64 words, `MaskGrid::words` per vertex).
     pub fn frame(&self, positions: &[Vec3], eye: Option<Vec3>, lighting: &[f32], profile: bool, keep_masks: bool, out: &mut FrameOutput) -> Result<()> {
         if positions.len() != self.vertex_count {
             return Err(Error::input(
@@ -274,46 +381,64 @@ impl Prt {
         let nv = positions.len();
         out.transfer.resize(nv * n, 0.0);
         out.radiance.resize(nv, [0.0; 3]);
+        out.masks.clear();
         out.masks.resize(if keep_masks { nv * W } else { 0 }, 0);
-        self.shading_normals(positions, eye, &mut out.normals);
-        let mut boxes = Vec::new();
-        if self.settings.group_culling && self.pvs.is_none() {
-            self.hierarchy.group_boxes(positions, &mut boxes);
+        let mut normals = std::mem::take(&mut out.normals);
+        self.shading_normals(positions, eye, &mut normals);
+        let h = &self.hierarchy;
+        let mut shared = FrameShared {
+            positions,
+            normals: &normals,
+            eye,
+            lighting,
+            boxes: Vec::new(),
+            far_xyz: Default::default(),
+            profile,
+        };
+        if self.pvs.is_none() {
+            if self.settings.group_culling {
+                h.group_boxes(positions, &mut shared.boxes);
+            }
+            for (axis, a) in shared.far_xyz.iter_mut().enumerate() {
+                a.extend(h.group_verts.iter().map(|&v| positions[v as usize][axis]));
+            }
         }
         let counters: [AtomicU64; 12] = Default::default();
         let setup_ns = other_start.elapsed().as_nanos() as u64;
 
         const CHUNK: usize = 16;
-        let normals = &out.normals;
-        let masks_out: Vec<&mut [u64]> = if keep_masks {
-            out.masks.chunks_mut(CHUNK * W).collect()
+        let mut mask_chunks: Vec<Option<&mut [u64]>> = if keep_masks {
+            out.masks.chunks_mut(CHUNK * W).map(Some).collect()
         } else {
             Vec::new()
         };
-        let mut masks_iter: Vec<Option<&mut [u64]>> = masks_out.into_iter().map(Some).collect();
-        masks_iter.resize_with(nv.div_ceil(CHUNK), || None);
+        mask_chunks.resize_with(nv.div_ceil(CHUNK), || None);
         out.transfer
             .par_chunks_mut(CHUNK * n)
             .zip(out.radiance.par_chunks_mut(CHUNK))
-            .zip(masks_iter.into_par_iter())
+            .zip(mask_chunks.into_par_iter())
             .enumerate()
-            .for_each(|(chunk, ((transfer, radiance), mut masks))| {
+            .for_each(|(chunk, ((transfer, radiance), masks))| {
                 SCRATCH.with(|s| {
                     let scratch = &mut *s.borrow_mut();
                     let mut local = [0u64; 12];
-                    for (k, (t, r)) in transfer.chunks_mut(n).zip(radiance.iter_mut()).enumerate() {
-                        let v = chunk * CHUNK + k;
-                        let mut mask = [0u64; W];
-                        *r = self.vertex::<W>(v, positions, normals[v], eye, &boxes, lighting, scratch, t, &mut mask, profile, &mut local);
-                        if let Some(m) = masks.as_mut() {
-                            m[k * W..(k + 1) * W].copy_from_slice(&mask);
-                        }
+                    let first = chunk * CHUNK;
+                    #[cfg(target_arch = "x86_64")]
+                    if self.avx2 {
+                        // SAFETY: AVX2 and FMA were detected in `Prt::new`.
+                        unsafe { self.chunk_avx2::<W>(first, &shared, scratch, transfer, radiance, masks, &mut local) };
+                    } else {
+                        self.chunk::<W>(first, &shared, scratch, transfer, radiance, masks, &mut local);
                     }
+                    #[cfg(not(target_arch = "x86_64"))]
+                    self.chunk::<W>(first, &shared, scratch, transfer, radiance, masks, &mut local);
                     for (c, l) in counters.iter().zip(local) {
                         c.fetch_add(l, Ordering::Relaxed);
                     }
                 });
             });
+        drop(shared);
+        out.normals = normals;
         let c = counters.map(|c| c.into_inner());
         out.stats = FrameStats {
             vertices: c[0],
@@ -328,25 +453,34 @@ impl Prt {
         };
     }
 
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[allow(clippy::too_many_arguments)]
+    unsafe fn chunk_avx2<const W: usize>(&self, first: usize, shared: &FrameShared, scratch: &mut Scratch, transfer: &mut [f32], radiance: &mut [[f32; 3]], masks: Option<&mut [u64]>, counts: &mut [u64; 12]) {
+        self.chunk::<W>(first, shared, scratch, transfer, radiance, masks, counts)
+    }
+
+    /// A run of consecutive vertices starting at `first`.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn chunk<const W: usize>(&self, first: usize, shared: &FrameShared, scratch: &mut Scratch, transfer: &mut [f32], radiance: &mut [[f32; 3]], mut masks: Option<&mut [u64]>, counts: &mut [u64; 12]) {
+        let n = self.coeffs();
+        scratch.tris.reserve(self.own.max_candidates);
+        for (k, (t, r)) in transfer.chunks_mut(n).zip(radiance.iter_mut()).enumerate() {
+            let mut mask = [0u64; W];
+            *r = self.vertex::<W>(first + k, shared, scratch, t, &mut mask, counts);
+            if let Some(m) = masks.as_mut() {
+                m[k * W..(k + 1) * W].copy_from_slice(&mask);
+            }
+        }
+    }
+
     /// One vertex; returns its radiance. `counts`: vertices, without normal,
     /// candidates, group-culled, below, back-facing, edge-on, drawn, then the
     /// four phase times.
-    #[allow(clippy::too_many_arguments)]
-    #[inline]
-    fn vertex<const W: usize>(
-        &self,
-        v: usize,
-        positions: &[Vec3],
-        normal: Vec3,
-        eye: Option<Vec3>,
-        boxes: &[(Vec3, Vec3)],
-        lighting: &[f32],
-        scratch: &mut Scratch,
-        transfer: &mut [f32],
-        mask: &mut [u64; W],
-        profile: bool,
-        counts: &mut [u64; 12],
-    ) -> [f32; 3] {
+    #[inline(always)]
+    fn vertex<const W: usize>(&self, v: usize, shared: &FrameShared, scratch: &mut Scratch, transfer: &mut [f32], mask: &mut [u64; W], counts: &mut [u64; 12]) -> [f32; 3] {
+        let normal = shared.normals[v];
         if normal == Vec3::ZERO {
             counts[1] += 1;
             transfer.fill(0.0);
@@ -354,31 +488,23 @@ impl Prt {
         }
         counts[0] += 1;
         let clock = |on: bool| if on { Some(Instant::now()) } else { None };
-        let t0 = clock(profile);
-        let p = positions[v];
+        let t0 = clock(shared.profile);
+        let p = shared.positions[v];
         let frame = tangent_frame(normal);
         let origin = p + normal * (ORIGIN_OFFSET * self.scale);
-        let inv = 1.0 / self.scale;
-        // Rows of the world-to-local matrix, scaled to unit mesh size.
-        let rows = Mat3::from_cols(frame.x_axis * inv, frame.y_axis * inv, frame.z_axis * inv).transpose();
-        let to_local = |q: Vec3| rows * (q - origin);
         scratch.tris.clear();
         if self.settings.shadows {
-            self.gather::<W>(v, positions, normal, origin, boxes, &to_local, scratch, counts);
+            self.gather(v, shared, normal, frame, origin, scratch, counts);
         }
-        let t1 = clock(profile);
-        for t in &scratch.tris {
-            match edge_planes(t, self.cull_backfaces) {
-                Ok(planes) => {
-                    or_coverage(&self.lut, &planes, mask);
-                    counts[7] += 1;
-                }
-                Err(Fate::BackFacing) => counts[5] += 1,
-                Err(_) => counts[6] += 1,
-            }
-        }
-        let t2 = clock(profile);
-        let reflected = match (self.settings.brdf, eye) {
+        let t1 = clock(shared.profile);
+        let nt = scratch.tris.len();
+        let (drawn, back, edge) = batch_refs_inline(&scratch.tris, self.cull_backfaces, self.lut.n as u32, self.grid.side as u32, &mut scratch.refs);
+        counts[7] += drawn;
+        counts[5] += back;
+        counts[6] += edge;
+        batch_or(&self.lut, &scratch.refs, nt, mask);
+        let t2 = clock(shared.profile);
+        let reflected = match (self.settings.brdf, shared.eye) {
             (Brdf::Phong { .. }, Some(e)) => {
                 let view = (e - p).normalize_or(normal);
                 let r = 2.0 * normal.dot(view) * normal - view;
@@ -388,8 +514,8 @@ impl Prt {
         };
         self.tables.integrate(mask, &self.settings.brdf, reflected, transfer);
         self.rotation.frame_to_world(normal, transfer);
-        let t3 = clock(profile);
-        let out = radiance(lighting, transfer);
+        let t3 = clock(shared.profile);
+        let out = radiance(shared.lighting, transfer);
         if let (Some(t0), Some(t1), Some(t2), Some(t3)) = (t0, t1, t2, t3) {
             counts[8] += (t1 - t0).as_nanos() as u64;
             counts[9] += (t2 - t1).as_nanos() as u64;
@@ -399,87 +525,106 @@ impl Prt {
         out
     }
 
-    /// Transform phase: candidate blockers of vertex v into the tangent
-    /// frame, keeping those with a point above the horizon.
+    /// Transform phase: the candidate blockers of vertex v into the tangent
+    /// frame (scaled to unit mesh size), keeping those with a point above
+    /// the horizon, compacted into `scratch.tris` without branches.
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    #[inline]
-    fn gather<const W: usize>(
-        &self,
-        v: usize,
-        positions: &[Vec3],
-        normal: Vec3,
-        origin: Vec3,
-        boxes: &[(Vec3, Vec3)],
-        to_local: &impl Fn(Vec3) -> Vec3,
-        scratch: &mut Scratch,
-        counts: &mut [u64; 12],
-    ) {
+    fn gather(&self, v: usize, shared: &FrameShared, normal: Vec3, frame: Mat3, origin: Vec3, scratch: &mut Scratch, counts: &mut [u64; 12]) {
         let h = &self.hierarchy;
-        let fine_tri = |f: u32| {
-            let t = h.fine[f as usize];
-            [to_local(positions[t[0] as usize]), to_local(positions[t[1] as usize]), to_local(positions[t[2] as usize])]
-        };
-        let keep = |t: [Vec3; 3], scratch: &mut Scratch, counts: &mut [u64; 12]| {
-            if t[0].z > 0.0 || t[1].z > 0.0 || t[2].z > 0.0 {
-                scratch.tris.push(t);
-            } else {
-                counts[4] += 1;
+        let inv = 1.0 / self.scale;
+        let (rt, rb, rn) = (frame.x_axis * inv, frame.y_axis * inv, frame.z_axis * inv);
+        let Scratch { tris, local, gathered, excluded: excl, .. } = scratch;
+        let mut emitted = 0u64;
+        let mut visited = 0u64;
+        let mut group_skipped = 0u64;
+        if self.pvs.is_none() {
+            let excluded = h.excluded.get(v);
+            if !excluded.is_empty() && excl.len() < h.far.len().div_ceil(64) {
+                excl.resize(h.far.len().div_ceil(64), 0);
             }
-        };
-        if let Some(pvs) = &self.pvs {
-            let far = h.far.len() as u32;
-            let list = pvs.get(v);
-            counts[2] += list.len() as u64;
-            for &id in list {
-                let t = if id < far {
-                    let t = h.far[id as usize];
-                    [to_local(positions[t[0] as usize]), to_local(positions[t[1] as usize]), to_local(positions[t[2] as usize])]
-                } else {
-                    fine_tri(id - far)
-                };
-                keep(t, scratch, counts);
-            }
-            return;
-        }
-        let excluded = h.excluded.get(v);
-        let near = h.near.get(v);
-        counts[2] += (h.far.len() - excluded.len() + near.len()) as u64;
-        if !excluded.is_empty() {
-            scratch.excluded.resize(h.far.len().div_ceil(64), 0);
             for &e in excluded {
-                scratch.excluded[e as usize / 64] |= 1 << (e % 64);
+                excl[e as usize / 64] |= 1 << (e % 64);
             }
-        }
-        for (g, group) in h.groups.iter().enumerate() {
-            if let Some(&(c, e)) = boxes.get(g) {
-                // Highest point of the box above the tangent plane.
-                if normal.dot(c - origin) + normal.abs().dot(e) <= 0.0 {
-                    let skipped = (group.far.start..group.far.end)
-                        .filter(|&t| excluded.is_empty() || scratch.excluded[t as usize / 64] >> (t % 64) & 1 == 0)
-                        .count();
-                    counts[3] += skipped as u64;
-                    continue;
+            let has_excl = !excluded.is_empty();
+            for (g, group) in h.groups.iter().enumerate() {
+                let (f0, f1) = (group.far.start as usize, group.far.end as usize);
+                if let Some(&(c, e)) = shared.boxes.get(g) {
+                    // Highest point of the box above the tangent plane.
+                    if normal.dot(c - origin) + normal.abs().dot(e) <= 0.0 {
+                        let skipped = (f0..f1).filter(|&t| !has_excl || excl[t / 64] >> (t % 64) & 1 == 0).count();
+                        group_skipped += skipped as u64;
+                        continue;
+                    }
+                }
+                let (v0, v1) = (group.verts.start as usize, group.verts.end as usize);
+                let [fx, fy, fz] = &shared.far_xyz;
+                to_local(&fx[v0..v1], &fy[v0..v1], &fz[v0..v1], origin, rt, rb, rn, local);
+                for t in f0..f1 {
+                    if has_excl && excl[t / 64] >> (t % 64) & 1 == 1 {
+                        continue;
+                    }
+                    visited += 1;
+                    emitted += emit(local, h.far_local[t], tris) as u64;
                 }
             }
-            let verts = &h.group_verts[group.verts.start as usize..group.verts.end as usize];
-            scratch.local.clear();
-            scratch.local.extend(verts.iter().map(|&q| to_local(positions[q as usize])));
-            for t in group.far.start..group.far.end {
-                if !excluded.is_empty() && scratch.excluded[t as usize / 64] >> (t % 64) & 1 == 1 {
-                    continue;
-                }
-                let l = h.far_local[t as usize];
-                let tri = [scratch.local[l[0] as usize], scratch.local[l[1] as usize], scratch.local[l[2] as usize]];
-                keep(tri, scratch, counts);
+            for &e in excluded {
+                excl[e as usize / 64] = 0;
             }
         }
-        for &e in excluded {
-            scratch.excluded[e as usize / 64] = 0;
+        // The vertex's own list: its near field, or its whole PVS.
+        let own_tris = self.own.tris(v);
+        if !own_tris.is_empty() {
+            let verts = self.own.verts.get(v);
+            for (a, g) in gathered.iter_mut().enumerate() {
+                g.clear();
+                g.extend(verts.iter().map(|&q| shared.positions[q as usize][a]));
+            }
+            let [gx, gy, gz] = &*gathered;
+            to_local(gx, gy, gz, origin, rt, rb, rn, local);
+            for &l in own_tris {
+                visited += 1;
+                emitted += emit(local, l, tris) as u64;
+            }
         }
-        for &f in near {
-            keep(fine_tri(f), scratch, counts);
+        counts[2] += visited + group_skipped;
+        counts[3] += group_skipped;
+        counts[4] += visited - emitted;
+    }
+}
+
+/// Blocker vertices (SoA) into the tangent frame: rows rt, rb, rn of the
+/// world-to-local matrix (already scaled), relative to `origin`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn to_local(xs: &[f32], ys: &[f32], zs: &[f32], origin: Vec3, rt: Vec3, rb: Vec3, rn: Vec3, local: &mut [Vec<f32>; 3]) {
+    let m = xs.len().min(ys.len()).min(zs.len());
+    for a in local.iter_mut() {
+        if a.len() < m {
+            a.resize(m, 0.0);
         }
     }
+    let [lx, ly, lz] = local;
+    let (lx, ly, lz) = (&mut lx[..m], &mut ly[..m], &mut lz[..m]);
+    for i in 0..m {
+        let (dx, dy, dz) = (xs[i] - origin.x, ys[i] - origin.y, zs[i] - origin.z);
+        lx[i] = rt.x * dx + rt.y * dy + rt.z * dz;
+        ly[i] = rb.x * dx + rb.y * dy + rb.z * dz;
+        lz[i] = rn.x * dx + rn.y * dy + rn.z * dz;
+    }
+}
+
+/// Writes a blocker (local vertex indices `l`) into the batch and keeps it
+/// if any vertex is above the horizon. Returns whether it was kept.
+#[inline(always)]
+fn emit(local: &[Vec<f32>; 3], l: [u16; 3], tris: &mut TriangleBatch) -> bool {
+    let [lx, ly, lz] = local;
+    let p = |k: usize| Vec3::new(lx[l[k] as usize], ly[l[k] as usize], lz[l[k] as usize]);
+    let t = [p(0), p(1), p(2)];
+    tris.write(t);
+    let above = t[0].z > 0.0 || t[1].z > 0.0 || t[2].z > 0.0;
+    tris.len += above as usize;
+    above
 }
 
 /// The contract's vertex normals (area-weighted face normals, normalised;
