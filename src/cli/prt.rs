@@ -18,7 +18,7 @@ use crate::prt::hierarchy::{HierarchySettings, NearField};
 use crate::prt::pipeline::{FrameOutput, Prt, PrtSettings, Toggle};
 use crate::prt::reference::{reference_transfer, relative_l2_error};
 use crate::prt::render::{auto_exposure, render};
-use crate::prt::transfer::{Brdf, radiance};
+use crate::prt::transfer::{Brdf, Integration, radiance};
 use crate::scene::animated::{AnimatedScene, Animation};
 use crate::scene::{Camera, EnvironmentMap, load_obj};
 use crate::sh::{ShRgb, ShRotation, coefficient_count, project_environment};
@@ -52,6 +52,16 @@ pub enum BrdfArg {
     Diffuse,
     /// Diffuse base plus a normalised Phong lobe (view-dependent transfer vector).
     Phong,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum IntegrationArg {
+    /// 4x4 grey levels times each cell's mean basis (section 3.2).
+    Cells,
+    /// 4x4 grey levels plus first moments against a linear fit of the basis.
+    CellsLinear,
+    /// Every occluded pixel with its own basis integral.
+    Pixels,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -109,6 +119,10 @@ pub struct PrtArgs {
     /// Phong lobe weight k_s in [0, 1] (the rest is diffuse).
     #[arg(long, default_value_t = 0.4, allow_negative_numbers = true)]
     pub specular: f32,
+    /// Mask integration: 4x4 grey levels (the paper), grey levels with first
+    /// moments, or every pixel.
+    #[arg(long, value_enum, default_value_t = IntegrationArg::CellsLinear)]
+    pub integration: IntegrationArg,
     /// Two-level mesh hierarchy (coarse mesh for distant blockers).
     #[arg(long, value_enum, default_value_t = OnOff::On)]
     pub hierarchy: OnOff,
@@ -262,6 +276,11 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
         lut_size: lut,
         bands,
         brdf,
+        integration: match args.integration {
+            IntegrationArg::Cells => Integration::Cells,
+            IntegrationArg::CellsLinear => Integration::CellsLinear,
+            IntegrationArg::Pixels => Integration::Pixels,
+        },
         hierarchy: HierarchySettings {
             enabled: args.hierarchy == OnOff::On,
             near: match args.near {
@@ -329,7 +348,8 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
                 p
             })
             .collect();
-        prt.pvs = Some(crate::prt::pvs::build_pvs(&prt, &sampled)?);
+        let pvs = crate::prt::pvs::build_pvs(&prt, &sampled)?;
+        prt.set_pvs(Some(pvs));
         pvs_ms = Some(t.elapsed().as_secs_f64() * 1e3);
     }
 
@@ -432,6 +452,7 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
         "order": bands,
         "coefficients": coeffs,
         "mask": mask,
+        "integration": settings.integration.name(),
         "lut": { "size": lut, "bytes": prt.lut.bytes(), "paper_layout_bytes": prt.lut.six_face_bytes(), "build_ms": prt.lut_ms },
         "brdf": match brdf { Brdf::Diffuse => json!({"kind": "diffuse"}), Brdf::Phong { shininess, specular } => json!({"kind": "phong", "shininess": shininess, "specular": specular}) },
         "shadows": format!("{:?}", args.shadows).to_lowercase(),
@@ -445,7 +466,7 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
         },
         "backface_culling": prt.cull_backfaces,
         "two_sided": prt.two_sided,
-        "pvs": match &prt.pvs {
+        "pvs": match prt.pvs() {
             Some(p) => json!({"frames": pvs_frames, "build_ms": pvs_ms, "avg_size": p.items.len() as f64 / prt.vertex_count.max(1) as f64}),
             None => Value::Null,
         },

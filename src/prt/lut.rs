@@ -175,12 +175,26 @@ mod tests {
     fn masks_are_half_spaces() {
         let grid = MaskGrid::new(16).unwrap();
         let lut = PlaneLut::build(&grid, 8).unwrap();
-        // The plane z = 0 seen from above: every pixel is above it.
+        // The plane z = 0 seen from above lands in a cell whose normal is
+        // tilted by half a cell; bit p must be exactly `d_p · m > 0` for that
+        // cell normal, and every pixel higher than the tilt is set.
         let up = lut.lookup(Vec3::Z).unwrap();
+        let m = PlaneLut::cell_normal(8, up.entry as usize);
+        let tilt = (m.truncate().length() / m.length()).asin();
         let mask = lut.mask(up.entry);
-        for (w, inside) in mask.iter().zip(&grid.inside) {
-            assert_eq!(w & inside, *inside);
+        let mut high = 0;
+        for (p, d) in grid.dirs.iter().enumerate() {
+            let bit = mask[p / 64] >> (p % 64) & 1 == 1;
+            let inside = grid.inside[p / 64] >> (p % 64) & 1 == 1;
+            if inside {
+                assert_eq!(bit, d.dot(m) > 0.0, "pixel {p}");
+            }
+            if inside && d.z > tilt.sin() {
+                assert!(bit, "pixel {p} at z = {} is above the tilted plane", d.z);
+                high += 1;
+            }
         }
+        assert!(high > grid.inside_count() / 2);
         assert_eq!(lut.bytes(), 3 * 64 * 32);
     }
 }

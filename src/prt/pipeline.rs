@@ -24,7 +24,7 @@ use super::hierarchy::{Hierarchy, HierarchySettings, is_closed};
 use super::lut::PlaneLut;
 use super::mask::MaskGrid;
 use super::raster::{BatchRefs, TriangleBatch, batch_or, batch_refs_inline};
-use super::transfer::{Brdf, CellTables, radiance};
+use super::transfer::{Brdf, CellTables, Integration, radiance};
 use crate::error::{Error, Result};
 use crate::sh::{MAX_BANDS, ShRotation, coefficient_count, tangent_frame};
 
@@ -49,6 +49,8 @@ pub struct PrtSettings {
     /// SH bands (5 = 25 coefficients).
     pub bands: usize,
     pub brdf: Brdf,
+    /// How masks are integrated (4x4 cells, with first moments, or pixels).
+    pub integration: Integration,
     pub hierarchy: HierarchySettings,
     /// Skip culling groups whose box is below the tangent plane.
     pub group_culling: bool,
@@ -68,6 +70,7 @@ impl Default for PrtSettings {
             lut_size: 128,
             bands: 5,
             brdf: Brdf::Diffuse,
+            integration: Integration::CellsLinear,
             hierarchy: HierarchySettings::default(),
             group_culling: true,
             backface: Toggle::Auto,
@@ -143,8 +146,9 @@ pub struct Prt {
     pub tables: CellTables,
     pub rotation: ShRotation,
     pub hierarchy: Hierarchy,
-    /// Per vertex, blocker ids (`far` index, or `far.len() + fine index`).
-    pub pvs: Option<Csr>,
+    /// Per vertex, blocker ids (`far` index, or `far.len() + fine index`);
+    /// set with `set_pvs`.
+    pvs: Option<Csr>,
     /// Per vertex, the blockers it always visits (near field, or its whole
     /// PVS) with their vertices, for the transform loop.
     own: OwnLists,
@@ -250,7 +254,7 @@ impl Prt {
         let t = Instant::now();
         let lut = PlaneLut::build(&grid, settings.lut_size)?;
         let lut_ms = t.elapsed().as_secs_f64() * 1e3;
-        let tables = CellTables::new(&grid, settings.bands);
+        let tables = CellTables::with_integration(&grid, settings.bands, settings.integration);
         let rotation = ShRotation::new(settings.bands);
         let hierarchy = Hierarchy::build(rest, triangles, &settings.hierarchy)?;
         let closed = is_closed(triangles);
@@ -295,6 +299,11 @@ impl Prt {
     pub fn set_pvs(&mut self, pvs: Option<Csr>) {
         self.pvs = pvs;
         self.build_own_lists();
+    }
+
+    /// The potentially visible set in use, if any.
+    pub fn pvs(&self) -> Option<&Csr> {
+        self.pvs.as_ref()
     }
 
     fn build_own_lists(&mut self) {

@@ -74,22 +74,61 @@ impl Brdf {
     }
 }
 
-/// Per-cell integrals for one mask grid and number of bands.
+/// How a mask is integrated against the basis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Integration {
+    /// The paper's 4x4 grey levels: each cell's occluded fraction times the
+    /// cell's mean basis values.
+    Cells,
+    /// 4x4 cells with first moments: the grey level plus the offset of the
+    /// occluded pixels' centroid from the cell's, against a least-squares
+    /// linear fit of each basis function over the cell (default).
+    CellsLinear,
+    /// Every pixel with its own basis integral (no downsampling).
+    Pixels,
+}
+
+impl Integration {
+    pub fn name(self) -> &'static str {
+        match self {
+            Integration::Cells => "cells",
+            Integration::CellsLinear => "cells-linear",
+            Integration::Pixels => "pixels",
+        }
+    }
+}
+
+/// Per-cell (and per-pixel) integrals for one mask grid and number of bands.
+///
+/// For cell c (its part inside the disk: area A_c, centroid r̄_c) and basis
+/// function i: `B_ci = ∫ Y_i dA`, and the least-squares linear fit
+/// `Y_i ≈ B_ci / A_c + g_ci · (r - r̄_c)` with `g_ci = C_c^-1 ∫ Y_i (r - r̄_c) dA`
+/// (C_c the cell's second-moment matrix). For the occluded pixels O of the
+/// cell, `∫_O Y_i dA ≈ o B_ci + μ · (A_c g_ci)`, where `o = A_O / A_c` is the
+/// grey level and `μ = ∫_O (r - r̄_c) dA / A_c` the first moment, both sums of
+/// per-pixel values looked up four pixels (one nibble of a row) at a time.
 #[derive(Debug, Clone)]
 pub struct CellTables {
     pub side: usize,
     pub bands: usize,
     pub coeffs: usize,
     pub cells: usize,
+    pub integration: Integration,
     /// `B_ci / π`, cell-major (`cells x coeffs`).
     pub basis: Vec<f32>,
+    /// `A_c g_ci / π`: x then y components, cell-major (`cells x 2 x coeffs`).
+    pub gradient: Vec<f32>,
+    /// Per pixel, `∫_pixel Y_i dA / π` (`side² x coeffs`).
+    pub pixel_basis: Vec<f32>,
     /// Cell areas A_c.
     pub area: Vec<f32>,
-    /// Per pixel, `A_p / A_cell(p)` (0 outside the disk).
+    /// Per pixel: `A_p / A_c`, and its first moments `∫_p (x - x̄_c) dA / A_c`,
+    /// `∫_p (y - ȳ_c) dA / A_c` (0 outside the disk). The WGSL kernel's layout.
     pub pixel_fraction: Vec<f32>,
-    /// Per cell and row k of its 4 rows, the occluded fraction for each of
-    /// the 16 nibble values (`cells x 4 x 16`).
-    pub nibble: Vec<f32>,
+    pub pixel_moment: Vec<[f32; 2]>,
+    /// Per cell and row k of its 4 rows, for each of the 16 nibble values:
+    /// occluded fraction and first moments (`cells x 4 x 16 x [o, μx, μy]`).
+    pub nibble: Vec<[f32; 4]>,
     /// Mean direction of each cell (for ρ_c).
     pub dirs: Vec<Vec3>,
     /// The unoccluded diffuse transfer `(1/π) Σ_c B_ci` (local frame).
@@ -98,22 +137,55 @@ pub struct CellTables {
 
 impl CellTables {
     pub fn new(grid: &MaskGrid, bands: usize) -> CellTables {
+        Self::with_integration(grid, bands, Integration::CellsLinear)
+    }
+
+    pub fn with_integration(grid: &MaskGrid, bands: usize, integration: Integration) -> CellTables {
         let basis_fn = ShBasis::new(bands);
         let n = coefficient_count(bands);
         let cps = grid.cells_per_side();
         let cells = grid.cell_count();
+        let side = grid.side;
+        let pi = std::f64::consts::PI;
+        let q = (bands + 4).max(12);
+        let mut y = vec![0.0f64; n];
+        // Per pixel: area, first moments about the origin, basis integrals.
+        let mut pixel_basis = vec![0.0f32; side * side * n];
+        let mut pix_area = vec![0.0f64; side * side];
+        let mut pix_m = vec![[0.0f64; 2]; side * side];
+        let h = 2.0 / side as f64;
+        for r in 0..side {
+            for c in 0..side {
+                let p = r * side + c;
+                let (x0, y0) = (-1.0 + c as f64 * h, -1.0 + r as f64 * h);
+                let mut b = vec![0.0f64; n];
+                disk_rect_quadrature(x0, x0 + h, y0, y0 + h, 8, 8, |d, w| {
+                    basis_fn.eval_f64(d, &mut y);
+                    for (bi, yi) in b.iter_mut().zip(&y) {
+                        *bi += w * yi;
+                    }
+                    pix_area[p] += w;
+                    pix_m[p][0] += w * d.x;
+                    pix_m[p][1] += w * d.y;
+                });
+                for i in 0..n {
+                    pixel_basis[p * n + i] = (b[i] / pi) as f32;
+                }
+            }
+        }
         let mut basis = vec![0.0f32; cells * n];
+        let mut gradient = vec![0.0f32; cells * 2 * n];
         let mut area = vec![0.0f32; cells];
         let mut dirs = vec![Vec3::Z; cells];
+        let mut centroid = vec![[0.0f64; 2]; cells];
         let mut unoccluded = vec![0.0f64; n];
-        let mut y = vec![0.0f64; n];
-        let q = (bands + 4).max(12);
         for cr in 0..cps {
             for cc in 0..cps {
                 let c = cr * cps + cc;
                 let [x0, x1, y0, y1] = grid.cell_rect(cr, cc);
+                // First pass: area, centroid, basis integrals; second: moments.
                 let mut b = vec![0.0f64; n];
-                let (mut a, mut mean) = (0.0, glam::DVec3::ZERO);
+                let (mut a, mut mean, mut m1) = (0.0, glam::DVec3::ZERO, [0.0f64; 2]);
                 disk_rect_quadrature(x0, x1, y0, y1, q, q, |d, w| {
                     basis_fn.eval_f64(d, &mut y);
                     for (bi, yi) in b.iter_mut().zip(&y) {
@@ -121,43 +193,78 @@ impl CellTables {
                     }
                     a += w;
                     mean += w * d;
+                    m1[0] += w * d.x;
+                    m1[1] += w * d.y;
                 });
+                if a <= 0.0 {
+                    continue;
+                }
+                let rb = [m1[0] / a, m1[1] / a];
+                let mut cov = [[0.0f64; 2]; 2];
+                let mut cross = vec![[0.0f64; 2]; n];
+                disk_rect_quadrature(x0, x1, y0, y1, q, q, |d, w| {
+                    basis_fn.eval_f64(d, &mut y);
+                    let dr = [d.x - rb[0], d.y - rb[1]];
+                    for (k, row) in cov.iter_mut().enumerate() {
+                        row[0] += w * dr[k] * dr[0];
+                        row[1] += w * dr[k] * dr[1];
+                    }
+                    for (ci, yi) in cross.iter_mut().zip(&y) {
+                        ci[0] += w * yi * dr[0];
+                        ci[1] += w * yi * dr[1];
+                    }
+                });
+                let det = cov[0][0] * cov[1][1] - cov[0][1] * cov[1][0];
+                let inv = if det > 1e-12 * a * a * a * a {
+                    [[cov[1][1] / det, -cov[0][1] / det], [-cov[1][0] / det, cov[0][0] / det]]
+                } else {
+                    [[0.0; 2]; 2]
+                };
                 for i in 0..n {
-                    basis[c * n + i] = (b[i] / std::f64::consts::PI) as f32;
-                    unoccluded[i] += b[i] / std::f64::consts::PI;
+                    basis[c * n + i] = (b[i] / pi) as f32;
+                    unoccluded[i] += b[i] / pi;
+                    let g = [
+                        inv[0][0] * cross[i][0] + inv[0][1] * cross[i][1],
+                        inv[1][0] * cross[i][0] + inv[1][1] * cross[i][1],
+                    ];
+                    gradient[(c * 2) * n + i] = (a * g[0] / pi) as f32;
+                    gradient[(c * 2 + 1) * n + i] = (a * g[1] / pi) as f32;
                 }
                 area[c] = a as f32;
-                if a > 0.0 {
-                    dirs[c] = mean.normalize().as_vec3();
-                }
+                centroid[c] = rb;
+                dirs[c] = mean.normalize().as_vec3();
             }
         }
-        let side = grid.side;
+        let cell_of = |r: usize, col: usize| (r / CELL) * cps + col / CELL;
         let mut pixel_fraction = vec![0.0f32; side * side];
+        let mut pixel_moment = vec![[0.0f32; 2]; side * side];
         for r in 0..side {
             for col in 0..side {
-                let c = (r / CELL) * cps + col / CELL;
                 let p = r * side + col;
-                let cell_area: f64 = (0..CELL)
-                    .flat_map(|i| (0..CELL).map(move |j| (i, j)))
-                    .map(|(i, j)| grid.areas[((r / CELL) * CELL + i) * side + (col / CELL) * CELL + j])
-                    .sum();
-                if cell_area > 0.0 {
-                    pixel_fraction[p] = (grid.areas[p] / cell_area) as f32;
+                let c = cell_of(r, col);
+                let a = area[c] as f64;
+                if a > 0.0 && pix_area[p] > 0.0 {
+                    pixel_fraction[p] = (pix_area[p] / a) as f32;
+                    pixel_moment[p] = [
+                        ((pix_m[p][0] - pix_area[p] * centroid[c][0]) / a) as f32,
+                        ((pix_m[p][1] - pix_area[p] * centroid[c][1]) / a) as f32,
+                    ];
                 }
-                let _ = c;
             }
         }
-        let mut nibble = vec![0.0f32; cells * 4 * 16];
+        let mut nibble = vec![[0.0f32; 4]; cells * 4 * 16];
         for cr in 0..cps {
             for cc in 0..cps {
                 let c = cr * cps + cc;
                 for k in 0..CELL {
                     for bits in 0..16usize {
-                        let mut f = 0.0f32;
+                        let mut f = [0.0f32; 4];
                         for j in 0..CELL {
                             if bits >> j & 1 == 1 {
-                                f += pixel_fraction[(cr * CELL + k) * side + cc * CELL + j];
+                                let p = (cr * CELL + k) * side + cc * CELL + j;
+                                f[0] += pixel_fraction[p];
+                                f[1] += pixel_moment[p][0];
+                                f[2] += pixel_moment[p][1];
                             }
                         }
                         nibble[(c * 4 + k) * 16 + bits] = f;
@@ -170,9 +277,13 @@ impl CellTables {
             bands,
             coeffs: n,
             cells,
+            integration,
             basis,
+            gradient,
+            pixel_basis,
             area,
             pixel_fraction,
+            pixel_moment,
             nibble,
             dirs,
             unoccluded: unoccluded.iter().map(|&v| v as f32).collect(),
@@ -188,52 +299,84 @@ impl CellTables {
         if s == 64 { w } else { w & ((1u64 << s) - 1) }
     }
 
+    /// Occluded fraction and first moments of cell c from its 4 row nibbles.
+    #[inline(always)]
+    fn cell_moments(&self, c: usize, nib: [usize; 4]) -> [f32; 4] {
+        let t = &self.nibble[c * 64..c * 64 + 64];
+        let (a, b, d, e) = (t[nib[0]], t[16 + nib[1]], t[32 + nib[2]], t[48 + nib[3]]);
+        [a[0] + b[0] + d[0] + e[0], a[1] + b[1] + d[1] + e[1], a[2] + b[2] + d[2] + e[2], 0.0]
+    }
+
     /// Local-frame transfer of one mask into `out` (`coeffs` values).
     /// `reflected` is the local reflected view direction (Phong only).
     #[inline]
     pub fn integrate(&self, mask: &[u64], brdf: &Brdf, reflected: Vec3, out: &mut [f32]) {
         let n = self.coeffs;
         let cps = self.side / CELL;
-        match brdf {
-            Brdf::Diffuse => {
-                out.copy_from_slice(&self.unoccluded);
-                for cr in 0..cps {
-                    let rows = [0, 1, 2, 3].map(|k| self.row_bits(mask, cr * CELL + k));
-                    if rows == [0; 4] {
-                        continue;
-                    }
-                    for cc in 0..cps {
-                        let nib = rows.map(|r| (r >> (cc * CELL)) as usize & 15);
-                        if nib == [0; 4] {
-                            continue;
-                        }
-                        let c = cr * cps + cc;
-                        let t = &self.nibble[c * 64..c * 64 + 64];
-                        let o = t[nib[0]] + t[16 + nib[1]] + t[32 + nib[2]] + t[48 + nib[3]];
-                        let b = &self.basis[c * n..c * n + n];
-                        for (o_i, b_i) in out.iter_mut().zip(b) {
-                            *o_i -= o * b_i;
-                        }
+        let diffuse = matches!(brdf, Brdf::Diffuse);
+        if self.integration == Integration::Pixels && diffuse {
+            out.copy_from_slice(&self.unoccluded);
+            for (w, &word) in mask.iter().enumerate() {
+                let mut bits = word;
+                while bits != 0 {
+                    let p = w * 64 + bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    let b = &self.pixel_basis[p * n..p * n + n];
+                    for (o, bi) in out.iter_mut().zip(b) {
+                        *o -= bi;
                     }
                 }
             }
-            Brdf::Phong { .. } => {
-                out.fill(0.0);
-                for cr in 0..cps {
-                    let rows = [0, 1, 2, 3].map(|k| self.row_bits(mask, cr * CELL + k));
-                    for cc in 0..cps {
-                        let c = cr * cps + cc;
-                        if self.area[c] == 0.0 {
-                            continue;
+            return;
+        }
+        // Diffuse: unoccluded minus the occluded cells. Glossy: every cell,
+        // visible part weighted by ρ_c.
+        if diffuse {
+            out.copy_from_slice(&self.unoccluded);
+        } else {
+            out.fill(0.0);
+        }
+        for cr in 0..cps {
+            let rows = [0, 1, 2, 3].map(|k| self.row_bits(mask, cr * CELL + k));
+            if diffuse && rows == [0; 4] {
+                continue;
+            }
+            for cc in 0..cps {
+                let c = cr * cps + cc;
+                let nib = rows.map(|r| (r >> (cc * CELL)) as usize & 15);
+                if diffuse && nib == [0; 4] {
+                    continue;
+                }
+                if !diffuse && self.area[c] == 0.0 {
+                    continue;
+                }
+                let b = &self.basis[c * n..c * n + n];
+                let g = &self.gradient[c * 2 * n..(c * 2 + 2) * n];
+                let (gx, gy) = g.split_at(n);
+                let [o, mx, my, _] = self.cell_moments(c, nib);
+                let (mx, my) = if self.integration == Integration::Cells { (0.0, 0.0) } else { (mx, my) };
+                if diffuse {
+                    for i in 0..n {
+                        out[i] -= o * b[i] + mx * gx[i] + my * gy[i];
+                    }
+                } else if self.integration == Integration::Pixels {
+                    let rho = brdf.rho(self.dirs[c], reflected);
+                    // Visible pixels of the cell, each with its own integral.
+                    for k in 0..CELL {
+                        for j in 0..CELL {
+                            if nib[k] >> j & 1 == 0 {
+                                let p = (cr * CELL + k) * self.side + cc * CELL + j;
+                                let pb = &self.pixel_basis[p * n..p * n + n];
+                                for i in 0..n {
+                                    out[i] += rho * pb[i];
+                                }
+                            }
                         }
-                        let nib = rows.map(|r| (r >> (cc * CELL)) as usize & 15);
-                        let t = &self.nibble[c * 64..c * 64 + 64];
-                        let o = t[nib[0]] + t[16 + nib[1]] + t[32 + nib[2]] + t[48 + nib[3]];
-                        let w = (1.0 - o) * brdf.rho(self.dirs[c], reflected);
-                        let b = &self.basis[c * n..c * n + n];
-                        for (o_i, b_i) in out.iter_mut().zip(b) {
-                            *o_i += w * b_i;
-                        }
+                    }
+                } else {
+                    let rho = brdf.rho(self.dirs[c], reflected);
+                    for i in 0..n {
+                        out[i] += rho * ((1.0 - o) * b[i] - mx * gx[i] - my * gy[i]);
                     }
                 }
             }

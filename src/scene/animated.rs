@@ -259,14 +259,14 @@ fn sphere_grid(seg: u32, rings: u32, tris: &mut Vec<[u32; 3]>, base: u32) {
     let ring = |k: u32, i: u32| base + 1 + (k - 1) * seg + i % seg;
     let bottom = base + 1 + (rings - 1) * seg;
     for i in 0..seg {
-        tris.push([base, ring(1, i + 1), ring(1, i)]);
-        tris.push([bottom, ring(rings - 1, i), ring(rings - 1, i + 1)]);
+        tris.push([base, ring(1, i), ring(1, i + 1)]);
+        tris.push([bottom, ring(rings - 1, i + 1), ring(rings - 1, i)]);
     }
     for k in 1..rings - 1 {
         for i in 0..seg {
             let (a, b, c, d) = (ring(k, i), ring(k, i + 1), ring(k + 1, i + 1), ring(k + 1, i));
-            tris.push([a, b, c]);
-            tris.push([a, c, d]);
+            tris.push([a, c, b]);
+            tris.push([a, d, c]);
         }
     }
 }
@@ -379,5 +379,10 @@ mod tests {
         assert!(!crate::prt::hierarchy::is_closed(&cloth.triangles));
         let ch = character();
         assert!(crate::prt::hierarchy::is_closed(&ch.triangles), "every part is closed");
+        // Outward: the head's top vertex has an upward normal.
+        let m = ch.mesh_at(0.0);
+        let normals = m.vertex_normals();
+        let top = (0..m.positions.len()).max_by(|&a, &b| m.positions[a].y.total_cmp(&m.positions[b].y)).unwrap();
+        assert!(normals[top].y > 0.9, "{}", normals[top]);
     }
 }
