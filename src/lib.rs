@@ -9,6 +9,7 @@ pub mod aabb;
 pub mod ao;
 pub mod cli;
 pub mod error;
+pub mod field;
 pub mod gpu;
 pub mod kdtree;
 pub mod mlrta;

@@ -6,7 +6,9 @@
 //! (including usage errors from clap), 1 internal error (panics included).
 
 mod ao;
+mod ao_field;
 mod args;
+mod field;
 mod info;
 mod io;
 mod trace;
@@ -43,6 +45,8 @@ enum Command {
     Ao(ao::AoArgs),
     /// Primary rays from a camera, with traversal statistics.
     Trace(trace::TraceArgs),
+    /// Displacement fields: build one from a mesh, or inspect a .dfield file.
+    Field(field::FieldArgs),
     /// Write the procedural scenes (corner, closed box, well, ...) as OBJ files.
     GenAssets(GenAssetsArgs),
 }
@@ -90,6 +94,7 @@ fn dispatch(command: Command) -> Result<()> {
         Command::TraceRays(a) => emit(a.common.json, trace_rays::run(&a)?),
         Command::Ao(a) => emit(a.common.json, ao::run(&a)?),
         Command::Trace(a) => emit(a.common.json, trace::run(&a)?),
+        Command::Field(a) => emit(field::json_flag(&a), field::run(&a)?),
         Command::GenAssets(a) => {
             let written = crate::scene::procedural::write_assets(&a.out)?;
             let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
