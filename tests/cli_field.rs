@@ -236,3 +236,44 @@ fn gpu_field_ao_matches_cpu() {
     // A ray whose vote the texture unit's weights flip changes AO by 1/32.
     assert!(worst <= 2.0 / 32.0 + 1e-6, "{worst}");
 }
+
+/// Objects that cast and receive: their self-occlusion is ray-cast (a field
+/// cannot see it), the rest comes from the other objects' fields.
+#[test]
+fn ao_method_field_with_objects_that_cast_and_receive() {
+    let d = TempDir::new("ao_field_both");
+    let scene = d.write(
+        "scene.json",
+        format!(
+            r#"{{
+  "meshes": {{ "corner": "{}", "cube": "{}" }},
+  "instances": [
+    {{ "mesh": "corner", "role": "receiver" }},
+    {{ "mesh": "cube", "role": "both", "scale": 0.15, "translate": [0.35, 0.17, 0.35] }},
+    {{ "mesh": "cube", "role": "both", "scale": 0.12, "translate": [0.75, 0.14, 0.3],
+       "rotate": {{ "axis": [0, 1, 0], "degrees": 30 }} }}
+  ]
+}}"#,
+            asset_s("corner.obj").replace('\\', "/"),
+            asset_s("cube-with-hole.obj").replace('\\', "/")
+        ),
+    );
+    let csv = d.p("ao.csv");
+    let json = pen(
+        "ao --scene {s} --method field --rays 32 --positions 289 --res 16 --reference --per-vertex {csv} --device cpu --json",
+        &[("s", &scene), ("csv", &csv)],
+    )
+    .ok()
+    .json();
+    let (all, fields) = (
+        json["reference"]["rms_error"].as_f64().unwrap(),
+        json["reference"]["fields_only"]["rms_error"].as_f64().unwrap(),
+    );
+    println!("two cubes that cast and receive: RMS {all:.4} (fields only {fields:.4})");
+    assert!(
+        json["self_occlusion_ms"].as_array().is_some_and(|a| a.len() == 1),
+        "{json}"
+    );
+    assert_eq!(json["points"], 3267 + 2 * 192);
+    assert!(all < 0.03 && fields < 0.03, "{json}");
+}

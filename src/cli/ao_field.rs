@@ -108,12 +108,45 @@ pub fn run(args: &AoArgs, settings: &AoSettings, threads: usize) -> Result<Value
         }
     }
     let owners = receiver_owners(&scene);
+    // Self-occlusion of objects that cast and receive: a field cannot see it
+    // (see `field::ao`), so their rays are cast against their own geometry,
+    // once for objects that do not move, every frame for those that do (the
+    // AO rays follow the world's tangent frame, not the object's).
+    let self_start = Instant::now();
+    let mut self_masks = self_occlusion(
+        &scene,
+        0,
+        &vertex_points(&scene.world_mesh(Role::receives)),
+        &owners,
+        settings,
+        |_| true,
+    )?;
+    let mut self_ms = vec![self_start.elapsed().as_secs_f64() * 1e3];
     let mut frame_ms = Vec::new();
     let mut last = None;
     for frame in 0..frames {
-        let receivers = scene.world_mesh_at(frame, Role::receives);
-        let points = vertex_points(&receivers);
-        let (masks, classes, ms) = field_visibility(
+        let points = vertex_points(&scene.world_mesh_at(frame, Role::receives));
+        if frame > 0
+            && scene
+                .instances
+                .iter()
+                .any(|i| i.role == Role::Both && i.motion.is_some())
+        {
+            let start = Instant::now();
+            let moved = self_occlusion(&scene, frame, &points, &owners, settings, |i| i.motion.is_some())?;
+            if let (Some(all), Some(moved)) = (self_masks.as_mut(), moved) {
+                for (k, inst) in scene.instances.iter().enumerate() {
+                    if inst.role == Role::Both && inst.motion.is_some() {
+                        let words = all.words_per_point as usize;
+                        for i in (0..points.len()).filter(|&i| owners[i] == k as u32) {
+                            all.bits[i * words..(i + 1) * words].copy_from_slice(moved.mask(i));
+                        }
+                    }
+                }
+            }
+            self_ms.push(start.elapsed().as_secs_f64() * 1e3);
+        }
+        let (field_masks, classes, ms) = field_visibility(
             &device,
             &scene,
             &fields,
@@ -125,9 +158,16 @@ pub fn run(args: &AoArgs, settings: &AoSettings, threads: usize) -> Result<Value
             args.positional,
         )?;
         frame_ms.push(ms);
-        last = Some((receivers, points, masks, classes));
+        last = Some((points, field_masks, classes));
     }
-    let (receivers, points, masks, classes) = last.expect("at least one frame");
+    let (points, field_masks, classes) = last.expect("at least one frame");
+    let masks = match &self_masks {
+        Some(own) => VisibilityMasks {
+            bits: field_masks.bits.iter().zip(&own.bits).map(|(a, b)| a & b).collect(),
+            ..field_masks.clone()
+        },
+        None => field_masks.clone(),
+    };
     let ao = masks.accessibility();
     let mut report = json!({
         "method": "field",
@@ -136,6 +176,7 @@ pub fn run(args: &AoArgs, settings: &AoSettings, threads: usize) -> Result<Value
         "seed": settings.seed,
         "positional": args.positional,
         "build_ms": build_ms,
+        "self_occlusion_ms": self_masks.as_ref().map(|_| self_ms),
         "device": device.kind(),
         "adapter": device.adapter(),
         "threads": threads,
@@ -167,6 +208,7 @@ pub fn run(args: &AoArgs, settings: &AoSettings, threads: usize) -> Result<Value
             &points,
             &owners,
             &masks,
+            &field_masks,
             &classes,
             settings,
         )?;
@@ -174,7 +216,6 @@ pub fn run(args: &AoArgs, settings: &AoSettings, threads: usize) -> Result<Value
     if let Some(png) = &png {
         report["image"] = image(args, &device, &scene, &fields, &gpu_fields, frames - 1, settings, png)?;
     }
-    let _ = receivers;
     Ok(report)
 }
 
@@ -281,11 +322,12 @@ fn rms(a: &[f32], b: &[f32]) -> f64 {
     (sum / a.len().max(1) as f64).sqrt()
 }
 
-/// The same rays cast against the casters' triangles at `frame`: the field's
-/// error per vertex (RMS of accessibility) and per ray, split by whether
-/// the ray started inside a caster's sphere. Two references: all casters
-/// (the true AO, self-occlusion of objects that are both included), and each
-/// point's other instances only (what a field can represent).
+/// The same rays cast against the casters' triangles at `frame`: the error
+/// per vertex (RMS of accessibility) and per ray, split by whether the ray
+/// started inside a caster's sphere. The result (fields and presampled
+/// self-occlusion) against all casters; and, where objects cast and receive,
+/// the field lookups alone against each point's other instances (what a
+/// field represents).
 #[allow(clippy::too_many_arguments)]
 fn reference(
     device: &Device,
@@ -294,6 +336,7 @@ fn reference(
     points: &[AoPoint],
     owners: &[u32],
     masks: &VisibilityMasks,
+    field_masks: &VisibilityMasks,
     classes: &RayClasses,
     settings: &AoSettings,
 ) -> Result<Value> {
@@ -322,10 +365,11 @@ fn reference(
         .collect();
     if !both.is_empty() {
         let others = without_self(scene, frame, points, owners, settings, &both)?;
-        out["without_self"] = json!({
-            "rms_error": rms(&field_ao, &others.accessibility()),
-            "max_error": max_error(&field_ao, &others.accessibility()),
-            "rays": ray_errors(masks, &others, classes),
+        let lookups = field_masks.accessibility();
+        out["fields_only"] = json!({
+            "rms_error": rms(&lookups, &others.accessibility()),
+            "max_error": max_error(&lookups, &others.accessibility()),
+            "rays": ray_errors(field_masks, &others, classes),
         });
     }
     Ok(out)
@@ -354,6 +398,44 @@ fn ray_errors(field: &VisibilityMasks, truth: &VisibilityMasks, classes: &RayCla
         "disagree_fraction_inside": inside_wrong as f64 / inside.max(1) as f64,
         "disagree_fraction_outside": outside_wrong as f64 / (total - inside).max(1) as f64,
     })
+}
+
+/// Self-occlusion of the instances that cast and receive (those `which`
+/// selects) at `frame`: each point's rays against its own instance (CPU).
+/// Other points are open. None when no instance is both.
+fn self_occlusion(
+    scene: &Scene,
+    frame: u32,
+    points: &[AoPoint],
+    owners: &[u32],
+    settings: &AoSettings,
+    which: impl Fn(&crate::scene::Instance) -> bool,
+) -> Result<Option<VisibilityMasks>> {
+    let words = settings.words_per_point() as usize;
+    let mut bits = vec![u32::MAX; points.len() * words];
+    let mut any = false;
+    for (k, inst) in scene
+        .instances
+        .iter()
+        .enumerate()
+        .filter(|(_, i)| i.role == Role::Both && which(i))
+    {
+        let selected: Vec<usize> = (0..points.len()).filter(|&i| owners[i] == k as u32).collect();
+        let t = inst.transform_at(frame);
+        let own = scene.meshes[inst.mesh].mesh.map_positions(|p| t.apply_point(p));
+        let tree = build_tree(&own, &inst.name)?;
+        let subset: Vec<AoPoint> = selected.iter().map(|&i| points[i]).collect();
+        let masks = visibility_cpu(&tree, &subset, settings, &Progress::hidden());
+        for (j, &i) in selected.iter().enumerate() {
+            bits[i * words..(i + 1) * words].copy_from_slice(masks.mask(j));
+        }
+        any = true;
+    }
+    Ok(any.then_some(VisibilityMasks {
+        rays_per_point: settings.rays_per_point,
+        words_per_point: words as u32,
+        bits,
+    }))
 }
 
 /// Ray casting where each point ignores its own instance (CPU).
