@@ -27,9 +27,25 @@ pub const KDTREE_TRAVERSE: WgslFile = wgsl_file!("kdtree_traverse.wgsl");
 pub const TRACE_RAYS: WgslFile = wgsl_file!("trace_rays.wgsl");
 pub const AO_RAYS: WgslFile = wgsl_file!("ao_rays.wgsl");
 pub const PACKET_TRAVERSE: WgslFile = wgsl_file!("packet_traverse.wgsl");
+pub const GBUFFER: WgslFile = wgsl_file!("gbuffer.wgsl");
+pub const SSAO_COMMON: WgslFile = wgsl_file!("ssao_common.wgsl");
+pub const SSAO_ESTIMATE: WgslFile = wgsl_file!("ssao_estimate.wgsl");
+pub const SSAO_FILTER: WgslFile = wgsl_file!("ssao_filter.wgsl");
+pub const SSAO_INDIRECT: WgslFile = wgsl_file!("ssao_indirect.wgsl");
 
 /// Every file compiled in (the validation test checks this against `wgsl/`).
-pub const FILES: &[WgslFile] = &[SAMPLING, KDTREE_TRAVERSE, TRACE_RAYS, AO_RAYS, PACKET_TRAVERSE];
+pub const FILES: &[WgslFile] = &[
+    SAMPLING,
+    KDTREE_TRAVERSE,
+    TRACE_RAYS,
+    AO_RAYS,
+    PACKET_TRAVERSE,
+    GBUFFER,
+    SSAO_COMMON,
+    SSAO_ESTIMATE,
+    SSAO_FILTER,
+    SSAO_INDIRECT,
+];
 
 /// A shader module made of several files, in order.
 #[derive(Debug, Clone, Copy)]
@@ -53,8 +69,37 @@ pub const PACKET_TRAVERSE_MODULE: Composition = Composition {
     parts: &[KDTREE_TRAVERSE, PACKET_TRAVERSE],
 };
 
+/// The G-buffer render pipeline (vertex and fragment stages).
+pub const GBUFFER_MODULE: Composition = Composition {
+    name: "gbuffer",
+    parts: &[GBUFFER],
+};
+
+pub const SSAO_ESTIMATE_MODULE: Composition = Composition {
+    name: "ssao_estimate",
+    parts: &[SSAO_COMMON, SSAO_ESTIMATE],
+};
+
+pub const SSAO_FILTER_MODULE: Composition = Composition {
+    name: "ssao_filter",
+    parts: &[SSAO_COMMON, SSAO_FILTER],
+};
+
+pub const SSAO_INDIRECT_MODULE: Composition = Composition {
+    name: "ssao_indirect",
+    parts: &[SSAO_COMMON, SSAO_INDIRECT],
+};
+
 /// Every kernel module the library builds pipelines from.
-pub const MODULES: &[Composition] = &[TRACE_RAYS_MODULE, AO_RAYS_MODULE, PACKET_TRAVERSE_MODULE];
+pub const MODULES: &[Composition] = &[
+    TRACE_RAYS_MODULE,
+    AO_RAYS_MODULE,
+    PACKET_TRAVERSE_MODULE,
+    GBUFFER_MODULE,
+    SSAO_ESTIMATE_MODULE,
+    SSAO_FILTER_MODULE,
+    SSAO_INDIRECT_MODULE,
+];
 
 impl Composition {
     pub fn source(&self) -> String {
