@@ -7,7 +7,10 @@
 // group(1): params; table (the sample sets, (q.xyz, w) per entry, set k at
 //           k * samples); ao (estimator output), ao_out (filtered);
 //           indirect (L~ rgb, pixels averaged), indirect_out (filtered);
-//           image (linear rgba).
+//           image (linear rgba); depth (the geometry texture's z as a
+//           tight array, written by `ssao_pack_depth`: buffer loads are
+//           much cheaper than texel fetches on a software rasteriser, and
+//           every sample reads one).
 
 struct SsaoParams {
     width: u32,
@@ -46,6 +49,13 @@ struct SsaoParams {
 @group(1) @binding(4) var<storage, read_write> indirect: array<vec4<f32>>;
 @group(1) @binding(5) var<storage, read_write> indirect_out: array<vec4<f32>>;
 @group(1) @binding(6) var<storage, read_write> image: array<vec4<f32>>;
+@group(1) @binding(7) var<storage, read_write> depth: array<f32>;
+
+// gbuffer::valid_depth: 0 < d <= 3e38 (0, NaN, infinity and huge
+// far-plane values are background).
+fn valid_depth(d: f32) -> bool {
+    return d > 0.0 && d <= 3.0e38;
+}
 
 fn texel(x: u32, y: u32) -> vec4<f32> {
     return textureLoad(geometry, vec2<i32>(i32(x), i32(y)), 0);
@@ -79,8 +89,8 @@ fn occluded(p: vec3<f32>) -> bool {
     if (q.x < 0) {
         return false;
     }
-    let d = textureLoad(geometry, q, 0).w;
-    return d > 0.0 && p.z > d + params.bias * d;
+    let d = depth[u32(q.y) * params.width + u32(q.x)];
+    return valid_depth(d) && p.z > d + params.bias * d;
 }
 
 struct Shaded {
@@ -93,7 +103,7 @@ struct Shaded {
 fn shaded_point(x: u32, y: u32) -> Shaded {
     let g = texel(x, y);
     var r: Shaded;
-    r.ok = g.w > 0.0 && any(g.xyz != vec3<f32>(0.0));
+    r.ok = valid_depth(g.w) && any(g.xyz != vec3<f32>(0.0));
     r.n = g.xyz;
     r.s = cam_point(x, y, g.w);
     return r;

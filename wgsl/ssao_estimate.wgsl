@@ -6,6 +6,16 @@
 // writes `ao` (not clamped), 1 on background and zero-normal pixels.
 // Composed after ssao_common.wgsl.
 
+// Copies the geometry texture's depth into `depth` (twin: the G-buffer's
+// z values; see ssao_common.wgsl).
+@compute @workgroup_size(8, 8)
+fn ssao_pack_depth(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!in_image(gid)) {
+        return;
+    }
+    depth[pixel_index(gid)] = texel(gid.x, gid.y).w;
+}
+
 @compute @workgroup_size(8, 8)
 fn ssao_points(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (!in_image(gid)) {
@@ -101,8 +111,8 @@ fn ssao_disk(@builtin(global_invocation_id) gid: vec3<u32>) {
         let c = vec3<f32>(s.x + params.radius * q.x, s.y + params.radius * q.y, s.z);
         let px = project(c);
         if (px.x >= 0) {
-            let d = textureLoad(geometry, px, 0).w;
-            if (d > 0.0) {
+            let d = depth[u32(px.y) * params.width + u32(px.x)];
+            if (valid_depth(d)) {
                 t1 = min(t1, (d + params.bias * d - s.z) / params.radius);
             }
         }

@@ -9,8 +9,8 @@ fn ssao_filter_ao(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let i = pixel_index(gid);
-    let c = texel(gid.x, gid.y).w;
-    if (!(c > 0.0)) {
+    let c = depth[i];
+    if (!valid_depth(c)) {
         ao_out[i] = ao[i];
         return;
     }
@@ -25,8 +25,8 @@ fn ssao_filter_ao(@builtin(global_invocation_id) gid: vec3<u32>) {
             if (qx < 0 || qy < 0 || qx >= w || qy >= h) {
                 continue;
             }
-            let d = textureLoad(geometry, vec2<i32>(qx, qy), 0).w;
-            if (d > 0.0 && abs(d - c) <= params.filter_depth) {
+            let d = depth[u32(qy * w + qx)];
+            if (valid_depth(d) && abs(d - c) <= params.filter_depth) {
                 sum = sum + ao[u32(qy * w + qx)];
                 count = count + 1u;
             }
@@ -41,8 +41,8 @@ fn ssao_filter_indirect(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let i = pixel_index(gid);
-    let c = texel(gid.x, gid.y).w;
-    if (!(c > 0.0)) {
+    let c = depth[i];
+    if (!valid_depth(c)) {
         indirect_out[i] = indirect[i];
         return;
     }
@@ -57,8 +57,8 @@ fn ssao_filter_indirect(@builtin(global_invocation_id) gid: vec3<u32>) {
             if (qx < 0 || qy < 0 || qx >= w || qy >= h) {
                 continue;
             }
-            let d = textureLoad(geometry, vec2<i32>(qx, qy), 0).w;
-            if (d > 0.0 && abs(d - c) <= params.filter_depth) {
+            let d = depth[u32(qy * w + qx)];
+            if (valid_depth(d) && abs(d - c) <= params.filter_depth) {
                 sum = sum + indirect[u32(qy * w + qx)];
                 count = count + 1u;
             }

@@ -36,15 +36,18 @@ fn ssao_indirect(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (px.x < 0) {
             continue;
         }
-        let g = textureLoad(geometry, px, 0);
-        if (!(g.w > 0.0)) {
+        let z = depth[u32(px.y) * params.width + u32(px.x)];
+        if (!valid_depth(z)) {
             continue;
         }
-        let o = cam_point(u32(px.x), u32(px.y), g.w);
+        let o = cam_point(u32(px.x), u32(px.y), z);
         let d = o - s;
-        if (dot(d, d) < r2 && dot(d, n) > 0.0 && dot(g.xyz, d) < 0.0) {
-            sum = sum + textureLoad(shade, px, 0).xyz;
-            count = count + 1u;
+        if (dot(d, d) < r2 && dot(d, n) > 0.0) {
+            let g = textureLoad(geometry, px, 0);
+            if (dot(g.xyz, d) < 0.0) {
+                sum = sum + textureLoad(shade, px, 0).xyz;
+                count = count + 1u;
+            }
         }
     }
     if (count == 0u) {
@@ -65,7 +68,7 @@ fn ssao_compose(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let i = pixel_index(gid);
-    if (!(texel(gid.x, gid.y).w > 0.0)) {
+    if (!valid_depth(depth[i])) {
         image[i] = vec4<f32>(0.0);
         return;
     }

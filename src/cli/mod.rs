@@ -9,6 +9,7 @@ mod ao;
 mod args;
 mod info;
 mod io;
+mod ssao;
 mod trace;
 mod trace_rays;
 
@@ -43,6 +44,8 @@ enum Command {
     Ao(ao::AoArgs),
     /// Primary rays from a camera, with traversal statistics.
     Trace(trace::TraceArgs),
+    /// Screen-space ambient occlusion and indirect light (the paper's estimators).
+    Ssao(ssao::SsaoArgs),
     /// Write the procedural scenes (corner, closed box, well, ...) as OBJ files.
     GenAssets(GenAssetsArgs),
 }
@@ -90,6 +93,7 @@ fn dispatch(command: Command) -> Result<()> {
         Command::TraceRays(a) => emit(a.common.json, trace_rays::run(&a)?),
         Command::Ao(a) => emit(a.common.json, ao::run(&a)?),
         Command::Trace(a) => emit(a.common.json, trace::run(&a)?),
+        Command::Ssao(a) => emit(a.common.json, ssao::run(&a)?),
         Command::GenAssets(a) => {
             let written = crate::scene::procedural::write_assets(&a.out)?;
             let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();

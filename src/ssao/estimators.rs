@@ -49,7 +49,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::gbuffer::{GBuffer, ScreenConstants, ScreenView};
+use super::gbuffer::{GBuffer, ScreenConstants, ScreenView, valid_depth};
 use super::interleave::Patterns;
 use super::{ShadeSettings, SsaoSettings};
 use crate::error::Result;
@@ -330,7 +330,7 @@ pub fn occluded(gb: &GBuffer, sc: &ScreenConstants, bias: f32, p: Vec3) -> bool 
     match sc.project(p) {
         Some((x, y)) => {
             let d = gb.geometry[(y * sc.width + x) as usize][3];
-            d > 0.0 && p.z > d + bias * d
+            valid_depth(d) && p.z > d + bias * d
         }
         None => false,
     }
@@ -342,8 +342,7 @@ pub fn occluded(gb: &GBuffer, sc: &ScreenConstants, bias: f32, p: Vec3) -> bool 
 pub fn shaded_point(gb: &GBuffer, sc: &ScreenConstants, x: u32, y: u32) -> Option<(Vec3, Vec3)> {
     let g = gb.geometry[(y * sc.width + x) as usize];
     let n = Vec3::new(g[0], g[1], g[2]);
-    // `!(z > 0)` also catches NaN depths.
-    if !(g[3] > 0.0) || n == Vec3::ZERO {
+    if !valid_depth(g[3]) || n == Vec3::ZERO {
         return None;
     }
     Some((sc.cam_point(x, y, g[3]), n))
@@ -475,7 +474,7 @@ pub fn ssao_disk(gb: &GBuffer, params: &SsaoParams, table: &[[f32; 4]]) -> Vec<f
             let c = Vec3::new(s.x + params.radius * q[0], s.y + params.radius * q[1], s.z);
             if let Some((px, py)) = sc.project(c) {
                 let d = gb.geometry[(py * sc.width + px) as usize][3];
-                if d > 0.0 {
+                if valid_depth(d) {
                     t1 = t1.min((d + params.bias * d - s.z) / params.radius);
                 }
             }

@@ -12,7 +12,7 @@
 use rayon::prelude::*;
 
 use super::estimators::SsaoParams;
-use super::gbuffer::GBuffer;
+use super::gbuffer::{GBuffer, valid_depth};
 
 /// Window offsets of the 4x4 filter.
 pub const FILTER_OFFSETS: std::ops::RangeInclusive<i32> = -2..=1;
@@ -31,7 +31,7 @@ fn filter<T: Copy + Send + Sync>(
         .with_min_len(256)
         .map(|i| {
             let c = gb.geometry[i][3];
-            if !(c > 0.0) {
+            if !valid_depth(c) {
                 return input[i];
             }
             let (x, y) = (i as i32 % w, i as i32 / w);
@@ -45,7 +45,7 @@ fn filter<T: Copy + Send + Sync>(
                     }
                     let q = (qy * w + qx) as usize;
                     let d = gb.geometry[q][3];
-                    if d > 0.0 && (d - c).abs() <= params.filter_depth {
+                    if valid_depth(d) && (d - c).abs() <= params.filter_depth {
                         sum = add(sum, input[q]);
                         count += 1;
                     }

@@ -23,6 +23,17 @@ use crate::error::{Error, Result};
 use crate::kdtree::KdTree;
 use crate::scene::{Camera, Light, Mesh};
 
+/// Depths above this are treated as background, like 0, NaN and infinity
+/// (a far plane written as a huge value must not make sums infinite).
+pub const MAX_DEPTH: f32 = 3.0e38;
+
+/// Whether `d` is the depth of a surface: 0 < d <= MAX_DEPTH (`valid_depth`
+/// in the WGSL).
+#[inline]
+pub fn valid_depth(d: f32) -> bool {
+    d > 0.0 && d <= MAX_DEPTH
+}
+
 /// Camera-space view of the G-buffer: what the SSAO kernels need to turn a
 /// pixel and its depth into a point and back.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -126,9 +137,9 @@ impl GBuffer {
         Vec3::new(g[0], g[1], g[2])
     }
 
-    /// Whether pixel i shows a surface (z > 0).
+    /// Whether pixel i shows a surface (`valid_depth`).
     pub fn is_surface(&self, i: usize) -> bool {
-        self.geometry[i][3] > 0.0
+        valid_depth(self.geometry[i][3])
     }
 
     pub fn surface_pixels(&self) -> usize {

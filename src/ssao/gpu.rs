@@ -347,6 +347,7 @@ impl GBufferPass {
 /// The SSAO kernels (one entry point each).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SsaoKernel {
+    PackDepth,
     Points,
     March,
     Disk,
@@ -370,7 +371,7 @@ impl SsaoKernel {
 pub struct SsaoPass {
     pub gbuffer_layout: wgpu::BindGroupLayout,
     pub io_layout: wgpu::BindGroupLayout,
-    pipelines: [wgpu::ComputePipeline; 7],
+    pipelines: [wgpu::ComputePipeline; 8],
 }
 
 fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
@@ -402,6 +403,7 @@ impl SsaoPass {
                 storage_entry(4, false),
                 storage_entry(5, false),
                 storage_entry(6, false),
+                storage_entry(7, false),
             ],
         });
         let layouts = [&gbuffer_layout, &io_layout];
@@ -410,7 +412,7 @@ impl SsaoPass {
         };
         let mut all = build(
             &crate::wgsl::SSAO_ESTIMATE_MODULE,
-            &["ssao_points", "ssao_march", "ssao_disk"],
+            &["ssao_pack_depth", "ssao_points", "ssao_march", "ssao_disk"],
         );
         all.extend(build(&crate::wgsl::SSAO_INDIRECT_MODULE, &["ssao_indirect"]));
         all.extend(build(
@@ -418,7 +420,7 @@ impl SsaoPass {
             &["ssao_filter_ao", "ssao_filter_indirect"],
         ));
         all.extend(build(&crate::wgsl::SSAO_INDIRECT_MODULE, &["ssao_compose"]));
-        let pipelines: [wgpu::ComputePipeline; 7] = all.try_into().expect("seven entry points");
+        let pipelines: [wgpu::ComputePipeline; 8] = all.try_into().expect("eight entry points");
         SsaoPass {
             gbuffer_layout,
             io_layout,
@@ -463,6 +465,7 @@ impl SsaoPass {
                 (4, &b.indirect),
                 (5, &b.indirect_out),
                 (6, &b.image),
+                (7, &b.depth),
             ],
         )
     }
@@ -499,6 +502,8 @@ pub struct SsaoBuffers {
     pub indirect: wgpu::Buffer,
     pub indirect_out: wgpu::Buffer,
     pub image: wgpu::Buffer,
+    /// The G-buffer's depth as a tight array (`ssao_pack_depth`).
+    pub depth: wgpu::Buffer,
 }
 
 impl SsaoBuffers {
@@ -522,6 +527,7 @@ impl SsaoBuffers {
             indirect: zeroed_buffer(device, "ssao indirect", rgba, rw),
             indirect_out: zeroed_buffer(device, "ssao indirect filtered", rgba, rw),
             image: zeroed_buffer(device, "ssao image", rgba, rw),
+            depth: zeroed_buffer(device, "ssao depth", pixels * 4, rw),
         })
     }
 }
@@ -599,7 +605,7 @@ pub fn run_frame(
     let start = Instant::now();
     let mut best: Option<Vec<f64>> = None;
     for _ in 0..repeat.max(1) {
-        let mut timer = PassTimer::new(ctx, 6);
+        let mut timer = PassTimer::new(ctx, 8);
         let mut encoder = device.create_command_encoder(&Default::default());
         let mut kinds = Vec::new();
         if let Some((pass, vertices, group, _)) = &render {
@@ -624,6 +630,7 @@ pub fn run_frame(
             );
             kinds.push(kind);
         };
+        dispatch(&mut encoder, SsaoKernel::PackDepth, &mut timer, 0);
         dispatch(&mut encoder, SsaoKernel::estimator(table.family), &mut timer, 1);
         if settings.filter {
             dispatch(&mut encoder, SsaoKernel::FilterAo, &mut timer, 2);

@@ -20,7 +20,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::estimators::{Family, SsaoParams, shaded_point};
-use super::gbuffer::{GBuffer, unpack_albedo};
+use super::gbuffer::{GBuffer, unpack_albedo, valid_depth};
 use crate::sampling::Frame;
 
 /// CPU twin of `ssao_indirect`: per pixel (L~.r, L~.g, L~.b, pixels averaged).
@@ -49,12 +49,13 @@ pub fn ssao_indirect(gb: &GBuffer, params: &SsaoParams, table: &[[f32; 4]], fami
                 let Some((px, py)) = sc.project(p) else { continue };
                 let j = (py * w + px) as usize;
                 let g = gb.geometry[j];
-                if !(g[3] > 0.0) {
+                if !valid_depth(g[3]) {
                     continue;
                 }
                 let o = sc.cam_point(px, py, g[3]);
                 let d = o - s;
                 let no = Vec3::new(g[0], g[1], g[2]);
+                // The GPU reads the normal only after the distance tests.
                 if d.dot(d) < r2 && d.dot(n) > 0.0 && no.dot(d) < 0.0 {
                     let l = gb.shade[j];
                     sum += Vec3::new(l[0], l[1], l[2]);
@@ -77,7 +78,7 @@ pub fn ssao_compose(gb: &GBuffer, params: &SsaoParams, ao: &[f32], indirect: &[[
         .into_par_iter()
         .with_min_len(256)
         .map(|i| {
-            if !(gb.geometry[i][3] > 0.0) {
+            if !valid_depth(gb.geometry[i][3]) {
                 return [0.0; 4];
             }
             let sh = gb.shade[i];
