@@ -63,7 +63,7 @@ fn compare_gbuffers(ctx: &GpuContext, name: &str, mesh: &Mesh, camera: &Camera) 
     };
     let gpu = run_frame(ctx, source, &view, &settings, None, 1).unwrap().gbuffer;
     let (mut agree, mut not_silhouette, mut worst_z, mut worst_dot) = (0usize, 0usize, 0f32, 1f32);
-    let mut radiance_worst = 0f32;
+    let (mut radiance_worst, mut albedo_differs) = (0f32, 0usize);
     for y in 0..H as i32 {
         for x in 0..W as i32 {
             let i = (y * W as i32 + x) as usize;
@@ -75,12 +75,13 @@ fn compare_gbuffers(ctx: &GpuContext, name: &str, mesh: &Mesh, camera: &Camera) 
                     worst_dot = worst_dot.min(c[0] * g[0] + c[1] * g[1] + c[2] * g[2]);
                     // Same facet (neighbouring facets of a tessellated
                     // surface also agree within 0.999): same radiance.
-                    if c[0] * g[0] + c[1] * g[1] + c[2] * g[2] > 0.999999 {
+                    if c[0] * g[0] + c[1] * g[1] + c[2] * g[2] > 0.999999 && cpu.shade[i][3] == gpu.shade[i][3] {
                         for k in 0..3 {
                             radiance_worst = radiance_worst.max((cpu.shade[i][k] - gpu.shade[i][k]).abs());
                         }
                     }
-                    assert_eq!(cpu.shade[i][3], gpu.shade[i][3], "{name}: albedo at {x},{y}");
+                    // Coplanar overlapping objects (kitchen) may show either albedo.
+                    albedo_differs += (cpu.shade[i][3] != gpu.shade[i][3]) as usize;
                 }
                 continue;
             }
@@ -101,9 +102,11 @@ fn compare_gbuffers(ctx: &GpuContext, name: &str, mesh: &Mesh, camera: &Camera) 
     let n = (W * H) as f64;
     println!(
         "{name}: {:.3}% of pixels agree, worst relative depth {worst_z:.2e}, worst normal dot {worst_dot:.6}, \
-         worst radiance difference {radiance_worst:.2e}, {not_silhouette} non-silhouette disagreements",
+         worst radiance difference {radiance_worst:.2e}, {not_silhouette} non-silhouette disagreements, \
+         {albedo_differs} agreeing pixels of another object (coplanar overlap)",
         100.0 * agree as f64 / n
     );
+    assert!(albedo_differs as f64 <= 0.005 * n, "{name}: {albedo_differs} pixels show another object");
     assert!(agree as f64 >= 0.99 * n, "{name}: only {agree} of {n} pixels agree");
     assert_eq!(not_silhouette, 0, "{name}: disagreements away from silhouettes");
     assert!(radiance_worst < 1e-4, "{name}: radiance differs by {radiance_worst}");
