@@ -109,7 +109,16 @@ fn main() {
         let base = SsaoSettings::new(Estimator::Importance, 16, config.radius);
         let gb = run_frame(&ctx, source(), &view, &base, None, 1).unwrap().gbuffer;
         eprintln!("{}: truth and reference on the CPU...", config.model);
-        let truth = raytraced(&tree, &camera, &view, &gb, base.measure, config.radius, truth_rays, base.seed);
+        let truth = raytraced(
+            &tree,
+            &camera,
+            &view,
+            &gb,
+            base.measure,
+            config.radius,
+            truth_rays,
+            base.seed,
+        );
         let reference = screen_reference(&gb, &view, &base, reference_spp);
         let ref_vs_truth = rmse(&gb, &reference.values, &truth.values);
         let mut rows = Vec::new();
@@ -158,7 +167,12 @@ fn main() {
         table(&mut md, config, &gb, &truth, &reference, ref_vs_truth, &rows);
         let plot = figures.join(format!("ssao-error-vs-time-{}.png", config.model));
         plot_rows(&plot, &rows);
-        writeln!(md, "\nPlot: `assets/figures/{}`.\n", plot.file_name().unwrap().to_string_lossy()).unwrap();
+        writeln!(
+            md,
+            "\nPlot: `assets/figures/{}`.\n",
+            plot.file_name().unwrap().to_string_lossy()
+        )
+        .unwrap();
     }
     println!("{md}");
     if !quick {
@@ -218,8 +232,16 @@ fn table(
             .unwrap();
         }
     }
-    writeln!(md, "\nThe paper's claim at 16 spp (RMSE vs screen reference; off / on = interleave + filter):\n").unwrap();
-    writeln!(md, "| estimator | calibrated, off / on | paper's raw weights, off / on |").unwrap();
+    writeln!(
+        md,
+        "\nThe paper's claim at 16 spp (RMSE vs screen reference; off / on = interleave + filter):\n"
+    )
+    .unwrap();
+    writeln!(
+        md,
+        "| estimator | calibrated, off / on | paper's raw weights, off / on |"
+    )
+    .unwrap();
     writeln!(md, "|---|---:|---:|").unwrap();
     for estimator in [
         Estimator::Hemisphere,
@@ -350,7 +372,9 @@ fn text(img: &mut image::RgbImage, x: i32, y: i32, s: &str, c: [u8; 3]) {
         ('.', [0, 0, 0, 0, 2]),
     ];
     for (k, ch) in s.chars().enumerate() {
-        let Some((_, rows)) = GLYPHS.iter().find(|(g, _)| *g == ch) else { continue };
+        let Some((_, rows)) = GLYPHS.iter().find(|(g, _)| *g == ch) else {
+            continue;
+        };
         for (ry, bits) in rows.iter().enumerate() {
             for rx in 0..3 {
                 if bits & (4 >> rx) != 0 {

@@ -20,7 +20,14 @@ fn contract_form_writes_the_png_and_the_json_fields() {
             &[("mesh", &mesh), ("out", &out)],
         );
         let j = r.ok().json();
-        for key in ["estimator", "spp", "ao_ms", "rmse_vs_raytraced", "rmse_vs_screen_reference", "device"] {
+        for key in [
+            "estimator",
+            "spp",
+            "ao_ms",
+            "rmse_vs_raytraced",
+            "rmse_vs_screen_reference",
+            "device",
+        ] {
             assert!(j.get(key).is_some(), "missing {key}\n{}", r.describe());
         }
         assert_eq!(j["estimator"], "importance");
@@ -42,7 +49,14 @@ fn every_estimator_and_knob_runs() {
     let image = dir.p("img.png");
     let devices: &[&str] = if gpu_available() { &["cpu", "gpu"] } else { &["cpu"] };
     for device in devices {
-        for e in ["raymarch", "sphere", "hemisphere", "importance", "tangent-sphere", "base-disk"] {
+        for e in [
+            "raymarch",
+            "sphere",
+            "hemisphere",
+            "importance",
+            "tangent-sphere",
+            "base-disk",
+        ] {
             let r = pen(
                 &format!(
                     "ssao --mesh {{mesh}} --estimator {e} --spp 8 --radius 0.5 --width 40 --height 30 \
@@ -90,7 +104,10 @@ fn cpu_and_gpu_give_the_same_ao() {
         )
         .ok();
     }
-    let (a, b) = (image::open(&a).unwrap().to_luma_alpha8(), image::open(&b).unwrap().to_luma_alpha8());
+    let (a, b) = (
+        image::open(&a).unwrap().to_luma_alpha8(),
+        image::open(&b).unwrap().to_luma_alpha8(),
+    );
     // The rasterised G-buffer differs from the ray-traced one only on
     // silhouettes: nearly all pixels identical.
     let same = a.pixels().zip(b.pixels()).filter(|(p, q)| p == q).count();
@@ -115,25 +132,67 @@ fn bad_input_exits_2_naming_the_option() {
     run("--estimator importance --spp 0 --radius 1 --out {out}", &["--spp"]);
     run("--estimator importance --spp -4 --radius 1 --out {out}", &["--spp"]);
     run("--estimator importance --spp 99999 --radius 1 --out {out}", &["--spp"]);
-    run("--estimator importance --spp 8 --radius 0 --out {out}", &["--radius", "positive"]);
+    run(
+        "--estimator importance --spp 8 --radius 0 --out {out}",
+        &["--radius", "positive"],
+    );
     run("--estimator importance --spp 8 --radius -1 --out {out}", &["--radius"]);
     run("--estimator importance --spp 8 --radius NaN --out {out}", &["--radius"]);
     run("--estimator importance --spp 8 --radius inf --out {out}", &["--radius"]);
     run("--estimator magic --spp 8 --radius 1 --out {out}", &["--estimator"]);
-    run("--estimator sphere --measure step --spp 8 --radius 1 --out {out}", &["--estimator", "step"]);
-    run("--estimator base-disk --measure exp --spp 8 --radius 1 --out {out}", &["--estimator", "poly4"]);
-    run("--estimator raymarch --steps 3 --spp 8 --radius 1 --out {out}", &["--steps"]);
-    run("--estimator raymarch --steps 0 --spp 8 --radius 1 --out {out}", &["--steps"]);
-    run("--estimator importance --measure exp --sigma -2 --spp 8 --radius 1 --out {out}", &["--sigma"]);
-    run("--estimator importance --sigma 2 --spp 8 --radius 1 --out {out}", &["--sigma"]);
-    run("--estimator importance --filter-depth 0 --spp 8 --radius 1 --out {out}", &["--filter-depth"]);
-    run("--estimator importance --bias NaN --spp 8 --radius 1 --out {out}", &["--bias"]);
-    run("--estimator importance --ambient -1 --spp 8 --radius 1 --out {out}", &["--ambient"]);
-    run("--estimator importance --interleave maybe --spp 8 --radius 1 --out {out}", &["--interleave"]);
+    run(
+        "--estimator sphere --measure step --spp 8 --radius 1 --out {out}",
+        &["--estimator", "step"],
+    );
+    run(
+        "--estimator base-disk --measure exp --spp 8 --radius 1 --out {out}",
+        &["--estimator", "poly4"],
+    );
+    run(
+        "--estimator raymarch --steps 3 --spp 8 --radius 1 --out {out}",
+        &["--steps"],
+    );
+    run(
+        "--estimator raymarch --steps 0 --spp 8 --radius 1 --out {out}",
+        &["--steps"],
+    );
+    run(
+        "--estimator importance --measure exp --sigma -2 --spp 8 --radius 1 --out {out}",
+        &["--sigma"],
+    );
+    run(
+        "--estimator importance --sigma 2 --spp 8 --radius 1 --out {out}",
+        &["--sigma"],
+    );
+    run(
+        "--estimator importance --filter-depth 0 --spp 8 --radius 1 --out {out}",
+        &["--filter-depth"],
+    );
+    run(
+        "--estimator importance --bias NaN --spp 8 --radius 1 --out {out}",
+        &["--bias"],
+    );
+    run(
+        "--estimator importance --ambient -1 --spp 8 --radius 1 --out {out}",
+        &["--ambient"],
+    );
+    run(
+        "--estimator importance --interleave maybe --spp 8 --radius 1 --out {out}",
+        &["--interleave"],
+    );
     run("--estimator importance --spp 8 --radius 1", &["--out"]);
-    run("--estimator importance --spp 8 --radius 1 --out /no/such/dir/ao.png", &["--out", "does not exist"]);
-    run("--estimator importance --spp 8 --radius 1 --out {out} --fov 0", &["--fov"]);
-    run("--estimator importance --spp 8 --radius 1 --out {out} --repeat 0", &["--repeat"]);
+    run(
+        "--estimator importance --spp 8 --radius 1 --out /no/such/dir/ao.png",
+        &["--out", "does not exist"],
+    );
+    run(
+        "--estimator importance --spp 8 --radius 1 --out {out} --fov 0",
+        &["--fov"],
+    );
+    run(
+        "--estimator importance --spp 8 --radius 1 --out {out} --repeat 0",
+        &["--repeat"],
+    );
     pen(
         "ssao --mesh /no/such.obj --estimator importance --spp 8 --radius 1 --out {out}",
         &vars,

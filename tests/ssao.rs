@@ -106,7 +106,10 @@ fn compare_gbuffers(ctx: &GpuContext, name: &str, mesh: &Mesh, camera: &Camera) 
          {albedo_differs} agreeing pixels of another object (coplanar overlap)",
         100.0 * agree as f64 / n
     );
-    assert!(albedo_differs as f64 <= 0.005 * n, "{name}: {albedo_differs} pixels show another object");
+    assert!(
+        albedo_differs as f64 <= 0.005 * n,
+        "{name}: {albedo_differs} pixels show another object"
+    );
     assert!(agree as f64 >= 0.99 * n, "{name}: only {agree} of {n} pixels agree");
     assert_eq!(not_silhouette, 0, "{name}: disagreements away from silhouettes");
     assert!(radiance_worst < 1e-4, "{name}: radiance differs by {radiance_worst}");
@@ -115,7 +118,12 @@ fn compare_gbuffers(ctx: &GpuContext, name: &str, mesh: &Mesh, camera: &Camera) 
 #[test]
 fn gbuffer_pass_agrees_with_kd_tree_primary_rays() {
     let Some(ctx) = gpu() else { return };
-    for name in ["sphere-on-plane.obj", "cube-with-hole.obj", "closed-box.obj", "corner.obj"] {
+    for name in [
+        "sphere-on-plane.obj",
+        "cube-with-hole.obj",
+        "closed-box.obj",
+        "corner.obj",
+    ] {
         let mesh = load_obj(&asset(name)).unwrap();
         compare_gbuffers(&ctx, name, &mesh, &Camera::default_for(&mesh.bounds()));
     }
@@ -158,17 +166,17 @@ fn compare_kernels(ctx: &GpuContext, name: &str, gb: &GBuffer, view: &ScreenView
                 ("ao (final)", max_diff(&cpu.ao, &gpu.ao)),
                 (
                     "indirect",
-                    max_diff(&flat(cpu.indirect.as_ref().unwrap()), &flat(gpu.indirect.as_ref().unwrap())),
+                    max_diff(
+                        &flat(cpu.indirect.as_ref().unwrap()),
+                        &flat(gpu.indirect.as_ref().unwrap()),
+                    ),
                 ),
                 (
                     "image",
                     max_diff(&flat(cpu.image.as_ref().unwrap()), &flat(gpu.image.as_ref().unwrap())),
                 ),
             ];
-            let label = format!(
-                "{name} {} interleave={interleave} filter={filter}",
-                estimator.name()
-            );
+            let label = format!("{name} {} interleave={interleave} filter={filter}", estimator.name());
             println!("{label}: worst |gpu - cpu| {checks:?}");
             for (what, (d, at)) in checks {
                 assert!(d <= 1e-4, "{label}: {what} differs by {d} at element {at}");
@@ -208,9 +216,16 @@ fn each_estimator(gb: &GBuffer, view: &ScreenView, radius: f32, check: impl Fn(&
             }
             check(&format!("cpu {label}"), &cpu.ao);
             if let Some(ctx) = &ctx {
-                let g = run_frame(ctx, GBufferSource::Upload(gb), view, &s, Some(&ShadeSettings::default()), 1)
-                    .unwrap()
-                    .frame;
+                let g = run_frame(
+                    ctx,
+                    GBufferSource::Upload(gb),
+                    view,
+                    &s,
+                    Some(&ShadeSettings::default()),
+                    1,
+                )
+                .unwrap()
+                .frame;
                 for v in g.image.as_ref().unwrap().iter().flatten() {
                     assert!(v.is_finite(), "{label}: non-finite image value on the GPU");
                 }
@@ -231,7 +246,10 @@ fn radius_to_zero_gives_accessibility_one_everywhere() {
     let (gb, view) = sphere_scene();
     each_estimator(&gb, &view, 1e-6, |label, ao| {
         let worst = ao.iter().map(|a| (1.0 - a).abs()).fold(0.0f32, f32::max);
-        assert!(worst <= 1e-5, "{label}: accessibility {worst} away from 1 with R = 1e-6");
+        assert!(
+            worst <= 1e-5,
+            "{label}: accessibility {worst} away from 1 with R = 1e-6"
+        );
     });
 }
 
@@ -310,7 +328,11 @@ fn nan_and_far_plane_depths_are_background() {
     for estimator in Estimator::ALL {
         let s = SsaoSettings::new(estimator, 8, 0.5);
         let f = run_cpu(&gb, &view, &s, Some(&ShadeSettings::default())).unwrap();
-        assert!(f.ao.iter().all(|a| a.is_finite() && (0.0..=1.0).contains(a)), "{}", estimator.name());
+        assert!(
+            f.ao.iter().all(|a| a.is_finite() && (0.0..=1.0).contains(a)),
+            "{}",
+            estimator.name()
+        );
     }
 }
 
@@ -382,5 +404,9 @@ fn ground_truth_noise_is_reported_and_shrinks() {
     // The estimate of the noise is honest: the 16-ray truth differs from
     // the 256-ray one by about its own noise.
     let diff = rmse(&gb, &a.values, &b.values);
-    assert!(diff < 2.0 * a.noise_rms && diff > 0.5 * a.noise_rms, "{diff} vs {}", a.noise_rms);
+    assert!(
+        diff < 2.0 * a.noise_rms && diff > 0.5 * a.noise_rms,
+        "{diff} vs {}",
+        a.noise_rms
+    );
 }

@@ -167,13 +167,19 @@ pub fn run(args: &SsaoArgs) -> Result<Value> {
     let settings = settings_of(args)?;
     check_image_size(args.width, args.height)?;
     if !(args.ambient >= 0.0 && args.ambient.is_finite()) {
-        return Err(Error::param("--ambient", format!("must be >= 0 and finite, got {}", args.ambient)));
+        return Err(Error::param(
+            "--ambient",
+            format!("must be >= 0 and finite, got {}", args.ambient),
+        ));
     }
     if args.repeat == 0 || args.repeat > 1000 {
         return Err(Error::param("--repeat", "must be between 1 and 1000"));
     }
     if args.out.is_none() && args.image.is_none() {
-        return Err(Error::param("--out", "give an output: --out AO.png and/or --image IMG.png"));
+        return Err(Error::param(
+            "--out",
+            "give an output: --out AO.png and/or --image IMG.png",
+        ));
     }
     if let Some(p) = &args.out {
         check_output(p, "--out")?;
@@ -255,7 +261,8 @@ pub fn run(args: &SsaoArgs) -> Result<Value> {
         write_rgb_png(p, args.width, args.height, &pixels)?;
     }
     let estimate_json = |e: &Option<crate::ssao::truth::Estimate>| {
-        e.as_ref().map(|e| json!({ "samples": e.samples, "noise_rms": e.noise_rms, "ms": e.ms }))
+        e.as_ref()
+            .map(|e| json!({ "samples": e.samples, "noise_rms": e.noise_rms, "ms": e.ms }))
     };
     let mut report = json!({
         "estimator": settings.estimator.name(),

@@ -163,7 +163,7 @@ pub fn object_albedo(o: usize) -> [u8; 3] {
     if o == 0 {
         return [205, 190, 170];
     }
-    let h = crate::sampling::hash_u32(o as u32 ^ 0x51ab_ed0);
+    let h = crate::sampling::hash_u32(o as u32 ^ 0x051a_bed0);
     let c = |shift: u32| (90 + ((h >> shift) & 0x7f)) as u8;
     [c(0), c(8), c(16)]
 }

@@ -407,9 +407,8 @@ impl SsaoPass {
             ],
         });
         let layouts = [&gbuffer_layout, &io_layout];
-        let build = |module, entries: &[&str]| {
-            crate::gpu::kernels::compute_pipelines(device, module, &layouts, entries)
-        };
+        let build =
+            |module, entries: &[&str]| crate::gpu::kernels::compute_pipelines(device, module, &layouts, entries);
         let mut all = build(
             &crate::wgsl::SSAO_ESTIMATE_MODULE,
             &["ssao_pack_depth", "ssao_points", "ssao_march", "ssao_disk"],
@@ -567,7 +566,9 @@ pub fn run_frame(
     let (w, h) = (view.width, view.height);
     let max_groups = device.limits().max_compute_workgroups_per_dimension;
     if w.div_ceil(TILE) > max_groups || h.div_ceil(TILE) > max_groups {
-        return Err(Error::Device(format!("{w}x{h} needs more workgroups than this device allows")));
+        return Err(Error::Device(format!(
+            "{w}x{h} needs more workgroups than this device allows"
+        )));
     }
     let table = SampleTable::build(settings)?;
     let params = SsaoParams::new(view, settings, &table, shade.copied().unwrap_or_default());

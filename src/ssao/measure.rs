@@ -45,7 +45,10 @@ impl Measure {
         if let Measure::Exp { sigma } = *self
             && !(sigma > 0.0 && sigma.is_finite())
         {
-            return Err(Error::param("--sigma", format!("must be positive and finite, got {sigma}")));
+            return Err(Error::param(
+                "--sigma",
+                format!("must be positive and finite, got {sigma}"),
+            ));
         }
         Ok(())
     }
@@ -143,7 +146,7 @@ impl Measure {
 
     /// mu(D) for an occluder at distance `d` (infinite for none).
     pub fn mu(&self, d: f32, radius: f32) -> f32 {
-        if !(d < radius) {
+        if d.is_nan() || d >= radius {
             return 1.0;
         }
         self.m(d as f64 / radius as f64, radius) as f32
@@ -173,7 +176,11 @@ mod tests {
 
     #[test]
     fn inverse_inverts_and_derivative_integrates() {
-        for m in [Measure::Exp { sigma: 3.0 }, Measure::Exp { sigma: 1e-9 }, Measure::Poly4] {
+        for m in [
+            Measure::Exp { sigma: 3.0 },
+            Measure::Exp { sigma: 1e-9 },
+            Measure::Poly4,
+        ] {
             for i in 1..100 {
                 let xi = i as f64 / 100.0;
                 let rho = m.inverse(xi, 1.0);
@@ -188,7 +195,11 @@ mod tests {
 
     #[test]
     fn tangent_sphere_open_value_is_the_cosine_shrunk_integral() {
-        for m in [Measure::Exp { sigma: 3.0 }, Measure::Exp { sigma: 40.0 }, Measure::Poly4] {
+        for m in [
+            Measure::Exp { sigma: 3.0 },
+            Measure::Exp { sigma: 40.0 },
+            Measure::Poly4,
+        ] {
             let n = 100_000;
             let direct: f64 = 2.0 * (0..n).map(|i| m.m((i as f64 + 0.5) / n as f64, 1.0)).sum::<f64>() / n as f64;
             let closed = m.tangent_sphere_open_value(1.0);

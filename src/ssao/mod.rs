@@ -106,7 +106,7 @@ impl SsaoSettings {
             if self.steps == 0 {
                 return Err(Error::param("--steps", "must be at least 1"));
             }
-            if self.spp % self.steps != 0 {
+            if !self.spp.is_multiple_of(self.steps) {
                 return Err(Error::param(
                     "--steps",
                     format!(
@@ -212,7 +212,12 @@ impl Timings {
 /// The CPU twin of a whole frame after the G-buffer: estimator, filter,
 /// indirect light and composition, exactly as `gpu::run_frame` dispatches
 /// them.
-pub fn run_cpu(gb: &GBuffer, view: &ScreenView, settings: &SsaoSettings, shade: Option<&ShadeSettings>) -> Result<SsaoFrame> {
+pub fn run_cpu(
+    gb: &GBuffer,
+    view: &ScreenView,
+    settings: &SsaoSettings,
+    shade: Option<&ShadeSettings>,
+) -> Result<SsaoFrame> {
     settings.validate()?;
     let table = SampleTable::build(settings)?;
     let params = estimators::SsaoParams::new(view, settings, &table, shade.copied().unwrap_or_default());
