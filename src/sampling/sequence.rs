@@ -160,8 +160,9 @@ mod tests {
             corr += (z as f64 - 0.5) * (seq.sample(77, i)[0] as f64 - 0.5);
         }
         // Independent pairing: the covariance with dimension 0 is small
-        // (1/12 would be perfect correlation).
-        assert!((corr / n as f64).abs() < 0.01, "{}", corr / n as f64);
+        // (1/12 = 0.083 would be perfect correlation; independent pairs
+        // give a standard deviation of 1/(12 sqrt(256)) = 0.005).
+        assert!((corr / n as f64).abs() < 0.025, "{}", corr / n as f64);
     }
 
     #[test]
