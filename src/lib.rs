@@ -17,6 +17,7 @@ pub mod progress;
 pub mod ray;
 pub mod sampling;
 pub mod scene;
+pub mod ssao;
 pub mod wgsl;
 
 pub use error::{Error, Result};

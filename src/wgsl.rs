@@ -34,6 +34,11 @@ pub const FIELD_MAPS_BITS: WgslFile = wgsl_file!("field_maps_bits.wgsl");
 pub const FIELD_TRACE: WgslFile = wgsl_file!("field_trace.wgsl");
 pub const FIELD_AO: WgslFile = wgsl_file!("field_ao.wgsl");
 pub const FIELD_PROBE: WgslFile = wgsl_file!("field_probe.wgsl");
+pub const GBUFFER: WgslFile = wgsl_file!("gbuffer.wgsl");
+pub const SSAO_COMMON: WgslFile = wgsl_file!("ssao_common.wgsl");
+pub const SSAO_ESTIMATE: WgslFile = wgsl_file!("ssao_estimate.wgsl");
+pub const SSAO_FILTER: WgslFile = wgsl_file!("ssao_filter.wgsl");
+pub const SSAO_INDIRECT: WgslFile = wgsl_file!("ssao_indirect.wgsl");
 
 /// Every file compiled in (the validation test checks this against `wgsl/`).
 pub const FILES: &[WgslFile] = &[
@@ -49,6 +54,11 @@ pub const FILES: &[WgslFile] = &[
     FIELD_TRACE,
     FIELD_AO,
     FIELD_PROBE,
+    GBUFFER,
+    SSAO_COMMON,
+    SSAO_ESTIMATE,
+    SSAO_FILTER,
+    SSAO_INDIRECT,
 ];
 
 /// A shader module made of several files, in order.
@@ -92,6 +102,27 @@ pub const FIELD_PROBE_FILTERED_MODULE: Composition =
 pub const FIELD_PROBE_LOADED_MODULE: Composition = field_module!("field_probe_loaded", FIELD_MAPS_LOADED, FIELD_PROBE);
 pub const FIELD_PROBE_BITS_MODULE: Composition = field_module!("field_probe_bits", FIELD_MAPS_BITS, FIELD_PROBE);
 
+/// The G-buffer render pipeline (vertex and fragment stages).
+pub const GBUFFER_MODULE: Composition = Composition {
+    name: "gbuffer",
+    parts: &[GBUFFER],
+};
+
+pub const SSAO_ESTIMATE_MODULE: Composition = Composition {
+    name: "ssao_estimate",
+    parts: &[SSAO_COMMON, SSAO_ESTIMATE],
+};
+
+pub const SSAO_FILTER_MODULE: Composition = Composition {
+    name: "ssao_filter",
+    parts: &[SSAO_COMMON, SSAO_FILTER],
+};
+
+pub const SSAO_INDIRECT_MODULE: Composition = Composition {
+    name: "ssao_indirect",
+    parts: &[SSAO_COMMON, SSAO_INDIRECT],
+};
+
 /// Every kernel module the library builds pipelines from.
 pub const MODULES: &[Composition] = &[
     TRACE_RAYS_MODULE,
@@ -103,6 +134,10 @@ pub const MODULES: &[Composition] = &[
     FIELD_PROBE_FILTERED_MODULE,
     FIELD_PROBE_LOADED_MODULE,
     FIELD_PROBE_BITS_MODULE,
+    GBUFFER_MODULE,
+    SSAO_ESTIMATE_MODULE,
+    SSAO_FILTER_MODULE,
+    SSAO_INDIRECT_MODULE,
 ];
 
 impl Composition {

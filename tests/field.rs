@@ -529,3 +529,74 @@ fn bunny_in_the_corner_meets_the_error_target() {
     assert!(target <= 0.02, "RMS {target}");
     assert!(coarse_bilinear < coarse_nearest);
 }
+
+/// Where the approximation for rays starting inside a caster's sphere
+/// breaks: the deeper the origin lies inside the sphere, the more of the
+/// line behind it the field's distance covers, and the likelier the
+/// surface it reports lies behind the origin (`hidden`) or hides another in
+/// front. Bins by how far behind the origin the entry point lies, as a
+/// fraction of the sphere's diameter.
+#[test]
+fn rays_from_inside_the_sphere_by_depth() {
+    let Some(path) = data_model("stanford-bunny.obj") else {
+        return;
+    };
+    let bunny = load_obj(&path).unwrap();
+    let b = bunny.bounds();
+    let scale = 0.45 / (b.max - b.min).max_element();
+    let c = b.center();
+    let transform = Transform {
+        translation: Vec3::new(0.35, 0.004, 0.35) - Vec3::new(c.x, b.min.y, c.z) * scale,
+        rotation: Quat::IDENTITY,
+        scale,
+    };
+    let field = build(&bunny, params(65, 32, Storage::U8, DirectionMapping::Concentric));
+    let world = bunny.map_positions(|p| transform.apply_point(p));
+    let tree = KdTree::build(&world, &KdTreeParams::default()).unwrap();
+    let caster = FieldCaster {
+        field: &field,
+        transform,
+        instance: 1,
+    };
+    let seq = penumbra::sampling::SampleSequence::new(0);
+    let edges = [0.0f32, 0.05, 0.1, 0.2, 0.3, 1.0];
+    let mut bins = vec![(0u64, 0u64, 0u64); edges.len() - 1]; // rays, wrong, hidden
+    for p in vertex_points(&corner()) {
+        let (o, n) = (Vec3::from_array(p.origin), Vec3::from_array(p.normal));
+        for j in 0..256 {
+            let d = penumbra::ao::ray_direction(&seq, p.stream, j, n);
+            let o_obj = transform.inverse_point(o);
+            let d_obj = transform.rotation.inverse() * d;
+            let Some((_, s0, _)) = field.entry(o_obj, d_obj) else {
+                continue;
+            };
+            if s0 >= 0.0 {
+                continue;
+            }
+            let depth = -s0 / (2.0 * field.radius);
+            let bin = edges
+                .windows(2)
+                .position(|w| depth >= w[0] && depth < w[1])
+                .unwrap_or(edges.len() - 2);
+            let trace = caster.trace(o, d, Positional::Bilinear);
+            let field_hit = matches!(trace, FieldTrace::Hit { .. });
+            let truth = tree.any_hit(o, d, f32::INFINITY);
+            bins[bin].0 += 1;
+            bins[bin].1 += (field_hit != truth) as u64;
+            bins[bin].2 += matches!(trace, FieldTrace::Miss { hidden: true, .. }) as u64;
+        }
+    }
+    println!("origin depth inside the sphere (entry point behind, / 2R) | rays | wrong | hidden");
+    for (w, (n, wrong, hidden)) in edges.windows(2).zip(&bins) {
+        println!(
+            "[{:.2}, {:.2}) | {n} | {:.2}% | {:.2}%",
+            w[0],
+            w[1],
+            100.0 * *wrong as f64 / (*n).max(1) as f64,
+            100.0 * *hidden as f64 / (*n).max(1) as f64
+        );
+    }
+    let rate = |(n, wrong, _): (u64, u64, u64)| wrong as f64 / n.max(1) as f64;
+    let (shallow, deep) = (rate(bins[0]), rate(*bins.iter().rev().find(|b| b.0 > 100).unwrap()));
+    assert!(bins[0].0 > 100 && deep > shallow, "shallow {shallow}, deep {deep}");
+}

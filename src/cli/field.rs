@@ -126,6 +126,8 @@ fn build(args: &BuildArgs) -> Result<Value> {
     report["rays"] = json!(stats.rays);
     report["hit_fraction"] = json!(stats.hit_fraction);
     report["positions_requested"] = json!(args.field.positions);
+    // Equal-area cells: the ratio tends to 1 as the quadrature refines.
+    report["cell_area_ratio"] = json!(params.grid.cell_area_ratio(8));
     report["threads"] = json!(threads);
     report["file"] = json!(out.display().to_string());
     Ok(report)

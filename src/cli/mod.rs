@@ -11,6 +11,7 @@ mod args;
 mod field;
 mod info;
 mod io;
+mod ssao;
 mod trace;
 mod trace_rays;
 
@@ -47,6 +48,8 @@ enum Command {
     Trace(trace::TraceArgs),
     /// Displacement fields: build one from a mesh, or inspect a .dfield file.
     Field(field::FieldArgs),
+    /// Screen-space ambient occlusion and indirect light (the paper's estimators).
+    Ssao(ssao::SsaoArgs),
     /// Write the procedural scenes (corner, closed box, well, ...) as OBJ files.
     GenAssets(GenAssetsArgs),
 }
@@ -95,6 +98,7 @@ fn dispatch(command: Command) -> Result<()> {
         Command::Ao(a) => emit(a.common.json, ao::run(&a)?),
         Command::Trace(a) => emit(a.common.json, trace::run(&a)?),
         Command::Field(a) => emit(field::json_flag(&a), field::run(&a)?),
+        Command::Ssao(a) => emit(a.common.json, ssao::run(&a)?),
         Command::GenAssets(a) => {
             let written = crate::scene::procedural::write_assets(&a.out)?;
             let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
