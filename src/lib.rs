@@ -9,6 +9,7 @@ pub mod aabb;
 pub mod ao;
 pub mod cli;
 pub mod error;
+pub mod field;
 pub mod gpu;
 pub mod kdtree;
 pub mod mlrta;
@@ -18,6 +19,7 @@ pub mod ray;
 pub mod sampling;
 pub mod scene;
 pub mod sh;
+pub mod ssao;
 pub mod wgsl;
 
 pub use error::{Error, Result};

@@ -27,9 +27,39 @@ pub const KDTREE_TRAVERSE: WgslFile = wgsl_file!("kdtree_traverse.wgsl");
 pub const TRACE_RAYS: WgslFile = wgsl_file!("trace_rays.wgsl");
 pub const AO_RAYS: WgslFile = wgsl_file!("ao_rays.wgsl");
 pub const PACKET_TRAVERSE: WgslFile = wgsl_file!("packet_traverse.wgsl");
+pub const FIELD_LOOKUP: WgslFile = wgsl_file!("field_lookup.wgsl");
+pub const FIELD_MAPS_FILTERED: WgslFile = wgsl_file!("field_maps_filtered.wgsl");
+pub const FIELD_MAPS_LOADED: WgslFile = wgsl_file!("field_maps_loaded.wgsl");
+pub const FIELD_MAPS_BITS: WgslFile = wgsl_file!("field_maps_bits.wgsl");
+pub const FIELD_TRACE: WgslFile = wgsl_file!("field_trace.wgsl");
+pub const FIELD_AO: WgslFile = wgsl_file!("field_ao.wgsl");
+pub const FIELD_PROBE: WgslFile = wgsl_file!("field_probe.wgsl");
+pub const GBUFFER: WgslFile = wgsl_file!("gbuffer.wgsl");
+pub const SSAO_COMMON: WgslFile = wgsl_file!("ssao_common.wgsl");
+pub const SSAO_ESTIMATE: WgslFile = wgsl_file!("ssao_estimate.wgsl");
+pub const SSAO_FILTER: WgslFile = wgsl_file!("ssao_filter.wgsl");
+pub const SSAO_INDIRECT: WgslFile = wgsl_file!("ssao_indirect.wgsl");
 
 /// Every file compiled in (the validation test checks this against `wgsl/`).
-pub const FILES: &[WgslFile] = &[SAMPLING, KDTREE_TRAVERSE, TRACE_RAYS, AO_RAYS, PACKET_TRAVERSE];
+pub const FILES: &[WgslFile] = &[
+    SAMPLING,
+    KDTREE_TRAVERSE,
+    TRACE_RAYS,
+    AO_RAYS,
+    PACKET_TRAVERSE,
+    FIELD_LOOKUP,
+    FIELD_MAPS_FILTERED,
+    FIELD_MAPS_LOADED,
+    FIELD_MAPS_BITS,
+    FIELD_TRACE,
+    FIELD_AO,
+    FIELD_PROBE,
+    GBUFFER,
+    SSAO_COMMON,
+    SSAO_ESTIMATE,
+    SSAO_FILTER,
+    SSAO_INDIRECT,
+];
 
 /// A shader module made of several files, in order.
 #[derive(Debug, Clone, Copy)]
@@ -53,8 +83,62 @@ pub const PACKET_TRAVERSE_MODULE: Composition = Composition {
     parts: &[KDTREE_TRAVERSE, PACKET_TRAVERSE],
 };
 
+/// Displacement-field kernels: one module per kernel and map storage (8-bit
+/// texture sampled with filtering, 32-bit texture loaded, 1-bit buffer).
+macro_rules! field_module {
+    ($name:literal, $maps:ident, $kernel:ident) => {
+        Composition {
+            name: $name,
+            parts: &[SAMPLING, FIELD_LOOKUP, $maps, FIELD_TRACE, $kernel],
+        }
+    };
+}
+
+pub const FIELD_AO_FILTERED_MODULE: Composition = field_module!("field_ao_filtered", FIELD_MAPS_FILTERED, FIELD_AO);
+pub const FIELD_AO_LOADED_MODULE: Composition = field_module!("field_ao_loaded", FIELD_MAPS_LOADED, FIELD_AO);
+pub const FIELD_AO_BITS_MODULE: Composition = field_module!("field_ao_bits", FIELD_MAPS_BITS, FIELD_AO);
+pub const FIELD_PROBE_FILTERED_MODULE: Composition =
+    field_module!("field_probe_filtered", FIELD_MAPS_FILTERED, FIELD_PROBE);
+pub const FIELD_PROBE_LOADED_MODULE: Composition = field_module!("field_probe_loaded", FIELD_MAPS_LOADED, FIELD_PROBE);
+pub const FIELD_PROBE_BITS_MODULE: Composition = field_module!("field_probe_bits", FIELD_MAPS_BITS, FIELD_PROBE);
+
+/// The G-buffer render pipeline (vertex and fragment stages).
+pub const GBUFFER_MODULE: Composition = Composition {
+    name: "gbuffer",
+    parts: &[GBUFFER],
+};
+
+pub const SSAO_ESTIMATE_MODULE: Composition = Composition {
+    name: "ssao_estimate",
+    parts: &[SSAO_COMMON, SSAO_ESTIMATE],
+};
+
+pub const SSAO_FILTER_MODULE: Composition = Composition {
+    name: "ssao_filter",
+    parts: &[SSAO_COMMON, SSAO_FILTER],
+};
+
+pub const SSAO_INDIRECT_MODULE: Composition = Composition {
+    name: "ssao_indirect",
+    parts: &[SSAO_COMMON, SSAO_INDIRECT],
+};
+
 /// Every kernel module the library builds pipelines from.
-pub const MODULES: &[Composition] = &[TRACE_RAYS_MODULE, AO_RAYS_MODULE, PACKET_TRAVERSE_MODULE];
+pub const MODULES: &[Composition] = &[
+    TRACE_RAYS_MODULE,
+    AO_RAYS_MODULE,
+    PACKET_TRAVERSE_MODULE,
+    FIELD_AO_FILTERED_MODULE,
+    FIELD_AO_LOADED_MODULE,
+    FIELD_AO_BITS_MODULE,
+    FIELD_PROBE_FILTERED_MODULE,
+    FIELD_PROBE_LOADED_MODULE,
+    FIELD_PROBE_BITS_MODULE,
+    GBUFFER_MODULE,
+    SSAO_ESTIMATE_MODULE,
+    SSAO_FILTER_MODULE,
+    SSAO_INDIRECT_MODULE,
+];
 
 impl Composition {
     pub fn source(&self) -> String {

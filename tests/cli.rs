@@ -340,14 +340,14 @@ fn ao_negative_radius_as_separate_argument() {
 }
 
 #[test]
-fn ao_method_field_is_a_usage_error() {
+fn ao_method_field_needs_a_receiver() {
     let d = TempDir::new("ao_method_field");
     let (mesh, csv) = (asset_s("cube-with-hole.obj"), d.p("out.csv"));
     pen(
         "ao --mesh {mesh} --method field --rays 8 --per-vertex {csv} --device cpu",
         &[("mesh", &mesh), ("csv", &csv)],
     )
-    .bad_input(&["--method", "field"]);
+    .bad_input(&["--method field", "--receiver"]);
 }
 
 #[test]

@@ -1,5 +1,7 @@
 //! What the benches share: the models (from `PENUMBRA_DATA`, or the
-//! procedural assets without it), their kd-trees and primary rays.
+//! procedural assets without it), their kd-trees and primary rays. Not every
+//! bench uses every item.
+#![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
 
@@ -21,11 +23,11 @@ pub struct Model {
     pub tree: KdTree,
 }
 
-fn model_paths() -> Vec<(String, PathBuf)> {
+fn model_paths(names: &[&str]) -> Vec<(String, PathBuf)> {
     match std::env::var_os("PENUMBRA_DATA") {
         Some(data) => {
             let dir = Path::new(&data).join("models");
-            DATA_MODELS
+            names
                 .iter()
                 .filter_map(|m| {
                     let path = dir.join(format!("{m}.obj"));
@@ -45,7 +47,7 @@ fn model_paths() -> Vec<(String, PathBuf)> {
                  ({}) instead of {}. Set PENUMBRA_DATA to the folder holding models/ for real numbers.",
                 dir.display(),
                 FALLBACK_MODELS.join(", "),
-                DATA_MODELS.join(", ")
+                names.join(", ")
             );
             FALLBACK_MODELS
                 .iter()
@@ -55,8 +57,14 @@ fn model_paths() -> Vec<(String, PathBuf)> {
     }
 }
 
+/// The ray-tracing benches' models: bunny, dragon, kitchen.
 pub fn load_models() -> Vec<Model> {
-    model_paths()
+    load_models_named(&DATA_MODELS)
+}
+
+/// The shared models `names` (without `PENUMBRA_DATA`, the procedural ones).
+pub fn load_models_named(names: &[&str]) -> Vec<Model> {
+    model_paths(names)
         .into_iter()
         .map(|(name, path)| {
             let mesh = load_obj(&path).unwrap_or_else(|e| panic!("loading {}: {e}", path.display()));

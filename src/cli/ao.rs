@@ -8,12 +8,14 @@ use serde_json::{Value, json};
 
 use super::Device;
 use super::args::{CameraArgs, Common, build_tree, check_image_size, check_output, load_input};
+use super::field::FieldOptions;
 use super::io::{write_grey_png, write_vertex_csv};
 use crate::ao::gpu::visibility_gpu;
 use crate::ao::points::{ORIGIN_OFFSET, hit_points, points_without_hemisphere, vertex_points};
 use crate::ao::raycast::visibility_cpu;
 use crate::ao::{AoPoint, AoSettings, VisibilityMasks};
 use crate::error::{Error, Result};
+use crate::field::Positional;
 use crate::kdtree::KdTree;
 use crate::kdtree::gpu::{GpuKdTree, TraceMode, trace_rays};
 use crate::progress::Progress;
@@ -24,6 +26,8 @@ use crate::scene::{Instance, Role, Scene, Transform, load_obj};
 pub enum Method {
     /// Reference: cast the rays against the casters' kd-tree.
     Raycast,
+    /// Displacement fields of the casters (needs --receiver or --scene).
+    Field,
 }
 
 #[derive(clap::Args)]
@@ -55,6 +59,25 @@ pub struct AoArgs {
     pub width: u32,
     #[arg(long, default_value_t = 512, allow_negative_numbers = true)]
     pub height: u32,
+    /// --method field: the caster's precomputed field (else it is built
+    /// with --positions/--res/--bits/--directions).
+    #[arg(long)]
+    pub field: Option<PathBuf>,
+    #[command(flatten)]
+    pub field_options: FieldOptions,
+    /// --method field: interpolate between the positional samples around a
+    /// ray's entry point, or read the nearest (the paper).
+    #[arg(long, value_enum, default_value_t = Positional::Bilinear)]
+    pub positional: Positional,
+    /// --method field: animation frames; instances with a "motion" in the
+    /// scene file move between them, fields are reused. CSV and image show
+    /// the last frame.
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    pub frames: i64,
+    /// --method field: also cast the same rays against the casters' geometry
+    /// and report the field's error (per vertex and per ray).
+    #[arg(long)]
+    pub reference: bool,
     #[command(flatten)]
     pub camera: CameraArgs,
     #[command(flatten)]
@@ -63,7 +86,7 @@ pub struct AoArgs {
 
 /// The scene the options describe: `--mesh` alone is caster and receiver;
 /// with `--receiver` the mesh only casts and the receiver only receives.
-fn scene_of(args: &AoArgs) -> Result<Scene> {
+pub(super) fn scene_of(args: &AoArgs) -> Result<Scene> {
     let mut scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
     if let Some(receiver) = &args.receiver {
         scene.instances[0].role = Role::Caster;
@@ -77,6 +100,7 @@ fn scene_of(args: &AoArgs) -> Result<Scene> {
             mesh: 1,
             role: Role::Receiver,
             transform: Transform::default(),
+            motion: None,
         });
     }
     Ok(scene)
@@ -90,18 +114,10 @@ pub fn run(args: &AoArgs) -> Result<Value> {
         seed: args.common.seed,
     };
     settings.validate()?;
-    if args.per_vertex.is_none() && args.image.is_none() {
-        return Err(Error::param("--per-vertex/--image", "give at least one output"));
+    if args.method == Method::Field {
+        return super::ao_field::run(args, &settings, threads);
     }
-    let csv = args
-        .per_vertex
-        .as_ref()
-        .map(|p| check_output(p, "--per-vertex"))
-        .transpose()?;
-    let png = args.image.as_ref().map(|p| check_output(p, "--image")).transpose()?;
-    if png.is_some() {
-        check_image_size(args.width, args.height)?;
-    }
+    let (csv, png) = outputs(args)?;
     let scene = scene_of(args)?;
     let occluders = scene.occluders();
     if occluders.triangles.is_empty() {
@@ -206,9 +222,26 @@ pub fn run(args: &AoArgs) -> Result<Value> {
     Ok(report)
 }
 
+/// The checked `--per-vertex` and `--image` paths (at least one).
+pub(super) fn outputs(args: &AoArgs) -> Result<(Option<PathBuf>, Option<PathBuf>)> {
+    if args.per_vertex.is_none() && args.image.is_none() {
+        return Err(Error::param("--per-vertex/--image", "give at least one output"));
+    }
+    let csv = args
+        .per_vertex
+        .as_ref()
+        .map(|p| check_output(p, "--per-vertex"))
+        .transpose()?;
+    let png = args.image.as_ref().map(|p| check_output(p, "--image")).transpose()?;
+    if png.is_some() {
+        check_image_size(args.width, args.height)?;
+    }
+    Ok((csv, png))
+}
+
 /// AO rays on the chosen device; returns the masks and the time in ms
 /// (GPU kernel time where timestamps exist).
-fn visibility(
+pub(super) fn visibility(
     device: &Device,
     tree: &KdTree,
     gpu_tree: Option<&GpuKdTree>,
@@ -230,7 +263,7 @@ fn visibility(
     }
 }
 
-fn mean(v: &[f32]) -> f64 {
+pub(super) fn mean(v: &[f32]) -> f64 {
     if v.is_empty() {
         return 0.0;
     }

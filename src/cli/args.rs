@@ -43,19 +43,25 @@ pub struct Common {
 impl Common {
     /// Sets up the rayon pool for `--threads`; returns the thread count.
     pub fn init_threads(&self) -> Result<usize> {
-        let threads = match self.threads {
-            Some(0) => return Err(Error::param("--threads", "must be at least 1")),
-            Some(n) => n,
-            None => std::thread::available_parallelism().map_or(1, |n| n.get()),
-        };
-        // The global pool can be built once per process; the CLI does so once.
-        match rayon::ThreadPoolBuilder::new().num_threads(threads).build_global() {
-            Ok(()) => {}
-            Err(_) if rayon::current_num_threads() == threads => {}
-            Err(e) => return Err(e.into()),
-        }
-        Ok(threads)
+        init_thread_pool(self.threads)
     }
+}
+
+/// Sets up the global rayon pool with `threads` threads (default: all
+/// cores); returns the thread count.
+pub fn init_thread_pool(threads: Option<usize>) -> Result<usize> {
+    let threads = match threads {
+        Some(0) => return Err(Error::param("--threads", "must be at least 1")),
+        Some(n) => n,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    // The global pool can be built once per process; the CLI does so once.
+    match rayon::ThreadPoolBuilder::new().num_threads(threads).build_global() {
+        Ok(()) => {}
+        Err(_) if rayon::current_num_threads() == threads => {}
+        Err(e) => return Err(e.into()),
+    }
+    Ok(threads)
 }
 
 /// `--eye/--target/--fov`; omitted ones come from the default camera.

@@ -6,10 +6,13 @@
 //! (including usage errors from clap), 1 internal error (panics included).
 
 mod ao;
+mod ao_field;
 mod args;
+mod field;
 mod info;
 mod io;
 mod prt;
+mod ssao;
 mod trace;
 mod trace_rays;
 
@@ -46,6 +49,10 @@ enum Command {
     Trace(trace::TraceArgs),
     /// Self-shadowed rendering under an environment map, transfer recomputed every frame.
     Prt(prt::PrtArgs),
+    /// Displacement fields: build one from a mesh, or inspect a .dfield file.
+    Field(field::FieldArgs),
+    /// Screen-space ambient occlusion and indirect light (the paper's estimators).
+    Ssao(ssao::SsaoArgs),
     /// Write the procedural scenes (corner, closed box, well, ...) as OBJ files.
     GenAssets(GenAssetsArgs),
 }
@@ -94,6 +101,8 @@ fn dispatch(command: Command) -> Result<()> {
         Command::Ao(a) => emit(a.common.json, ao::run(&a)?),
         Command::Trace(a) => emit(a.common.json, trace::run(&a)?),
         Command::Prt(a) => emit(a.common.json, prt::run(&a)?),
+        Command::Field(a) => emit(field::json_flag(&a), field::run(&a)?),
+        Command::Ssao(a) => emit(a.common.json, ssao::run(&a)?),
         Command::GenAssets(a) => {
             let written = crate::scene::procedural::write_assets(&a.out)?;
             let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();

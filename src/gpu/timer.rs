@@ -60,6 +60,26 @@ impl PassTimer {
         })
     }
 
+    /// Timestamp writes for the next render pass (None once full).
+    pub fn next_render_pass(&mut self) -> Option<wgpu::RenderPassTimestampWrites<'_>> {
+        let w = self.next_pass()?;
+        Some(wgpu::RenderPassTimestampWrites {
+            query_set: w.query_set,
+            beginning_of_pass_write_index: w.beginning_of_pass_write_index,
+            end_of_pass_write_index: w.end_of_pass_write_index,
+        })
+    }
+
+    /// Duration of each pass so far in milliseconds (after submission and
+    /// `resolve`).
+    pub fn pass_ms(&self, device: &wgpu::Device) -> Result<Vec<f64>> {
+        let stamps: Vec<u64> = read_back(device, &self.readback, 2 * self.used as usize)?;
+        Ok(stamps
+            .chunks(2)
+            .map(|p| p[1].saturating_sub(p[0]) as f64 * self.period_ns as f64 * 1e-6)
+            .collect())
+    }
+
     /// Records the resolve and copy; call once after the last pass.
     pub fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
         if self.used == 0 {

@@ -22,7 +22,7 @@ pub use environment::EnvironmentMap;
 pub use mesh::{Mesh, MeshObject};
 pub use obj::{load_obj, parse_obj, write_obj};
 pub use scene_file::load_scene;
-pub use transform::Transform;
+pub use transform::{Motion, Transform};
 
 /// What an instance takes part in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, serde::Serialize)]
@@ -60,6 +60,15 @@ pub struct Instance {
     pub mesh: usize,
     pub role: Role,
     pub transform: Transform,
+    /// Rigid motion over animation frames, if any.
+    pub motion: Option<Motion>,
+}
+
+impl Instance {
+    /// The instance's transform at animation frame `frame`.
+    pub fn transform_at(&self, frame: u32) -> Transform {
+        self.motion.map_or(self.transform, |m| m.at(&self.transform, frame))
+    }
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -83,6 +92,8 @@ pub struct Scene {
     pub camera: Option<Camera>,
     pub lights: Vec<Light>,
     pub environment: Option<Environment>,
+    /// Precomputed displacement fields by mesh index (`.dfield` paths).
+    pub fields: std::collections::BTreeMap<usize, PathBuf>,
 }
 
 impl Scene {
@@ -100,21 +111,28 @@ impl Scene {
                 mesh: 0,
                 role: Role::Both,
                 transform: Transform::default(),
+                motion: None,
             }],
             camera: None,
             lights: Vec::new(),
             environment: None,
+            fields: Default::default(),
         }
     }
 
     /// All instances whose role passes `keep`, in world space, merged into one
     /// mesh with one object per instance (in instance order).
     pub fn world_mesh(&self, keep: impl Fn(Role) -> bool) -> Mesh {
+        self.world_mesh_at(0, keep)
+    }
+
+    /// `world_mesh` with every instance where its motion puts it at
+    /// animation frame `frame`.
+    pub fn world_mesh_at(&self, frame: u32, keep: impl Fn(Role) -> bool) -> Mesh {
         let mut out = Mesh::default();
         for inst in self.instances.iter().filter(|i| keep(i.role)) {
-            let mut m = self.meshes[inst.mesh]
-                .mesh
-                .map_positions(|p| inst.transform.apply_point(p));
+            let transform = inst.transform_at(frame);
+            let mut m = self.meshes[inst.mesh].mesh.map_positions(|p| transform.apply_point(p));
             let n = m.triangles.len() as u32;
             m.objects = vec![MeshObject {
                 name: inst.name.clone(),

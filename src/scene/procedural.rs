@@ -422,7 +422,7 @@ fn grid_quad(name: &str, origin: Vec3, u_axis: Vec3, v_axis: Vec3, nu: u32, nv: 
 
 /// A UV sphere with single-vertex poles (top pole first), normals outward,
 /// as one object named `name`.
-fn uv_sphere(name: &str, centre: Vec3, radius: f32, segments: u32, bands: u32) -> Mesh {
+pub fn uv_sphere(name: &str, centre: Vec3, radius: f32, segments: u32, bands: u32) -> Mesh {
     let (c, r) = (centre.as_dvec3(), f64::from(radius));
     let n = segments as usize;
     let next = |k: usize| (k + 1) % n;

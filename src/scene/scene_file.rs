@@ -11,9 +11,16 @@
 //!   ],
 //!   "camera": { "eye": [3, 2, 3], "target": [0, 0, 0], "fov": 45 },
 //!   "lights": [ { "point": { "position": [2, 3, 2], "intensity": [10, 10, 10] } } ],
-//!   "environment": { "map": "$PENUMBRA_DATA/probes/grace.hdr", "intensity": 1 }
+//!   "environment": { "map": "$PENUMBRA_DATA/probes/grace.hdr", "intensity": 1 },
+//!   "fields": { "bunny": "bunny.dfield" }
 //! }
 //! ```
+//!
+//! An instance may move over animation frames (`penumbra ao --frames N`):
+//! `"motion": { "axis": [0, 1, 0], "degrees_per_frame": 5, "pivot": [0.5, 0, 0.5],
+//! "translate_per_frame": [0, 0, 0.01] }` rotates it about the pivot (default:
+//! its translation) and moves it, frame after frame. `"fields"` names
+//! precomputed displacement fields (`penumbra field build`) of meshes.
 //!
 //! Paths are relative to the scene file; a leading `$PENUMBRA_DATA` is the
 //! shared data folder named by that environment variable. Unknown fields are
@@ -25,7 +32,7 @@ use std::path::{Path, PathBuf};
 use glam::{Quat, Vec3};
 use serde::Deserialize;
 
-use super::{Camera, Instance, Light, Role, Scene, SceneMesh, Transform, load_obj};
+use super::{Camera, Instance, Light, Motion, Role, Scene, SceneMesh, Transform, load_obj};
 use crate::error::{Error, Result};
 use crate::scene::environment::EnvironmentMap;
 
@@ -40,6 +47,8 @@ struct SceneFile {
     lights: Vec<LightFile>,
     #[serde(default)]
     environment: Option<EnvironmentFile>,
+    #[serde(default)]
+    fields: BTreeMap<String, String>,
 }
 
 #[derive(Deserialize)]
@@ -56,6 +65,25 @@ struct InstanceFile {
     rotate: Option<RotationFile>,
     #[serde(default = "one")]
     scale: f32,
+    #[serde(default)]
+    motion: Option<MotionFile>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MotionFile {
+    #[serde(default = "up")]
+    axis: [f32; 3],
+    #[serde(default)]
+    degrees_per_frame: f32,
+    #[serde(default)]
+    pivot: Option<[f32; 3]>,
+    #[serde(default)]
+    translate_per_frame: [f32; 3],
+}
+
+fn up() -> [f32; 3] {
+    [0.0, 1.0, 0.0]
 }
 
 fn one() -> f32 {
@@ -180,6 +208,27 @@ pub fn load_scene(path: &Path) -> Result<Scene> {
                 Quat::from_axis_angle(axis, r.degrees.to_radians())
             }
         };
+        let motion = match &inst.motion {
+            None => None,
+            Some(m) => {
+                let f = format!("{field}.motion");
+                let pivot = m.pivot.unwrap_or(inst.translate);
+                finite(
+                    path,
+                    &f,
+                    &[&m.axis[..], &[m.degrees_per_frame], &pivot, &m.translate_per_frame].concat(),
+                )?;
+                let axis = Vec3::from_array(m.axis)
+                    .try_normalize()
+                    .ok_or_else(|| Error::file(path, format!("{f}.axis"), "must not be the zero vector"))?;
+                Some(Motion {
+                    axis,
+                    degrees_per_frame: m.degrees_per_frame,
+                    pivot: Vec3::from_array(pivot),
+                    velocity: Vec3::from_array(m.translate_per_frame),
+                })
+            }
+        };
         instances.push(Instance {
             name: inst.name.clone().unwrap_or_else(|| format!("{}#{i}", inst.mesh)),
             mesh,
@@ -189,6 +238,7 @@ pub fn load_scene(path: &Path) -> Result<Scene> {
                 rotation,
                 scale: inst.scale,
             },
+            motion,
         });
     }
     let camera = match &file.camera {
@@ -244,12 +294,21 @@ pub fn load_scene(path: &Path) -> Result<Scene> {
             })
         }
     };
+    let mut fields = BTreeMap::new();
+    for (name, field_path) in &file.fields {
+        let f = format!("fields.{name}");
+        let &mesh = index_of
+            .get(name)
+            .ok_or_else(|| Error::file(path, &f, format!("no mesh named '{name}' in \"meshes\"")))?;
+        fields.insert(mesh, resolve(path, &f, field_path)?);
+    }
     Ok(Scene {
         meshes,
         instances,
         camera,
         lights,
         environment,
+        fields,
     })
 }
 

@@ -36,6 +36,29 @@ impl Transform {
     }
 }
 
+/// A rigid motion per animation frame: a rotation about `pivot` and a
+/// translation, applied `frame` times on top of an instance's placement.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Motion {
+    pub axis: Vec3,
+    pub degrees_per_frame: f32,
+    pub pivot: Vec3,
+    pub velocity: Vec3,
+}
+
+impl Motion {
+    /// `placement` after `frame` frames of this motion.
+    pub fn at(&self, placement: &Transform, frame: u32) -> Transform {
+        let f = frame as f32;
+        let spin = Quat::from_axis_angle(self.axis, (self.degrees_per_frame * f).to_radians());
+        Transform {
+            translation: spin * (placement.translation - self.pivot) + self.pivot + self.velocity * f,
+            rotation: (spin * placement.rotation).normalize(),
+            scale: placement.scale,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -49,5 +72,27 @@ mod tests {
         };
         let p = Vec3::new(0.3, 0.2, -0.9);
         assert!((t.inverse_point(t.apply_point(p)) - p).length() < 1e-5);
+    }
+
+    #[test]
+    fn motion_is_rigid_and_starts_at_the_placement() {
+        let placement = Transform {
+            translation: Vec3::new(1.0, 0.0, 0.0),
+            rotation: Quat::IDENTITY,
+            scale: 2.0,
+        };
+        let m = Motion {
+            axis: Vec3::Y,
+            degrees_per_frame: 90.0,
+            pivot: Vec3::ZERO,
+            velocity: Vec3::new(0.0, 0.5, 0.0),
+        };
+        assert_eq!(m.at(&placement, 0), placement);
+        let t = m.at(&placement, 1);
+        // The instance's origin orbits the pivot and rises.
+        assert!(t.apply_point(Vec3::ZERO).abs_diff_eq(Vec3::new(0.0, 0.5, -1.0), 1e-5));
+        // Distances scale by the instance's scale only.
+        let (a, b) = (Vec3::new(0.1, 0.2, 0.3), Vec3::new(-0.4, 0.0, 0.2));
+        assert!(((t.apply_point(a) - t.apply_point(b)).length() - 2.0 * (a - b).length()).abs() < 1e-5);
     }
 }

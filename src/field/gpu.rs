@@ -1,0 +1,666 @@
+//! Displacement fields on the GPU: the maps stacked into a 3D texture (the
+//! paper's section 5 suggestion) — for 8-bit fields an RG8Unorm texture,
+//! (distance if hit, hit), read through the texture unit's bilinear filter,
+//! which returns the weighted distance and the coverage of the four texels
+//! in one fetch (`field::lookup` explains the vote); for 32-bit fields an
+//! R32Float texture whose four texels are loaded and weighed in the shader
+//! (not filterable in core WebGPU) — or packed bits in a storage buffer for
+//! 1-bit fields; and the `field_ao` (Algorithm 2) and `field_probe` (single
+//! lookups, for the CPU twin's check) kernels.
+//!
+//! Portable WebGPU allows 2048 texels per 3D-texture side, fewer than the
+//! paper's 4226 maps, so several maps share a layer as tiles
+//! (`TextureLayout`); lookups clamp to texel centres inside the tile.
+//!
+//! Like the other passes, `FieldPasses` takes the host's device, caches its
+//! layouts and pipelines, and records into the caller's encoder; the
+//! blocking helpers (`visibility_field_gpu`, `probe_gpu`) are conveniences.
+
+use std::sync::OnceLock;
+use std::time::Instant;
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+use super::build::DisplacementField;
+use super::lookup::Positional;
+use super::storage::{FieldData, Storage};
+use crate::ao::{AoPoint, AoSettings, VisibilityMasks};
+use crate::error::{Error, Result};
+use crate::gpu::buffers::{check_storage_size, read_back, storage_buffer, uniform_buffer, zeroed_buffer};
+use crate::gpu::kernels::{compute_pipelines, record_dispatch};
+use crate::gpu::timer::PassTimer;
+use crate::gpu::{GpuContext, dispatch_grid};
+use crate::kdtree::gpu::{bind_group, storage_entry, uniform_entry};
+use crate::progress::Progress;
+use crate::scene::Transform;
+
+use super::ao::RayClasses;
+
+/// `FieldParams` in `wgsl/field_lookup.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct FieldGpuParams {
+    pub center: [f32; 3],
+    pub radius: f32,
+    pub side: u32,
+    pub res: u32,
+    pub storage_bits: u32,
+    pub directions: u32,
+    pub tiles_x: u32,
+    pub tiles_y: u32,
+    pub positional: u32,
+    pub words_per_map: u32,
+}
+
+/// `FieldAoParams` in `wgsl/field_ao.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct FieldAoParams {
+    pub point_count: u32,
+    pub rays_per_point: u32,
+    pub words_per_point: u32,
+    pub seed: u32,
+    pub row_pitch: u32,
+    pub radius: f32,
+    pub instance_count: u32,
+    pub _pad: u32,
+}
+
+/// `FieldInstance` in `wgsl/field_ao.wgsl`: world to object space.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct GpuInstance {
+    pub inv_rotation: [f32; 4],
+    pub translation: [f32; 3],
+    pub scale: f32,
+    pub instance: u32,
+    pub _pad: [u32; 3],
+}
+
+impl GpuInstance {
+    pub fn new(transform: &Transform, instance: u32) -> GpuInstance {
+        GpuInstance {
+            inv_rotation: transform.rotation.inverse().to_array(),
+            translation: transform.translation.to_array(),
+            scale: transform.scale,
+            instance,
+            _pad: [0; 3],
+        }
+    }
+}
+
+/// `ProbeParams` in `wgsl/field_probe.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct ProbeParams {
+    ray_count: u32,
+    row_pitch: u32,
+    _pad: [u32; 2],
+}
+
+const _: () = assert!(std::mem::size_of::<FieldGpuParams>() == 48 && std::mem::size_of::<GpuInstance>() == 48);
+
+/// How the maps are read, from the storage.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MapAccess {
+    /// 8-bit: RG8Unorm texture (distance if hit, hit), hardware bilinear filtering.
+    Filtered,
+    /// 32-bit: R32Float texture, four loads blended in the shader.
+    Loaded,
+    /// 1-bit: packed bits and per-map means in storage buffers.
+    Bits,
+}
+
+impl MapAccess {
+    pub fn of(storage: Storage) -> MapAccess {
+        match storage {
+            Storage::U8 => MapAccess::Filtered,
+            Storage::F32 => MapAccess::Loaded,
+            Storage::Bit1 => MapAccess::Bits,
+        }
+    }
+}
+
+/// Maps per layer of the stacked 3D texture: `tiles_x * tiles_y` maps of
+/// `res x res` texels side by side, layer after layer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct TextureLayout {
+    pub tiles_x: u32,
+    pub tiles_y: u32,
+    pub layers: u32,
+    pub res: u32,
+}
+
+impl TextureLayout {
+    /// The squarest tiling whose every side fits `max_side` (the device's
+    /// `max_texture_dimension_3d`).
+    pub fn for_maps(maps: u32, res: u32, max_side: u32) -> Result<TextureLayout> {
+        let mut k = 1u32;
+        loop {
+            let layers = maps.div_ceil(k * k);
+            if k * res > max_side {
+                return Err(Error::Device(format!(
+                    "{maps} maps of {res}x{res} texels do not fit a 3D texture of at most {max_side} texels per side"
+                )));
+            }
+            if layers <= max_side {
+                return Ok(TextureLayout {
+                    tiles_x: k,
+                    tiles_y: k,
+                    layers,
+                    res,
+                });
+            }
+            k += 1;
+        }
+    }
+
+    pub fn size(&self) -> wgpu::Extent3d {
+        wgpu::Extent3d {
+            width: self.tiles_x * self.res,
+            height: self.tiles_y * self.res,
+            depth_or_array_layers: self.layers,
+        }
+    }
+
+    /// Texel index (x, y, layer) in the texture of texel (a, b) of map m.
+    pub fn texel(&self, m: u32, a: u32, b: u32) -> (u32, u32, u32) {
+        let per_layer = self.tiles_x * self.tiles_y;
+        let tile = m % per_layer;
+        (
+            (tile % self.tiles_x) * self.res + a,
+            (tile / self.tiles_x) * self.res + b,
+            m / per_layer,
+        )
+    }
+}
+
+fn texture_entry(binding: u32, filterable: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable },
+            view_dimension: wgpu::TextureViewDimension::D3,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// Bind group 0 of the field kernels: the field's parameters and maps.
+pub fn maps_layout(device: &wgpu::Device, access: MapAccess) -> wgpu::BindGroupLayout {
+    let entries: Vec<wgpu::BindGroupLayoutEntry> = match access {
+        MapAccess::Filtered => vec![
+            uniform_entry(0),
+            texture_entry(1, true),
+            wgpu::BindGroupLayoutEntry {
+                binding: 2,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
+        ],
+        MapAccess::Loaded => vec![uniform_entry(0), texture_entry(1, false)],
+        MapAccess::Bits => vec![uniform_entry(0), storage_entry(1, true), storage_entry(2, true)],
+    };
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("field maps"),
+        entries: &entries,
+    })
+}
+
+/// A field on the device: its parameters and maps, as bind group 0.
+pub struct GpuField {
+    pub access: MapAccess,
+    pub layout: Option<TextureLayout>,
+    pub bind_group: wgpu::BindGroup,
+    /// Bytes of map data on the device.
+    pub bytes: u64,
+    params: wgpu::Buffer,
+    gpu_params: FieldGpuParams,
+    _resources: Vec<wgpu::Buffer>,
+    _texture: Option<wgpu::Texture>,
+}
+
+impl GpuField {
+    /// Uploads `field`, to be read with `positional` interpolation.
+    pub fn upload(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        field: &DisplacementField,
+        positional: Positional,
+    ) -> Result<GpuField> {
+        let p = &field.params;
+        let access = MapAccess::of(p.storage);
+        let max_side = device.limits().max_texture_dimension_3d;
+        let layout = match access {
+            MapAccess::Bits => None,
+            _ => Some(TextureLayout::for_maps(p.grid.count(), p.res, max_side)?),
+        };
+        let gpu_params = FieldGpuParams {
+            center: field.center.to_array(),
+            radius: field.radius,
+            side: p.grid.side,
+            res: p.res,
+            storage_bits: p.storage.bits(),
+            directions: p.directions.code(),
+            tiles_x: layout.map_or(1, |l| l.tiles_x),
+            tiles_y: layout.map_or(1, |l| l.tiles_y),
+            positional: positional_code(positional),
+            words_per_map: p.words_per_map() as u32,
+        };
+        let params = uniform_buffer(device, "field params", &gpu_params);
+        let group_layout = maps_layout(device, access);
+        let mut resources = Vec::new();
+        let mut texture = None;
+        let (bind_group, bytes) = match (&field.data, layout) {
+            (FieldData::Bits { words, mean }, _) => {
+                let w = storage_buffer(device, "field bits", bytemuck::cast_slice(words))?;
+                let m = storage_buffer(device, "field means", bytemuck::cast_slice(mean))?;
+                let g = bind_group(device, "field maps", &group_layout, &[(0, &params), (1, &w), (2, &m)]);
+                let bytes = (words.len() + mean.len()) as u64 * 4;
+                resources.extend([w, m]);
+                (g, bytes)
+            }
+            (data, Some(layout)) => {
+                let (format, texel_bytes) = match access {
+                    MapAccess::Filtered => (wgpu::TextureFormat::Rg8Unorm, 2),
+                    _ => (wgpu::TextureFormat::R32Float, 4),
+                };
+                let tex = device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some("field maps"),
+                    size: layout.size(),
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D3,
+                    format,
+                    usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                    view_formats: &[],
+                });
+                let texels = stack_maps(field, &layout, texel_bytes, data);
+                let size = layout.size();
+                queue.write_texture(
+                    wgpu::TexelCopyTextureInfo {
+                        texture: &tex,
+                        mip_level: 0,
+                        origin: wgpu::Origin3d::ZERO,
+                        aspect: wgpu::TextureAspect::All,
+                    },
+                    &texels,
+                    wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(size.width * texel_bytes),
+                        rows_per_image: Some(size.height),
+                    },
+                    size,
+                );
+                let view = tex.create_view(&Default::default());
+                let mut entries = vec![
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: params.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::TextureView(&view),
+                    },
+                ];
+                let sampler;
+                if access == MapAccess::Filtered {
+                    sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+                        label: Some("field maps"),
+                        mag_filter: wgpu::FilterMode::Linear,
+                        min_filter: wgpu::FilterMode::Linear,
+                        ..Default::default()
+                    });
+                    entries.push(wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: wgpu::BindingResource::Sampler(&sampler),
+                    });
+                }
+                let g = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("field maps"),
+                    layout: &group_layout,
+                    entries: &entries,
+                });
+                texture = Some(tex);
+                (g, texels.len() as u64)
+            }
+            (_, None) => unreachable!("textures have a layout"),
+        };
+        Ok(GpuField {
+            access,
+            layout,
+            bind_group,
+            bytes,
+            params,
+            gpu_params,
+            _resources: resources,
+            _texture: texture,
+        })
+    }
+
+    /// Switches the positional interpolation of later lookups.
+    pub fn set_positional(&mut self, queue: &wgpu::Queue, positional: Positional) {
+        self.gpu_params.positional = positional_code(positional);
+        queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&self.gpu_params));
+    }
+}
+
+fn positional_code(p: Positional) -> u32 {
+    match p {
+        Positional::Nearest => 0,
+        Positional::Bilinear => 1,
+    }
+}
+
+/// The maps laid out as the texture's texels (row-major x, then y, then layer).
+fn stack_maps(field: &DisplacementField, layout: &TextureLayout, texel_bytes: u32, data: &FieldData) -> Vec<u8> {
+    let size = layout.size();
+    let (w, h) = (size.width as usize, size.height as usize);
+    let mut out = vec![0u8; w * h * size.depth_or_array_layers as usize * texel_bytes as usize];
+    let res = field.params.res;
+    let texels = field.params.texels_per_map();
+    for m in 0..field.params.grid.count() {
+        for b in 0..res {
+            let (x, y, z) = layout.texel(m, 0, b);
+            let at = ((z as usize * h + y as usize) * w + x as usize) * texel_bytes as usize;
+            let from = m as usize * texels + (b * res) as usize;
+            let row = res as usize;
+            match data {
+                FieldData::U8(v) => {
+                    // (distance if the direction hits else 0, hit): 255 is a miss.
+                    for (k, &d) in v[from..from + row].iter().enumerate() {
+                        let hit = d < 255;
+                        out[at + 2 * k] = if hit { d } else { 0 };
+                        out[at + 2 * k + 1] = if hit { 255 } else { 0 };
+                    }
+                }
+                FieldData::F32(v) => {
+                    out[at..at + 4 * row].copy_from_slice(bytemuck::cast_slice(&v[from..from + row]));
+                }
+                FieldData::Bits { .. } => unreachable!("bits are not stacked"),
+            }
+        }
+    }
+    out
+}
+
+/// The pipelines of one map access.
+pub struct FieldPipelines {
+    pub maps_layout: wgpu::BindGroupLayout,
+    pub ao_layout: wgpu::BindGroupLayout,
+    pub probe_layout: wgpu::BindGroupLayout,
+    pub ao: wgpu::ComputePipeline,
+    pub probe: wgpu::ComputePipeline,
+}
+
+/// Field kernels for one device, built on first use per map access.
+#[derive(Default)]
+pub struct FieldPasses {
+    filtered: OnceLock<FieldPipelines>,
+    loaded: OnceLock<FieldPipelines>,
+    bits: OnceLock<FieldPipelines>,
+}
+
+impl FieldPasses {
+    pub fn pipelines(&self, device: &wgpu::Device, access: MapAccess) -> &FieldPipelines {
+        use crate::wgsl::*;
+        let (cell, ao_module, probe_module) = match access {
+            MapAccess::Filtered => (&self.filtered, FIELD_AO_FILTERED_MODULE, FIELD_PROBE_FILTERED_MODULE),
+            MapAccess::Loaded => (&self.loaded, FIELD_AO_LOADED_MODULE, FIELD_PROBE_LOADED_MODULE),
+            MapAccess::Bits => (&self.bits, FIELD_AO_BITS_MODULE, FIELD_PROBE_BITS_MODULE),
+        };
+        cell.get_or_init(|| {
+            let maps = maps_layout(device, access);
+            // params, points, owners, instances, classes
+            let ao_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("field ao io"),
+                entries: &[
+                    uniform_entry(0),
+                    storage_entry(1, true),
+                    storage_entry(2, true),
+                    storage_entry(3, true),
+                    storage_entry(4, false),
+                ],
+            });
+            // params, rays, results
+            let probe_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("field probe io"),
+                entries: &[uniform_entry(0), storage_entry(1, true), storage_entry(2, false)],
+            });
+            let ao = compute_pipelines(device, &ao_module, &[&maps, &ao_layout], &["field_ao"]).remove(0);
+            let probe = compute_pipelines(device, &probe_module, &[&maps, &probe_layout], &["field_probe"]).remove(0);
+            FieldPipelines {
+                maps_layout: maps,
+                ao_layout,
+                probe_layout,
+                ao,
+                probe,
+            }
+        })
+    }
+
+    /// Records one `field_ao` dispatch of `grid` workgroups (64 rays each)
+    /// into the caller's encoder. `io` is laid out as `ao_layout`: params,
+    /// points, owners, instances, classes (zeroed before the first field).
+    pub fn record_ao(
+        &self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+        field: &GpuField,
+        io: &wgpu::BindGroup,
+        grid: (u32, u32),
+    ) {
+        let p = self.pipelines(device, field.access);
+        record_dispatch(
+            encoder,
+            "field ao",
+            timestamp_writes,
+            &p.ao,
+            &[&field.bind_group, io],
+            grid,
+        );
+    }
+}
+
+/// One field with the instances that use it.
+pub struct FieldGroup<'f> {
+    pub field: &'f GpuField,
+    pub instances: Vec<GpuInstance>,
+}
+
+/// Result of `visibility_field_gpu`.
+pub struct GpuFieldAo {
+    pub masks: VisibilityMasks,
+    pub classes: RayClasses,
+    pub gpu_ms: Option<f64>,
+    pub wall_ms: f64,
+}
+
+/// Rays per batch of points.
+const RAYS_PER_BATCH: u64 = 1 << 22;
+
+/// `field::visibility_field` on the GPU (blocking): the same rays, one
+/// dispatch per field per batch of points.
+pub fn visibility_field_gpu(
+    ctx: &GpuContext,
+    groups: &[FieldGroup],
+    points: &[AoPoint],
+    owners: &[u32],
+    settings: &AoSettings,
+    progress: &Progress,
+) -> Result<GpuFieldAo> {
+    settings.validate()?;
+    assert_eq!(points.len(), owners.len());
+    let start = Instant::now();
+    let device = &ctx.device;
+    let passes = ctx.kernels.get_or_insert(FieldPasses::default);
+    let words = settings.words_per_point() as usize;
+    let n = settings.rays_per_point as u64;
+    let batch_points = ((RAYS_PER_BATCH / n).max(1) as usize).min(points.len().max(1));
+    let class_bytes = (3 * batch_points * words * 4) as u64;
+    check_storage_size(device, "field AO ray classes", class_bytes)?;
+    let usage_in = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+    let point_buf = zeroed_buffer(device, "field ao points", (batch_points * 32) as u64, usage_in);
+    let owner_buf = zeroed_buffer(device, "field ao owners", (batch_points * 4) as u64, usage_in);
+    let classes = zeroed_buffer(
+        device,
+        "field ao classes",
+        class_bytes,
+        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+    );
+    let readback = zeroed_buffer(
+        device,
+        "field ao readback",
+        class_bytes,
+        wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+    );
+    // Per field: its instances, a params buffer and the io bind group.
+    let mut per_field = Vec::new();
+    for g in groups.iter().filter(|g| !g.instances.is_empty()) {
+        let instances = storage_buffer(device, "field instances", bytemuck::cast_slice(&g.instances))?;
+        let params = uniform_buffer(device, "field ao params", &FieldAoParams::zeroed());
+        let layout = &passes.pipelines(device, g.field.access).ao_layout;
+        let io = bind_group(
+            device,
+            "field ao io",
+            layout,
+            &[
+                (0, &params),
+                (1, &point_buf),
+                (2, &owner_buf),
+                (3, &instances),
+                (4, &classes),
+            ],
+        );
+        per_field.push((g, params, io, instances));
+    }
+    let batches = points.len().div_ceil(batch_points);
+    let mut timer = PassTimer::new(ctx, (batches * per_field.len()).max(1) as u32);
+    let max_dim = device.limits().max_compute_workgroups_per_dimension;
+    let mut bits = Vec::with_capacity(points.len() * words);
+    let mut inside = Vec::with_capacity(points.len() * words);
+    let mut hidden = Vec::with_capacity(points.len() * words);
+    let valid: Vec<u32> = (0..words)
+        .map(|w| {
+            let rays = (settings.rays_per_point as usize).saturating_sub(32 * w).min(32);
+            if rays == 32 { u32::MAX } else { (1u32 << rays) - 1 }
+        })
+        .collect();
+    for (chunk, chunk_owners) in points.chunks(batch_points).zip(owners.chunks(batch_points)) {
+        let (gx, gy, pitch) = dispatch_grid((chunk.len() as u64 * n) as u32, max_dim);
+        ctx.queue.write_buffer(&point_buf, 0, bytemuck::cast_slice(chunk));
+        ctx.queue
+            .write_buffer(&owner_buf, 0, bytemuck::cast_slice(chunk_owners));
+        let mut encoder = device.create_command_encoder(&Default::default());
+        encoder.clear_buffer(&classes, 0, None);
+        for (g, params, io, _) in &per_field {
+            let p = FieldAoParams {
+                point_count: chunk.len() as u32,
+                rays_per_point: settings.rays_per_point,
+                words_per_point: words as u32,
+                seed: settings.seed,
+                row_pitch: pitch,
+                radius: if settings.radius.is_finite() {
+                    settings.radius
+                } else {
+                    f32::MAX
+                },
+                instance_count: g.instances.len() as u32,
+                _pad: 0,
+            };
+            ctx.queue.write_buffer(params, 0, bytemuck::bytes_of(&p));
+            passes.record_ao(
+                device,
+                &mut encoder,
+                timer.as_mut().and_then(|t| t.next_pass()),
+                g.field,
+                io,
+                (gx, gy),
+            );
+        }
+        let len = chunk.len() * words;
+        encoder.copy_buffer_to_buffer(&classes, 0, &readback, 0, (3 * len * 4) as u64);
+        ctx.queue.submit([encoder.finish()]);
+        let words_back: Vec<u32> = read_back(device, &readback, 3 * len)?;
+        // The kernel puts the three masks one after the other, each
+        // point_count * words_per_point words of this batch.
+        for (i, &occluded) in words_back[..len].iter().enumerate() {
+            bits.push(!occluded & valid[i % words]);
+        }
+        inside.extend_from_slice(&words_back[len..2 * len]);
+        hidden.extend_from_slice(&words_back[2 * len..3 * len]);
+        progress.inc(chunk.len() as u64);
+    }
+    let gpu_ms = PassTimer::finish(timer, ctx)?;
+    Ok(GpuFieldAo {
+        masks: VisibilityMasks {
+            rays_per_point: settings.rays_per_point,
+            words_per_point: words as u32,
+            bits,
+        },
+        classes: RayClasses { inside, hidden },
+        gpu_ms,
+        wall_ms: start.elapsed().as_secs_f64() * 1e3,
+    })
+}
+
+/// Single lookups on the GPU: per object-space ray (origin, unit
+/// direction), `[kind, t, distance, flags]` (kind 0 outside, 1 miss, 2 hit;
+/// flags 1 inside + 2 hidden), as `wgsl/field_probe.wgsl` returns them.
+pub fn probe_gpu(ctx: &GpuContext, field: &GpuField, rays: &[(Vec3, Vec3)]) -> Result<Vec<[f32; 4]>> {
+    let device = &ctx.device;
+    let passes = ctx.kernels.get_or_insert(FieldPasses::default);
+    let p = passes.pipelines(device, field.access);
+    let data: Vec<[f32; 4]> = rays
+        .iter()
+        .flat_map(|(o, d)| [o.extend(0.0).to_array(), d.extend(0.0).to_array()])
+        .collect();
+    let n = rays.len().max(1);
+    let ray_buf = storage_buffer(device, "probe rays", bytemuck::cast_slice(&data))?;
+    let results = zeroed_buffer(
+        device,
+        "probe results",
+        n as u64 * 16,
+        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+    );
+    let readback = zeroed_buffer(
+        device,
+        "probe readback",
+        n as u64 * 16,
+        wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+    );
+    let (gx, gy, pitch) = dispatch_grid(n as u32, device.limits().max_compute_workgroups_per_dimension);
+    let params = uniform_buffer(
+        device,
+        "probe params",
+        &ProbeParams {
+            ray_count: rays.len() as u32,
+            row_pitch: pitch,
+            _pad: [0; 2],
+        },
+    );
+    let io = bind_group(
+        device,
+        "field probe io",
+        &p.probe_layout,
+        &[(0, &params), (1, &ray_buf), (2, &results)],
+    );
+    let mut encoder = device.create_command_encoder(&Default::default());
+    record_dispatch(
+        &mut encoder,
+        "field probe",
+        None,
+        &p.probe,
+        &[&field.bind_group, &io],
+        (gx, gy),
+    );
+    encoder.copy_buffer_to_buffer(&results, 0, &readback, 0, n as u64 * 16);
+    ctx.queue.submit([encoder.finish()]);
+    let out: Vec<[f32; 4]> = read_back(device, &readback, n)?;
+    Ok(out[..rays.len()].to_vec())
+}

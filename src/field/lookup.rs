@@ -1,0 +1,192 @@
+//! The run-time query of Algorithm 2 ("Displacement Field Indexing", section
+//! 3.2): a ray meets the bounding sphere, the entry point picks the
+//! positional sample(s), the direction picks the texel(s), and the stored
+//! distance is added to the distance to the entry point. The CPU twin of
+//! `wgsl/field_lookup.wgsl`, step for step.
+//!
+//! Beyond the paper, which reads the nearest map at the nearest texel:
+//! - within a map, the four texels around the direction with bilinear
+//!   weights (for 8-bit maps the GPU's texture unit computes the weighted
+//!   sums), clamped to texel centres so that a map never blends with its
+//!   neighbour in the stacked texture;
+//! - across maps (`Positional::Bilinear`), the four positional samples
+//!   around the entry point on the octahedral grid, each read in its own
+//!   frame, with bilinear weights.
+//!
+//! Interpolating hits and misses: averaging stored distances would blend a
+//! miss (D = 1) into nearby hits and turn the blend into a hit at a made-up
+//! distance (on a single thin triangle 9% of the rays through the sphere
+//! came out wrong that way). Instead each tap votes: the ray hits when the
+//! taps that hit carry at least half the weight (`Sample::coverage`), at the
+//! weighted mean of their distances. For the bunny in the corner this halves
+//! the AO error of blending distances (RMS 0.0061 against 0.0096 at 4225 x
+//! 32x32; the single triangle's wrong rays drop to 3%).
+//!
+//! Rays that start inside the sphere (receivers near a caster, section 3's
+//! "entry point behind the origin"): the line's entry point lies behind the
+//! origin, the stored distance is measured from there, and the origin's
+//! distance to the entry point is subtracted. This is exact as long as the
+//! line meets no surface between the entry point and the origin; when the
+//! estimated surface lies behind the origin (t <= 0) the field says nothing
+//! about what lies ahead, and the ray counts as a miss (`hidden`).
+
+use clap::ValueEnum;
+use glam::Vec3;
+use serde::Serialize;
+
+use super::build::{DisplacementField, map_frame};
+
+/// How the positional samples around an entry point are combined.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Positional {
+    /// The nearest sample's map only (the paper).
+    Nearest,
+    /// The four samples around the entry point, bilinearly weighted.
+    Bilinear,
+}
+
+/// A ray against one field, in the field's object space.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FieldTrace {
+    /// The line misses the sphere, or the sphere lies behind the origin.
+    Outside,
+    /// Through the sphere without an estimated surface ahead of the origin.
+    /// `hidden`: the estimated surface lies behind the origin.
+    Miss { inside: bool, hidden: bool },
+    /// A surface at distance `t` along the (unit) direction.
+    Hit { t: f32, inside: bool },
+}
+
+impl FieldTrace {
+    /// The ray's origin was inside the sphere.
+    pub fn inside(&self) -> bool {
+        matches!(
+            self,
+            FieldTrace::Miss { inside: true, .. } | FieldTrace::Hit { inside: true, .. }
+        )
+    }
+}
+
+/// Where the line o + s d (d unit) meets the sphere: (s_entry, s_exit), or
+/// None. The discriminant is R^2 minus the squared distance of the centre
+/// from the line, which stays accurate for origins far from the sphere.
+#[inline]
+pub fn sphere_interval(center: Vec3, radius: f32, o: Vec3, d: Vec3) -> Option<(f32, f32)> {
+    let oc = o - center;
+    let b = oc.dot(d);
+    let h = oc - b * d;
+    let disc = radius * radius - h.dot(h);
+    if disc < 0.0 {
+        return None;
+    }
+    let q = disc.sqrt();
+    Some((-b - q, -b + q))
+}
+
+/// What a lookup reads: the share of the interpolation weight carried by
+/// taps that hit, and their weighted distances' sum.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Sample {
+    pub coverage: f32,
+    pub weighted_distance: f32,
+}
+
+impl Sample {
+    /// The normalised hit distance, or None for a miss (less than half the
+    /// weight hits).
+    pub fn distance(&self) -> Option<f32> {
+        (self.coverage >= 0.5).then(|| self.weighted_distance / self.coverage)
+    }
+
+    fn add(&mut self, w: f32, other: Sample) {
+        self.coverage += w * other.coverage;
+        self.weighted_distance += w * other.weighted_distance;
+    }
+}
+
+impl DisplacementField {
+    /// Map m read at local direction `local` (z up = inward normal): the
+    /// four texels around it, bilinearly weighted.
+    pub fn map_sample(&self, m: u32, local: Vec3) -> Sample {
+        let [s, t] = self.params.directions.locate(local);
+        let res = self.params.res;
+        let r = res as f32;
+        let x = (s * r - 0.5).clamp(0.0, r - 1.0);
+        let y = (t * r - 0.5).clamp(0.0, r - 1.0);
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (a0, b0) = (x0 as u32, y0 as u32);
+        let (a1, b1) = ((a0 + 1).min(res - 1), (b0 + 1).min(res - 1));
+        let mut out = Sample::default();
+        for (a, b, w) in [
+            (a0, b0, (1.0 - fx) * (1.0 - fy)),
+            (a1, b0, fx * (1.0 - fy)),
+            (a0, b1, (1.0 - fx) * fy),
+            (a1, b1, fx * fy),
+        ] {
+            let d = self.texel(m, a, b);
+            if d < 1.0 {
+                out.coverage += w;
+                out.weighted_distance += w * d;
+            }
+        }
+        out
+    }
+
+    /// Map m read for object-space direction `d`.
+    fn map_sample_world(&self, m: u32, d: Vec3) -> Sample {
+        let f = map_frame(&self.params, m);
+        self.map_sample(m, Vec3::new(d.dot(f.t), d.dot(f.b), d.dot(f.n)))
+    }
+
+    /// The lookup for a ray entering the sphere at unit position `p`
+    /// (relative to the centre) along unit direction `d`.
+    pub fn sample(&self, p: Vec3, d: Vec3, positional: Positional) -> Sample {
+        match positional {
+            Positional::Nearest => self.map_sample_world(self.params.grid.nearest(p), d),
+            Positional::Bilinear => {
+                let mut out = Sample::default();
+                for (m, w) in self.params.grid.bilinear(p) {
+                    if w > 0.0 {
+                        out.add(w, self.map_sample_world(m, d));
+                    }
+                }
+                out
+            }
+        }
+    }
+
+    /// Where the object-space ray o + s d (d unit) enters the sphere: the unit
+    /// position of the entry point, and the entry and exit distances; None if
+    /// it misses the sphere or the sphere lies behind the origin.
+    pub fn entry(&self, o: Vec3, d: Vec3) -> Option<(Vec3, f32, f32)> {
+        let (s0, s1) = sphere_interval(self.center, self.radius, o, d)?;
+        if s1 <= 0.0 {
+            return None;
+        }
+        let p = (o + s0 * d - self.center) / self.radius;
+        let len = p.length();
+        let p = if len > 0.0 { p * (1.0 / len) } else { Vec3::Z };
+        Some((p, s0, s1))
+    }
+
+    /// Traces the object-space ray o + s d (d unit).
+    pub fn trace(&self, o: Vec3, d: Vec3, positional: Positional) -> FieldTrace {
+        let Some((p, s0, s1)) = self.entry(o, d) else {
+            return FieldTrace::Outside;
+        };
+        let inside = s0 < 0.0;
+        let Some(distance) = self.sample(p, d, positional).distance() else {
+            return FieldTrace::Miss { inside, hidden: false };
+        };
+        let t = s0 + distance * 2.0 * self.radius;
+        if t >= s1 {
+            FieldTrace::Miss { inside, hidden: false }
+        } else if t <= 0.0 {
+            FieldTrace::Miss { inside, hidden: true }
+        } else {
+            FieldTrace::Hit { t, inside }
+        }
+    }
+}

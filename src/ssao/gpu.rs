@@ -1,0 +1,726 @@
+//! The SSAO frame on the GPU: `GBufferPass` (render pipeline of
+//! `wgsl/gbuffer.wgsl`) and `SsaoPass` (the compute kernels of
+//! `wgsl/ssao_estimate.wgsl`, `ssao_filter.wgsl`, `ssao_indirect.wgsl`).
+//!
+//! Like the other passes they are built once for a host's `&wgpu::Device`
+//! and record into the host's `CommandEncoder`; a host with its own
+//! G-buffer binds its textures with `SsaoPass::gbuffer_bind_group` (two
+//! `Rgba32Float` textures in the layout of `gbuffer`). `run_frame` is the
+//! blocking convenience for the CLI, tests and benches.
+
+use std::time::Instant;
+
+use bytemuck::{Pod, Zeroable};
+
+use super::estimators::{Family, SampleTable, SsaoParams};
+use super::gbuffer::{GBuffer, ScreenView, ViewUniform, triangle_albedos};
+use super::{ShadeSettings, SsaoFrame, SsaoSettings, Timings, final_ao};
+use crate::error::{Error, Result};
+use crate::gpu::GpuContext;
+use crate::gpu::buffers::{check_storage_size, read_back, storage_buffer, uniform_buffer, zeroed_buffer};
+use crate::gpu::timer::PassTimer;
+use crate::kdtree::gpu::{bind_group, storage_entry, uniform_entry};
+use crate::scene::{Camera, Light, Mesh};
+
+/// Format of both G-buffer colour targets.
+pub const GBUFFER_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// Workgroup side of the per-pixel kernels (8 x 8).
+pub const TILE: u32 = 8;
+
+/// One vertex of the G-buffer's vertex buffer (three per triangle).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct GBufferVertex {
+    pub position: [f32; 3],
+    pub normal: [f32; 3],
+    pub albedo: f32,
+}
+
+/// A mesh as the G-buffer pass draws it: unindexed, with the unit face
+/// normal and packed albedo on every vertex.
+pub struct SceneVertices {
+    pub buffer: wgpu::Buffer,
+    pub vertex_count: u32,
+}
+
+impl SceneVertices {
+    pub fn upload(device: &wgpu::Device, mesh: &Mesh) -> Result<SceneVertices> {
+        mesh.validate()?;
+        let albedos = triangle_albedos(mesh);
+        let mut vertices = Vec::with_capacity(mesh.triangles.len() * 3);
+        for (t, &albedo) in albedos.iter().enumerate() {
+            let n = mesh.face_normal(t).normalize_or_zero().to_array();
+            for p in mesh.triangle(t) {
+                vertices.push(GBufferVertex {
+                    position: p.to_array(),
+                    normal: n,
+                    albedo,
+                });
+            }
+        }
+        let bytes: &[u8] = bytemuck::cast_slice(&vertices);
+        if bytes.len() as u64 > device.limits().max_buffer_size {
+            return Err(Error::Device(format!(
+                "the G-buffer's vertex buffer needs {:.1} MiB; this device allows {:.1} MiB per buffer",
+                bytes.len() as f64 / 1048576.0,
+                device.limits().max_buffer_size as f64 / 1048576.0
+            )));
+        }
+        use wgpu::util::DeviceExt;
+        let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("g-buffer vertices"),
+            contents: bytes,
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+        Ok(SceneVertices {
+            buffer,
+            vertex_count: vertices.len() as u32,
+        })
+    }
+}
+
+/// The G-buffer's textures: geometry and shade (`Rgba32Float`, the layout
+/// of `gbuffer`), and the depth attachment of the z-test.
+pub struct GBufferTargets {
+    pub width: u32,
+    pub height: u32,
+    pub geometry: wgpu::Texture,
+    pub shade: wgpu::Texture,
+    pub depth: wgpu::Texture,
+}
+
+impl GBufferTargets {
+    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Result<GBufferTargets> {
+        let max = device.limits().max_texture_dimension_2d;
+        if width > max || height > max {
+            return Err(Error::Device(format!(
+                "{width}x{height} exceeds this device's largest texture side, {max}"
+            )));
+        }
+        let texture = |label: &str, format, usage| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let color = wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC
+            | wgpu::TextureUsages::COPY_DST;
+        Ok(GBufferTargets {
+            width,
+            height,
+            geometry: texture("g-buffer geometry", GBUFFER_FORMAT, color),
+            shade: texture("g-buffer shade", GBUFFER_FORMAT, color),
+            depth: texture("g-buffer depth", DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT),
+        })
+    }
+
+    /// Writes a CPU G-buffer into the textures (to run the kernels on it).
+    pub fn upload(&self, queue: &wgpu::Queue, gb: &GBuffer) {
+        for (texture, data) in [(&self.geometry, &gb.geometry), (&self.shade, &gb.shade)] {
+            queue.write_texture(
+                wgpu::TexelCopyTextureInfo {
+                    texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d::ZERO,
+                    aspect: wgpu::TextureAspect::All,
+                },
+                bytemuck::cast_slice(data),
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(16 * self.width),
+                    rows_per_image: Some(self.height),
+                },
+                self.extent(),
+            );
+        }
+    }
+
+    fn extent(&self) -> wgpu::Extent3d {
+        wgpu::Extent3d {
+            width: self.width,
+            height: self.height,
+            depth_or_array_layers: 1,
+        }
+    }
+
+    /// Bytes per row of a readback (rows padded to 256 bytes).
+    fn padded_row(&self) -> u32 {
+        (16 * self.width).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+    }
+
+    /// Reads both textures back (blocking).
+    pub fn read(&self, ctx: &GpuContext) -> Result<GBuffer> {
+        let row = self.padded_row() as u64;
+        let bytes = row * self.height as u64;
+        let readback = zeroed_buffer(
+            &ctx.device,
+            "g-buffer readback",
+            2 * bytes,
+            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        );
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        for (k, texture) in [&self.geometry, &self.shade].into_iter().enumerate() {
+            encoder.copy_texture_to_buffer(
+                wgpu::TexelCopyTextureInfo {
+                    texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d::ZERO,
+                    aspect: wgpu::TextureAspect::All,
+                },
+                wgpu::TexelCopyBufferInfo {
+                    buffer: &readback,
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset: k as u64 * bytes,
+                        bytes_per_row: Some(row as u32),
+                        rows_per_image: Some(self.height),
+                    },
+                },
+                self.extent(),
+            );
+        }
+        ctx.queue.submit([encoder.finish()]);
+        let raw: Vec<[f32; 4]> = read_back(&ctx.device, &readback, (2 * bytes / 16) as usize)?;
+        let per_row = (row / 16) as usize;
+        let unpad = |start: usize| -> Vec<[f32; 4]> {
+            (0..self.height as usize)
+                .flat_map(|y| {
+                    let s = start + y * per_row;
+                    raw[s..s + self.width as usize].iter().copied()
+                })
+                .collect()
+        };
+        Ok(GBuffer {
+            width: self.width,
+            height: self.height,
+            geometry: unpad(0),
+            shade: unpad((bytes / 16) as usize),
+        })
+    }
+}
+
+/// The G-buffer render pipeline.
+pub struct GBufferPass {
+    pub view_layout: wgpu::BindGroupLayout,
+    pipeline: wgpu::RenderPipeline,
+}
+
+impl GBufferPass {
+    pub fn new(device: &wgpu::Device) -> GBufferPass {
+        let view_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("g-buffer view"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            }],
+        });
+        let module = &crate::wgsl::GBUFFER_MODULE;
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(module.name),
+            source: wgpu::ShaderSource::Wgsl(module.source().into()),
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("g-buffer"),
+            bind_group_layouts: &[Some(&view_layout)],
+            immediate_size: 0,
+        });
+        let attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32];
+        let target = Some(wgpu::ColorTargetState {
+            format: GBUFFER_FORMAT,
+            blend: None,
+            write_mask: wgpu::ColorWrites::ALL,
+        });
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("g-buffer"),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &shader,
+                entry_point: Some("gbuffer_vs"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: std::mem::size_of::<GBufferVertex>() as u64,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &attributes,
+                })],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                // Both sides: meshes have inconsistent winding.
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Greater),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &shader,
+                entry_point: Some("gbuffer_fs"),
+                compilation_options: Default::default(),
+                targets: &[target.clone(), target],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        GBufferPass { view_layout, pipeline }
+    }
+
+    /// Bind group of a `ViewUniform` buffer.
+    pub fn view_bind_group(&self, device: &wgpu::Device, view: &wgpu::Buffer) -> wgpu::BindGroup {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("g-buffer view"),
+            layout: &self.view_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: view.as_entire_binding(),
+            }],
+        })
+    }
+
+    /// Records the render pass: clears the targets and draws the mesh.
+    pub fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
+        vertices: &SceneVertices,
+        targets: &GBufferTargets,
+        view: &wgpu::BindGroup,
+    ) {
+        let geometry = targets.geometry.create_view(&Default::default());
+        let shade = targets.shade.create_view(&Default::default());
+        let depth = targets.depth.create_view(&Default::default());
+        let clear = |view| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                    store: wgpu::StoreOp::Store,
+                },
+            })
+        };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("g-buffer"),
+            color_attachments: &[clear(&geometry), clear(&shade)],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &depth,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(0.0),
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, view, &[]);
+        pass.set_vertex_buffer(0, vertices.buffer.slice(..));
+        pass.draw(0..vertices.vertex_count, 0..1);
+    }
+}
+
+/// The SSAO kernels (one entry point each).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SsaoKernel {
+    PackDepth,
+    Points,
+    March,
+    Disk,
+    Indirect,
+    FilterAo,
+    FilterIndirect,
+    Compose,
+}
+
+impl SsaoKernel {
+    pub fn estimator(family: Family) -> SsaoKernel {
+        match family {
+            Family::Points => SsaoKernel::Points,
+            Family::March => SsaoKernel::March,
+            Family::Disk => SsaoKernel::Disk,
+        }
+    }
+}
+
+/// The SSAO compute pass: layouts and pipelines for one device.
+pub struct SsaoPass {
+    pub gbuffer_layout: wgpu::BindGroupLayout,
+    pub io_layout: wgpu::BindGroupLayout,
+    pipelines: [wgpu::ComputePipeline; 8],
+}
+
+fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+impl SsaoPass {
+    pub fn new(device: &wgpu::Device) -> SsaoPass {
+        let gbuffer_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("ssao g-buffer"),
+            entries: &[texture_entry(0), texture_entry(1)],
+        });
+        let io_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("ssao io"),
+            entries: &[
+                uniform_entry(0),
+                storage_entry(1, true),
+                storage_entry(2, false),
+                storage_entry(3, false),
+                storage_entry(4, false),
+                storage_entry(5, false),
+                storage_entry(6, false),
+                storage_entry(7, false),
+            ],
+        });
+        let layouts = [&gbuffer_layout, &io_layout];
+        let build =
+            |module, entries: &[&str]| crate::gpu::kernels::compute_pipelines(device, module, &layouts, entries);
+        let mut all = build(
+            &crate::wgsl::SSAO_ESTIMATE_MODULE,
+            &["ssao_pack_depth", "ssao_points", "ssao_march", "ssao_disk"],
+        );
+        all.extend(build(&crate::wgsl::SSAO_INDIRECT_MODULE, &["ssao_indirect"]));
+        all.extend(build(
+            &crate::wgsl::SSAO_FILTER_MODULE,
+            &["ssao_filter_ao", "ssao_filter_indirect"],
+        ));
+        all.extend(build(&crate::wgsl::SSAO_INDIRECT_MODULE, &["ssao_compose"]));
+        let pipelines: [wgpu::ComputePipeline; 8] = all.try_into().expect("eight entry points");
+        SsaoPass {
+            gbuffer_layout,
+            io_layout,
+            pipelines,
+        }
+    }
+
+    /// Bind group 0: the two G-buffer textures (`Rgba32Float`).
+    pub fn gbuffer_bind_group(
+        &self,
+        device: &wgpu::Device,
+        geometry: &wgpu::TextureView,
+        shade: &wgpu::TextureView,
+    ) -> wgpu::BindGroup {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("ssao g-buffer"),
+            layout: &self.gbuffer_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(geometry),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(shade),
+                },
+            ],
+        })
+    }
+
+    /// Bind group 1.
+    pub fn io_bind_group(&self, device: &wgpu::Device, b: &SsaoBuffers) -> wgpu::BindGroup {
+        bind_group(
+            device,
+            "ssao io",
+            &self.io_layout,
+            &[
+                (0, &b.params),
+                (1, &b.table),
+                (2, &b.ao),
+                (3, &b.ao_out),
+                (4, &b.indirect),
+                (5, &b.indirect_out),
+                (6, &b.image),
+                (7, &b.depth),
+            ],
+        )
+    }
+
+    /// Records one kernel over a `width x height` image.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+        kernel: SsaoKernel,
+        gbuffer: &wgpu::BindGroup,
+        io: &wgpu::BindGroup,
+        width: u32,
+        height: u32,
+    ) {
+        crate::gpu::kernels::record_dispatch(
+            encoder,
+            "ssao",
+            timestamp_writes,
+            &self.pipelines[kernel as usize],
+            &[gbuffer, io],
+            (width.div_ceil(TILE), height.div_ceil(TILE)),
+        );
+    }
+}
+
+/// The buffers of bind group 1.
+pub struct SsaoBuffers {
+    pub params: wgpu::Buffer,
+    pub table: wgpu::Buffer,
+    pub ao: wgpu::Buffer,
+    pub ao_out: wgpu::Buffer,
+    pub indirect: wgpu::Buffer,
+    pub indirect_out: wgpu::Buffer,
+    pub image: wgpu::Buffer,
+    /// The G-buffer's depth as a tight array (`ssao_pack_depth`).
+    pub depth: wgpu::Buffer,
+}
+
+impl SsaoBuffers {
+    /// `with_indirect`: allocate full-size indirect and image buffers
+    /// (otherwise placeholders).
+    pub fn new(
+        device: &wgpu::Device,
+        params: &SsaoParams,
+        table: &[[f32; 4]],
+        with_indirect: bool,
+    ) -> Result<SsaoBuffers> {
+        let pixels = params.width as u64 * params.height as u64;
+        check_storage_size(device, "SSAO pixels", pixels * 16)?;
+        let rw = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        let rgba = if with_indirect { pixels * 16 } else { 16 };
+        Ok(SsaoBuffers {
+            params: uniform_buffer(device, "ssao params", params),
+            table: storage_buffer(device, "ssao sample table", bytemuck::cast_slice(table))?,
+            ao: zeroed_buffer(device, "ssao ao", pixels * 4, rw),
+            ao_out: zeroed_buffer(device, "ssao ao filtered", pixels * 4, rw),
+            indirect: zeroed_buffer(device, "ssao indirect", rgba, rw),
+            indirect_out: zeroed_buffer(device, "ssao indirect filtered", rgba, rw),
+            image: zeroed_buffer(device, "ssao image", rgba, rw),
+            depth: zeroed_buffer(device, "ssao depth", pixels * 4, rw),
+        })
+    }
+}
+
+/// Where the G-buffer of `run_frame` comes from.
+pub enum GBufferSource<'a> {
+    /// Rasterise a mesh (every triangle occludes and receives).
+    Render {
+        mesh: &'a Mesh,
+        camera: &'a Camera,
+        lights: &'a [Light],
+    },
+    /// Upload a G-buffer made elsewhere (the CPU twin's, for the twin tests).
+    Upload(&'a GBuffer),
+}
+
+/// Result of `run_frame`: the G-buffer the kernels saw (read back) and the frame.
+pub struct GpuFrame {
+    pub gbuffer: GBuffer,
+    pub frame: SsaoFrame,
+}
+
+/// Runs one SSAO frame on the GPU (blocking): G-buffer, estimator, filter,
+/// and with `shade` the indirect light and image. `repeat` runs the
+/// passes that many times (one submission each) and reports each pass's
+/// fastest time; outputs are the last run's. Pipelines are cached per context.
+pub fn run_frame(
+    ctx: &GpuContext,
+    source: GBufferSource<'_>,
+    view: &ScreenView,
+    settings: &SsaoSettings,
+    shade: Option<&ShadeSettings>,
+    repeat: u32,
+) -> Result<GpuFrame> {
+    settings.validate()?;
+    let device = &ctx.device;
+    let (w, h) = (view.width, view.height);
+    let max_groups = device.limits().max_compute_workgroups_per_dimension;
+    if w.div_ceil(TILE) > max_groups || h.div_ceil(TILE) > max_groups {
+        return Err(Error::Device(format!(
+            "{w}x{h} needs more workgroups than this device allows"
+        )));
+    }
+    let table = SampleTable::build(settings)?;
+    let params = SsaoParams::new(view, settings, &table, shade.copied().unwrap_or_default());
+    let ssao = ctx.kernels.get_or_insert(|| SsaoPass::new(device));
+    let targets = GBufferTargets::new(device, w, h)?;
+    let buffers = SsaoBuffers::new(device, &params, &table.entries, shade.is_some())?;
+    let io = ssao.io_bind_group(device, &buffers);
+    let gb_group = ssao.gbuffer_bind_group(
+        device,
+        &targets.geometry.create_view(&Default::default()),
+        &targets.shade.create_view(&Default::default()),
+    );
+    let render = match source {
+        GBufferSource::Render { mesh, camera, lights } => {
+            super::gbuffer::validate_lights(lights)?;
+            let pass = ctx.kernels.get_or_insert(|| GBufferPass::new(device));
+            let vertices = SceneVertices::upload(device, mesh)?;
+            let b = mesh.bounds();
+            let near = 1e-6 * ((camera.eye - b.center()).length() + b.diagonal());
+            let uniform = uniform_buffer(device, "g-buffer view", &ViewUniform::new(camera, view, lights, near));
+            let group = pass.view_bind_group(device, &uniform);
+            Some((pass, vertices, group, uniform))
+        }
+        GBufferSource::Upload(gb) => {
+            if gb.width != w || gb.height != h {
+                return Err(Error::input(
+                    "G-buffer",
+                    format!("is {}x{}, the view {w}x{h}", gb.width, gb.height),
+                ));
+            }
+            targets.upload(&ctx.queue, gb);
+            None
+        }
+    };
+    let start = Instant::now();
+    let mut best: Option<Vec<f64>> = None;
+    for _ in 0..repeat.max(1) {
+        let mut timer = PassTimer::new(ctx, 8);
+        let mut encoder = device.create_command_encoder(&Default::default());
+        let mut kinds = Vec::new();
+        if let Some((pass, vertices, group, _)) = &render {
+            pass.record(
+                &mut encoder,
+                timer.as_mut().and_then(|t| t.next_render_pass()),
+                vertices,
+                &targets,
+                group,
+            );
+            kinds.push(0);
+        }
+        let mut dispatch = |encoder: &mut wgpu::CommandEncoder, kernel, timer: &mut Option<PassTimer>, kind| {
+            ssao.record(
+                encoder,
+                timer.as_mut().and_then(|t| t.next_pass()),
+                kernel,
+                &gb_group,
+                &io,
+                w,
+                h,
+            );
+            kinds.push(kind);
+        };
+        dispatch(&mut encoder, SsaoKernel::PackDepth, &mut timer, 0);
+        dispatch(&mut encoder, SsaoKernel::estimator(table.family), &mut timer, 1);
+        if settings.filter {
+            dispatch(&mut encoder, SsaoKernel::FilterAo, &mut timer, 2);
+        } else {
+            encoder.copy_buffer_to_buffer(&buffers.ao, 0, &buffers.ao_out, 0, None);
+        }
+        if shade.is_some() {
+            dispatch(&mut encoder, SsaoKernel::Indirect, &mut timer, 3);
+            if settings.filter {
+                dispatch(&mut encoder, SsaoKernel::FilterIndirect, &mut timer, 3);
+            } else {
+                encoder.copy_buffer_to_buffer(&buffers.indirect, 0, &buffers.indirect_out, 0, None);
+            }
+            dispatch(&mut encoder, SsaoKernel::Compose, &mut timer, 4);
+        }
+        if let Some(t) = &timer {
+            t.resolve(&mut encoder);
+        }
+        ctx.queue.submit([encoder.finish()]);
+        ctx.wait()?;
+        let per_kind = match &timer {
+            Some(t) => {
+                let mut v = vec![0.0; 5];
+                for (ms, kind) in t.pass_ms(device)?.into_iter().zip(&kinds) {
+                    v[*kind] += ms;
+                }
+                v
+            }
+            None => vec![0.0; 5],
+        };
+        best = Some(match best {
+            None => per_kind,
+            Some(b) => b.iter().zip(&per_kind).map(|(a, c)| a.min(*c)).collect(),
+        });
+    }
+    let wall_ms = start.elapsed().as_secs_f64() * 1e3 / repeat.max(1) as f64;
+    let best = best.unwrap_or_default();
+    let timings = if ctx.timestamps {
+        Timings {
+            gbuffer_ms: best[0],
+            estimate_ms: best[1],
+            filter_ms: best[2],
+            indirect_ms: best[3],
+            compose_ms: best[4],
+            timing: "gpu-timestamps",
+        }
+    } else {
+        Timings {
+            estimate_ms: wall_ms,
+            timing: "wall",
+            ..Default::default()
+        }
+    };
+    let gbuffer = targets.read(ctx)?;
+    let pixels = (w * h) as usize;
+    let ao_raw: Vec<f32> = read_buffer(ctx, &buffers.ao, pixels)?;
+    let ao_out: Vec<f32> = read_buffer(ctx, &buffers.ao_out, pixels)?;
+    let (indirect, image) = if shade.is_some() {
+        (
+            Some(read_buffer::<[f32; 4]>(ctx, &buffers.indirect_out, pixels)?),
+            Some(read_buffer::<[f32; 4]>(ctx, &buffers.image, pixels)?),
+        )
+    } else {
+        (None, None)
+    };
+    let ao = final_ao(&gbuffer, &ao_out);
+    Ok(GpuFrame {
+        frame: SsaoFrame {
+            ao_raw,
+            ao,
+            indirect,
+            image,
+            timings,
+        },
+        gbuffer,
+    })
+}
+
+/// Copies a storage buffer's first `len` elements back (blocking).
+pub fn read_buffer<T: Pod>(ctx: &GpuContext, buffer: &wgpu::Buffer, len: usize) -> Result<Vec<T>> {
+    let bytes = (len * std::mem::size_of::<T>()) as u64;
+    let readback = zeroed_buffer(
+        &ctx.device,
+        "ssao readback",
+        bytes,
+        wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+    );
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    encoder.copy_buffer_to_buffer(buffer, 0, &readback, 0, bytes);
+    ctx.queue.submit([encoder.finish()]);
+    read_back(&ctx.device, &readback, len)
+}

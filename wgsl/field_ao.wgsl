@@ -1,0 +1,89 @@
+// Kernel: ambient occlusion through displacement fields (Algorithm 2 of the
+// paper), the GPU twin of src/field/ao.rs (`visibility_field`). One
+// invocation per ray: ray j of point p follows sample j of the point's
+// stream, as in ao_rays.wgsl, and asks every instance of this dispatch's
+// field (not the point's own instance). Composed after sampling.wgsl,
+// field_lookup.wgsl and a map-access file. A scene with several fields runs
+// one dispatch per field into the same `classes` buffer.
+//
+// classes: three bit masks of words_per_point words per point, one after the
+// other: occluded (a field hit within the radius), inside (the ray started
+// inside a sphere it entered), hidden (a field put its surface behind the
+// origin). Visibility is the complement of `occluded`.
+
+// `FieldAoParams` in src/field/gpu.rs.
+struct FieldAoParams {
+    point_count: u32,
+    rays_per_point: u32,
+    words_per_point: u32,
+    seed: u32,
+    row_pitch: u32,
+    radius: f32,
+    instance_count: u32,
+    _pad: u32,
+}
+
+// `GpuInstance` in src/field/gpu.rs: the world-to-object motion.
+struct FieldInstance {
+    inv_rotation: vec4<f32>,
+    translation: vec3<f32>,
+    scale: f32,
+    instance: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+@group(1) @binding(0) var<uniform> ao: FieldAoParams;
+@group(1) @binding(1) var<storage, read> points: array<f32>;
+@group(1) @binding(2) var<storage, read> owners: array<u32>;
+@group(1) @binding(3) var<storage, read> instances: array<FieldInstance>;
+@group(1) @binding(4) var<storage, read_write> classes: array<atomic<u32>>;
+
+// glam's Quat * Vec3.
+fn quat_rotate(q: vec4<f32>, v: vec3<f32>) -> vec3<f32> {
+    let b = q.xyz;
+    let w = q.w;
+    return v * (w * w - dot(b, b)) + b * (dot(v, b) * 2.0) + cross(b, v) * (w * 2.0);
+}
+
+@compute @workgroup_size(64)
+fn field_ao(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let ray = gid.x + gid.y * ao.row_pitch;
+    let p = ray / ao.rays_per_point;
+    let j = ray % ao.rays_per_point;
+    if (p >= ao.point_count) {
+        return;
+    }
+    let base = p * 8u;
+    let normal = vec3<f32>(points[base + 4u], points[base + 5u], points[base + 6u]);
+    if (all(normal == vec3<f32>(0.0))) {
+        return;
+    }
+    let origin = vec3<f32>(points[base], points[base + 1u], points[base + 2u]);
+    let stream = bitcast<u32>(points[base + 3u]);
+    let uv = sequence_sample(ao.seed, stream, j);
+    let dir = frame_to_world(normal, cosine_hemisphere(uv.x, uv.y));
+    let owner = owners[p];
+    let words = ao.point_count * ao.words_per_point;
+    let word = p * ao.words_per_point + j / 32u;
+    let bit = 1u << (j % 32u);
+    for (var k = 0u; k < ao.instance_count; k++) {
+        let inst = instances[k];
+        if (inst.instance == owner) {
+            continue;
+        }
+        let o = quat_rotate(inst.inv_rotation, origin - inst.translation) / inst.scale;
+        let d = normalize(quat_rotate(inst.inv_rotation, dir));
+        let tr = field_trace(o, d);
+        if (tr.inside) {
+            atomicOr(&classes[words + word], bit);
+        }
+        if (tr.kind == FIELD_HIT && tr.t * inst.scale <= ao.radius) {
+            atomicOr(&classes[word], bit);
+        }
+        if (tr.hidden) {
+            atomicOr(&classes[2u * words + word], bit);
+        }
+    }
+}

@@ -1,0 +1,128 @@
+// The paper's AO estimators (twins: src/ssao/estimators.rs, same names):
+// `ssao_points` (sphere, hemisphere, importance, tangent-sphere: weighted
+// point samples in the tangent frame), `ssao_march` (ray marching, section
+// 3.2) and `ssao_disk` (pipes through the base disk, section 4.5, with the
+// analytic line integral for mu = (r/R)^4). One invocation per pixel;
+// writes `ao` (not clamped), 1 on background and zero-normal pixels.
+// Composed after ssao_common.wgsl.
+
+// Copies the geometry texture's depth into `depth` (twin: the G-buffer's
+// z values; see ssao_common.wgsl).
+@compute @workgroup_size(8, 8)
+fn ssao_pack_depth(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!in_image(gid)) {
+        return;
+    }
+    depth[pixel_index(gid)] = texel(gid.x, gid.y).w;
+}
+
+@compute @workgroup_size(8, 8)
+fn ssao_points(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!in_image(gid)) {
+        return;
+    }
+    let sp = shaded_point(gid.x, gid.y);
+    if (!sp.ok) {
+        ao[pixel_index(gid)] = 1.0;
+        return;
+    }
+    let f = tangent_frame(sp.n);
+    let base = set_base(gid.x, gid.y);
+    var sum = 0.0;
+    for (var j = 0u; j < params.samples; j = j + 1u) {
+        let q = table[base + j];
+        let p = sp.s + params.radius * (f.t * q.x + f.b * q.y + sp.n * q.z);
+        if (!occluded(p)) {
+            sum = sum + q.w;
+        }
+    }
+    ao[pixel_index(gid)] = sum;
+}
+
+@compute @workgroup_size(8, 8)
+fn ssao_march(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!in_image(gid)) {
+        return;
+    }
+    let sp = shaded_point(gid.x, gid.y);
+    if (!sp.ok) {
+        ao[pixel_index(gid)] = 1.0;
+        return;
+    }
+    let f = tangent_frame(sp.n);
+    let base = set_base(gid.x, gid.y);
+    var sum = 0.0;
+    for (var ray = 0u; ray < params.rays; ray = ray + 1u) {
+        var value = params.open_weight;
+        for (var k = 0u; k < params.steps; k = k + 1u) {
+            let q = table[base + ray * params.steps + k];
+            let p = sp.s + params.radius * (f.t * q.x + f.b * q.y + sp.n * q.z);
+            if (occluded(p)) {
+                value = q.w;
+                break;
+            }
+        }
+        sum = sum + value;
+    }
+    ao[pixel_index(gid)] = sum;
+}
+
+// estimators::pipe_integral: 4 [a (t1 - t0) + N.z (t1^2 - t0^2) / 2]
+// (derivation there).
+fn pipe_integral(a: f32, nz: f32, t0: f32, t1: f32) -> f32 {
+    return 4.0 * (a * (t1 - t0) + 0.5 * nz * (t1 * t1 - t0 * t0));
+}
+
+@compute @workgroup_size(8, 8)
+fn ssao_disk(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (!in_image(gid)) {
+        return;
+    }
+    let sp = shaded_point(gid.x, gid.y);
+    if (!sp.ok) {
+        ao[pixel_index(gid)] = 1.0;
+        return;
+    }
+    let n = sp.n;
+    let s = sp.s;
+    let base = set_base(gid.x, gid.y);
+    var sum = 0.0;
+    var open = 0.0;
+    for (var j = 0u; j < params.samples; j = j + 1u) {
+        let q = table[base + j];
+        let w2 = 1.0 - q.x * q.x - q.y * q.y;
+        if (!(w2 > 0.0)) {
+            continue;
+        }
+        let hw = sqrt(w2);
+        let a = q.x * n.x + q.y * n.y;
+        var t0 = -hw;
+        var t1 = hw;
+        if (n.z < 0.0) {
+            t1 = min(t1, -a / n.z);
+        } else if (n.z > 0.0) {
+            t0 = max(t0, -a / n.z);
+        } else if (a < 0.0) {
+            t1 = t0;
+        }
+        if (t1 > t0) {
+            open = open + q.w * pipe_integral(a, n.z, t0, t1);
+        }
+        let c = vec3<f32>(s.x + params.radius * q.x, s.y + params.radius * q.y, s.z);
+        let px = project(c);
+        if (px.x >= 0) {
+            let d = depth[u32(px.y) * params.width + u32(px.x)];
+            if (valid_depth(d)) {
+                t1 = min(t1, (d + params.bias * d - s.z) / params.radius);
+            }
+        }
+        if (t1 > t0) {
+            sum = sum + q.w * pipe_integral(a, n.z, t0, t1);
+        }
+    }
+    var result = sum;
+    if (params.calibrate != 0u) {
+        result = select(1.0, sum / open, open > 0.0);
+    }
+    ao[pixel_index(gid)] = result;
+}
