@@ -39,6 +39,7 @@ pub const SSAO_COMMON: WgslFile = wgsl_file!("ssao_common.wgsl");
 pub const SSAO_ESTIMATE: WgslFile = wgsl_file!("ssao_estimate.wgsl");
 pub const SSAO_FILTER: WgslFile = wgsl_file!("ssao_filter.wgsl");
 pub const SSAO_INDIRECT: WgslFile = wgsl_file!("ssao_indirect.wgsl");
+pub const SH_TRANSFER: WgslFile = wgsl_file!("sh_transfer.wgsl");
 
 /// Every file compiled in (the validation test checks this against `wgsl/`).
 pub const FILES: &[WgslFile] = &[
@@ -59,6 +60,7 @@ pub const FILES: &[WgslFile] = &[
     SSAO_ESTIMATE,
     SSAO_FILTER,
     SSAO_INDIRECT,
+    SH_TRANSFER,
 ];
 
 /// A shader module made of several files, in order.
@@ -123,6 +125,11 @@ pub const SSAO_INDIRECT_MODULE: Composition = Composition {
     parts: &[SSAO_COMMON, SSAO_INDIRECT],
 };
 
+pub const SH_TRANSFER_MODULE: Composition = Composition {
+    name: "sh_transfer",
+    parts: &[SH_TRANSFER],
+};
+
 /// Every kernel module the library builds pipelines from.
 pub const MODULES: &[Composition] = &[
     TRACE_RAYS_MODULE,
@@ -138,6 +145,7 @@ pub const MODULES: &[Composition] = &[
     SSAO_ESTIMATE_MODULE,
     SSAO_FILTER_MODULE,
     SSAO_INDIRECT_MODULE,
+    SH_TRANSFER_MODULE,
 ];
 
 impl Composition {

@@ -10,10 +10,12 @@ use glam::Vec3;
 use serde_json::{Value, json};
 
 use super::Device;
+use super::args::DeviceArg;
 use super::args::{CameraArgs, Common, check_image_size, check_output, parse_vec3};
 use super::io::write_rgb_png;
 use crate::error::{Error, Result};
 use crate::kdtree::{KdTree, KdTreeParams};
+use crate::prt::gpu::{GpuTransfer, MAX_GPU_BANDS, ShTransferPass};
 use crate::prt::hierarchy::{HierarchySettings, NearField};
 use crate::prt::pipeline::{FrameOutput, Prt, PrtSettings, Toggle};
 use crate::prt::reference::{reference_transfer, relative_l2_error};
@@ -204,7 +206,11 @@ fn positive(name: &str, v: i64) -> Result<usize> {
 /// The geometry a run shades: an animation or a static mesh.
 enum Source {
     Animated(Animation),
-    Static { positions: Vec<Vec3>, triangles: Vec<[u32; 3]>, name: String },
+    Static {
+        positions: Vec<Vec3>,
+        triangles: Vec<[u32; 3]>,
+        name: String,
+    },
 }
 
 impl Source {
@@ -262,7 +268,10 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     if let Some(dir) = &args.out_frames
         && !dir.is_dir()
     {
-        return Err(Error::param("--out-frames", format!("{} is not a folder", dir.display())));
+        return Err(Error::param(
+            "--out-frames",
+            format!("{} is not a folder", dir.display()),
+        ));
     }
     let brdf = match args.brdf {
         BrdfArg::Diffuse => Brdf::Diffuse,
@@ -303,7 +312,9 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     let source = match (&args.mesh, &args.animated) {
         (Some(path), None) => {
             let mesh = load_obj(path)?;
-            let name = path.file_stem().map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
+            let name = path
+                .file_stem()
+                .map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
             Source::Static {
                 positions: mesh.positions,
                 triangles: mesh.triangles,
@@ -313,7 +324,13 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
         (None, Some(name)) => Source::Animated(AnimatedScene::parse(name)?.build()),
         _ => return Err(Error::param("--mesh", "give --mesh FILE or --animated cloth|character")),
     };
-    let device = Device::open(args.common.device)?;
+    let mut device = Device::open(args.common.device)?;
+    if matches!(device, Device::Gpu(_)) && bands > MAX_GPU_BANDS && args.common.device == DeviceArg::Auto {
+        eprintln!(
+            "penumbra: the GPU kernel integrates up to {MAX_GPU_BANDS} SH bands; --order {bands} runs on the CPU"
+        );
+        device = Device::Cpu;
+    }
     let lighting_world = project_environment(&env, bands);
     let rotation = ShRotation::new(bands);
 
@@ -356,7 +373,9 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     let coeffs = coefficient_count(bands);
     let check_at: Vec<usize> = if args.check {
         let k = check_frames.min(frames);
-        (0..k).map(|i| if k == 1 { 0 } else { i * (frames - 1) / (k - 1) }).collect()
+        (0..k)
+            .map(|i| if k == 1 { 0 } else { i * (frames - 1) / (k - 1) })
+            .collect()
     } else {
         Vec::new()
     };
@@ -369,7 +388,15 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     let mut exposure = args.exposure;
     let mut images = 0usize;
     let unoccluded_norm = prt.tables.unoccluded.iter().map(|v| v * v).sum::<f32>().sqrt();
-    let gpu: Option<TmpGpu> = None; // GPUTMP
+    // GPU: masks on the CPU, integration, rotation and shading in WGSL.
+    let gpu = match (&device, args.shadows) {
+        (Device::Gpu(ctx), ShadowsArg::On | ShadowsArg::Off) => {
+            let pass = ShTransferPass::cached(ctx);
+            let resident = GpuTransfer::new(ctx, &pass, &prt)?;
+            Some((ctx, pass, resident))
+        }
+        _ => None,
+    };
 
     for f in 0..frames {
         let time = args.start + f as f32 * args.dt;
@@ -381,22 +408,49 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
             ShadowsArg::Raytraced => {
                 prt.shading_normals(&positions, eye, &mut out.normals);
                 let tree = fine_tree(&positions, source.triangles())?;
-                out.transfer = reference_transfer(&tree, &positions, &out.normals, prt.scale, bands, &brdf, eye, check_rays as u32, args.common.seed);
+                out.transfer = reference_transfer(
+                    &tree,
+                    &positions,
+                    &out.normals,
+                    prt.scale,
+                    bands,
+                    &brdf,
+                    eye,
+                    check_rays as u32,
+                    args.common.seed,
+                );
                 out.radiance = out.transfer.chunks(coeffs).map(|t| radiance(&planar, t)).collect();
                 out.stats = Default::default();
             }
-            _ => {
-                let _: &Option<TmpGpu> = &gpu;
-                let _: &mut Vec<f64> = &mut gpu_ms;
-                prt.frame(&positions, eye, &planar, args.profile, false, &mut out)?
-            } // GPUTMP
+            _ => match &gpu {
+                Some((ctx, pass, resident)) => {
+                    prt.frame_masks(&positions, eye, args.profile, &mut out)?;
+                    let g = resident.run_frame(ctx, pass, &out.masks, &positions, &out.normals, eye, &planar)?;
+                    out.transfer = g.transfer;
+                    out.radiance = g.radiance;
+                    if let Some(ms) = g.kernel_ms {
+                        gpu_ms.push(ms);
+                    }
+                }
+                None => prt.frame(&positions, eye, &planar, args.profile, false, &mut out)?,
+            },
         }
         frame_ms.push(start.elapsed().as_secs_f64() * 1e3);
         add_stats(&mut stats_sum, &out.stats);
 
         if check_at.contains(&f) {
             let tree = fine_tree(&positions, source.triangles())?;
-            let reference = reference_transfer(&tree, &positions, &out.normals, prt.scale, bands, &brdf, eye, check_rays as u32, args.common.seed);
+            let reference = reference_transfer(
+                &tree,
+                &positions,
+                &out.normals,
+                prt.scale,
+                bands,
+                &brdf,
+                eye,
+                check_rays as u32,
+                args.common.seed,
+            );
             let (e, counted, skipped) = relative_l2_error(&out.transfer, &reference, coeffs, 0.01 * unoccluded_norm);
             errors.push(e);
             check_counts.0 += counted;
@@ -405,7 +459,17 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
         let last = f + 1 == frames;
         if args.out_frames.is_some() || (last && out_png.is_some()) {
             let exp = *exposure.get_or_insert_with(|| auto_exposure(&out.radiance, args.albedo));
-            let pixels = render(&positions, source.triangles(), &out.radiance, args.albedo, Some(&env), &camera, args.width, args.height, exp)?;
+            let pixels = render(
+                &positions,
+                source.triangles(),
+                &out.radiance,
+                args.albedo,
+                Some(&env),
+                &camera,
+                args.width,
+                args.height,
+                exp,
+            )?;
             if let Some(dir) = &args.out_frames {
                 write_rgb_png(&dir.join(format!("frame-{f:04}.png")), args.width, args.height, &pixels)?;
                 images += 1;
@@ -424,12 +488,20 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     let mut sorted = frame_ms.clone();
     sorted.sort_by(f64::total_cmp);
     let median_ms = sorted[sorted.len() / 2];
-    let phases = if args.profile && gpu.is_none() {
-        let total: u64 = stats_sum.phase_ns.iter().sum();
-        let share = |i: usize| stats_sum.phase_ns[i] as f64 / total.max(1) as f64;
+    let phases = if args.profile {
+        // CPU phases are summed over threads; per frame they are divided by
+        // the thread count. On the GPU path integration is the kernel's
+        // time and "other" the rest of the frame (uploads, readback, waits).
+        let mut ms = stats_sum.phase_ns.map(|n| n as f64 * 1e-6 / nf / threads as f64);
+        if gpu.is_some() && !gpu_ms.is_empty() {
+            ms[2] = gpu_ms.iter().sum::<f64>() / gpu_ms.len() as f64;
+            ms[3] = (total_ms / nf - ms[0] - ms[1] - ms[2]).max(0.0);
+        }
+        let total: f64 = ms.iter().sum();
+        let share = |i: usize| ms[i] / total.max(1e-12);
         json!({
             "transform": share(0), "rasterization": share(1), "integration": share(2), "other": share(3),
-            "ms_per_frame": stats_sum.phase_ns.map(|n| n as f64 * 1e-6 / nf / threads as f64),
+            "ms_per_frame": ms,
         })
     } else {
         Value::Null
@@ -515,5 +587,3 @@ fn add_stats(sum: &mut crate::prt::pipeline::FrameStats, s: &crate::prt::pipelin
         sum.phase_ns[i] += s.phase_ns[i];
     }
 }
-
-struct TmpGpu; // GPUTMP

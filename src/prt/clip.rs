@@ -53,13 +53,25 @@ mod tests {
 
     #[test]
     fn clips_one_and_two_vertices_below() {
-        let t = [Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, -1.0), Vec3::new(0.0, 1.0, -1.0)];
+        let t = [
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, -1.0),
+            Vec3::new(0.0, 1.0, -1.0),
+        ];
         let p = clip_to_horizon(t);
         assert_eq!(p.len(), 3);
         assert!(p.iter().all(|v| v.z >= 0.0));
-        let t = [Vec3::new(0.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(0.0, 1.0, 1.0)];
+        let t = [
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(0.0, 1.0, 1.0),
+        ];
         assert_eq!(clip_to_horizon(t).len(), 4);
-        let below = [Vec3::new(0.0, 0.0, -1.0), Vec3::new(1.0, 0.0, -1.0), Vec3::new(0.0, 1.0, 0.0)];
+        let below = [
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::new(1.0, 0.0, -1.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ];
         assert!(!above_horizon(&below));
     }
 }

@@ -118,7 +118,13 @@ impl Hierarchy {
             return Err(Error::param("--coarse", "must be at least 1"));
         }
         let nv = rest.len();
-        let vertex_triangles = Csr::from_lists(nv, triangles.iter().enumerate().flat_map(|(t, tri)| tri.map(|v| (v as usize, t as u32))));
+        let vertex_triangles = Csr::from_lists(
+            nv,
+            triangles
+                .iter()
+                .enumerate()
+                .flat_map(|(t, tri)| tri.map(|v| (v as usize, t as u32))),
+        );
         let (far_unsorted, coarse) = if s.enabled {
             let target = s.coarse_triangles.unwrap_or((triangles.len() / 16).max(1));
             let c = simplify(rest, triangles, target);
@@ -135,7 +141,13 @@ impl Hierarchy {
         let mut order: Vec<u32> = (0..far_unsorted.len() as u32).collect();
         let group_size = s.group_size;
         let mut ranges = Vec::new();
-        split_groups(&mut order, 0, &|i| centroid(&far_unsorted[i as usize]), group_size, &mut ranges);
+        split_groups(
+            &mut order,
+            0,
+            &|i| centroid(&far_unsorted[i as usize]),
+            group_size,
+            &mut ranges,
+        );
         let far: Vec<[u32; 3]> = order.iter().map(|&i| far_unsorted[i as usize]).collect();
         let mut rank = vec![0u32; far.len()];
         for (new, &old) in order.iter().enumerate() {
@@ -212,7 +224,11 @@ impl Hierarchy {
             (cluster_of_fine, Csr::from_vecs(&near), Csr::from_vecs(&excluded))
         } else {
             // Far = the fine triangles, permuted by group.
-            (rank.clone(), Csr::from_vecs(&vec![Vec::new(); nv]), Csr::from_vecs(&vec![Vec::new(); nv]))
+            (
+                rank.clone(),
+                Csr::from_vecs(&vec![Vec::new(); nv]),
+                Csr::from_vecs(&vec![Vec::new(); nv]),
+            )
         };
         Ok(Hierarchy {
             fine: triangles.to_vec(),
@@ -252,7 +268,13 @@ impl Hierarchy {
 
 /// Splits `order[..]` (starting at `offset` in the full order) into ranges of
 /// at most `size` by median splits along the longest axis of the centroids.
-fn split_groups(order: &mut [u32], offset: usize, centroid: &dyn Fn(u32) -> Vec3, size: usize, out: &mut Vec<std::ops::Range<usize>>) {
+fn split_groups(
+    order: &mut [u32],
+    offset: usize,
+    centroid: &dyn Fn(u32) -> Vec3,
+    size: usize,
+    out: &mut Vec<std::ops::Range<usize>>,
+) {
     if order.len() <= size.max(1) {
         if !order.is_empty() {
             out.push(offset..offset + order.len());
@@ -265,9 +287,17 @@ fn split_groups(order: &mut [u32], offset: usize, centroid: &dyn Fn(u32) -> Vec3
         hi = hi.max(centroid(i));
     }
     let e = hi - lo;
-    let axis = if e.x >= e.y && e.x >= e.z { 0 } else if e.y >= e.z { 1 } else { 2 };
+    let axis = if e.x >= e.y && e.x >= e.z {
+        0
+    } else if e.y >= e.z {
+        1
+    } else {
+        2
+    };
     let mid = order.len() / 2;
-    order.select_nth_unstable_by(mid, |a, b| centroid(*a)[axis].total_cmp(&centroid(*b)[axis]).then(a.cmp(b)));
+    order.select_nth_unstable_by(mid, |a, b| {
+        centroid(*a)[axis].total_cmp(&centroid(*b)[axis]).then(a.cmp(b))
+    });
     let (left, right) = order.split_at_mut(mid);
     split_groups(left, offset, centroid, size, out);
     split_groups(right, offset + mid, centroid, size, out);
@@ -282,7 +312,14 @@ fn simplify(rest: &[Vec3], triangles: &[[u32; 3]], target: usize) -> Vec<[u32; 3
         return Vec::new();
     };
     let indices: Vec<u32> = triangles.iter().flatten().copied().collect();
-    let out = meshopt::simplify(&indices, &adapter, target * 3, 1.0, meshopt::SimplifyOptions::None, None);
+    let out = meshopt::simplify(
+        &indices,
+        &adapter,
+        target * 3,
+        1.0,
+        meshopt::SimplifyOptions::None,
+        None,
+    );
     out.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
 }
 

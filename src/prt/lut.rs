@@ -41,7 +41,10 @@ pub struct PlaneLut {
 
 impl std::fmt::Debug for PlaneLut {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("PlaneLut").field("n", &self.n).field("words", &self.words).finish()
+        f.debug_struct("PlaneLut")
+            .field("n", &self.n)
+            .field("words", &self.words)
+            .finish()
     }
 }
 
@@ -164,9 +167,21 @@ mod tests {
         for entry in 0..3 * n * n {
             let m = PlaneLut::cell_normal(n, entry);
             let r = lut_index(n as u32, m).unwrap();
-            assert_eq!(r, LutRef { entry: entry as u32, complement: false });
+            assert_eq!(
+                r,
+                LutRef {
+                    entry: entry as u32,
+                    complement: false
+                }
+            );
             let r = lut_index(n as u32, -2.0 * m).unwrap();
-            assert_eq!(r, LutRef { entry: entry as u32, complement: true });
+            assert_eq!(
+                r,
+                LutRef {
+                    entry: entry as u32,
+                    complement: true
+                }
+            );
         }
         assert!(lut_index(4, Vec3::ZERO).is_none());
     }

@@ -99,7 +99,12 @@ impl MaskGrid {
     /// The rectangle [x0, x1] x [y0, y1] of cell (row R, column C).
     pub fn cell_rect(&self, row: usize, col: usize) -> [f64; 4] {
         let h = 2.0 * CELL as f64 / self.side as f64;
-        [-1.0 + col as f64 * h, -1.0 + (col + 1) as f64 * h, -1.0 + row as f64 * h, -1.0 + (row + 1) as f64 * h]
+        [
+            -1.0 + col as f64 * h,
+            -1.0 + (col + 1) as f64 * h,
+            -1.0 + row as f64 * h,
+            -1.0 + (row + 1) as f64 * h,
+        ]
     }
 
     /// Pixels overlapping the disk.
@@ -136,7 +141,15 @@ impl MaskGrid {
 /// kinks at the corner angles and where the circle crosses an edge; the φ
 /// range is split there, so every piece is smooth and Gauss–Legendre
 /// converges exponentially.
-pub fn disk_rect_quadrature(x0: f64, x1: f64, y0: f64, y1: f64, nphi: usize, ntheta: usize, mut f: impl FnMut(DVec3, f64)) {
+pub fn disk_rect_quadrature(
+    x0: f64,
+    x1: f64,
+    y0: f64,
+    y1: f64,
+    nphi: usize,
+    ntheta: usize,
+    mut f: impl FnMut(DVec3, f64),
+) {
     let sx = if x0 + x1 >= 0.0 { 1.0 } else { -1.0 };
     let sy = if y0 + y1 >= 0.0 { 1.0 } else { -1.0 };
     let (a0, a1) = (x0.abs().min(x1.abs()), x0.abs().max(x1.abs()));
@@ -161,7 +174,15 @@ pub fn disk_rect_quadrature(x0: f64, x1: f64, y0: f64, y1: f64, nphi: usize, nth
     cuts.sort_by(|a, b| a.total_cmp(b));
     cuts.dedup_by(|a, b| (*a - *b).abs() < 1e-15);
     // Distance along the ray (cos φ, sin φ) at which it crosses x = a (or y = b).
-    let reach = |a: f64, c: f64| if a == 0.0 { 0.0 } else if c <= 0.0 { f64::INFINITY } else { a / c };
+    let reach = |a: f64, c: f64| {
+        if a == 0.0 {
+            0.0
+        } else if c <= 0.0 {
+            f64::INFINITY
+        } else {
+            a / c
+        }
+    };
     for piece in cuts.windows(2) {
         for (phi, wphi) in gauss_legendre_on(nphi, piece[0], piece[1]) {
             let (s, c) = phi.sin_cos();
@@ -202,7 +223,12 @@ mod tests {
         // ∫_disk z dA = ∫ cos²θ dω over the hemisphere = 2π/3, summed over
         // the four quadrant rectangles.
         let mut total = 0.0;
-        for (x0, x1, y0, y1) in [(0.0, 1.0, 0.0, 1.0), (-1.0, 0.0, 0.0, 1.0), (0.0, 1.0, -1.0, 0.0), (-1.0, 0.0, -1.0, 0.0)] {
+        for (x0, x1, y0, y1) in [
+            (0.0, 1.0, 0.0, 1.0),
+            (-1.0, 0.0, 0.0, 1.0),
+            (0.0, 1.0, -1.0, 0.0),
+            (-1.0, 0.0, -1.0, 0.0),
+        ] {
             disk_rect_quadrature(x0, x1, y0, y1, 16, 16, |d, w| total += w * d.z);
         }
         assert!((total - 2.0 * std::f64::consts::PI / 3.0).abs() < 1e-12, "{total}");

@@ -16,6 +16,7 @@
 //! * `gpu` — the WGSL passes
 
 pub mod clip;
+pub mod gpu;
 pub mod hierarchy;
 pub mod lut;
 pub mod mask;

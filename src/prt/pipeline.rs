@@ -93,7 +93,10 @@ impl PrtSettings {
         }
         if let Brdf::Phong { shininess, specular } = self.brdf {
             if !(shininess.is_finite() && shininess >= 0.0 && shininess <= 1e4) {
-                return Err(Error::param("--shininess", format!("must be in [0, 10000], got {shininess}")));
+                return Err(Error::param(
+                    "--shininess",
+                    format!("must be in [0, 10000], got {shininess}"),
+                ));
             }
             if !(0.0..=1.0).contains(&specular) {
                 return Err(Error::param("--specular", format!("must be in [0, 1], got {specular}")));
@@ -233,6 +236,8 @@ struct FrameShared<'a> {
     /// Group vertices (`Hierarchy::group_verts` order) in SoA.
     far_xyz: [Vec<f32>; 3],
     profile: bool,
+    /// Integrate, rotate and shade (false: masks only, for the GPU kernel).
+    integrate: bool,
 }
 
 impl Prt {
@@ -314,7 +319,13 @@ impl Prt {
             Some(pvs) => OwnLists::build((0..nv).map(|v| {
                 pvs.get(v)
                     .iter()
-                    .map(|&id| if id < far { h.far[id as usize] } else { h.fine[(id - far) as usize] })
+                    .map(|&id| {
+                        if id < far {
+                            h.far[id as usize]
+                        } else {
+                            h.fine[(id - far) as usize]
+                        }
+                    })
                     .collect()
             })),
             None => OwnLists::build((0..nv).map(|v| h.near.get(v).iter().map(|&f| h.fine[f as usize]).collect())),
@@ -362,29 +373,78 @@ impl Prt {
     /// `lighting` is planar RGB SH (`3 x coeffs`); `eye` the camera (for
     /// two-sided meshes and glossy BRDFs). With `keep_masks` the masks are
     /// returned too (u64 words, `MaskGrid::words` per vertex).
-    pub fn frame(&self, positions: &[Vec3], eye: Option<Vec3>, lighting: &[f32], profile: bool, keep_masks: bool, out: &mut FrameOutput) -> Result<()> {
+    pub fn frame(
+        &self,
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        lighting: &[f32],
+        profile: bool,
+        keep_masks: bool,
+        out: &mut FrameOutput,
+    ) -> Result<()> {
+        if lighting.len() != 3 * self.coeffs() {
+            return Err(Error::input("lighting", format!("needs {} values", 3 * self.coeffs())));
+        }
+        self.run_frame(positions, eye, lighting, profile, keep_masks, true, out)
+    }
+
+    /// The CPU half of a GPU frame: normals and visibility masks only
+    /// (`out.masks`, `MaskGrid::words` u64 per vertex); integration,
+    /// rotation and shading are left to `gpu::ShTransferPass`.
+    pub fn frame_masks(
+        &self,
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        profile: bool,
+        out: &mut FrameOutput,
+    ) -> Result<()> {
+        self.run_frame(positions, eye, &[], profile, true, false, out)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn run_frame(
+        &self,
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        lighting: &[f32],
+        profile: bool,
+        keep_masks: bool,
+        integrate: bool,
+        out: &mut FrameOutput,
+    ) -> Result<()> {
         if positions.len() != self.vertex_count {
             return Err(Error::input(
                 "frame",
-                format!("{} positions for a mesh of {} vertices", positions.len(), self.vertex_count),
+                format!(
+                    "{} positions for a mesh of {} vertices",
+                    positions.len(),
+                    self.vertex_count
+                ),
             ));
         }
         if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
             return Err(Error::input(format!("vertex {}", i + 1), "has a non-finite coordinate"));
         }
-        if lighting.len() != 3 * self.coeffs() {
-            return Err(Error::input("lighting", format!("needs {} values", 3 * self.coeffs())));
-        }
         match self.grid.words {
-            4 => self.frame_impl::<4>(positions, eye, lighting, profile, keep_masks, out),
-            16 => self.frame_impl::<16>(positions, eye, lighting, profile, keep_masks, out),
-            64 => self.frame_impl::<64>(positions, eye, lighting, profile, keep_masks, out),
+            4 => self.frame_impl::<4>(positions, eye, lighting, profile, keep_masks, integrate, out),
+            16 => self.frame_impl::<16>(positions, eye, lighting, profile, keep_masks, integrate, out),
+            64 => self.frame_impl::<64>(positions, eye, lighting, profile, keep_masks, integrate, out),
             w => return Err(Error::internal(format!("no rasteriser for {w} mask words"))),
         }
         Ok(())
     }
 
-    fn frame_impl<const W: usize>(&self, positions: &[Vec3], eye: Option<Vec3>, lighting: &[f32], profile: bool, keep_masks: bool, out: &mut FrameOutput) {
+    #[allow(clippy::too_many_arguments)]
+    fn frame_impl<const W: usize>(
+        &self,
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        lighting: &[f32],
+        profile: bool,
+        keep_masks: bool,
+        integrate: bool,
+        out: &mut FrameOutput,
+    ) {
         let other_start = Instant::now();
         let n = self.coeffs();
         let nv = positions.len();
@@ -403,6 +463,7 @@ impl Prt {
             boxes: Vec::new(),
             far_xyz: Default::default(),
             profile,
+            integrate,
         };
         if self.pvs.is_none() {
             if self.settings.group_culling {
@@ -465,14 +526,32 @@ impl Prt {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     #[allow(clippy::too_many_arguments)]
-    unsafe fn chunk_avx2<const W: usize>(&self, first: usize, shared: &FrameShared, scratch: &mut Scratch, transfer: &mut [f32], radiance: &mut [[f32; 3]], masks: Option<&mut [u64]>, counts: &mut [u64; 12]) {
+    unsafe fn chunk_avx2<const W: usize>(
+        &self,
+        first: usize,
+        shared: &FrameShared,
+        scratch: &mut Scratch,
+        transfer: &mut [f32],
+        radiance: &mut [[f32; 3]],
+        masks: Option<&mut [u64]>,
+        counts: &mut [u64; 12],
+    ) {
         self.chunk::<W>(first, shared, scratch, transfer, radiance, masks, counts)
     }
 
     /// A run of consecutive vertices starting at `first`.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn chunk<const W: usize>(&self, first: usize, shared: &FrameShared, scratch: &mut Scratch, transfer: &mut [f32], radiance: &mut [[f32; 3]], mut masks: Option<&mut [u64]>, counts: &mut [u64; 12]) {
+    fn chunk<const W: usize>(
+        &self,
+        first: usize,
+        shared: &FrameShared,
+        scratch: &mut Scratch,
+        transfer: &mut [f32],
+        radiance: &mut [[f32; 3]],
+        mut masks: Option<&mut [u64]>,
+        counts: &mut [u64; 12],
+    ) {
         let n = self.coeffs();
         scratch.tris.reserve(self.own.max_candidates);
         for (k, (t, r)) in transfer.chunks_mut(n).zip(radiance.iter_mut()).enumerate() {
@@ -488,7 +567,15 @@ impl Prt {
     /// candidates, group-culled, below, back-facing, edge-on, drawn, then the
     /// four phase times.
     #[inline(always)]
-    fn vertex<const W: usize>(&self, v: usize, shared: &FrameShared, scratch: &mut Scratch, transfer: &mut [f32], mask: &mut [u64; W], counts: &mut [u64; 12]) -> [f32; 3] {
+    fn vertex<const W: usize>(
+        &self,
+        v: usize,
+        shared: &FrameShared,
+        scratch: &mut Scratch,
+        transfer: &mut [f32],
+        mask: &mut [u64; W],
+        counts: &mut [u64; 12],
+    ) -> [f32; 3] {
         let normal = shared.normals[v];
         if normal == Vec3::ZERO {
             counts[1] += 1;
@@ -507,12 +594,25 @@ impl Prt {
         }
         let t1 = clock(shared.profile);
         let nt = scratch.tris.len();
-        let (drawn, back, edge) = batch_refs_inline(&scratch.tris, self.cull_backfaces, self.lut.n as u32, self.grid.side as u32, &mut scratch.refs);
+        let (drawn, back, edge) = batch_refs_inline(
+            &scratch.tris,
+            self.cull_backfaces,
+            self.lut.n as u32,
+            self.grid.side as u32,
+            &mut scratch.refs,
+        );
         counts[7] += drawn;
         counts[5] += back;
         counts[6] += edge;
         batch_or(&self.lut, &scratch.refs, nt, mask);
         let t2 = clock(shared.profile);
+        if !shared.integrate {
+            if let (Some(t0), Some(t1), Some(t2)) = (t0, t1, t2) {
+                counts[8] += (t1 - t0).as_nanos() as u64;
+                counts[9] += (t2 - t1).as_nanos() as u64;
+            }
+            return [0.0; 3];
+        }
         let reflected = match (self.settings.brdf, shared.eye) {
             (Brdf::Phong { .. }, Some(e)) => {
                 let view = (e - p).normalize_or(normal);
@@ -539,11 +639,26 @@ impl Prt {
     /// the horizon, compacted into `scratch.tris` without branches.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn gather(&self, v: usize, shared: &FrameShared, normal: Vec3, frame: Mat3, origin: Vec3, scratch: &mut Scratch, counts: &mut [u64; 12]) {
+    fn gather(
+        &self,
+        v: usize,
+        shared: &FrameShared,
+        normal: Vec3,
+        frame: Mat3,
+        origin: Vec3,
+        scratch: &mut Scratch,
+        counts: &mut [u64; 12],
+    ) {
         let h = &self.hierarchy;
         let inv = 1.0 / self.scale;
         let (rt, rb, rn) = (frame.x_axis * inv, frame.y_axis * inv, frame.z_axis * inv);
-        let Scratch { tris, local, gathered, excluded: excl, .. } = scratch;
+        let Scratch {
+            tris,
+            local,
+            gathered,
+            excluded: excl,
+            ..
+        } = scratch;
         let mut emitted = 0u64;
         let mut visited = 0u64;
         let mut group_skipped = 0u64;
@@ -561,7 +676,9 @@ impl Prt {
                 if let Some(&(c, e)) = shared.boxes.get(g) {
                     // Highest point of the box above the tangent plane.
                     if normal.dot(c - origin) + normal.abs().dot(e) <= 0.0 {
-                        let skipped = (f0..f1).filter(|&t| !has_excl || excl[t / 64] >> (t % 64) & 1 == 0).count();
+                        let skipped = (f0..f1)
+                            .filter(|&t| !has_excl || excl[t / 64] >> (t % 64) & 1 == 0)
+                            .count();
                         group_skipped += skipped as u64;
                         continue;
                     }

@@ -59,7 +59,12 @@ pub fn edge_planes(t: &[Vec3; 3], cull_backfaces: bool) -> Result<[Vec3; 3], Fat
 /// Rasterises one triangle with the LUT, OR-ing its coverage into `mask`
 /// (`W` u64 words).
 #[inline(always)]
-pub fn raster_triangle<const W: usize>(lut: &PlaneLut, t: &[Vec3; 3], cull_backfaces: bool, mask: &mut [u64; W]) -> Fate {
+pub fn raster_triangle<const W: usize>(
+    lut: &PlaneLut,
+    t: &[Vec3; 3],
+    cull_backfaces: bool,
+    mask: &mut [u64; W],
+) -> Fate {
     match edge_planes(t, cull_backfaces) {
         Ok(planes) => {
             or_coverage(lut, &planes, mask);
@@ -177,7 +182,13 @@ pub const COMPLEMENT: u32 = 1 << 31;
 /// tests, and the cube-map LUT index of each plane (the same arithmetic as
 /// `edge_planes` and `lut_index`). Horizon culling already happened when the
 /// batch was gathered. Returns (drawn, back-facing, edge-on).
-pub fn batch_refs(batch: &TriangleBatch, cull_backfaces: bool, lut_n: u32, side: u32, refs: &mut BatchRefs) -> (u64, u64, u64) {
+pub fn batch_refs(
+    batch: &TriangleBatch,
+    cull_backfaces: bool,
+    lut_n: u32,
+    side: u32,
+    refs: &mut BatchRefs,
+) -> (u64, u64, u64) {
     let n = batch.len();
     for e in &mut refs.edge {
         e.clear();
@@ -198,7 +209,13 @@ pub fn batch_refs(batch: &TriangleBatch, cull_backfaces: bool, lut_n: u32, side:
 /// `batch_refs` without the CPU dispatch (for callers already compiled
 /// with the features they want).
 #[inline(always)]
-pub fn batch_refs_inline(batch: &TriangleBatch, cull_backfaces: bool, lut_n: u32, side: u32, refs: &mut BatchRefs) -> (u64, u64, u64) {
+pub fn batch_refs_inline(
+    batch: &TriangleBatch,
+    cull_backfaces: bool,
+    lut_n: u32,
+    side: u32,
+    refs: &mut BatchRefs,
+) -> (u64, u64, u64) {
     let n = batch.len();
     for e in &mut refs.edge {
         if e.len() < n {
@@ -214,7 +231,13 @@ pub fn batch_refs_inline(batch: &TriangleBatch, cull_backfaces: bool, lut_n: u32
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn batch_refs_avx2(batch: &TriangleBatch, cull_backfaces: bool, lut_n: u32, side: u32, refs: &mut BatchRefs) -> (u64, u64, u64) {
+unsafe fn batch_refs_avx2(
+    batch: &TriangleBatch,
+    cull_backfaces: bool,
+    lut_n: u32,
+    side: u32,
+    refs: &mut BatchRefs,
+) -> (u64, u64, u64) {
     batch_refs_body(batch, cull_backfaces, lut_n, side, refs)
 }
 
@@ -242,9 +265,21 @@ pub fn line_span(ay: f32, la: f32, by: f32, lb: f32, cy: f32, lc: f32, side: u32
     let s = side as f32;
     // A vertex at the origin makes these NaN: the comparisons then fail and
     // the span is every line.
-    let hi = if ymax < 0.0 { (ymax + 1.0) * 0.5 * s + 1.0 } else { s - 1.0 };
+    let hi = if ymax < 0.0 {
+        (ymax + 1.0) * 0.5 * s + 1.0
+    } else {
+        s - 1.0
+    };
     let lo = if ymin > 0.0 { (ymin + 1.0) * 0.5 * s - 1.0 } else { 0.0 };
-    let clamp = |v: f32, a: f32, b: f32| if v < a { a } else if v > b { b } else { v };
+    let clamp = |v: f32, a: f32, b: f32| {
+        if v < a {
+            a
+        } else if v > b {
+            b
+        } else {
+            v
+        }
+    };
     // Truncation is the floor here: both are >= 0.
     let first = clamp(lo / rows_per_line, 0.0, last_line);
     let last = clamp(hi / rows_per_line, 0.0, last_line);
@@ -259,10 +294,34 @@ fn cube_ref(mx: f32, my: f32, mz: f32, lut_n: u32, half_n: f32, max_i: f32) -> u
     let (px, py, pz) = (mx.abs(), my.abs(), mz.abs());
     let is_x = px >= py && px >= pz;
     let is_y = !is_x && py >= pz;
-    let major = if is_x { mx } else if is_y { my } else { mz };
-    let u = if is_x { my } else if is_y { mz } else { mx };
-    let v = if is_x { mz } else if is_y { mx } else { my };
-    let axis = if is_x { 0 } else if is_y { 1 } else { 2 };
+    let major = if is_x {
+        mx
+    } else if is_y {
+        my
+    } else {
+        mz
+    };
+    let u = if is_x {
+        my
+    } else if is_y {
+        mz
+    } else {
+        mx
+    };
+    let v = if is_x {
+        mz
+    } else if is_y {
+        mx
+    } else {
+        my
+    };
+    let axis = if is_x {
+        0
+    } else if is_y {
+        1
+    } else {
+        2
+    };
     let safe = if major == 0.0 { 1.0 } else { major };
     let inv = 1.0 / safe;
     let fu = ((u * inv + 1.0) * half_n).max(0.0).min(max_i);
@@ -273,7 +332,13 @@ fn cube_ref(mx: f32, my: f32, mz: f32, lut_n: u32, half_n: f32, max_i: f32) -> u
 }
 
 #[inline(always)]
-fn batch_refs_body(batch: &TriangleBatch, cull_backfaces: bool, lut_n: u32, side: u32, refs: &mut BatchRefs) -> (u64, u64, u64) {
+fn batch_refs_body(
+    batch: &TriangleBatch,
+    cull_backfaces: bool,
+    lut_n: u32,
+    side: u32,
+    refs: &mut BatchRefs,
+) -> (u64, u64, u64) {
     let n = batch.len();
     let [ax, ay, az, bx, by, bz, cx, cy, cz] = &batch.v;
     let (ax, ay, az) = (&ax[..n], &ay[..n], &az[..n]);
@@ -375,7 +440,9 @@ fn prefetch_entry<const W: usize>(table: &[u64], r: u32, span: u32) {
         while k < end {
             if let Some(w) = table.get(e + k) {
                 // SAFETY: prefetching is a hint; the address is in bounds.
-                unsafe { std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>((w as *const u64).cast()) };
+                unsafe {
+                    std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>((w as *const u64).cast())
+                };
             }
             k += 8;
         }

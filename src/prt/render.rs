@@ -37,7 +37,9 @@ pub fn render(
                 let p = o + d * hit.t;
                 let w = barycentric(p, a, b, c);
                 let rad = |k: usize| {
-                    w.x * radiance[t[0] as usize][k] + w.y * radiance[t[1] as usize][k] + w.z * radiance[t[2] as usize][k]
+                    w.x * radiance[t[0] as usize][k]
+                        + w.y * radiance[t[1] as usize][k]
+                        + w.z * radiance[t[2] as usize][k]
                 };
                 Vec3::new(rad(0), rad(1), rad(2)) * albedo
             } else if let Some(env) = env {
@@ -67,7 +69,11 @@ pub fn barycentric(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
 /// Linear value to 8-bit sRGB (clamped).
 pub fn srgb8(x: f32) -> u8 {
     let x = x.clamp(0.0, 1.0);
-    let s = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
+    let s = if x <= 0.003_130_8 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    };
     (s * 255.0).round() as u8
 }
 

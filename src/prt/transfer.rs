@@ -304,7 +304,12 @@ impl CellTables {
     fn cell_moments(&self, c: usize, nib: [usize; 4]) -> [f32; 4] {
         let t = &self.nibble[c * 64..c * 64 + 64];
         let (a, b, d, e) = (t[nib[0]], t[16 + nib[1]], t[32 + nib[2]], t[48 + nib[3]]);
-        [a[0] + b[0] + d[0] + e[0], a[1] + b[1] + d[1] + e[1], a[2] + b[2] + d[2] + e[2], 0.0]
+        [
+            a[0] + b[0] + d[0] + e[0],
+            a[1] + b[1] + d[1] + e[1],
+            a[2] + b[2] + d[2] + e[2],
+            0.0,
+        ]
     }
 
     /// Local-frame transfer of one mask into `out` (`coeffs` values).
@@ -354,7 +359,11 @@ impl CellTables {
                 let g = &self.gradient[c * 2 * n..(c * 2 + 2) * n];
                 let (gx, gy) = g.split_at(n);
                 let [o, mx, my, _] = self.cell_moments(c, nib);
-                let (mx, my) = if self.integration == Integration::Cells { (0.0, 0.0) } else { (mx, my) };
+                let (mx, my) = if self.integration == Integration::Cells {
+                    (0.0, 0.0)
+                } else {
+                    (mx, my)
+                };
                 if diffuse {
                     for i in 0..n {
                         out[i] -= o * b[i] + mx * gx[i] + my * gy[i];
@@ -409,7 +418,11 @@ pub fn radiance(lighting: &[f32], transfer: &[f32]) -> [f32; 3] {
     let n = transfer.len();
     let mut out = [0.0f32; 3];
     for (k, o) in out.iter_mut().enumerate() {
-        *o = lighting[k * n..(k + 1) * n].iter().zip(transfer).map(|(l, t)| l * t).sum();
+        *o = lighting[k * n..(k + 1) * n]
+            .iter()
+            .zip(transfer)
+            .map(|(l, t)| l * t)
+            .sum();
     }
     out
 }

@@ -223,23 +223,33 @@ pub fn character() -> Animation {
     let base = verts.len() as u32;
     let (seg, rings) = (28, 18);
     sphere_grid(seg, rings, &mut triangles, base);
-    push_sphere_verts(seg, rings, |d| {
-        let p = d * TORSO_RADII + Vec3::new(0.0, TORSO_CENTRE, 0.0);
-        RigVertex {
-            part: TORSO,
-            local: p,
-            weight: smoothstep(0.95, 1.6, p.y),
-        }
-    }, &mut verts);
+    push_sphere_verts(
+        seg,
+        rings,
+        |d| {
+            let p = d * TORSO_RADII + Vec3::new(0.0, TORSO_CENTRE, 0.0);
+            RigVertex {
+                part: TORSO,
+                local: p,
+                weight: smoothstep(0.95, 1.6, p.y),
+            }
+        },
+        &mut verts,
+    );
     // Head: a sphere above the torso, rigid with the chest.
     let base = verts.len() as u32;
     let (seg, rings) = (20, 12);
     sphere_grid(seg, rings, &mut triangles, base);
-    push_sphere_verts(seg, rings, |d| RigVertex {
-        part: HEAD,
-        local: d * Vec3::new(0.15, 0.17, 0.16) + Vec3::new(0.0, TORSO_CENTRE + TORSO_RADII.y + 0.19, 0.0),
-        weight: 1.0,
-    }, &mut verts);
+    push_sphere_verts(
+        seg,
+        rings,
+        |d| RigVertex {
+            part: HEAD,
+            local: d * Vec3::new(0.15, 0.17, 0.16) + Vec3::new(0.0, TORSO_CENTRE + TORSO_RADII.y + 0.19, 0.0),
+            weight: 1.0,
+        },
+        &mut verts,
+    );
     for part in [ARM_L, ARM_R, LEG_L, LEG_R] {
         let (r, l1, l2) = if part <= ARM_R { ARM } else { LEG };
         let base = verts.len() as u32;
@@ -287,7 +297,18 @@ fn push_sphere_verts(seg: u32, rings: u32, f: impl Fn(Vec3) -> RigVertex, out: &
 /// lengths l1 and l2 (the elbow or knee at -l1), `seg` sides, `body` rings
 /// along the cylinder and `cap` rings per hemispherical end.
 #[allow(clippy::too_many_arguments)]
-fn capsule(part: usize, r: f32, l1: f32, l2: f32, seg: u32, body: u32, cap: u32, base: u32, verts: &mut Vec<RigVertex>, tris: &mut Vec<[u32; 3]>) {
+fn capsule(
+    part: usize,
+    r: f32,
+    l1: f32,
+    l2: f32,
+    seg: u32,
+    body: u32,
+    cap: u32,
+    base: u32,
+    verts: &mut Vec<RigVertex>,
+    tris: &mut Vec<[u32; 3]>,
+) {
     // Profile from the top pole down: (y, radius) pairs.
     let mut profile = Vec::new();
     for k in 1..=cap {
@@ -304,7 +325,11 @@ fn capsule(part: usize, r: f32, l1: f32, l2: f32, seg: u32, body: u32, cap: u32,
     let rings = profile.len() as u32 + 1;
     sphere_grid(seg, rings, tris, base);
     let skin = |y: f32| smoothstep(l1 - 0.6 * r, l1 + 0.6 * r, -y);
-    verts.push(RigVertex { part, local: Vec3::new(0.0, r, 0.0), weight: 0.0 });
+    verts.push(RigVertex {
+        part,
+        local: Vec3::new(0.0, r, 0.0),
+        weight: 0.0,
+    });
     for &(y, rad) in &profile {
         for i in 0..seg {
             let ph = TAU * i as f32 / seg as f32;
@@ -316,7 +341,11 @@ fn capsule(part: usize, r: f32, l1: f32, l2: f32, seg: u32, body: u32, cap: u32,
         }
     }
     let bottom = -(l1 + l2) - r;
-    verts.push(RigVertex { part, local: Vec3::new(0.0, bottom, 0.0), weight: 1.0 });
+    verts.push(RigVertex {
+        part,
+        local: Vec3::new(0.0, bottom, 0.0),
+        weight: 1.0,
+    });
 }
 
 impl Rig {
@@ -333,17 +362,45 @@ impl Rig {
             * Mat4::from_translation(-chest_pivot);
         // Limb bone pairs: (upper, lower) world transforms.
         let limb = |root: Mat4, joint: Vec3, side: f32, abduct: f32, swing: f32, bend: f32, l1: f32| {
-            let upper = root * Mat4::from_translation(joint) * Mat4::from_rotation_z(side * abduct) * Mat4::from_rotation_x(swing);
+            let upper = root
+                * Mat4::from_translation(joint)
+                * Mat4::from_rotation_z(side * abduct)
+                * Mat4::from_rotation_x(swing);
             let knee = Vec3::new(0.0, -l1, 0.0);
-            let lower = upper * Mat4::from_translation(knee) * Mat4::from_rotation_x(bend) * Mat4::from_translation(-knee);
+            let lower =
+                upper * Mat4::from_translation(knee) * Mat4::from_rotation_x(bend) * Mat4::from_translation(-knee);
             (upper, lower)
         };
         let s = w.sin();
-        let arm_l = limb(chest, SHOULDER, 1.0, 0.12, -0.55 * s, -(0.45 + 0.35 * (0.5 + 0.5 * s)), ARM.1);
-        let arm_r = limb(chest, SHOULDER * Vec3::new(-1.0, 1.0, 1.0), -1.0, 0.12, 0.55 * s, -(0.45 + 0.35 * (0.5 - 0.5 * s)), ARM.1);
+        let arm_l = limb(
+            chest,
+            SHOULDER,
+            1.0,
+            0.12,
+            -0.55 * s,
+            -(0.45 + 0.35 * (0.5 + 0.5 * s)),
+            ARM.1,
+        );
+        let arm_r = limb(
+            chest,
+            SHOULDER * Vec3::new(-1.0, 1.0, 1.0),
+            -1.0,
+            0.12,
+            0.55 * s,
+            -(0.45 + 0.35 * (0.5 - 0.5 * s)),
+            ARM.1,
+        );
         let knee = |phase: f32| 0.15 + 0.75 * (0.5 + 0.5 * (w + phase).sin()).powi(2);
         let leg_l = limb(pelvis, HIP, 1.0, 0.04, 0.5 * s, knee(-1.3), LEG.1);
-        let leg_r = limb(pelvis, HIP * Vec3::new(-1.0, 1.0, 1.0), -1.0, 0.04, -0.5 * s, knee(PI - 1.3), LEG.1);
+        let leg_r = limb(
+            pelvis,
+            HIP * Vec3::new(-1.0, 1.0, 1.0),
+            -1.0,
+            0.04,
+            -0.5 * s,
+            knee(PI - 1.3),
+            LEG.1,
+        );
         for v in &self.verts {
             let (a, b) = match v.part {
                 TORSO => (pelvis, chest),
@@ -382,7 +439,9 @@ mod tests {
         // Outward: the head's top vertex has an upward normal.
         let m = ch.mesh_at(0.0);
         let normals = m.vertex_normals();
-        let top = (0..m.positions.len()).max_by(|&a, &b| m.positions[a].y.total_cmp(&m.positions[b].y)).unwrap();
+        let top = (0..m.positions.len())
+            .max_by(|&a, &b| m.positions[a].y.total_cmp(&m.positions[b].y))
+            .unwrap();
         assert!(normals[top].y > 0.9, "{}", normals[top]);
     }
 }

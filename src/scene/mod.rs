@@ -3,8 +3,8 @@
 //! for what its roles require: occluders are built from casters, sample
 //! points are taken from receivers.
 
-mod camera;
 pub mod animated;
+mod camera;
 pub mod environment;
 mod mesh;
 mod obj;
