@@ -211,7 +211,7 @@ impl GpuTransfer {
         // Per-vertex buffers, bound batch by batch.
         let per_vertex = [words32 as u64 * 4, 32, n as u64 * 4, 12];
         let limits = device.limits();
-        let max_binding = (limits.max_storage_buffer_binding_size as u64).min(limits.max_buffer_size);
+        let max_binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
         let fit = max_binding / per_vertex.iter().max().copied().unwrap_or(1);
         let batch = (fit.min(max_batch) / BATCH_QUANTUM * BATCH_QUANTUM).max(BATCH_QUANTUM);
         let total = |i: usize| (per_vertex[i] * nv.max(1) as u64).next_multiple_of(256);

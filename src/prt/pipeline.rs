@@ -92,7 +92,7 @@ impl PrtSettings {
             return Err(Error::param("--lut", "must be at least 1"));
         }
         if let Brdf::Phong { shininess, specular } = self.brdf {
-            if !(shininess.is_finite() && shininess >= 0.0 && shininess <= 1e4) {
+            if !(shininess.is_finite() && (0.0..=1e4).contains(&shininess)) {
                 return Err(Error::param(
                     "--shininess",
                     format!("must be in [0, 10000], got {shininess}"),

@@ -363,6 +363,8 @@ fn batch_refs_body(
         let la = ax * ax + ay * ay + az * az;
         let lb = bx * bx + by * by + bz * bz;
         let lc = cx * cx + cy * cy + cz * cz;
+        // Negated on purpose: a NaN determinant counts as edge-on.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
         let edge_on = !(det * det > EDGE_ON * EDGE_ON * (la * lb * lc));
         let backfacing = cull_backfaces & (det > 0.0) & !edge_on;
         let kept = !edge_on & !backfacing;

@@ -41,7 +41,7 @@
 use glam::Vec3;
 
 use super::mask::{CELL, MaskGrid, disk_rect_quadrature};
-use crate::sh::{ShBasis, ShRotation, coefficient_count};
+use crate::sh::{ShBasis, coefficient_count};
 
 /// The BRDF of the transfer.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -371,9 +371,9 @@ impl CellTables {
                 } else if self.integration == Integration::Pixels {
                     let rho = brdf.rho(self.dirs[c], reflected);
                     // Visible pixels of the cell, each with its own integral.
-                    for k in 0..CELL {
+                    for (k, &row) in nib.iter().enumerate() {
                         for j in 0..CELL {
-                            if nib[k] >> j & 1 == 0 {
+                            if row >> j & 1 == 0 {
                                 let p = (cr * CELL + k) * self.side + cc * CELL + j;
                                 let pb = &self.pixel_basis[p * n..p * n + n];
                                 for i in 0..n {
@@ -391,25 +391,6 @@ impl CellTables {
             }
         }
     }
-}
-
-/// Everything after rasterisation for one vertex: integrate in the tangent
-/// frame, rotate to world space, dot with the lighting. `lighting` is
-/// planar RGB (`3 x coeffs`). Returns the exitant radiance.
-#[inline]
-pub fn shade_vertex(
-    tables: &CellTables,
-    rot: &ShRotation,
-    mask: &[u64],
-    normal: Vec3,
-    brdf: &Brdf,
-    reflected_local: Vec3,
-    lighting: &[f32],
-    transfer: &mut [f32],
-) -> [f32; 3] {
-    tables.integrate(mask, brdf, reflected_local, transfer);
-    rot.frame_to_world(normal, transfer);
-    radiance(lighting, transfer)
 }
 
 /// `L · V*` per colour channel (equation 2).

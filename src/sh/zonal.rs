@@ -55,10 +55,11 @@ pub fn irradiance_bands(lighting: &ShRgb, n: DVec3, bands: usize) -> [f64; 3] {
     let factors = convolution_factors(&clamped_cosine_zonal(bands));
     let y = basis.at(n);
     let mut e = [0.0; 3];
-    for l in 0..bands {
-        for i in l * l..(l + 1) * (l + 1) {
-            for k in 0..3 {
-                e[k] += factors[l] * lighting.rgb[i][k] * y[i];
+    for (l, f) in factors.iter().enumerate().take(bands) {
+        let band = l * l..(l + 1) * (l + 1);
+        for (yi, rgb) in y[band.clone()].iter().zip(&lighting.rgb[band]) {
+            for (ek, c) in e.iter_mut().zip(rgb) {
+                *ek += f * c * yi;
             }
         }
     }
