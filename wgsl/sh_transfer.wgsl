@@ -152,6 +152,17 @@ fn apply_z(vl: u32, k: u32, c: f32, s: f32) -> f32 {
     return a * sm + b * cm;
 }
 
+// Step 0..3 of `frame_to_world` for one coefficient: x90, z(beta), x90^T, z(alpha).
+fn rotation_step(vl: u32, k: u32, step: u32) -> f32 {
+    let f = wg_frame[vl];
+    switch step {
+        case 0u: { return apply_x90(vl, k, false); }
+        case 1u: { return apply_z(vl, k, f.z, f.w); }
+        case 2u: { return apply_x90(vl, k, true); }
+        default: { return apply_z(vl, k, f.x, f.y); }
+    }
+}
+
 fn swap_back(lid: u32, n: u32) {
     for (var i = lid; i < params.grid.y * n; i += 64u) {
         let vl = i / n;
@@ -286,31 +297,18 @@ fn sh_transfer(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_i
     }
     workgroupBarrier();
 
-    // Frame to world: D(Rz(alpha)) D(Rx(-90)) D(Rz(beta)) D(Rx(90)).
-    for (var i = lid; i < verts * n; i += 64u) {
-        wg_swap[(i / n) * MAX_COEFFS + i % n] = apply_x90(i / n, i % n, false);
+    // Frame to world: D(Rz(alpha)) D(Rx(-90)) D(Rz(beta)) D(Rx(90)), one
+    // step at a time from wg_coeffs into wg_swap; the result stays in wg_swap.
+    for (var step = 0u; step < 4u; step += 1u) {
+        for (var i = lid; i < verts * n; i += 64u) {
+            wg_swap[(i / n) * MAX_COEFFS + i % n] = rotation_step(i / n, i % n, step);
+        }
+        workgroupBarrier();
+        if step < 3u {
+            swap_back(lid, n);
+            workgroupBarrier();
+        }
     }
-    workgroupBarrier();
-    swap_back(lid, n);
-    workgroupBarrier();
-    for (var i = lid; i < verts * n; i += 64u) {
-        let f = wg_frame[i / n];
-        wg_swap[(i / n) * MAX_COEFFS + i % n] = apply_z(i / n, i % n, f.z, f.w);
-    }
-    workgroupBarrier();
-    swap_back(lid, n);
-    workgroupBarrier();
-    for (var i = lid; i < verts * n; i += 64u) {
-        wg_swap[(i / n) * MAX_COEFFS + i % n] = apply_x90(i / n, i % n, true);
-    }
-    workgroupBarrier();
-    swap_back(lid, n);
-    workgroupBarrier();
-    for (var i = lid; i < verts * n; i += 64u) {
-        let f = wg_frame[i / n];
-        wg_swap[(i / n) * MAX_COEFFS + i % n] = apply_z(i / n, i % n, f.x, f.y);
-    }
-    workgroupBarrier();
 
     // Write back the transfer and the radiance L . V*.
     for (var i = lid; i < verts * n; i += 64u) {

@@ -398,6 +398,21 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
         _ => None,
     };
 
+    // Monte Carlo ray-traced transfer of the current pose (kd-tree of the full mesh).
+    let traced_transfer = |positions: &[Vec3], normals: &[Vec3]| -> Result<Vec<f32>> {
+        let tree = fine_tree(positions, source.triangles())?;
+        Ok(reference_transfer(
+            &tree,
+            positions,
+            normals,
+            prt.scale,
+            bands,
+            &brdf,
+            eye,
+            check_rays as u32,
+            args.common.seed,
+        ))
+    };
     for f in 0..frames {
         let time = args.start + f as f32 * args.dt;
         source.positions_at(time, &mut positions);
@@ -407,18 +422,7 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
         match args.shadows {
             ShadowsArg::Raytraced => {
                 prt.shading_normals(&positions, eye, &mut out.normals);
-                let tree = fine_tree(&positions, source.triangles())?;
-                out.transfer = reference_transfer(
-                    &tree,
-                    &positions,
-                    &out.normals,
-                    prt.scale,
-                    bands,
-                    &brdf,
-                    eye,
-                    check_rays as u32,
-                    args.common.seed,
-                );
+                out.transfer = traced_transfer(&positions, &out.normals)?;
                 out.radiance = out.transfer.chunks(coeffs).map(|t| radiance(&planar, t)).collect();
                 out.stats = Default::default();
             }
@@ -439,18 +443,11 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
         add_stats(&mut stats_sum, &out.stats);
 
         if check_at.contains(&f) {
-            let tree = fine_tree(&positions, source.triangles())?;
-            let reference = reference_transfer(
-                &tree,
-                &positions,
-                &out.normals,
-                prt.scale,
-                bands,
-                &brdf,
-                eye,
-                check_rays as u32,
-                args.common.seed,
-            );
+            // Ray-traced shadows already are the reference: no second trace.
+            let reference = match args.shadows {
+                ShadowsArg::Raytraced => out.transfer.clone(),
+                _ => traced_transfer(&positions, &out.normals)?,
+            };
             let (e, counted, skipped) = relative_l2_error(&out.transfer, &reference, coeffs, 0.01 * unoccluded_norm);
             errors.push(e);
             check_counts.0 += counted;

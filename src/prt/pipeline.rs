@@ -227,6 +227,15 @@ thread_local! {
 }
 
 /// Per-frame data shared by all vertices.
+/// What a frame computes: with timing, keeping the masks, and whether it
+/// integrates, rotates and shades (false: masks only, for the GPU kernel).
+#[derive(Debug, Clone, Copy)]
+struct FrameWork {
+    profile: bool,
+    keep_masks: bool,
+    integrate: bool,
+}
+
 struct FrameShared<'a> {
     positions: &'a [Vec3],
     normals: &'a [Vec3],
@@ -385,7 +394,12 @@ impl Prt {
         if lighting.len() != 3 * self.coeffs() {
             return Err(Error::input("lighting", format!("needs {} values", 3 * self.coeffs())));
         }
-        self.run_frame(positions, eye, lighting, profile, keep_masks, true, out)
+        let work = FrameWork {
+            profile,
+            keep_masks,
+            integrate: true,
+        };
+        self.run_frame(positions, eye, lighting, work, out)
     }
 
     /// The CPU half of a GPU frame: normals and visibility masks only
@@ -398,18 +412,20 @@ impl Prt {
         profile: bool,
         out: &mut FrameOutput,
     ) -> Result<()> {
-        self.run_frame(positions, eye, &[], profile, true, false, out)
+        let work = FrameWork {
+            profile,
+            keep_masks: true,
+            integrate: false,
+        };
+        self.run_frame(positions, eye, &[], work, out)
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn run_frame(
         &self,
         positions: &[Vec3],
         eye: Option<Vec3>,
         lighting: &[f32],
-        profile: bool,
-        keep_masks: bool,
-        integrate: bool,
+        work: FrameWork,
         out: &mut FrameOutput,
     ) -> Result<()> {
         if positions.len() != self.vertex_count {
@@ -426,25 +442,27 @@ impl Prt {
             return Err(Error::input(format!("vertex {}", i + 1), "has a non-finite coordinate"));
         }
         match self.grid.words {
-            4 => self.frame_impl::<4>(positions, eye, lighting, profile, keep_masks, integrate, out),
-            16 => self.frame_impl::<16>(positions, eye, lighting, profile, keep_masks, integrate, out),
-            64 => self.frame_impl::<64>(positions, eye, lighting, profile, keep_masks, integrate, out),
+            4 => self.frame_impl::<4>(positions, eye, lighting, work, out),
+            16 => self.frame_impl::<16>(positions, eye, lighting, work, out),
+            64 => self.frame_impl::<64>(positions, eye, lighting, work, out),
             w => return Err(Error::internal(format!("no rasteriser for {w} mask words"))),
         }
         Ok(())
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn frame_impl<const W: usize>(
         &self,
         positions: &[Vec3],
         eye: Option<Vec3>,
         lighting: &[f32],
-        profile: bool,
-        keep_masks: bool,
-        integrate: bool,
+        work: FrameWork,
         out: &mut FrameOutput,
     ) {
+        let FrameWork {
+            profile,
+            keep_masks,
+            integrate,
+        } = work;
         let other_start = Instant::now();
         let n = self.coeffs();
         let nv = positions.len();

@@ -294,33 +294,13 @@ fn cube_ref(mx: f32, my: f32, mz: f32, lut_n: u32, half_n: f32, max_i: f32) -> u
     let (px, py, pz) = (mx.abs(), my.abs(), mz.abs());
     let is_x = px >= py && px >= pz;
     let is_y = !is_x && py >= pz;
-    let major = if is_x {
-        mx
+    // (axis, major, u, v): u, v follow the axis cyclically, as in `lut`.
+    let (axis, major, u, v) = if is_x {
+        (0, mx, my, mz)
     } else if is_y {
-        my
+        (1, my, mz, mx)
     } else {
-        mz
-    };
-    let u = if is_x {
-        my
-    } else if is_y {
-        mz
-    } else {
-        mx
-    };
-    let v = if is_x {
-        mz
-    } else if is_y {
-        mx
-    } else {
-        my
-    };
-    let axis = if is_x {
-        0
-    } else if is_y {
-        1
-    } else {
-        2
+        (2, mz, mx, my)
     };
     let safe = if major == 0.0 { 1.0 } else { major };
     let inv = 1.0 / safe;
