@@ -22,12 +22,12 @@ use common::{Model, load_models_named};
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use glam::{Quat, Vec3};
 use penumbra::ao::points::vertex_points;
-use penumbra::ao::raycast::visibility_cpu;
+use penumbra::ao::raycast::ao_rays;
 use penumbra::ao::{AoPoint, AoSettings};
 use penumbra::field::gpu::{FieldGroup, GpuField, GpuInstance, visibility_field_gpu};
 use penumbra::field::{
     DirectionMapping, DisplacementField, FieldCaster, FieldParams, NO_OWNER, OctahedralGrid, Positional, Storage,
-    visibility_field,
+    field_ao,
 };
 use penumbra::gpu::GpuContext;
 use penumbra::kdtree::{KdTree, KdTreeParams};
@@ -105,7 +105,7 @@ fn all(c: &mut Criterion) {
         }];
         cpu.bench_function(m.name.as_str(), |b| {
             b.iter(|| {
-                visibility_field(
+                field_ao(
                     &casters,
                     black_box(&points),
                     &owners,
@@ -125,7 +125,7 @@ fn all(c: &mut Criterion) {
         let t = placement(m);
         let tree = KdTree::build(&m.mesh.map_positions(|p| t.apply_point(p)), &KdTreeParams::default()).unwrap();
         raycast.bench_function(m.name.as_str(), |b| {
-            b.iter(|| visibility_cpu(&tree, black_box(&points), &SETTINGS, &Progress::hidden()))
+            b.iter(|| ao_rays(&tree, black_box(&points), &SETTINGS, &Progress::hidden()))
         });
     }
     raycast.finish();

@@ -10,7 +10,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use penumbra::gpu::GpuContext;
 use penumbra::kdtree::{KdTree, KdTreeParams};
 use penumbra::scene::{Camera, load_obj};
-use penumbra::ssao::gbuffer::{ScreenView, render_cpu};
+use penumbra::ssao::gbuffer::{ScreenView, gbuffer};
 use penumbra::ssao::gpu::{GBufferSource, run_frame};
 use penumbra::ssao::{Estimator, SsaoSettings, run_cpu};
 
@@ -30,7 +30,7 @@ fn bench(c: &mut Criterion) {
     let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
     let camera = Camera::default_for(&mesh.bounds());
     let view = ScreenView::new(&camera, 800, 600);
-    let gb = render_cpu(&tree, &mesh, &camera, &[], 800, 600);
+    let gb = gbuffer(&tree, &mesh, &camera, &[], 800, 600);
     let gpu = GpuContext::headless().ok();
     let mut group = c.benchmark_group("ssao_800x600_16spp");
     group.sample_size(10);

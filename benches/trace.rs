@@ -16,7 +16,7 @@
 //!   thread (truly one thread). Throughput is in rays, so criterion reports
 //!   rays/s ("elem/s").
 //! - `trace_gpu/<model>/<W>x<H>`: the same camera through
-//!   `kdtree::gpu::trace_rays` (wall time of upload, kernel and readback),
+//!   `tracer::Tracer::closest` on the GPU (wall time of upload, kernel and readback),
 //!   only if a GPU adapter exists. On a software adapter (lavapipe) the image
 //!   is 512x512 instead of 1024x1024, as the id says;
 //!   `PENUMBRA_BENCH_GPU_SIZE=N` forces NxN.
@@ -28,10 +28,11 @@ use std::time::Duration;
 
 use common::{CPU_IMAGE, Model, gpu_image_size, is_software, load_models, primary_rays};
 use criterion::{BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
+use penumbra::device::{Device, Timing};
 use penumbra::gpu::GpuContext;
-use penumbra::kdtree::gpu::{GpuKdTree, TraceMode, trace_rays};
 use penumbra::kdtree::{KdTree, KdTreeParams};
 use penumbra::ray::{Hit, Ray};
+use penumbra::tracer::Tracer;
 
 fn trace_sequential(tree: &KdTree, rays: &[Ray]) -> Vec<Hit> {
     rays.iter()
@@ -101,30 +102,32 @@ fn bench_gpu(c: &mut Criterion, models: &[Model]) {
         .warm_up_time(Duration::from_secs(1))
         .measurement_time(Duration::from_secs(4));
     for m in models {
-        let gpu_tree = GpuKdTree::upload(&ctx.device, &m.tree).expect("uploading the kd-tree");
+        let device = Device::gpu(ctx.clone());
+        let mut tracer = Tracer::from_tree(&device, m.tree.clone()).expect("uploading the kd-tree");
         let rays = primary_rays(&m.mesh, size);
         // One untimed run: compiles the pipeline, checks against the CPU, and
         // reports the kernel-only time where timestamps exist.
-        let first = trace_rays(&ctx, &gpu_tree, &rays, TraceMode::Closest, f32::INFINITY).expect("GPU trace");
+        let start = std::time::Instant::now();
+        let first = tracer.closest(&rays).expect("GPU trace");
+        let wall_ms = start.elapsed().as_secs_f64() * 1e3;
         let cpu = trace_sequential(&m.tree, &rays);
-        let differ = first.hits.iter().zip(&cpu).filter(|(g, c)| g != c).count();
+        let differ = first.value.iter().zip(&cpu).filter(|(g, c)| g != c).count();
+        let kernel = match first.timing {
+            Timing::GpuTimestamps => format!(
+                "{:.1} ms ({:.3} Mrays/s)",
+                first.ms,
+                rays.len() as f64 / (first.ms * 1e3)
+            ),
+            Timing::Wall => "n/a".to_string(),
+        };
         eprintln!(
-            "trace_gpu/{}/{size}x{size}: wall {:.1} ms, kernel {}; {differ} of {} hits differ from the CPU",
+            "trace_gpu/{}/{size}x{size}: wall {wall_ms:.1} ms, kernel {kernel}; {differ} of {} hits differ from the CPU",
             m.name,
-            first.wall_ms,
-            first.gpu_ms.map_or("n/a".to_string(), |ms| format!(
-                "{ms:.1} ms ({:.3} Mrays/s)",
-                rays.len() as f64 / (ms * 1e3)
-            )),
             rays.len()
         );
         group.throughput(Throughput::Elements(rays.len() as u64));
         group.bench_function(BenchmarkId::new(m.name.as_str(), format!("{size}x{size}")), |b| {
-            b.iter(|| {
-                trace_rays(&ctx, &gpu_tree, black_box(&rays), TraceMode::Closest, f32::INFINITY)
-                    .expect("GPU trace")
-                    .hits
-            })
+            b.iter(|| tracer.closest(black_box(&rays)).expect("GPU trace").value)
         });
     }
     group.finish();

@@ -2,8 +2,14 @@
 //!
 //! The command-line contract maps errors to exit codes: bad input and an
 //! unavailable device exit with 2, anything else with 1. Every variant that
-//! comes from user input names the file (or option), the field and the problem,
-//! so a CI log says what to fix without a backtrace.
+//! comes from user input names the file (or parameter), the field and the
+//! problem, so a CI log says what to fix without a backtrace.
+//!
+//! The library names parameters in its own language: `Error::param`'s name
+//! is the field of a settings struct (`rays_per_point`, `bands`), and a
+//! problem that mentions another parameter quotes its name in backticks
+//! ("`spp` 12 is not a multiple of `steps` 5"). A front end renames them
+//! (`Error::with_names`): the command line maps them to its flags.
 
 use std::fmt;
 use std::path::Path;
@@ -38,7 +44,8 @@ impl Error {
         }
     }
 
-    /// Bad value of a command-line option or API parameter.
+    /// Bad value of a parameter, named as the library names it (a settings
+    /// field); other parameters in `problem` are quoted in backticks.
     pub fn param(name: impl Into<String>, problem: impl Into<String>) -> Self {
         Error::BadInput {
             source: name.into(),
@@ -77,6 +84,22 @@ impl Error {
         }
     }
 
+    /// The error with parameter names spelled by `rename` (e.g. the command
+    /// line's flags): the name of a parameter error, and names quoted in
+    /// backticks in its problem or in a device message. Names `rename` does
+    /// not know stay as they are.
+    pub fn with_names<'a>(self, rename: impl Fn(&str) -> Option<&'a str>) -> Error {
+        match self {
+            Error::BadInput { source, field, problem } => Error::BadInput {
+                source: rename(&source).map_or(source, str::to_string),
+                field,
+                problem: rename_quoted(&problem, &rename),
+            },
+            Error::Device(message) => Error::Device(rename_quoted(&message, &rename)),
+            other => other,
+        }
+    }
+
     /// Wraps an I/O error on reading a file as bad input (the file is missing
     /// or unreadable: the user has to fix the path).
     pub fn read(path: &Path, err: std::io::Error) -> Self {
@@ -87,6 +110,25 @@ impl Error {
     pub fn write(path: &Path, err: impl fmt::Display) -> Self {
         Error::file(path, "", format!("cannot write: {err}"))
     }
+}
+
+/// `text` with every name quoted in backticks that `rename` knows replaced
+/// by its spelling (unknown names keep their backticks).
+pub fn rename_quoted<'a>(text: &str, rename: impl Fn(&str) -> Option<&'a str>) -> String {
+    let parts: Vec<&str> = text.split('`').collect();
+    let mut out = String::from(parts[0]);
+    for (i, part) in parts.iter().enumerate().skip(1) {
+        // Odd parts follow an opening backtick; the last one has no closing
+        // backtick when the count is odd.
+        let quoted = i % 2 == 1 && i + 1 < parts.len();
+        match rename(part) {
+            Some(name) if quoted => out.push_str(name),
+            _ if quoted => out.push_str(&format!("`{part}`")),
+            _ if i % 2 == 1 => out.push_str(&format!("`{part}")),
+            _ => out.push_str(part),
+        }
+    }
+    out
 }
 
 impl fmt::Display for Error {
@@ -103,3 +145,28 @@ impl fmt::Display for Error {
 }
 
 impl std::error::Error for Error {}
+
+#[cfg(test)]
+mod tests {
+    use super::Error;
+
+    #[test]
+    fn names_are_renamed_in_the_source_and_between_backticks() {
+        let flags = |name: &str| match name {
+            "spp" => Some("--spp"),
+            "steps" => Some("--steps"),
+            _ => None,
+        };
+        let e = Error::param("steps", "`spp` 12 is not a multiple of `steps` 5 (`other`)").with_names(flags);
+        assert_eq!(
+            e.to_string(),
+            "--steps: --spp 12 is not a multiple of --steps 5 (`other`)"
+        );
+        let e = Error::Device("use `spp` or not".into()).with_names(flags);
+        assert_eq!(e.to_string(), "device: use --spp or not");
+        let e = Error::param("x", "an odd ` stays").with_names(flags);
+        assert_eq!(e.to_string(), "x: an odd ` stays");
+        let e = Error::param("x", "`spp` and ` odd").with_names(flags);
+        assert_eq!(e.to_string(), "x: --spp and ` odd");
+    }
+}

@@ -8,6 +8,8 @@
 pub mod aabb;
 pub mod ao;
 pub mod cli;
+pub mod color;
+pub mod device;
 pub mod error;
 pub mod field;
 pub mod gpu;
@@ -16,10 +18,12 @@ pub mod mlrta;
 pub mod progress;
 pub mod prt;
 pub mod ray;
+pub mod ray_file;
 pub mod sampling;
 pub mod scene;
 pub mod sh;
 pub mod ssao;
+pub mod tracer;
 pub mod wgsl;
 
 pub use error::{Error, Result};

@@ -1,10 +1,40 @@
 //! Progress reporting on stderr for long work (indicatif). Library functions
-//! take a `&Progress`; `Progress::hidden()` reports nothing. Bars only appear
-//! after a second, so quick runs and CI logs stay clean.
+//! take a `&Progress`; `Progress::hidden()` reports nothing. Runners, which
+//! make their own bars phase by phase, take `Bars`: the command line asks
+//! for bars on stderr, a host for none. Bars only appear after a second, so
+//! quick runs and CI logs stay clean.
 
 use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+/// Whether a runner shows its phases' progress on stderr.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Bars {
+    /// No output (a host engine).
+    #[default]
+    Hidden,
+    /// Bars on stderr (the command line).
+    Stderr,
+}
+
+impl Bars {
+    /// A bar of `len` steps, or a hidden one.
+    pub fn bar(self, len: u64, message: &str) -> Progress {
+        match self {
+            Bars::Hidden => Progress::hidden(),
+            Bars::Stderr => Progress::bar(len, message),
+        }
+    }
+
+    /// A spinner for work of unknown length, or a hidden one.
+    pub fn spinner(self, message: &str) -> Progress {
+        match self {
+            Bars::Hidden => Progress::hidden(),
+            Bars::Stderr => Progress::spinner(message),
+        }
+    }
+}
 
 pub struct Progress {
     bar: Option<ProgressBar>,

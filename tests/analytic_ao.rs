@@ -6,14 +6,11 @@
 mod common;
 
 use glam::Vec3;
-use penumbra::ao::gpu::visibility_gpu;
-use penumbra::ao::raycast::visibility_cpu;
 use penumbra::ao::{AoPoint, AoSettings};
-use penumbra::kdtree::gpu::GpuKdTree;
-use penumbra::kdtree::{KdTree, KdTreeParams};
-use penumbra::progress::Progress;
+use penumbra::progress::{Bars, Progress};
 use penumbra::scene::Mesh;
 use penumbra::scene::procedural::{closed_box, cylindrical_well, open_plane, wall_on_floor, well_floor_accessibility};
+use penumbra::tracer::Tracer;
 
 const RAYS: u32 = 4096;
 const SEEDS: [u32; 3] = [1, 2, 3];
@@ -21,9 +18,10 @@ const SEEDS: [u32; 3] = [1, 2, 3];
 /// Estimates AO at `points` on the CPU and the GPU, for several seeds, and
 /// checks each estimate against `exact`.
 fn check(name: &str, mesh: &Mesh, points: &[AoPoint], exact: f64) {
-    let tree = KdTree::build(mesh, &KdTreeParams::default()).unwrap();
-    let ctx = common::gpu();
-    let gpu_tree = ctx.as_ref().map(|c| GpuKdTree::upload(&c.device, &tree).unwrap());
+    let mut tracers: Vec<Tracer> = common::devices()
+        .iter()
+        .map(|d| Tracer::build(d, mesh, Bars::Hidden, name).unwrap())
+        .collect();
     let mut worst_z = 0.0f64;
     for seed in SEEDS {
         let settings = AoSettings {
@@ -31,16 +29,12 @@ fn check(name: &str, mesh: &Mesh, points: &[AoPoint], exact: f64) {
             radius: f32::INFINITY,
             seed,
         };
-        let mut runs = vec![("cpu", visibility_cpu(&tree, points, &settings, &Progress::hidden()))];
-        if let (Some(ctx), Some(t)) = (&ctx, &gpu_tree) {
-            runs.push((
-                "gpu",
-                visibility_gpu(ctx, t, points, &settings, &Progress::hidden())
-                    .unwrap()
-                    .masks,
-            ));
-        }
-        for (device, masks) in runs {
+        for (k, tracer) in tracers.iter_mut().enumerate() {
+            let device = ["cpu", "gpu"][k];
+            let masks = tracer
+                .ao_visibility(points, &settings, &Progress::hidden())
+                .unwrap()
+                .value;
             for (i, &p) in masks.accessibility().iter().enumerate() {
                 let p = p as f64;
                 let se = (p * (1.0 - p) / RAYS as f64).sqrt();

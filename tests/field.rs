@@ -8,12 +8,12 @@ mod common;
 use common::{Rng, data_model, gpu};
 use glam::{Quat, Vec3};
 use penumbra::ao::points::vertex_points;
-use penumbra::ao::raycast::visibility_cpu;
+use penumbra::ao::raycast::ao_rays;
 use penumbra::ao::{AoSettings, VisibilityMasks};
 use penumbra::field::gpu::{FieldGroup, GpuField, GpuInstance, probe_gpu, visibility_field_gpu};
 use penumbra::field::{
     DirectionMapping, DisplacementField, FieldCaster, FieldParams, FieldTrace, NO_OWNER, OctahedralGrid, Positional,
-    Storage, file, visibility_field,
+    Storage, field_ao, file,
 };
 use penumbra::kdtree::{KdTree, KdTreeParams};
 use penumbra::progress::Progress;
@@ -257,7 +257,7 @@ fn gpu_field_ao_equals_the_cpu_twin() {
             transform,
             instance: 1,
         }];
-        let (cpu, cpu_classes) = visibility_field(
+        let (cpu, cpu_classes) = field_ao(
             &casters,
             &points,
             &owners,
@@ -385,13 +385,13 @@ fn tiny_and_huge_objects() {
         let owners = vec![NO_OWNER; points.len()];
         let world = unit.map_positions(|p| transform.apply_point(p));
         let tree = KdTree::build(&world, &KdTreeParams::default()).unwrap();
-        let truth = visibility_cpu(&tree, &points, &settings(scale), &Progress::hidden()).accessibility();
+        let truth = ao_rays(&tree, &points, &settings(scale), &Progress::hidden()).accessibility();
         let casters = [FieldCaster {
             field: &unit_field,
             transform,
             instance: 1,
         }];
-        let (masks, _) = visibility_field(
+        let (masks, _) = field_ao(
             &casters,
             &points,
             &owners,
@@ -407,7 +407,7 @@ fn tiny_and_huge_objects() {
             transform: Transform::default(),
             instance: 1,
         }];
-        let (masks2, _) = visibility_field(
+        let (masks2, _) = field_ao(
             &direct,
             &points,
             &owners,
@@ -453,7 +453,7 @@ fn instances_share_one_field() {
         world.append(&caster.map_positions(|p| t.apply_point(p)));
     }
     let tree = KdTree::build(&world, &KdTreeParams::default()).unwrap();
-    let truth: VisibilityMasks = visibility_cpu(&tree, &points, &settings, &Progress::hidden());
+    let truth: VisibilityMasks = ao_rays(&tree, &points, &settings, &Progress::hidden());
     let casters: Vec<FieldCaster> = poses
         .iter()
         .enumerate()
@@ -463,7 +463,7 @@ fn instances_share_one_field() {
             instance: k as u32 + 1,
         })
         .collect();
-    let (masks, _) = visibility_field(
+    let (masks, _) = field_ao(
         &casters,
         &points,
         &owners,
@@ -510,7 +510,7 @@ fn bunny_in_the_corner_meets_the_error_target() {
         &KdTreeParams::default(),
     )
     .unwrap();
-    let truth = visibility_cpu(&tree, &points, &settings, &Progress::hidden()).accessibility();
+    let truth = ao_rays(&tree, &points, &settings, &Progress::hidden()).accessibility();
     let error = |side: u32, positional: Positional| {
         let field = build(&bunny, params(side, 32, Storage::U8, DirectionMapping::Concentric));
         let casters = [FieldCaster {
@@ -518,7 +518,7 @@ fn bunny_in_the_corner_meets_the_error_target() {
             transform,
             instance: 1,
         }];
-        let (m, _) = visibility_field(&casters, &points, &owners, &settings, positional, &Progress::hidden());
+        let (m, _) = field_ao(&casters, &points, &owners, &settings, positional, &Progress::hidden());
         rms(&m.accessibility(), &truth)
     };
     let target = error(65, Positional::Bilinear);

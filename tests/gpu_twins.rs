@@ -16,14 +16,13 @@ use common::{Rng, asset, data_model, gpu};
 use glam::Vec3;
 use penumbra::ao::gpu::{ray_samples_gpu, visibility_gpu};
 use penumbra::ao::points::vertex_points;
-use penumbra::ao::raycast::visibility_cpu;
-use penumbra::ao::{AoPoint, AoSettings, ray_direction};
+use penumbra::ao::raycast::{ao_rays, ao_samples};
+use penumbra::ao::{AoPoint, AoSettings};
 use penumbra::gpu::GpuContext;
 use penumbra::kdtree::gpu::{GpuKdTree, TraceMode, trace_rays};
 use penumbra::kdtree::{KdTree, KdTreeParams, TraversalCounts};
 use penumbra::progress::Progress;
 use penumbra::ray::Ray;
-use penumbra::sampling::SampleSequence;
 use penumbra::scene::{Camera, Mesh, load_obj};
 
 fn compare_traces(ctx: &GpuContext, name: &str, mesh: &Mesh, rays: &[Ray]) {
@@ -132,17 +131,17 @@ fn ao_sample_kernel_equals_cpu_sequence() {
         seed: 99,
     };
     let gpu = ray_samples_gpu(&ctx, &points, &settings).unwrap();
-    let seq = SampleSequence::new(settings.seed);
+    let cpu = ao_samples(&points, &settings);
     let (mut uv_diff, mut worst_dir) = (0usize, 0f32);
-    for (p, point) in points.iter().enumerate() {
-        for j in 0..settings.rays_per_point {
-            let (uv, dir) = gpu[p * settings.rays_per_point as usize + j as usize];
-            if uv != seq.sample(point.stream, j) {
-                uv_diff += 1;
-            }
-            let cpu = ray_direction(&seq, point.stream, j, Vec3::from_array(point.normal));
-            worst_dir = worst_dir.max((Vec3::from_array(dir) - cpu).abs().max_element());
+    for ((uv, dir), (cpu_uv, cpu_dir)) in gpu.iter().zip(&cpu) {
+        if uv != cpu_uv {
+            uv_diff += 1;
         }
+        worst_dir = worst_dir.max(
+            (Vec3::from_array(*dir) - Vec3::from_array(*cpu_dir))
+                .abs()
+                .max_element(),
+        );
     }
     println!(
         "ao samples: {} rays, sample points differing {uv_diff}, worst direction difference {worst_dir:.3e}",
@@ -161,7 +160,7 @@ fn compare_ao(ctx: &GpuContext, name: &str, mesh: &Mesh, rays_per_point: u32) {
         radius: f32::INFINITY,
         seed: 1,
     };
-    let cpu = visibility_cpu(&tree, &points, &settings, &Progress::hidden());
+    let cpu = ao_rays(&tree, &points, &settings, &Progress::hidden());
     let gpu = visibility_gpu(ctx, &gpu_tree, &points, &settings, &Progress::hidden()).unwrap();
     let total = points.len() as u64 * rays_per_point as u64;
     let differing = cpu.differing_rays(&gpu.masks);
@@ -239,9 +238,7 @@ fn large_requests_are_split_into_batches_with_the_same_results() {
 /// between its own commands.
 #[test]
 fn passes_record_into_a_host_engines_encoder() {
-    use penumbra::gpu::{WORKGROUP_SIZE, dispatch_grid};
-    use penumbra::kdtree::gpu::{TraceParams, TraceRaysPass};
-    use wgpu::util::DeviceExt;
+    use penumbra::kdtree::gpu::TraceRaysPass;
 
     let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
         backends: wgpu::Backends::all() - wgpu::Backends::GL,
@@ -256,43 +253,30 @@ fn passes_record_into_a_host_engines_encoder() {
     let mesh = load_obj(&asset("cube-with-hole.obj")).unwrap();
     let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
     let rays = random_rays(&mesh, 3000, 11);
-    let pass = TraceRaysPass::new(&device);
+    // Built once for the host's device; buffers kept between prepares.
+    let mut pass = TraceRaysPass::new(&device);
     let gpu_tree = GpuKdTree::upload(&device, &tree).unwrap();
-    let init = |label, contents: &[u8], usage| {
-        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents,
-            usage,
-        })
-    };
-    let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
-    let ray_buf = init("host rays", bytemuck::cast_slice(&rays), storage);
-    let hit_buf = init("host hits", &vec![0u8; rays.len() * 8], storage);
-    let counts = init("host counts", &[0u8; 8], storage);
-    let (gx, gy, pitch) = dispatch_grid(rays.len() as u32, device.limits().max_compute_workgroups_per_dimension);
-    assert_eq!(pitch % WORKGROUP_SIZE, 0);
-    let params = TraceParams {
-        ray_count: rays.len() as u32,
-        row_pitch: pitch,
-        t_max: f32::MAX,
-        _pad: 0,
-    };
-    let params_buf = init("host params", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
+    let bytes = (rays.len() * 8) as u64;
     let readback = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("host readback"),
-        size: (rays.len() * 8) as u64,
+        size: bytes,
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let io = pass.io_bind_group(&device, &ray_buf, &hit_buf, &params_buf, &counts);
-
-    // The host's frame: its own command, penumbra's pass, its own copy.
-    let mut encoder = device.create_command_encoder(&Default::default());
-    encoder.clear_buffer(&hit_buf, 0, None);
-    pass.record(&mut encoder, None, &gpu_tree, &io, TraceMode::Closest, (gx, gy));
-    encoder.copy_buffer_to_buffer(&hit_buf, 0, &readback, 0, (rays.len() * 8) as u64);
-    queue.submit([encoder.finish()]);
-    let hits: Vec<penumbra::ray::Hit> = penumbra::gpu::buffers::read_back(&device, &readback, rays.len()).unwrap();
+    let mut frame = |rays: &[penumbra::ray::Ray]| -> Vec<penumbra::ray::Hit> {
+        pass.prepare(&device, &queue, rays, TraceMode::Closest, f32::INFINITY)
+            .unwrap();
+        // The host's frame: its own command, penumbra's pass, its own copy.
+        let mut encoder = device.create_command_encoder(&Default::default());
+        encoder.clear_buffer(pass.hits(), 0, None);
+        pass.record(&mut encoder, None, &gpu_tree);
+        encoder.copy_buffer_to_buffer(pass.hits(), 0, &readback, 0, (rays.len() * 8) as u64);
+        queue.submit([encoder.finish()]);
+        penumbra::gpu::buffers::read_back(&device, &readback, rays.len()).unwrap()
+    };
+    let first = frame(&rays[..1000]);
+    let hits = frame(&rays);
+    assert_eq!(first, hits[..1000], "a second, larger prepare grows the kept buffers");
 
     let cpu = tree.trace_closest(&rays);
     let same = hits

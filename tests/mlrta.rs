@@ -11,7 +11,7 @@ use common::{Rng, asset, data_model};
 use glam::Vec3;
 use penumbra::ao::AoSettings;
 use penumbra::ao::points::vertex_points;
-use penumbra::ao::raycast::visibility_cpu;
+use penumbra::ao::raycast::ao_rays;
 use penumbra::kdtree::{KdTree, KdTreeParams};
 use penumbra::mlrta::ao::visibility_mlrta;
 use penumbra::mlrta::entry_point::EntryPoint;
@@ -206,7 +206,7 @@ fn ao_groups_equal_the_cpu_reference() {
             radius: f32::INFINITY,
             seed: 3,
         };
-        let cpu = visibility_cpu(&tree, &points, &settings, &Progress::hidden());
+        let cpu = ao_rays(&tree, &points, &settings, &Progress::hidden());
         let (packets, counts) = visibility_mlrta(&prepared, &points, &settings, &Progress::hidden());
         let differ = cpu.differing_rays(&packets);
         let total = points.len() as u64 * 32;

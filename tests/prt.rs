@@ -15,7 +15,7 @@ mod common;
 use common::{Rng, gpu};
 use glam::Vec3;
 use penumbra::kdtree::{KdTree, KdTreeParams};
-use penumbra::prt::gpu::{GpuTransfer, ShTransferPass};
+use penumbra::prt::gpu::{FrameInputs, GpuTransfer, ShTransferPass};
 use penumbra::prt::lut::PlaneLut;
 use penumbra::prt::mask::MaskGrid;
 use penumbra::prt::pipeline::{FrameOutput, Prt, PrtSettings};
@@ -39,7 +39,6 @@ fn lighting(bands: usize, seed: u64) -> Vec<f32> {
 #[test]
 fn gpu_transfer_matches_cpu() {
     let Some(ctx) = gpu() else { return };
-    let pass = ShTransferPass::new(&ctx.device);
     let phong = Brdf::Phong {
         shininess: 16.0,
         specular: 0.4,
@@ -74,10 +73,15 @@ fn gpu_transfer_matches_cpu() {
         let mut masks = FrameOutput::default();
         prt.frame_masks(&pos, eye, false, &mut masks).unwrap();
         assert_eq!(masks.masks, cpu.masks, "frame_masks rasterises what frame does");
-        let gpu_transfer = GpuTransfer::with_batch_limit(&ctx, &pass, &prt, batch).unwrap();
-        let g = gpu_transfer
-            .run_frame(&ctx, &pass, &masks.masks, &pos, &masks.normals, eye, &light)
-            .unwrap();
+        let mut gpu_transfer = GpuTransfer::with_batch_limit(&ctx, &prt, batch).unwrap();
+        let inputs = FrameInputs {
+            masks: &masks.masks,
+            positions: &pos,
+            normals: &masks.normals,
+            eye,
+            lighting: &light,
+        };
+        let g = gpu_transfer.run_frame(&ctx, &inputs).unwrap();
         let n = prt.coeffs();
         let scale = prt.tables.unoccluded.iter().map(|v| v * v).sum::<f32>().sqrt();
         let worst_t = cpu
@@ -122,10 +126,9 @@ fn gpu_kernel_rejects_orders_beyond_its_arrays() {
         ..PrtSettings::default()
     };
     let prt = Prt::new(&pos, &anim.triangles, &settings).unwrap();
-    let err = GpuTransfer::new(&ctx, &ShTransferPass::new(&ctx.device), &prt)
-        .err()
-        .unwrap();
-    assert!(err.to_string().contains("--order"), "{err}");
+    let err = ShTransferPass::new(&ctx.device, &prt).err().unwrap();
+    assert!(err.to_string().contains("bands"), "{err}");
+    assert_eq!(err.exit_code(), 2);
 }
 
 /// The target: L2 transfer error <= 3% on the cloth against 4096

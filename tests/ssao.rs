@@ -18,7 +18,7 @@ use glam::Vec3;
 use penumbra::gpu::GpuContext;
 use penumbra::kdtree::{KdTree, KdTreeParams};
 use penumbra::scene::{Camera, Mesh, load_obj};
-use penumbra::ssao::gbuffer::{GBuffer, ScreenView, render_cpu};
+use penumbra::ssao::gbuffer::{GBuffer, ScreenView, gbuffer};
 use penumbra::ssao::gpu::{GBufferSource, run_frame};
 use penumbra::ssao::truth::{raytraced, screen_reference};
 use penumbra::ssao::{Estimator, Measure, ShadeSettings, SsaoSettings, rmse, run_cpu};
@@ -36,7 +36,7 @@ fn kitchen_inside() -> Camera {
 
 fn cpu_gbuffer(mesh: &Mesh, camera: &Camera, w: u32, h: u32) -> GBuffer {
     let tree = KdTree::build(mesh, &KdTreeParams::default()).unwrap();
-    render_cpu(&tree, mesh, camera, &[], w, h)
+    gbuffer(&tree, mesh, camera, &[], w, h)
 }
 
 /// Whether CPU texels a and b agree as the issue asks.
@@ -346,7 +346,7 @@ fn open_plane_is_fully_accessible_for_truth_reference_and_estimators() {
         fov_degrees: 30.0,
     };
     let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
-    let gb = render_cpu(&tree, &mesh, &camera, &[], 64, 48);
+    let gb = gbuffer(&tree, &mesh, &camera, &[], 64, 48);
     let view = ScreenView::new(&camera, 64, 48);
     let radius = 0.05 * b.diagonal();
     let truth = raytraced(&tree, &camera, &view, &gb, Measure::Poly4, radius, 64, 1);

@@ -223,7 +223,7 @@ fn packet_traverse(pk: PacketRecord, d: vec3<f32>) -> Hit {
 const PACKETS_PER_WORKGROUP: u32 = 4u;
 
 @compute @workgroup_size(64)
-fn trace_packets(
+fn trace_packet(
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(local_invocation_index) local: u32,
 ) {

@@ -1,16 +1,22 @@
-//! AO by ray casting on the GPU: the `ao_rays.wgsl` pass over a `GpuKdTree`.
+//! AO by ray casting on the GPU: the `ao_rays.wgsl` pass over a `GpuKdTree`,
+//! built once per device (`new`), fed by `prepare` into buffers it keeps,
+//! recorded into the caller's encoder by `record`; `visibility_gpu` is the
+//! blocking convenience that splits large requests into batches.
 
-use std::time::Instant;
+use std::ops::Range;
+use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
 
 use super::{AoPoint, AoSettings, VisibilityMasks};
 use crate::error::Result;
-use crate::gpu::buffers::{check_storage_size, read_back, storage_buffer, uniform_buffer, zeroed_buffer};
-use crate::gpu::kernels::record_dispatch;
+use crate::gpu::batch::{BatchPass, BatchPlan, readback_buffer, run_batches};
+use crate::gpu::buffers::{GrowingBuffer, read_buffer, uniform_buffer};
+use crate::gpu::kernels::{compute_pipelines, record_dispatch};
+use crate::gpu::layout::{bind_group, layout, storage_entry, uniform_entry};
 use crate::gpu::timer::PassTimer;
 use crate::gpu::{GpuContext, dispatch_grid};
-use crate::kdtree::gpu::{GpuKdTree, bind_group, kdtree_bind_group_layout, storage_entry, uniform_entry};
+use crate::kdtree::gpu::{GpuKdTree, kdtree_bind_group_layout};
 use crate::progress::Progress;
 
 /// `AoParams` in `wgsl/ao_rays.wgsl`.
@@ -26,77 +32,229 @@ pub struct AoParams {
     pub _pad: [u32; 2],
 }
 
-/// The AO-ray pass: layouts and pipelines for one device.
-pub struct AoRaysPass {
+/// The layouts and pipelines of `ao_rays.wgsl` for one device.
+pub struct AoRaysKernels {
     pub io_layout: wgpu::BindGroupLayout,
-    pipeline: wgpu::ComputePipeline,
-    samples_pipeline: wgpu::ComputePipeline,
+    ao_rays: wgpu::ComputePipeline,
+    ao_samples: wgpu::ComputePipeline,
 }
 
-impl AoRaysPass {
-    pub fn new(device: &wgpu::Device) -> AoRaysPass {
-        let scene_layout = kdtree_bind_group_layout(device);
+impl AoRaysKernels {
+    pub fn new(device: &wgpu::Device) -> AoRaysKernels {
         // points (read), visible (read-write atomics), params (uniform),
         // samples (written by the `ao_samples` check only)
-        let io_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("ao rays io"),
-            entries: &[
+        let io_layout = layout(
+            device,
+            "ao rays io",
+            &[
                 storage_entry(0, true),
                 storage_entry(1, false),
                 uniform_entry(2),
                 storage_entry(3, false),
             ],
-        });
-        let pipelines = crate::gpu::kernels::compute_pipelines(
+        );
+        let pipelines = compute_pipelines(
             device,
             &crate::wgsl::AO_RAYS_MODULE,
-            &[&scene_layout, &io_layout],
+            &[&kdtree_bind_group_layout(device), &io_layout],
             &["ao_rays", "ao_samples"],
         );
-        let [pipeline, samples_pipeline] = pipelines.try_into().expect("two entry points");
-        AoRaysPass {
+        let [ao_rays, ao_samples] = pipelines.try_into().expect("two entry points");
+        AoRaysKernels {
             io_layout,
-            pipeline,
-            samples_pipeline,
+            ao_rays,
+            ao_samples,
         }
     }
 
-    /// Bind group 1. `samples` is only written by `ao_samples`; other
-    /// dispatches may bind any small buffer there.
-    pub fn io_bind_group(
-        &self,
-        device: &wgpu::Device,
-        points: &wgpu::Buffer,
-        visible: &wgpu::Buffer,
-        params: &wgpu::Buffer,
-        samples: &wgpu::Buffer,
-    ) -> wgpu::BindGroup {
-        bind_group(
-            device,
-            "ao rays io",
-            &self.io_layout,
-            &[(0, points), (1, visible), (2, params), (3, samples)],
-        )
+    /// The kernels cached on `ctx`.
+    pub fn cached(ctx: &GpuContext) -> Arc<AoRaysKernels> {
+        ctx.kernels.get_or_insert(|| AoRaysKernels::new(&ctx.device))
+    }
+}
+
+/// The AO-ray pass: kernels and the buffers of one batch of points.
+pub struct AoRaysPass {
+    kernels: Arc<AoRaysKernels>,
+    points: GrowingBuffer,
+    visible: GrowingBuffer,
+    samples: GrowingBuffer,
+    params: wgpu::Buffer,
+    io: Option<wgpu::BindGroup>,
+    words: u64,
+    grid: (u32, u32),
+}
+
+impl AoRaysPass {
+    /// Builds the kernels for `device`.
+    pub fn new(device: &wgpu::Device) -> AoRaysPass {
+        Self::with_kernels(device, Arc::new(AoRaysKernels::new(device)))
     }
 
-    /// Records one dispatch of `point_count * rays_per_point` invocations.
-    /// The `visible` buffer must be zeroed first (the kernel ORs bits in).
+    /// A pass with kernels built before (e.g. `AoRaysKernels::cached`).
+    pub fn with_kernels(device: &wgpu::Device, kernels: Arc<AoRaysKernels>) -> AoRaysPass {
+        let rw = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        AoRaysPass {
+            kernels,
+            points: GrowingBuffer::new("ao points", wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST),
+            visible: GrowingBuffer::new("ao visible", rw),
+            samples: GrowingBuffer::new("ao samples", rw),
+            params: uniform_buffer(device, "ao params", &AoParams::zeroed()),
+            io: None,
+            words: 0,
+            grid: (0, 0),
+        }
+    }
+
+    /// Uploads `points` (whole points, at most what the bindings hold) for
+    /// `settings`; with `samples` the pass writes every ray's sample point
+    /// and direction instead of tracing (the `ao_samples` check).
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        points: &[AoPoint],
+        settings: &AoSettings,
+        samples: bool,
+    ) -> Result<()> {
+        settings.validate()?;
+        let words = (points.len() * settings.words_per_point() as usize) as u64;
+        let rays = points.len() as u64 * settings.rays_per_point as u64;
+        let mut grown = self.points.write(device, queue, bytemuck::cast_slice(points))?;
+        grown |= self.visible.reserve(device, words * 4)?;
+        grown |= self.samples.reserve(device, if samples { rays * 32 } else { 16 })?;
+        if grown || self.io.is_none() {
+            self.io = Some(bind_group(
+                device,
+                "ao rays io",
+                &self.kernels.io_layout,
+                &[
+                    (0, self.points.get()),
+                    (1, self.visible.get()),
+                    (2, &self.params),
+                    (3, self.samples.get()),
+                ],
+            ));
+        }
+        let (gx, gy, pitch) = dispatch_grid(rays as u32, device.limits().max_compute_workgroups_per_dimension);
+        let params = AoParams {
+            point_count: points.len() as u32,
+            rays_per_point: settings.rays_per_point,
+            words_per_point: settings.words_per_point(),
+            seed: settings.seed,
+            row_pitch: pitch,
+            radius: if settings.radius.is_finite() && !samples {
+                settings.radius
+            } else {
+                f32::MAX
+            },
+            _pad: [0; 2],
+        };
+        queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        self.words = words;
+        self.grid = (gx, gy);
+        Ok(())
+    }
+
+    /// Records the prepared rays: clears the masks (the kernel ORs bits in)
+    /// and dispatches one invocation per ray.
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
         tree: &GpuKdTree,
-        io: &wgpu::BindGroup,
-        grid: (u32, u32),
     ) {
+        encoder.clear_buffer(self.visible.get(), 0, None);
+        let io = self.io.as_ref().expect("AoRaysPass::record before prepare");
+        let pipeline = &self.kernels.ao_rays;
         record_dispatch(
             encoder,
             "ao rays",
             timestamp_writes,
-            &self.pipeline,
+            pipeline,
             &[&tree.bind_group, io],
-            grid,
+            self.grid,
         );
+    }
+
+    /// `words_per_point` visibility words per prepared point.
+    pub fn visible(&self) -> &wgpu::Buffer {
+        self.visible.get()
+    }
+}
+
+/// Rays per dispatch: keeps one dispatch short on a software rasteriser.
+pub const RAYS_PER_BATCH: u64 = 1 << 22;
+
+/// The pass and its read-back buffer, as a runner keeps them on a device.
+pub struct AoRaysBatches {
+    pub pass: AoRaysPass,
+    readback: GrowingBuffer,
+}
+
+impl AoRaysBatches {
+    pub fn new(ctx: &GpuContext) -> AoRaysBatches {
+        AoRaysBatches {
+            pass: AoRaysPass::with_kernels(&ctx.device, AoRaysKernels::cached(ctx)),
+            readback: readback_buffer(),
+        }
+    }
+
+    /// Casts the AO rays of `points` (blocking), about `rays_per_batch` rays
+    /// per dispatch (whole points, at least one per batch).
+    pub fn visibility(
+        &mut self,
+        ctx: &GpuContext,
+        tree: &GpuKdTree,
+        points: &[AoPoint],
+        settings: &AoSettings,
+        progress: &Progress,
+        rays_per_batch: u64,
+    ) -> Result<(VisibilityMasks, Option<f64>)> {
+        settings.validate()?;
+        let words = settings.words_per_point() as usize;
+        let per_batch = (rays_per_batch / settings.rays_per_point as u64).max(1) as usize;
+        let mut bits = Vec::with_capacity(points.len() * words);
+        let mut batch = PointBatch {
+            pass: &mut self.pass,
+            tree,
+            points,
+            settings,
+        };
+        let plan = BatchPlan::new(points.len(), per_batch, 1);
+        let gpu_ms = run_batches(ctx, &mut batch, &mut self.readback, plan, progress, |_, w: &[u32]| {
+            bits.extend_from_slice(w);
+            Ok(())
+        })?;
+        let masks = VisibilityMasks {
+            rays_per_point: settings.rays_per_point,
+            words_per_point: words as u32,
+            bits,
+        };
+        Ok((masks, gpu_ms))
+    }
+}
+
+struct PointBatch<'a> {
+    pass: &'a mut AoRaysPass,
+    tree: &'a GpuKdTree,
+    points: &'a [AoPoint],
+    settings: &'a AoSettings,
+}
+
+impl BatchPass for PointBatch<'_> {
+    fn prepare(&mut self, ctx: &GpuContext, items: Range<usize>) -> Result<()> {
+        self.pass
+            .prepare(&ctx.device, &ctx.queue, &self.points[items], self.settings, false)
+    }
+
+    fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &mut Option<PassTimer>) {
+        self.pass
+            .record(encoder, timer.as_mut().and_then(|t| t.next_pass()), self.tree);
+    }
+
+    fn results(&self) -> Vec<(&wgpu::Buffer, u64)> {
+        vec![(self.pass.visible(), self.pass.words * 4)]
     }
 }
 
@@ -104,11 +262,7 @@ impl AoRaysPass {
 pub struct GpuAo {
     pub masks: VisibilityMasks,
     pub gpu_ms: Option<f64>,
-    pub wall_ms: f64,
 }
-
-/// Rays per dispatch: keeps one dispatch short on a software rasteriser.
-pub const RAYS_PER_BATCH: u64 = 1 << 22;
 
 /// Casts the AO rays on the GPU (blocking), in batches of whole points.
 pub fn visibility_gpu(
@@ -131,84 +285,8 @@ pub fn visibility_gpu_batched(
     progress: &Progress,
     rays_per_batch: u64,
 ) -> Result<GpuAo> {
-    settings.validate()?;
-    let start = Instant::now();
-    let device = &ctx.device;
-    let pass = ctx.kernels.get_or_insert(|| AoRaysPass::new(device));
-    let words = settings.words_per_point() as usize;
-    let n = settings.rays_per_point as u64;
-    let batch_points = ((rays_per_batch / n).max(1) as usize).min(points.len().max(1));
-    check_storage_size(device, "AO points", (batch_points * 32) as u64)?;
-    check_storage_size(device, "AO visibility masks", (batch_points * words * 4) as u64)?;
-    let point_buf = zeroed_buffer(
-        device,
-        "ao points",
-        (batch_points * 32) as u64,
-        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-    );
-    let visible_buf = zeroed_buffer(
-        device,
-        "ao visible",
-        (batch_points * words * 4) as u64,
-        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-    );
-    let readback = zeroed_buffer(
-        device,
-        "ao readback",
-        (batch_points * words * 4) as u64,
-        wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-    );
-    let params_buf = uniform_buffer(device, "ao params", &AoParams::zeroed());
-    let unused_samples = zeroed_buffer(device, "ao samples (unused)", 16, wgpu::BufferUsages::STORAGE);
-    let io = pass.io_bind_group(device, &point_buf, &visible_buf, &params_buf, &unused_samples);
-    let batches = points.len().div_ceil(batch_points);
-    let mut timer = PassTimer::new(ctx, batches as u32);
-    let max_dim = device.limits().max_compute_workgroups_per_dimension;
-
-    let mut bits = Vec::with_capacity(points.len() * words);
-    for chunk in points.chunks(batch_points) {
-        let invocations = (chunk.len() as u64 * n) as u32;
-        let (gx, gy, pitch) = dispatch_grid(invocations, max_dim);
-        ctx.queue.write_buffer(&point_buf, 0, bytemuck::cast_slice(chunk));
-        let params = AoParams {
-            point_count: chunk.len() as u32,
-            rays_per_point: settings.rays_per_point,
-            words_per_point: words as u32,
-            seed: settings.seed,
-            row_pitch: pitch,
-            radius: if settings.radius.is_finite() {
-                settings.radius
-            } else {
-                f32::MAX
-            },
-            _pad: [0; 2],
-        };
-        ctx.queue.write_buffer(&params_buf, 0, bytemuck::bytes_of(&params));
-        let mut encoder = device.create_command_encoder(&Default::default());
-        encoder.clear_buffer(&visible_buf, 0, None);
-        pass.record(
-            &mut encoder,
-            timer.as_mut().and_then(|t| t.next_pass()),
-            tree,
-            &io,
-            (gx, gy),
-        );
-        let bytes = (chunk.len() * words * 4) as u64;
-        encoder.copy_buffer_to_buffer(&visible_buf, 0, &readback, 0, bytes);
-        ctx.queue.submit([encoder.finish()]);
-        bits.extend(read_back::<u32>(device, &readback, chunk.len() * words)?);
-        progress.inc(chunk.len() as u64);
-    }
-    let gpu_ms = PassTimer::finish(timer, ctx)?;
-    Ok(GpuAo {
-        masks: VisibilityMasks {
-            rays_per_point: settings.rays_per_point,
-            words_per_point: words as u32,
-            bits,
-        },
-        gpu_ms,
-        wall_ms: start.elapsed().as_secs_f64() * 1e3,
-    })
+    let (masks, gpu_ms) = AoRaysBatches::new(ctx).visibility(ctx, tree, points, settings, progress, rays_per_batch)?;
+    Ok(GpuAo { masks, gpu_ms })
 }
 
 /// The sample point and direction of every AO ray, as the kernel computes
@@ -219,55 +297,27 @@ pub fn ray_samples_gpu(
     points: &[AoPoint],
     settings: &AoSettings,
 ) -> Result<Vec<([f32; 2], [f32; 3])>> {
-    settings.validate()?;
-    let device = &ctx.device;
-    let pass = ctx.kernels.get_or_insert(|| AoRaysPass::new(device));
-    let rays = points.len() * settings.rays_per_point as usize;
-    check_storage_size(device, "AO ray samples", rays as u64 * 32)?;
-    let point_buf = storage_buffer(device, "ao points", bytemuck::cast_slice(points))?;
-    let unused_visible = zeroed_buffer(device, "ao visible (unused)", 4, wgpu::BufferUsages::STORAGE);
-    let samples = zeroed_buffer(
-        device,
-        "ao samples",
-        rays as u64 * 32,
-        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-    );
-    let readback = zeroed_buffer(
-        device,
-        "ao samples readback",
-        rays as u64 * 32,
-        wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-    );
-    let (gx, gy, pitch) = dispatch_grid(rays as u32, device.limits().max_compute_workgroups_per_dimension);
-    let params = AoParams {
-        point_count: points.len() as u32,
-        rays_per_point: settings.rays_per_point,
-        words_per_point: settings.words_per_point(),
-        seed: settings.seed,
-        row_pitch: pitch,
-        radius: f32::MAX,
-        _pad: [0; 2],
-    };
-    let params_buf = uniform_buffer(device, "ao params", &params);
-    let io = pass.io_bind_group(device, &point_buf, &unused_visible, &params_buf, &samples);
-    let tree = placeholder_tree(device)?;
-    let mut encoder = device.create_command_encoder(&Default::default());
-    let groups = [&tree.bind_group, &io];
+    let mut pass = AoRaysPass::with_kernels(&ctx.device, AoRaysKernels::cached(ctx));
+    pass.prepare(&ctx.device, &ctx.queue, points, settings, true)?;
+    // `ao_samples` traces nothing, but its pipeline layout includes a tree.
+    let tree = placeholder_tree(&ctx.device)?;
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    let io = pass.io.as_ref().expect("prepared");
+    let pipeline = &pass.kernels.ao_samples;
     record_dispatch(
         &mut encoder,
         "ao samples",
         None,
-        &pass.samples_pipeline,
-        &groups,
-        (gx, gy),
+        pipeline,
+        &[&tree.bind_group, io],
+        pass.grid,
     );
-    encoder.copy_buffer_to_buffer(&samples, 0, &readback, 0, rays as u64 * 32);
     ctx.queue.submit([encoder.finish()]);
-    let raw: Vec<[f32; 8]> = read_back(device, &readback, rays)?;
+    let rays = points.len() * settings.rays_per_point as usize;
+    let raw: Vec<[f32; 8]> = read_buffer(ctx, pass.samples.get(), rays)?;
     Ok(raw.iter().map(|r| ([r[0], r[1]], [r[4], r[5], r[6]])).collect())
 }
 
-/// `ao_samples` traces nothing, but its pipeline layout includes the tree.
 fn placeholder_tree(device: &wgpu::Device) -> Result<GpuKdTree> {
     let tree = crate::kdtree::KdTree::from_triangles(
         vec![[glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::Y]],

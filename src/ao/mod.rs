@@ -11,6 +11,7 @@
 pub mod gpu;
 pub mod points;
 pub mod raycast;
+pub mod runner;
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -62,16 +63,13 @@ pub struct AoSettings {
 impl AoSettings {
     pub fn validate(&self) -> Result<()> {
         if self.rays_per_point == 0 {
-            return Err(Error::param("--rays", "must be at least 1"));
+            return Err(Error::param("rays_per_point", "must be at least 1"));
         }
         if self.rays_per_point > 1 << 20 {
-            return Err(Error::param("--rays", "must be at most 1048576 per point"));
+            return Err(Error::param("rays_per_point", "must be at most 1048576 per point"));
         }
         if self.radius.is_nan() || self.radius <= 0.0 {
-            return Err(Error::param(
-                "--radius",
-                format!("must be positive, got {}", self.radius),
-            ));
+            return Err(Error::param("radius", format!("must be positive, got {}", self.radius)));
         }
         Ok(())
     }

@@ -4,16 +4,12 @@ use super::AoPoint;
 use crate::ray::{Hit, Ray};
 use crate::scene::Mesh;
 
-/// Ray origins are offset along the normal by this fraction of the bounding
-/// box diagonal, so rays do not hit the surface they start on.
-pub const ORIGIN_OFFSET: f32 = 1e-4;
-
 /// One point per vertex of `mesh`: origin = vertex + 1e-4 * diagonal * n with
 /// n the area-weighted vertex normal; stream = vertex index. Vertices without
 /// a normal (used by no triangle, or only by zero-area ones) get a zero
 /// normal, i.e. no rays.
 pub fn vertex_points(mesh: &Mesh) -> Vec<AoPoint> {
-    let offset = ORIGIN_OFFSET * mesh.bounds().diagonal();
+    let offset = mesh.origin_offset();
     mesh.vertex_normals()
         .iter()
         .zip(&mesh.positions)
@@ -24,7 +20,7 @@ pub fn vertex_points(mesh: &Mesh) -> Vec<AoPoint> {
 
 /// One point per pixel whose primary ray hit: origin = hit point offset along
 /// the hit triangle's normal turned towards the camera; stream = pixel index.
-/// `offset` is absolute (callers use `ORIGIN_OFFSET` x the scene diagonal).
+/// `offset` is absolute (callers use the scene's `Mesh::origin_offset`).
 /// Hits on zero-area triangles get no hemisphere.
 pub fn hit_points(mesh: &Mesh, rays: &[Ray], hits: &[Hit], offset: f32) -> Vec<AoPoint> {
     rays.iter()

@@ -1,5 +1,5 @@
 //! AO by ray casting on the CPU: the reference path and the twin of
-//! `wgsl/ao_rays.wgsl`.
+//! `wgsl/ao_rays.wgsl` (`ao_rays`, `ao_samples`).
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -11,12 +11,7 @@ use crate::sampling::SampleSequence;
 
 /// Casts `rays_per_point` AO rays from every point (rayon, all threads of the
 /// current pool) and returns which escaped.
-pub fn visibility_cpu(
-    tree: &KdTree,
-    points: &[AoPoint],
-    settings: &AoSettings,
-    progress: &Progress,
-) -> VisibilityMasks {
+pub fn ao_rays(tree: &KdTree, points: &[AoPoint], settings: &AoSettings, progress: &Progress) -> VisibilityMasks {
     let words = settings.words_per_point() as usize;
     let seq = SampleSequence::new(settings.seed);
     let mut bits = vec![0u32; points.len() * words];
@@ -46,4 +41,21 @@ fn point_visibility(tree: &KdTree, seq: &SampleSequence, point: &AoPoint, settin
             mask[(j / 32) as usize] |= 1 << (j % 32);
         }
     }
+}
+
+/// The sample point and direction of every AO ray (point-major): what the
+/// `ao_samples` kernel writes, per ray `([u, v], direction)`.
+pub fn ao_samples(points: &[AoPoint], settings: &AoSettings) -> Vec<([f32; 2], [f32; 3])> {
+    let seq = SampleSequence::new(settings.seed);
+    points
+        .iter()
+        .flat_map(|p| {
+            let normal = Vec3::from_array(p.normal);
+            let seq = &seq;
+            (0..settings.rays_per_point).map(move |j| {
+                let uv = seq.sample(p.stream, j);
+                (uv, ray_direction(seq, p.stream, j, normal).to_array())
+            })
+        })
+        .collect()
 }

@@ -1,26 +1,22 @@
-//! `penumbra ao`: ambient accessibility per vertex (CSV) and per pixel (PNG).
+//! `penumbra ao`: ambient accessibility per vertex (CSV) and per pixel (PNG),
+//! by ray casting (`ao::runner`) or through displacement fields
+//! (`field::runner`).
 
-use std::path::PathBuf;
-use std::time::Instant;
+use std::path::{Path, PathBuf};
 
 use clap::ValueEnum;
 use serde_json::{Value, json};
 
-use super::Device;
-use super::args::{CameraArgs, Common, build_tree, check_image_size, check_output, load_input};
+use super::args::{CameraArgs, Common, check_outputs, load_input};
 use super::field::FieldOptions;
 use super::io::{write_grey_png, write_vertex_csv};
-use crate::ao::gpu::visibility_gpu;
-use crate::ao::points::{ORIGIN_OFFSET, hit_points, points_without_hemisphere, vertex_points};
-use crate::ao::raycast::visibility_cpu;
-use crate::ao::{AoPoint, AoSettings, VisibilityMasks};
+use crate::ao::AoSettings;
+use crate::ao::runner::{AoRequest, PixelAo, VertexAo, mean, raycast};
 use crate::error::{Error, Result};
 use crate::field::Positional;
-use crate::kdtree::KdTree;
-use crate::kdtree::gpu::{GpuKdTree, TraceMode, trace_rays};
-use crate::progress::Progress;
-use crate::ray::Hit;
-use crate::scene::{Instance, Role, Scene, Transform, load_obj};
+use crate::field::runner::{FieldAo, MAX_FRAMES};
+use crate::progress::Bars;
+use crate::scene::{Instance, Role, Scene, SceneMesh, Transform, View, load_obj};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Method {
@@ -41,6 +37,7 @@ pub struct AoArgs {
     /// A scene file instead of --mesh: receivers get AO, casters occlude.
     #[arg(long, conflicts_with_all = ["mesh", "receiver"])]
     pub scene: Option<PathBuf>,
+    /// How rays find occluders.
     #[arg(long, value_enum)]
     pub method: Method,
     /// Rays per point.
@@ -55,8 +52,10 @@ pub struct AoArgs {
     /// Per-pixel output: AO at the primary hits, grey PNG (linear), background transparent.
     #[arg(long)]
     pub image: Option<PathBuf>,
+    /// Image width in pixels.
     #[arg(long, default_value_t = 512, allow_negative_numbers = true)]
     pub width: u32,
+    /// Image height in pixels.
     #[arg(long, default_value_t = 512, allow_negative_numbers = true)]
     pub height: u32,
     /// --method field: the caster's precomputed field (else it is built
@@ -86,15 +85,13 @@ pub struct AoArgs {
 
 /// The scene the options describe: `--mesh` alone is caster and receiver;
 /// with `--receiver` the mesh only casts and the receiver only receives.
-pub(super) fn scene_of(args: &AoArgs) -> Result<Scene> {
+fn scene_of(args: &AoArgs) -> Result<Scene> {
     let mut scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
     if let Some(receiver) = &args.receiver {
         scene.instances[0].role = Role::Caster;
-        scene.meshes.push(crate::scene::SceneMesh {
-            name: "receiver".into(),
-            path: receiver.clone(),
-            mesh: load_obj(receiver)?,
-        });
+        scene
+            .meshes
+            .push(SceneMesh::new("receiver", receiver, load_obj(receiver)?));
         scene.instances.push(Instance {
             name: "receiver".into(),
             mesh: 1,
@@ -115,157 +112,150 @@ pub fn run(args: &AoArgs) -> Result<Value> {
     };
     settings.validate()?;
     if args.method == Method::Field {
-        return super::ao_field::run(args, &settings, threads);
+        return field(args, settings, threads);
     }
-    let (csv, png) = outputs(args)?;
+    let (csv, png, request) = request(args, settings)?;
     let scene = scene_of(args)?;
-    let occluders = scene.occluders();
-    if occluders.triangles.is_empty() {
-        return Err(Error::param("--scene", "no instance is a caster: nothing occludes"));
-    }
-    let device = Device::open(args.common.device)?;
-    let tree = build_tree(&occluders, "casters")?;
-    let gpu_tree = match &device {
-        Device::Gpu(ctx) => Some(GpuKdTree::upload(&ctx.device, &tree)?),
-        Device::Cpu => None,
-    };
-
+    let device = args.common.open_device()?;
+    let ao = raycast(&device, &scene, &request, Bars::Stderr)?;
     let mut report = json!({
         "method": "raycast",
         "rays_per_point": settings.rays_per_point,
         "radius": args.radius,
         "seed": settings.seed,
-        "build_ms": tree.stats.build_ms,
-        "device": device.kind(),
-        "adapter": device.adapter(),
-        "threads": threads,
-        "casters": { "triangles": occluders.triangles.len() },
+        "build_ms": ao.build_ms,
+        "casters": { "triangles": ao.caster_triangles },
+        "points": ao.points(),
+        "ao_ms": ao.ao_ms(),
+        "mrays_per_s": ao.points() as f64 * settings.rays_per_point as f64 / (ao.ao_ms().max(1e-9) * 1e3),
     });
-    let mut ao_ms = 0.0;
-    let mut points_total = 0usize;
-
-    if let Some(csv) = &csv {
-        let receivers = scene.receivers();
-        if receivers.triangles.is_empty() {
-            return Err(Error::param(
-                "--scene",
-                "no instance is a receiver: no vertices to shade",
-            ));
-        }
-        let points = vertex_points(&receivers);
-        let without = points_without_hemisphere(&points);
-        if without > 0 {
-            eprintln!(
-                "penumbra: {without} vertices are used by no triangle of non-zero area; they have no \
-                 normal, cast no rays and are reported as ao = 1"
-            );
-        }
-        let (masks, ms) = visibility(&device, &tree, gpu_tree.as_ref(), &points, &settings, "AO vertices")?;
-        let ao = masks.accessibility();
-        write_vertex_csv(csv, &ao)?;
-        ao_ms += ms;
-        points_total += points.len();
-        report["per_vertex"] = json!({
-            "file": csv.display().to_string(),
-            "vertices": points.len(),
-            "without_normal": without,
-            "mean_ao": mean(&ao),
-            "ao_ms": ms,
-        });
+    if let (Some(csv), Some(v)) = (csv, &ao.vertices) {
+        report["per_vertex"] = vertex_report(csv, v)?;
+        report["per_vertex"]["ao_ms"] = json!(v.ms);
     }
-
-    if let Some(png) = &png {
-        let everything = scene.world_mesh(|_| true);
-        let camera = args.camera.camera(scene.camera, &everything.bounds())?;
-        let rays = camera.primary_rays(args.width, args.height);
-        // Primary visibility sees every instance; only casters occlude.
-        let all_tree;
-        let primary_tree = if everything.triangles.len() == occluders.triangles.len() {
-            &tree
-        } else {
-            all_tree = build_tree(&everything, "all instances")?;
-            &all_tree
-        };
-        let hits: Vec<Hit> = match &device {
-            Device::Gpu(ctx) => {
-                let t = GpuKdTree::upload(&ctx.device, primary_tree)?;
-                trace_rays(ctx, &t, &rays, TraceMode::Closest, f32::INFINITY)?.hits
-            }
-            Device::Cpu => primary_tree.trace_closest(&rays),
-        };
-        let offset = ORIGIN_OFFSET * everything.bounds().diagonal();
-        let points = hit_points(&everything, &rays, &hits, offset);
-        let (masks, ms) = visibility(&device, &tree, gpu_tree.as_ref(), &points, &settings, "AO pixels")?;
-        let ao = masks.accessibility();
-        let mut pixels = vec![None; rays.len()];
-        for (p, a) in points.iter().zip(&ao) {
-            pixels[p.stream as usize] = Some(*a);
-        }
-        write_grey_png(png, args.width, args.height, &pixels)?;
-        ao_ms += ms;
-        points_total += points.len();
-        report["image"] = json!({
-            "file": png.display().to_string(),
-            "width": args.width,
-            "height": args.height,
-            "pixels_hit": points.len(),
-            "mean_ao": mean(&ao),
-            "ao_ms": ms,
-            "eye": camera.eye.to_array(),
-            "target": camera.target.to_array(),
-            "fov": camera.fov_degrees,
-        });
+    if let (Some(png), Some(image)) = (png, &ao.image) {
+        report["image"] = image_report(png, image)?;
+        let c = image.camera;
+        report["image"]["eye"] = json!(c.eye.to_array());
+        report["image"]["target"] = json!(c.target.to_array());
+        report["image"]["fov"] = json!(c.fov_degrees);
     }
-    report["points"] = json!(points_total);
-    report["ao_ms"] = json!(ao_ms);
-    report["mrays_per_s"] = json!(points_total as f64 * settings.rays_per_point as f64 / (ao_ms.max(1e-9) * 1e3));
-    Ok(report)
+    super::io::merged(report, args.common.report(&device, threads))
 }
 
-/// The checked `--per-vertex` and `--image` paths (at least one).
-pub(super) fn outputs(args: &AoArgs) -> Result<(Option<PathBuf>, Option<PathBuf>)> {
+/// The checked `--per-vertex` and `--image` paths (at least one), and what
+/// they ask of a runner.
+fn request(args: &AoArgs, settings: AoSettings) -> Result<(Option<&Path>, Option<&Path>, AoRequest)> {
     if args.per_vertex.is_none() && args.image.is_none() {
         return Err(Error::param("--per-vertex/--image", "give at least one output"));
     }
-    let csv = args
-        .per_vertex
-        .as_ref()
-        .map(|p| check_output(p, "--per-vertex"))
-        .transpose()?;
-    let png = args.image.as_ref().map(|p| check_output(p, "--image")).transpose()?;
-    if png.is_some() {
-        check_image_size(args.width, args.height)?;
-    }
-    Ok((csv, png))
+    let outputs = check_outputs(&[(&args.per_vertex, "--per-vertex"), (&args.image, "--image")])?;
+    let image = match outputs[1] {
+        Some(_) => Some(View::new(args.camera.spec(), args.width, args.height)?),
+        None => None,
+    };
+    let request = AoRequest {
+        settings,
+        vertices: outputs[0].is_some(),
+        image,
+    };
+    Ok((outputs[0], outputs[1], request))
 }
 
-/// AO rays on the chosen device; returns the masks and the time in ms
-/// (GPU kernel time where timestamps exist).
-pub(super) fn visibility(
-    device: &Device,
-    tree: &KdTree,
-    gpu_tree: Option<&GpuKdTree>,
-    points: &[AoPoint],
-    settings: &AoSettings,
-    label: &str,
-) -> Result<(VisibilityMasks, f64)> {
-    let progress = Progress::bar(points.len() as u64, label);
-    match (device, gpu_tree) {
-        (Device::Gpu(ctx), Some(gpu_tree)) => {
-            let r = visibility_gpu(ctx, gpu_tree, points, settings, &progress)?;
-            Ok((r.masks, r.gpu_ms.unwrap_or(r.wall_ms)))
-        }
-        _ => {
-            let start = Instant::now();
-            let masks = visibility_cpu(tree, points, settings, &progress);
-            Ok((masks, start.elapsed().as_secs_f64() * 1e3))
-        }
+/// Writes the CSV; the report's `per_vertex`.
+fn vertex_report(csv: &Path, v: &VertexAo) -> Result<Value> {
+    if v.without_normal > 0 {
+        super::io::note(&format!(
+            "{} vertices are used by no triangle of non-zero area; they have no normal, cast no rays and are \
+             reported as ao = 1",
+            v.without_normal
+        ));
     }
+    write_vertex_csv(csv, &v.ao)?;
+    Ok(json!({
+        "file": csv.display().to_string(),
+        "vertices": v.ao.len(),
+        "without_normal": v.without_normal,
+        "mean_ao": mean(&v.ao),
+    }))
 }
 
-pub(super) fn mean(v: &[f32]) -> f64 {
-    if v.is_empty() {
-        return 0.0;
+/// Writes the PNG; the report's `image`.
+fn image_report(png: &Path, image: &PixelAo) -> Result<Value> {
+    write_grey_png(png, image.width, image.height, &image.values)?;
+    Ok(json!({
+        "file": png.display().to_string(),
+        "width": image.width,
+        "height": image.height,
+        "pixels_hit": image.hit(),
+        "mean_ao": image.mean(),
+        "ao_ms": image.ms,
+    }))
+}
+
+/// `--method field`: Algorithm 2 of the displacement-field paper.
+fn field(args: &AoArgs, settings: AoSettings, threads: usize) -> Result<Value> {
+    if args.mesh.is_some() && args.receiver.is_none() {
+        return Err(Error::param(
+            "--method field",
+            "needs --receiver (or --scene with receivers): a field answers for rays from outside its \
+             object, so it cannot shade the object's own vertices",
+        ));
     }
-    v.iter().map(|&x| x as f64).sum::<f64>() / v.len() as f64
+    if args.field.is_some() && args.scene.is_some() {
+        return Err(Error::param(
+            "--field",
+            "goes with --mesh/--receiver; a scene file names its fields in \"fields\"",
+        ));
+    }
+    if !(1..=MAX_FRAMES as i64).contains(&args.frames) {
+        let problem = format!("must be between 1 and {MAX_FRAMES}, got {}", args.frames);
+        return Err(Error::param("--frames", problem));
+    }
+    let params = args.field_options.params()?;
+    let (csv, png, request) = request(args, settings)?;
+    let mut scene = scene_of(args)?;
+    if let Some(file) = &args.field {
+        scene.fields.insert(0, file.clone());
+    }
+    let mut fields = FieldAo::new(&scene, &params, args.positional, Bars::Stderr)?;
+    let device = args.common.open_device()?;
+    fields.upload(&device)?;
+    let run = fields.run(&request, args.frames as u32, args.reference)?;
+    let frame_ms = &run.frame_ao_ms;
+    let last_ms = frame_ms.last().copied().unwrap_or(0.0);
+    let mut report = json!({
+        "method": "field",
+        "rays_per_point": settings.rays_per_point,
+        "radius": args.radius,
+        "seed": settings.seed,
+        "positional": args.positional,
+        "build_ms": fields.reports().iter().filter_map(|f| f.build_ms).sum::<f64>(),
+        "self_occlusion_ms": run.self_occlusion_ms,
+        "fields": fields.reports(),
+        "casters": {
+            "instances": scene.instances.iter().filter(|i| i.role.casts()).count(),
+            "triangles": scene.world_mesh(Role::casts).triangles.len(),
+        },
+        "frames": frame_ms.len(),
+        "frame_ao_ms": frame_ms,
+        "ao_ms": last_ms,
+        "ao_ms_mean": frame_ms.iter().sum::<f64>() / frame_ms.len() as f64,
+        "rays_inside_sphere": run.rays_inside_sphere,
+        "rays_hidden": run.rays_hidden,
+        "points": run.points,
+        "mrays_per_s": run.points as f64 * settings.rays_per_point as f64 / (last_ms.max(1e-9) * 1e3),
+        "reference": run.reference,
+    });
+    if let (Some(csv), Some(v)) = (csv, &run.vertices) {
+        report["per_vertex"] = vertex_report(csv, v)?;
+        report["per_vertex"].as_object_mut().map(|o| o.remove("without_normal"));
+    }
+    if let (Some(png), Some(image)) = (png, &run.image) {
+        report["image"] = image_report(png, image)?;
+    }
+    if run.reference.is_none() {
+        report.as_object_mut().map(|o| o.remove("reference"));
+    }
+    super::io::merged(report, args.common.report(&device, threads))
 }

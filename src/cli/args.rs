@@ -1,34 +1,24 @@
-//! Options shared by the computing subcommands.
+//! Options shared by the computing subcommands, and the one place the
+//! command line resolves `--device`.
 
 use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
 use glam::Vec3;
+use serde_json::{Value, json};
 
-use crate::aabb::Aabb;
+use crate::device::{Device, DeviceChoice};
 use crate::error::{Error, Result};
-use crate::kdtree::{KdTree, KdTreeParams};
-use crate::progress::Progress;
-use crate::scene::{Camera, Mesh, Scene, load_obj, load_scene};
+use crate::scene::{CameraSpec, Scene, load_obj, load_scene};
 
 /// The default `--seed`: outputs repeat bit for bit on one device.
 pub const DEFAULT_SEED: u32 = 0x5eed;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum DeviceArg {
-    /// A GPU adapter if there is one (lavapipe counts), else the CPU.
-    Auto,
-    /// A GPU adapter; exit code 2 if there is none.
-    Gpu,
-    /// The CPU reference path.
-    Cpu,
-}
-
 #[derive(Args, Clone, Debug)]
 pub struct Common {
     /// Compute device.
-    #[arg(long, value_enum, default_value_t = DeviceArg::Auto)]
-    pub device: DeviceArg,
+    #[arg(long, value_enum, default_value_t = DeviceChoice::Auto)]
+    pub device: DeviceChoice,
     /// CPU threads (default: all cores).
     #[arg(long, allow_negative_numbers = true)]
     pub threads: Option<usize>,
@@ -44,6 +34,23 @@ impl Common {
     /// Sets up the rayon pool for `--threads`; returns the thread count.
     pub fn init_threads(&self) -> Result<usize> {
         init_thread_pool(self.threads)
+    }
+
+    /// Opens `--device` and says on stderr what was chosen.
+    pub fn open_device(&self) -> Result<Device> {
+        let device = Device::open(self.device)?;
+        if let Some(name) = device.adapter() {
+            eprintln!("penumbra: GPU adapter: {name}");
+        } else if let Some(why) = device.fallback_reason() {
+            let why = why.clone().with_names(flag);
+            eprintln!("penumbra: {why}; using the CPU reference path");
+        }
+        Ok(device)
+    }
+
+    /// The report's fields every computing command has.
+    pub fn report(&self, device: &Device, threads: usize) -> Value {
+        json!({ "device": device.kind(), "adapter": device.adapter(), "threads": threads })
     }
 }
 
@@ -64,7 +71,21 @@ pub fn init_thread_pool(threads: Option<usize>) -> Result<usize> {
     Ok(threads)
 }
 
-/// `--eye/--target/--fov`; omitted ones come from the default camera.
+/// On or off, however a flag is spelled.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum OnOff {
+    On,
+    Off,
+}
+
+impl OnOff {
+    pub fn on(self) -> bool {
+        self == OnOff::On
+    }
+}
+
+/// `--eye/--target/--fov`; omitted ones come from the scene's camera, else
+/// the default camera.
 #[derive(Args, Clone, Debug, Default)]
 pub struct CameraArgs {
     /// Camera position, "X,Y,Z".
@@ -79,17 +100,12 @@ pub struct CameraArgs {
 }
 
 impl CameraArgs {
-    /// The camera: the scene file's if it has one, then the contract's
-    /// default for `bounds`, with each given option replacing its part.
-    pub fn camera(&self, scene_camera: Option<Camera>, bounds: &Aabb) -> Result<Camera> {
-        let base = scene_camera.unwrap_or_else(|| Camera::default_for(bounds));
-        let camera = Camera {
-            eye: self.eye.unwrap_or(base.eye),
-            target: self.target.unwrap_or(base.target),
-            fov_degrees: self.fov.unwrap_or(base.fov_degrees),
-        };
-        camera.validate()?;
-        Ok(camera)
+    pub fn spec(&self) -> CameraSpec {
+        CameraSpec {
+            eye: self.eye,
+            target: self.target,
+            fov_degrees: self.fov,
+        }
     }
 }
 
@@ -108,29 +124,10 @@ pub(crate) fn parse_vec3(s: &str) -> std::result::Result<Vec3, String> {
     Ok(Vec3::from_array(v))
 }
 
-/// Image size options.
-pub fn check_image_size(width: u32, height: u32) -> Result<()> {
-    if width == 0 || height == 0 {
-        return Err(Error::param("--width/--height", "must be at least 1"));
-    }
-    if width as u64 * height as u64 > 1 << 28 {
-        return Err(Error::param(
-            "--width/--height",
-            format!("{width}x{height} is more than 2^28 pixels"),
-        ));
-    }
-    Ok(())
-}
-
 /// `--mesh FILE` or `--scene FILE` as a scene.
 pub fn load_input(mesh: Option<&Path>, scene: Option<&Path>) -> Result<Scene> {
     match (mesh, scene) {
-        (Some(m), None) => {
-            let name = m
-                .file_stem()
-                .map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
-            Ok(Scene::from_mesh(&name, m, load_obj(m)?))
-        }
+        (Some(m), None) => Ok(Scene::from_mesh(&stem(m), m, load_obj(m)?)),
         (None, Some(s)) => load_scene(s),
         (Some(_), Some(_)) => Err(Error::param("--mesh/--scene", "give one of them, not both")),
         (None, None) => Err(Error::param(
@@ -140,20 +137,22 @@ pub fn load_input(mesh: Option<&Path>, scene: Option<&Path>) -> Result<Scene> {
     }
 }
 
-/// Builds the kd-tree over `mesh` with a spinner for big meshes.
-pub fn build_tree(mesh: &Mesh, what: &str) -> Result<KdTree> {
-    let progress = if mesh.triangles.len() > 200_000 {
-        Progress::spinner(&format!("building kd-tree ({what})"))
-    } else {
-        Progress::hidden()
-    };
-    let tree = KdTree::build(mesh, &KdTreeParams::default())?;
-    progress.finish();
-    Ok(tree)
+/// A file's name without its extension ("mesh" if it has none).
+pub fn stem(path: &Path) -> String {
+    path.file_stem()
+        .map_or("mesh".into(), |s| s.to_string_lossy().into_owned())
+}
+
+/// The output paths that are given, each checked to have an existing folder.
+pub fn check_outputs<'a>(outputs: &[(&'a Option<PathBuf>, &str)]) -> Result<Vec<Option<&'a Path>>> {
+    outputs
+        .iter()
+        .map(|(path, option)| path.as_deref().map(|p| check_output(p, option)).transpose())
+        .collect()
 }
 
 /// An output path whose folder exists.
-pub fn check_output(path: &Path, option: &str) -> Result<PathBuf> {
+pub fn check_output<'a>(path: &'a Path, option: &str) -> Result<&'a Path> {
     let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
     if let Some(dir) = parent
         && !dir.is_dir()
@@ -163,5 +162,53 @@ pub fn check_output(path: &Path, option: &str) -> Result<PathBuf> {
             format!("{}: folder {} does not exist", path.display(), dir.display()),
         ));
     }
-    Ok(path.to_path_buf())
+    Ok(path)
+}
+
+/// A count option that must be positive.
+pub fn positive(name: &str, v: i64) -> Result<usize> {
+    if v <= 0 {
+        return Err(Error::param(name, format!("must be positive, got {v}")));
+    }
+    usize::try_from(v).map_err(|_| Error::param(name, "is too large"))
+}
+
+/// The command line's option for a library parameter name.
+pub fn flag(name: &str) -> Option<&'static str> {
+    Some(match name {
+        "rays_per_point" => "--rays",
+        "radius" => "--radius",
+        "positions" => "--positions",
+        "res" => "--res",
+        "frames" => "--frames",
+        "animation" => "--animated",
+        "eye/target" => "--eye/--target",
+        "fov_degrees" => "--fov",
+        "width/height" => "--width/--height",
+        "split_factor" => "--split-factor",
+        "initial_tile/min_tile" => "--tile/--min-tile",
+        "aa_samples" => "--aa-samples",
+        "bands" => "--order",
+        "lut_size" => "--lut",
+        "mask_side" => "--mask",
+        "ring" => "--ring",
+        "group_size" => "--group-size",
+        "coarse_triangles" => "--coarse",
+        "shininess" => "--shininess",
+        "specular" => "--specular",
+        "pvs_frames" => "--pvs-frames",
+        "dt/start/env_spin" => "--dt/--start/--env-spin",
+        "estimator" => "--estimator",
+        "measure" => "--measure",
+        "sigma" => "--sigma",
+        "spp" => "--spp",
+        "steps" => "--steps",
+        "filter_depth" => "--filter-depth",
+        "bias_px" => "--bias",
+        "ambient" => "--ambient",
+        "repeat" => "--repeat",
+        "scene" => "--scene",
+        "device" => "--device",
+        _ => return None,
+    })
 }

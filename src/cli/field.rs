@@ -9,7 +9,7 @@ use serde_json::{Value, json};
 use super::args::{check_output, init_thread_pool};
 use crate::error::{Error, Result};
 use crate::field::{DirectionMapping, DisplacementField, FieldParams, OctahedralGrid, Storage, file};
-use crate::progress::Progress;
+use crate::progress::Bars;
 use crate::scene::load_obj;
 
 #[derive(clap::Args)]
@@ -48,10 +48,8 @@ pub struct FieldOptions {
 impl FieldOptions {
     pub fn params(&self) -> Result<FieldParams> {
         if self.positions < 1 {
-            return Err(Error::param(
-                "--positions",
-                format!("must be at least 1, got {}", self.positions),
-            ));
+            let problem = format!("must be at least 1, got {}", self.positions);
+            return Err(Error::param("--positions", problem));
         }
         let storage = u32::try_from(self.bits)
             .ok()
@@ -83,6 +81,7 @@ pub struct BuildArgs {
     /// CPU threads (default: all cores).
     #[arg(long, allow_negative_numbers = true)]
     pub threads: Option<usize>,
+    /// Print exactly one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
 }
@@ -91,6 +90,7 @@ pub struct BuildArgs {
 pub struct InfoArgs {
     /// A .dfield file.
     pub file: PathBuf,
+    /// Print exactly one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
 }
@@ -105,7 +105,7 @@ pub fn json_flag(args: &FieldArgs) -> bool {
 pub fn run(args: &FieldArgs) -> Result<Value> {
     match &args.command {
         FieldCommand::Build(b) => build(b),
-        FieldCommand::Info(i) => Ok(describe(&file::read(&i.file)?)),
+        FieldCommand::Info(i) => Ok(json!(file::read(&i.file)?.summary())),
     }
 }
 
@@ -114,37 +114,24 @@ fn build(args: &BuildArgs) -> Result<Value> {
     let params = args.field.params()?;
     let out = check_output(&args.out, "-o")?;
     let mesh = load_obj(&args.mesh)?;
-    let progress = Progress::bar(params.maps() as u64, "building displacement maps");
+    let progress = Bars::Stderr.bar(params.maps() as u64, "building displacement maps");
     let (field, stats) = DisplacementField::build(&mesh, &params, &args.mesh.display().to_string(), &progress)?;
     progress.finish();
-    file::write(&out, &field)?;
-    let bytes = std::fs::metadata(&out).map_err(|e| Error::read(&out, e))?.len();
-    let mut report = describe(&field);
-    report["bytes"] = json!(bytes);
-    report["build_ms"] = json!(stats.build_ms);
-    report["kdtree_ms"] = json!(stats.kdtree_ms);
-    report["rays"] = json!(stats.rays);
-    report["hit_fraction"] = json!(stats.hit_fraction);
-    report["positions_requested"] = json!(args.field.positions);
-    // Equal-area cells: the ratio tends to 1 as the quadrature refines.
-    report["cell_area_ratio"] = json!(params.grid.cell_area_ratio(8));
-    report["threads"] = json!(threads);
-    report["file"] = json!(out.display().to_string());
-    Ok(report)
-}
-
-/// The header of a field, as JSON.
-pub fn describe(field: &DisplacementField) -> Value {
-    let p = &field.params;
-    json!({
-        "maps": p.maps(),
-        "grid_side": p.grid.side,
-        "res": p.res,
-        "bits": p.storage.bits(),
-        "directions": p.directions,
-        "map_bytes": field.data.bytes(),
-        "sphere": { "center": field.center.to_array(), "radius": field.radius },
-        "bounds": { "min": field.bounds.min.to_array(), "max": field.bounds.max.to_array() },
-        "triangles": field.triangles,
-    })
+    file::write(out, &field)?;
+    let bytes = std::fs::metadata(out).map_err(|e| Error::read(out, e))?.len();
+    super::io::merged(
+        json!(field.summary()),
+        json!({
+            "bytes": bytes,
+            "build_ms": stats.build_ms,
+            "kdtree_ms": stats.kdtree_ms,
+            "rays": stats.rays,
+            "hit_fraction": stats.hit_fraction,
+            "positions_requested": args.field.positions,
+            // Equal-area cells: the ratio tends to 1 as the quadrature refines.
+            "cell_area_ratio": params.grid.cell_area_ratio(8),
+            "threads": threads,
+            "file": out.display().to_string(),
+        }),
+    )
 }

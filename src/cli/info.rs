@@ -2,8 +2,8 @@
 
 use serde_json::{Value, json};
 
+use crate::device::{Device, DeviceChoice, enumerate_adapters};
 use crate::error::Result;
-use crate::gpu::{GpuContext, enumerate_adapters};
 
 #[derive(clap::Args)]
 pub struct InfoArgs {
@@ -13,17 +13,16 @@ pub struct InfoArgs {
 }
 
 pub fn run(_args: &InfoArgs) -> Result<Value> {
-    let adapters = enumerate_adapters();
-    let selected = match GpuContext::headless() {
-        Ok(ctx) => Value::String(ctx.name),
+    let selected = match Device::open(DeviceChoice::Gpu) {
+        Ok(device) => json!(device.adapter()),
         Err(e) => {
-            eprintln!("penumbra: {e}");
+            eprintln!("penumbra: {}", e.with_names(super::args::flag));
             Value::Null
         }
     };
     Ok(json!({
         "version": env!("CARGO_PKG_VERSION"),
-        "adapters": adapters,
+        "adapters": enumerate_adapters(),
         "selected": selected,
     }))
 }

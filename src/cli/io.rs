@@ -1,77 +1,12 @@
-//! The contract's binary and text formats: RAYS.f32, HITS.bin, per-vertex CSV,
-//! and PNG images.
+//! Writing the command line's outputs: per-vertex CSV, PNG images, JSON
+//! reports and notes on stderr.
 
 use std::io::Write;
 use std::path::Path;
 
+use serde_json::Value;
+
 use crate::error::{Error, Result};
-use crate::ray::{Hit, Ray};
-
-/// Reads N records of 6 little-endian f32 (origin, direction). Every
-/// component must be finite and every direction non-zero.
-pub fn read_rays(path: &Path) -> Result<Vec<Ray>> {
-    let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
-    if bytes.len() % 24 != 0 {
-        return Err(Error::file(
-            path,
-            "size",
-            format!(
-                "{} bytes is not a whole number of rays (24 bytes each: 6 little-endian f32)",
-                bytes.len()
-            ),
-        ));
-    }
-    let mut rays = Vec::with_capacity(bytes.len() / 24);
-    for (i, record) in bytes.chunks_exact(24).enumerate() {
-        let mut c = [0f32; 6];
-        for (k, slot) in c.iter_mut().enumerate() {
-            *slot = f32::from_le_bytes(record[4 * k..4 * k + 4].try_into().expect("4 bytes"));
-        }
-        const NAMES: [&str; 6] = ["ox", "oy", "oz", "dx", "dy", "dz"];
-        if let Some(k) = c.iter().position(|v| !v.is_finite()) {
-            return Err(Error::file(
-                path,
-                format!("ray {i}"),
-                format!("{} is {}; must be finite", NAMES[k], c[k]),
-            ));
-        }
-        if c[3] == 0.0 && c[4] == 0.0 && c[5] == 0.0 {
-            return Err(Error::file(path, format!("ray {i}"), "direction is the zero vector"));
-        }
-        rays.push(Ray {
-            origin: [c[0], c[1], c[2]],
-            dir: [c[3], c[4], c[5]],
-        });
-    }
-    Ok(rays)
-}
-
-/// Writes rays as N records of 6 little-endian f32 (origin, direction).
-pub fn write_rays(path: &Path, rays: &[Ray]) -> Result<()> {
-    let mut bytes = Vec::with_capacity(rays.len() * 24);
-    for r in rays {
-        for c in r.origin.iter().chain(&r.dir) {
-            bytes.extend_from_slice(&c.to_le_bytes());
-        }
-    }
-    std::fs::write(path, bytes).map_err(|e| Error::write(path, e))
-}
-
-/// Writes N records of (f32 t, u32 triangle), little-endian; a miss is
-/// (+inf, 0xFFFFFFFF).
-pub fn write_hits(path: &Path, hits: &[Hit]) -> Result<()> {
-    let mut bytes = Vec::with_capacity(hits.len() * 8);
-    for h in hits {
-        let (t, tri) = if h.is_hit() {
-            (h.t, h.triangle)
-        } else {
-            (f32::INFINITY, Hit::MISS_INDEX)
-        };
-        bytes.extend_from_slice(&t.to_le_bytes());
-        bytes.extend_from_slice(&tri.to_le_bytes());
-    }
-    std::fs::write(path, bytes).map_err(|e| Error::write(path, e))
-}
 
 /// `index,ao` lines, no header.
 pub fn write_vertex_csv(path: &Path, ao: &[f32]) -> Result<()> {
@@ -102,4 +37,18 @@ pub fn write_rgb_png(path: &Path, width: u32, height: u32, pixels: &[[u8; 3]]) -
         *p = image::Rgb(*v);
     }
     img.save(path).map_err(|e| Error::write(path, e))
+}
+
+/// A runner's note on stderr, parameters named by their flags.
+pub fn note(text: &str) {
+    eprintln!("penumbra: {}", crate::error::rename_quoted(text, super::args::flag));
+}
+
+/// `report` with every field of `more` (a JSON object) added.
+pub fn merged(mut report: Value, more: impl serde::Serialize) -> Result<Value> {
+    let more = serde_json::to_value(more).map_err(|e| Error::internal(format!("report: {e}")))?;
+    if let (Value::Object(a), Value::Object(b)) = (&mut report, more) {
+        a.extend(b);
+    }
+    Ok(report)
 }

@@ -1,12 +1,16 @@
-//! The `penumbra` command line, as `../shared/CONTRACT.md` specifies it.
+//! The `penumbra` command line, as `../shared/CONTRACT.md` specifies it. It
+//! parses, calls a library runner and reports: the methods themselves live
+//! in the library (`ao::runner`, `field::runner`, `mlrta::runner`,
+//! `ssao::runner`, `prt::runner`, `tracer`).
 //!
 //! Every subcommand returns a JSON object; with `--json` it is the only thing
 //! printed on stdout, otherwise a readable summary is. Messages and progress
 //! go to stderr. Exit codes: 0 success, 2 bad input or unavailable device
 //! (including usage errors from clap), 1 internal error (panics included).
+//! Library errors name parameters in the library's language; `args::flag`
+//! maps them to this command line's options.
 
 mod ao;
-mod ao_field;
 mod args;
 mod field;
 mod info;
@@ -22,9 +26,8 @@ use clap::{Parser, Subcommand};
 use serde_json::Value;
 
 use crate::error::{Error, Result};
-use crate::gpu::GpuContext;
 
-pub use args::{Common, DeviceArg};
+pub use args::{Common, DEFAULT_SEED, flag};
 
 #[derive(Parser)]
 #[command(
@@ -62,6 +65,7 @@ struct GenAssetsArgs {
     /// Output folder.
     #[arg(long, default_value = "assets")]
     out: std::path::PathBuf,
+    /// Print exactly one JSON object on stdout.
     #[arg(long)]
     json: bool,
 }
@@ -79,7 +83,7 @@ pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
     match outcome {
         Ok(Ok(())) => 0,
         Ok(Err(e)) => {
-            eprintln!("penumbra: error: {e}");
+            eprintln!("penumbra: error: {}", e.clone().with_names(args::flag));
             e.exit_code()
         }
         Err(panic) => {
@@ -118,60 +122,12 @@ fn emit(json: bool, value: Value) -> Result<()> {
     } else if let Value::Object(map) = &value {
         for (k, v) in map {
             match v {
-                Value::Object(_) | Value::Array(_) => println!("{k}: {v}"),
                 Value::String(s) => println!("{k}: {s}"),
                 _ => println!("{k}: {v}"),
             }
         }
     }
     Ok(())
-}
-
-/// The compute device a subcommand runs on.
-pub enum Device {
-    Cpu,
-    Gpu(GpuContext),
-}
-
-impl Device {
-    /// Resolves `--device`: `gpu` fails without an adapter, `auto` falls
-    /// back to the CPU with a message, `cpu` never touches the GPU.
-    pub fn open(arg: DeviceArg) -> Result<Device> {
-        match arg {
-            DeviceArg::Cpu => Ok(Device::Cpu),
-            DeviceArg::Gpu => {
-                let ctx = GpuContext::headless()?;
-                eprintln!("penumbra: GPU adapter: {}", ctx.name);
-                Ok(Device::Gpu(ctx))
-            }
-            DeviceArg::Auto => match GpuContext::headless() {
-                Ok(ctx) => {
-                    eprintln!("penumbra: GPU adapter: {}", ctx.name);
-                    Ok(Device::Gpu(ctx))
-                }
-                Err(e) => {
-                    eprintln!("penumbra: {e}; using the CPU reference path");
-                    Ok(Device::Cpu)
-                }
-            },
-        }
-    }
-
-    /// "cpu" or "gpu", the JSON `device` field.
-    pub fn kind(&self) -> &'static str {
-        match self {
-            Device::Cpu => "cpu",
-            Device::Gpu(_) => "gpu",
-        }
-    }
-
-    /// The adapter's name, or null on the CPU.
-    pub fn adapter(&self) -> Value {
-        match self {
-            Device::Cpu => Value::Null,
-            Device::Gpu(ctx) => Value::String(ctx.name.clone()),
-        }
-    }
 }
 
 impl From<rayon::ThreadPoolBuildError> for Error {

@@ -57,8 +57,9 @@ impl FieldCaster<'_> {
 }
 
 /// Visibility of `rays_per_point` rays per point through the casters'
-/// fields; `owners[i]` is point i's instance (or `NO_OWNER`).
-pub fn visibility_field(
+/// fields; `owners[i]` is point i's instance (or `NO_OWNER`). The CPU twin
+/// of `wgsl/field_ao.wgsl`.
+pub fn field_ao(
     casters: &[FieldCaster],
     points: &[AoPoint],
     owners: &[u32],

@@ -4,12 +4,14 @@
 //! Rays are traced with the foundation's kd-tree, maps in parallel on all
 //! cores of the current rayon pool.
 
+use std::path::Path;
 use std::time::Instant;
 
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::directions::DirectionMapping;
 use super::storage::{FieldData, FieldParams};
 use crate::aabb::Aabb;
 use crate::error::{Error, Result};
@@ -30,6 +32,32 @@ pub struct DisplacementField {
     /// Triangles of the object it was built from.
     pub triangles: u32,
     pub data: FieldData,
+}
+
+/// A field's header: sampling, storage, sphere, the object it came from.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FieldSummary {
+    pub maps: usize,
+    pub grid_side: u32,
+    pub res: u32,
+    pub bits: u32,
+    pub directions: DirectionMapping,
+    pub map_bytes: usize,
+    pub sphere: SphereSummary,
+    pub bounds: BoundsSummary,
+    pub triangles: u32,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SphereSummary {
+    pub center: [f32; 3],
+    pub radius: f32,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BoundsSummary {
+    pub min: [f32; 3],
+    pub max: [f32; 3],
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -129,6 +157,54 @@ impl DisplacementField {
             build_ms: start.elapsed().as_secs_f64() * 1e3,
         };
         Ok((field, stats))
+    }
+
+    /// The field's header, as reports show it.
+    pub fn summary(&self) -> FieldSummary {
+        let p = &self.params;
+        FieldSummary {
+            maps: p.maps(),
+            grid_side: p.grid.side,
+            res: p.res,
+            bits: p.storage.bits(),
+            directions: p.directions,
+            map_bytes: self.data.bytes(),
+            sphere: SphereSummary {
+                center: self.center.to_array(),
+                radius: self.radius,
+            },
+            bounds: BoundsSummary {
+                min: self.bounds.min.to_array(),
+                max: self.bounds.max.to_array(),
+            },
+            triangles: self.triangles,
+        }
+    }
+
+    /// Checks that the field was built from `mesh` (same triangle count and
+    /// bounds); `field_path` and `mesh_path` name them in the error.
+    pub fn check_built_from(&self, mesh: &Mesh, field_path: &Path, mesh_path: &Path) -> Result<()> {
+        let bounds = mesh.bounds();
+        let tol = 1e-4 * bounds.diagonal().max(f32::MIN_POSITIVE);
+        let same_bounds = (self.bounds.min - bounds.min).abs().max_element() <= tol
+            && (self.bounds.max - bounds.max).abs().max_element() <= tol;
+        if self.triangles as usize != mesh.triangles.len() || !same_bounds {
+            return Err(Error::file(
+                field_path,
+                "triangles/bounds",
+                format!(
+                    "the field was built from a mesh of {} triangles in [{}, {}], but {} has {} triangles in [{}, {}]",
+                    self.triangles,
+                    self.bounds.min,
+                    self.bounds.max,
+                    mesh_path.display(),
+                    mesh.triangles.len(),
+                    bounds.min,
+                    bounds.max
+                ),
+            ));
+        }
+        Ok(())
     }
 
     /// Normalised distance of texel (a, b) of map m.

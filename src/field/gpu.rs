@@ -16,8 +16,8 @@
 //! layouts and pipelines, and records into the caller's encoder; the
 //! blocking helpers (`visibility_field_gpu`, `probe_gpu`) are conveniences.
 
-use std::sync::OnceLock;
-use std::time::Instant;
+use std::ops::Range;
+use std::sync::{Arc, OnceLock};
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -27,11 +27,12 @@ use super::lookup::Positional;
 use super::storage::{FieldData, Storage};
 use crate::ao::{AoPoint, AoSettings, VisibilityMasks};
 use crate::error::{Error, Result};
-use crate::gpu::buffers::{check_storage_size, read_back, storage_buffer, uniform_buffer, zeroed_buffer};
+use crate::gpu::batch::{BatchPass, BatchPlan, readback_buffer, run_batches};
+use crate::gpu::buffers::{GrowingBuffer, read_buffer, storage_buffer, uniform_buffer};
 use crate::gpu::kernels::{compute_pipelines, record_dispatch};
+use crate::gpu::layout::{bind_group, layout, storage_entry, texture_entry, uniform_entry};
 use crate::gpu::timer::PassTimer;
 use crate::gpu::{GpuContext, dispatch_grid};
-use crate::kdtree::gpu::{bind_group, storage_entry, uniform_entry};
 use crate::progress::Progress;
 use crate::scene::Transform;
 
@@ -176,25 +177,12 @@ impl TextureLayout {
     }
 }
 
-fn texture_entry(binding: u32, filterable: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable },
-            view_dimension: wgpu::TextureViewDimension::D3,
-            multisampled: false,
-        },
-        count: None,
-    }
-}
-
 /// Bind group 0 of the field kernels: the field's parameters and maps.
 pub fn maps_layout(device: &wgpu::Device, access: MapAccess) -> wgpu::BindGroupLayout {
     let entries: Vec<wgpu::BindGroupLayoutEntry> = match access {
         MapAccess::Filtered => vec![
             uniform_entry(0),
-            texture_entry(1, true),
+            texture_entry(1, wgpu::TextureViewDimension::D3, true),
             wgpu::BindGroupLayoutEntry {
                 binding: 2,
                 visibility: wgpu::ShaderStages::COMPUTE,
@@ -202,13 +190,13 @@ pub fn maps_layout(device: &wgpu::Device, access: MapAccess) -> wgpu::BindGroupL
                 count: None,
             },
         ],
-        MapAccess::Loaded => vec![uniform_entry(0), texture_entry(1, false)],
+        MapAccess::Loaded => vec![
+            uniform_entry(0),
+            texture_entry(1, wgpu::TextureViewDimension::D3, false),
+        ],
         MapAccess::Bits => vec![uniform_entry(0), storage_entry(1, true), storage_entry(2, true)],
     };
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("field maps"),
-        entries: &entries,
-    })
+    layout(device, "field maps", &entries)
 }
 
 /// A field on the device: its parameters and maps, as bind group 0.
@@ -388,7 +376,7 @@ fn stack_maps(field: &DisplacementField, layout: &TextureLayout, texel_bytes: u3
     out
 }
 
-/// The pipelines of one map access.
+/// The layouts and pipelines of one map access.
 pub struct FieldPipelines {
     pub maps_layout: wgpu::BindGroupLayout,
     pub ao_layout: wgpu::BindGroupLayout,
@@ -397,15 +385,20 @@ pub struct FieldPipelines {
     pub probe: wgpu::ComputePipeline,
 }
 
-/// Field kernels for one device, built on first use per map access.
+/// The field kernels of one device, built on first use per map access.
 #[derive(Default)]
-pub struct FieldPasses {
+pub struct FieldKernels {
     filtered: OnceLock<FieldPipelines>,
     loaded: OnceLock<FieldPipelines>,
     bits: OnceLock<FieldPipelines>,
 }
 
-impl FieldPasses {
+impl FieldKernels {
+    /// The kernels cached on `ctx`.
+    pub fn cached(ctx: &GpuContext) -> Arc<FieldKernels> {
+        ctx.kernels.get_or_insert(FieldKernels::default)
+    }
+
     pub fn pipelines(&self, device: &wgpu::Device, access: MapAccess) -> &FieldPipelines {
         use crate::wgsl::*;
         let (cell, ao_module, probe_module) = match access {
@@ -416,21 +409,23 @@ impl FieldPasses {
         cell.get_or_init(|| {
             let maps = maps_layout(device, access);
             // params, points, owners, instances, classes
-            let ao_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("field ao io"),
-                entries: &[
+            let ao_layout = layout(
+                device,
+                "field ao io",
+                &[
                     uniform_entry(0),
                     storage_entry(1, true),
                     storage_entry(2, true),
                     storage_entry(3, true),
                     storage_entry(4, false),
                 ],
-            });
+            );
             // params, rays, results
-            let probe_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("field probe io"),
-                entries: &[uniform_entry(0), storage_entry(1, true), storage_entry(2, false)],
-            });
+            let probe_layout = layout(
+                device,
+                "field probe io",
+                &[uniform_entry(0), storage_entry(1, true), storage_entry(2, false)],
+            );
             let ao = compute_pipelines(device, &ao_module, &[&maps, &ao_layout], &["field_ao"]).remove(0);
             let probe = compute_pipelines(device, &probe_module, &[&maps, &probe_layout], &["field_probe"]).remove(0);
             FieldPipelines {
@@ -442,29 +437,6 @@ impl FieldPasses {
             }
         })
     }
-
-    /// Records one `field_ao` dispatch of `grid` workgroups (64 rays each)
-    /// into the caller's encoder. `io` is laid out as `ao_layout`: params,
-    /// points, owners, instances, classes (zeroed before the first field).
-    pub fn record_ao(
-        &self,
-        device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-        field: &GpuField,
-        io: &wgpu::BindGroup,
-        grid: (u32, u32),
-    ) {
-        let p = self.pipelines(device, field.access);
-        record_dispatch(
-            encoder,
-            "field ao",
-            timestamp_writes,
-            &p.ao,
-            &[&field.bind_group, io],
-            grid,
-        );
-    }
 }
 
 /// One field with the instances that use it.
@@ -473,96 +445,98 @@ pub struct FieldGroup<'f> {
     pub instances: Vec<GpuInstance>,
 }
 
-/// Result of `visibility_field_gpu`.
-pub struct GpuFieldAo {
-    pub masks: VisibilityMasks,
-    pub classes: RayClasses,
-    pub gpu_ms: Option<f64>,
-    pub wall_ms: f64,
+/// A field group's own inputs: its instances and parameters.
+struct GroupIo {
+    instances: GrowingBuffer,
+    params: wgpu::Buffer,
+    io: Option<wgpu::BindGroup>,
 }
 
-/// Rays per batch of points.
-const RAYS_PER_BATCH: u64 = 1 << 22;
+/// Algorithm 2 on the GPU: the `field_ao` kernel for every field of a
+/// scene over one batch of points, with the buffers it keeps between calls.
+pub struct FieldAoPass {
+    kernels: Arc<FieldKernels>,
+    points: GrowingBuffer,
+    owners: GrowingBuffer,
+    classes: GrowingBuffer,
+    groups: Vec<GroupIo>,
+    words: u64,
+    grid: (u32, u32),
+}
 
-/// `field::visibility_field` on the GPU (blocking): the same rays, one
-/// dispatch per field per batch of points.
-pub fn visibility_field_gpu(
-    ctx: &GpuContext,
-    groups: &[FieldGroup],
-    points: &[AoPoint],
-    owners: &[u32],
-    settings: &AoSettings,
-    progress: &Progress,
-) -> Result<GpuFieldAo> {
-    settings.validate()?;
-    assert_eq!(points.len(), owners.len());
-    let start = Instant::now();
-    let device = &ctx.device;
-    let passes = ctx.kernels.get_or_insert(FieldPasses::default);
-    let words = settings.words_per_point() as usize;
-    let n = settings.rays_per_point as u64;
-    let batch_points = ((RAYS_PER_BATCH / n).max(1) as usize).min(points.len().max(1));
-    let class_bytes = (3 * batch_points * words * 4) as u64;
-    check_storage_size(device, "field AO ray classes", class_bytes)?;
-    let usage_in = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-    let point_buf = zeroed_buffer(device, "field ao points", (batch_points * 32) as u64, usage_in);
-    let owner_buf = zeroed_buffer(device, "field ao owners", (batch_points * 4) as u64, usage_in);
-    let classes = zeroed_buffer(
-        device,
-        "field ao classes",
-        class_bytes,
-        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-    );
-    let readback = zeroed_buffer(
-        device,
-        "field ao readback",
-        class_bytes,
-        wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-    );
-    // Per field: its instances, a params buffer and the io bind group.
-    let mut per_field = Vec::new();
-    for g in groups.iter().filter(|g| !g.instances.is_empty()) {
-        let instances = storage_buffer(device, "field instances", bytemuck::cast_slice(&g.instances))?;
-        let params = uniform_buffer(device, "field ao params", &FieldAoParams::zeroed());
-        let layout = &passes.pipelines(device, g.field.access).ao_layout;
-        let io = bind_group(
-            device,
-            "field ao io",
-            layout,
-            &[
-                (0, &params),
-                (1, &point_buf),
-                (2, &owner_buf),
-                (3, &instances),
-                (4, &classes),
-            ],
-        );
-        per_field.push((g, params, io, instances));
+const STORAGE_IN: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_DST);
+
+impl FieldAoPass {
+    /// A pass for `device` (its pipelines are built on first use).
+    pub fn new() -> FieldAoPass {
+        Self::with_kernels(Arc::new(FieldKernels::default()))
     }
-    let batches = points.len().div_ceil(batch_points);
-    let mut timer = PassTimer::new(ctx, (batches * per_field.len()).max(1) as u32);
-    let max_dim = device.limits().max_compute_workgroups_per_dimension;
-    let mut bits = Vec::with_capacity(points.len() * words);
-    let mut inside = Vec::with_capacity(points.len() * words);
-    let mut hidden = Vec::with_capacity(points.len() * words);
-    let valid: Vec<u32> = (0..words)
-        .map(|w| {
-            let rays = (settings.rays_per_point as usize).saturating_sub(32 * w).min(32);
-            if rays == 32 { u32::MAX } else { (1u32 << rays) - 1 }
-        })
-        .collect();
-    for (chunk, chunk_owners) in points.chunks(batch_points).zip(owners.chunks(batch_points)) {
-        let (gx, gy, pitch) = dispatch_grid((chunk.len() as u64 * n) as u32, max_dim);
-        ctx.queue.write_buffer(&point_buf, 0, bytemuck::cast_slice(chunk));
-        ctx.queue
-            .write_buffer(&owner_buf, 0, bytemuck::cast_slice(chunk_owners));
-        let mut encoder = device.create_command_encoder(&Default::default());
-        encoder.clear_buffer(&classes, 0, None);
-        for (g, params, io, _) in &per_field {
-            let p = FieldAoParams {
-                point_count: chunk.len() as u32,
+
+    /// A pass with kernels built before (e.g. `FieldKernels::cached`).
+    pub fn with_kernels(kernels: Arc<FieldKernels>) -> FieldAoPass {
+        FieldAoPass {
+            kernels,
+            points: GrowingBuffer::new("field ao points", STORAGE_IN),
+            owners: GrowingBuffer::new("field ao owners", STORAGE_IN),
+            classes: GrowingBuffer::new(
+                "field AO ray classes",
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+            ),
+            groups: Vec::new(),
+            words: 0,
+            grid: (0, 0),
+        }
+    }
+
+    /// Uploads a batch of points with their owners (`NO_OWNER` for none)
+    /// and every group's instances; `groups` must be the ones `record` gets.
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        groups: &[FieldGroup],
+        points: &[AoPoint],
+        owners: &[u32],
+        settings: &AoSettings,
+    ) -> Result<()> {
+        settings.validate()?;
+        assert_eq!(points.len(), owners.len());
+        let words = (points.len() * settings.words_per_point() as usize) as u64;
+        let mut grown = self.points.write(device, queue, bytemuck::cast_slice(points))?;
+        grown |= self.owners.write(device, queue, bytemuck::cast_slice(owners))?;
+        grown |= self.classes.reserve(device, 3 * words * 4)?;
+        let n = settings.rays_per_point as u64;
+        let (gx, gy, pitch) = dispatch_grid(
+            (points.len() as u64 * n) as u32,
+            device.limits().max_compute_workgroups_per_dimension,
+        );
+        while self.groups.len() < groups.len() {
+            self.groups.push(GroupIo {
+                instances: GrowingBuffer::new("field instances", STORAGE_IN),
+                params: uniform_buffer(device, "field ao params", &FieldAoParams::zeroed()),
+                io: None,
+            });
+        }
+        for (g, io) in groups.iter().zip(&mut self.groups) {
+            let instances_grown = io.instances.write(device, queue, bytemuck::cast_slice(&g.instances))?;
+            if grown || instances_grown || io.io.is_none() {
+                io.io = Some(bind_group(
+                    device,
+                    "field ao io",
+                    &self.kernels.pipelines(device, g.field.access).ao_layout,
+                    &[
+                        (0, &io.params),
+                        (1, self.points.get()),
+                        (2, self.owners.get()),
+                        (3, io.instances.get()),
+                        (4, self.classes.get()),
+                    ],
+                ));
+            }
+            let params = FieldAoParams {
+                point_count: points.len() as u32,
                 rays_per_point: settings.rays_per_point,
-                words_per_point: words as u32,
+                words_per_point: settings.words_per_point(),
                 seed: settings.seed,
                 row_pitch: pitch,
                 radius: if settings.radius.is_finite() {
@@ -573,40 +547,181 @@ pub fn visibility_field_gpu(
                 instance_count: g.instances.len() as u32,
                 _pad: 0,
             };
-            ctx.queue.write_buffer(params, 0, bytemuck::bytes_of(&p));
-            passes.record_ao(
-                device,
-                &mut encoder,
-                timer.as_mut().and_then(|t| t.next_pass()),
-                g.field,
-                io,
-                (gx, gy),
+            queue.write_buffer(&io.params, 0, bytemuck::bytes_of(&params));
+        }
+        self.words = words;
+        self.grid = (gx, gy);
+        Ok(())
+    }
+
+    /// Records the prepared batch: clears the ray classes, then one
+    /// `field_ao` dispatch per group (each timed by `timer` if given).
+    pub fn record(
+        &self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        mut timer: Option<&mut PassTimer>,
+        groups: &[FieldGroup],
+    ) {
+        encoder.clear_buffer(self.classes.get(), 0, None);
+        for (g, io) in groups.iter().zip(&self.groups) {
+            let p = self.kernels.pipelines(device, g.field.access);
+            let io = io.io.as_ref().expect("FieldAoPass::record before prepare");
+            let writes = timer.as_mut().and_then(|t| t.next_pass());
+            record_dispatch(
+                encoder,
+                "field ao",
+                writes,
+                &p.ao,
+                &[&g.field.bind_group, io],
+                self.grid,
             );
         }
-        let len = chunk.len() * words;
-        encoder.copy_buffer_to_buffer(&classes, 0, &readback, 0, (3 * len * 4) as u64);
-        ctx.queue.submit([encoder.finish()]);
-        let words_back: Vec<u32> = read_back(device, &readback, 3 * len)?;
-        // The kernel puts the three masks one after the other, each
-        // point_count * words_per_point words of this batch.
-        for (i, &occluded) in words_back[..len].iter().enumerate() {
-            bits.push(!occluded & valid[i % words]);
-        }
-        inside.extend_from_slice(&words_back[len..2 * len]);
-        hidden.extend_from_slice(&words_back[2 * len..3 * len]);
-        progress.inc(chunk.len() as u64);
     }
-    let gpu_ms = PassTimer::finish(timer, ctx)?;
-    Ok(GpuFieldAo {
-        masks: VisibilityMasks {
-            rays_per_point: settings.rays_per_point,
-            words_per_point: words as u32,
-            bits,
-        },
-        classes: RayClasses { inside, hidden },
-        gpu_ms,
-        wall_ms: start.elapsed().as_secs_f64() * 1e3,
-    })
+
+    /// The batch's three masks one after another, each `words_per_point`
+    /// words per point: occluded rays, rays starting inside a sphere, rays
+    /// whose surface a field put behind the origin.
+    pub fn classes(&self) -> &wgpu::Buffer {
+        self.classes.get()
+    }
+}
+
+impl Default for FieldAoPass {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Result of `visibility_field_gpu`.
+pub struct GpuFieldAo {
+    pub masks: VisibilityMasks,
+    pub classes: RayClasses,
+    pub gpu_ms: Option<f64>,
+}
+
+/// Rays per batch of points.
+const RAYS_PER_BATCH: u64 = 1 << 22;
+
+/// The pass and its read-back buffer, as a runner keeps them on a device.
+pub struct FieldAoBatches {
+    pub pass: FieldAoPass,
+    readback: GrowingBuffer,
+}
+
+impl FieldAoBatches {
+    pub fn new(ctx: &GpuContext) -> FieldAoBatches {
+        FieldAoBatches {
+            pass: FieldAoPass::with_kernels(FieldKernels::cached(ctx)),
+            readback: readback_buffer(),
+        }
+    }
+
+    /// `field::field_ao` on the GPU (blocking): the same rays, one
+    /// dispatch per field per batch of points.
+    pub fn visibility(
+        &mut self,
+        ctx: &GpuContext,
+        groups: &[FieldGroup],
+        points: &[AoPoint],
+        owners: &[u32],
+        settings: &AoSettings,
+        progress: &Progress,
+    ) -> Result<GpuFieldAo> {
+        settings.validate()?;
+        assert_eq!(points.len(), owners.len());
+        let words = settings.words_per_point() as usize;
+        let groups: Vec<&FieldGroup> = groups.iter().filter(|g| !g.instances.is_empty()).collect();
+        let groups: Vec<FieldGroup> = groups
+            .into_iter()
+            .map(|g| FieldGroup {
+                field: g.field,
+                instances: g.instances.clone(),
+            })
+            .collect();
+        let valid: Vec<u32> = (0..words)
+            .map(|w| {
+                let rays = (settings.rays_per_point as usize).saturating_sub(32 * w).min(32);
+                if rays == 32 { u32::MAX } else { (1u32 << rays) - 1 }
+            })
+            .collect();
+        let mut bits = Vec::with_capacity(points.len() * words);
+        let mut inside = Vec::with_capacity(points.len() * words);
+        let mut hidden = Vec::with_capacity(points.len() * words);
+        let per_batch = (RAYS_PER_BATCH / settings.rays_per_point as u64).max(1) as usize;
+        let plan = BatchPlan::new(points.len(), per_batch, groups.len().max(1) as u32);
+        let mut batch = FieldBatch {
+            pass: &mut self.pass,
+            device: &ctx.device,
+            groups: &groups,
+            points,
+            owners,
+            settings,
+        };
+        let gpu_ms = run_batches(
+            ctx,
+            &mut batch,
+            &mut self.readback,
+            plan,
+            progress,
+            |items, w: &[u32]| {
+                let len = items.len() * words;
+                for (i, &occluded) in w[..len].iter().enumerate() {
+                    bits.push(!occluded & valid[i % words]);
+                }
+                inside.extend_from_slice(&w[len..2 * len]);
+                hidden.extend_from_slice(&w[2 * len..3 * len]);
+                Ok(())
+            },
+        )?;
+        Ok(GpuFieldAo {
+            masks: VisibilityMasks {
+                rays_per_point: settings.rays_per_point,
+                words_per_point: words as u32,
+                bits,
+            },
+            classes: RayClasses { inside, hidden },
+            gpu_ms,
+        })
+    }
+}
+
+struct FieldBatch<'a> {
+    pass: &'a mut FieldAoPass,
+    device: &'a wgpu::Device,
+    groups: &'a [FieldGroup<'a>],
+    points: &'a [AoPoint],
+    owners: &'a [u32],
+    settings: &'a AoSettings,
+}
+
+impl BatchPass for FieldBatch<'_> {
+    fn prepare(&mut self, ctx: &GpuContext, items: Range<usize>) -> Result<()> {
+        let (points, owners) = (&self.points[items.clone()], &self.owners[items]);
+        self.pass
+            .prepare(&ctx.device, &ctx.queue, self.groups, points, owners, self.settings)
+    }
+
+    fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &mut Option<PassTimer>) {
+        self.pass.record(self.device, encoder, timer.as_mut(), self.groups);
+    }
+
+    fn results(&self) -> Vec<(&wgpu::Buffer, u64)> {
+        vec![(self.pass.classes(), 3 * self.pass.words * 4)]
+    }
+}
+
+/// `field::field_ao` on the GPU (blocking), with a pass made for
+/// this call.
+pub fn visibility_field_gpu(
+    ctx: &GpuContext,
+    groups: &[FieldGroup],
+    points: &[AoPoint],
+    owners: &[u32],
+    settings: &AoSettings,
+    progress: &Progress,
+) -> Result<GpuFieldAo> {
+    FieldAoBatches::new(ctx).visibility(ctx, groups, points, owners, settings, progress)
 }
 
 /// Single lookups on the GPU: per object-space ray (origin, unit
@@ -614,26 +729,19 @@ pub fn visibility_field_gpu(
 /// flags 1 inside + 2 hidden), as `wgsl/field_probe.wgsl` returns them.
 pub fn probe_gpu(ctx: &GpuContext, field: &GpuField, rays: &[(Vec3, Vec3)]) -> Result<Vec<[f32; 4]>> {
     let device = &ctx.device;
-    let passes = ctx.kernels.get_or_insert(FieldPasses::default);
-    let p = passes.pipelines(device, field.access);
+    let kernels = FieldKernels::cached(ctx);
+    let p = kernels.pipelines(device, field.access);
     let data: Vec<[f32; 4]> = rays
         .iter()
         .flat_map(|(o, d)| [o.extend(0.0).to_array(), d.extend(0.0).to_array()])
         .collect();
     let n = rays.len().max(1);
     let ray_buf = storage_buffer(device, "probe rays", bytemuck::cast_slice(&data))?;
-    let results = zeroed_buffer(
-        device,
+    let mut results = GrowingBuffer::new(
         "probe results",
-        n as u64 * 16,
         wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
     );
-    let readback = zeroed_buffer(
-        device,
-        "probe readback",
-        n as u64 * 16,
-        wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-    );
+    results.reserve(device, n as u64 * 16)?;
     let (gx, gy, pitch) = dispatch_grid(n as u32, device.limits().max_compute_workgroups_per_dimension);
     let params = uniform_buffer(
         device,
@@ -648,7 +756,7 @@ pub fn probe_gpu(ctx: &GpuContext, field: &GpuField, rays: &[(Vec3, Vec3)]) -> R
         device,
         "field probe io",
         &p.probe_layout,
-        &[(0, &params), (1, &ray_buf), (2, &results)],
+        &[(0, &params), (1, &ray_buf), (2, results.get())],
     );
     let mut encoder = device.create_command_encoder(&Default::default());
     record_dispatch(
@@ -659,8 +767,6 @@ pub fn probe_gpu(ctx: &GpuContext, field: &GpuField, rays: &[(Vec3, Vec3)]) -> R
         &[&field.bind_group, &io],
         (gx, gy),
     );
-    encoder.copy_buffer_to_buffer(&results, 0, &readback, 0, n as u64 * 16);
     ctx.queue.submit([encoder.finish()]);
-    let out: Vec<[f32; 4]> = read_back(device, &readback, n)?;
-    Ok(out[..rays.len()].to_vec())
+    read_buffer(ctx, results.get(), rays.len())
 }

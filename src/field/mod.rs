@@ -15,7 +15,9 @@
 //! - `directions`: the (s, t) mappings of the hemisphere (concentric +
 //!   Malley, polar, rejection) and inverses;
 //! - `storage`: 32-bit, 8-bit and 1-bit maps;
-//! - `file`: the `.dfield` format.
+//! - `file`: the `.dfield` format;
+//! - `runner`: AO of a scene's receivers through its casters' fields, on
+//!   any device (`ao --method field`).
 
 pub mod ao;
 pub mod build;
@@ -24,10 +26,11 @@ pub mod file;
 pub mod gpu;
 pub mod lookup;
 pub mod positions;
+pub mod runner;
 pub mod storage;
 
-pub use ao::{FieldCaster, NO_OWNER, RayClasses, visibility_field};
-pub use build::{BuildStats, DisplacementField, bounding_sphere};
+pub use ao::{FieldCaster, NO_OWNER, RayClasses, field_ao};
+pub use build::{BuildStats, DisplacementField, FieldSummary, bounding_sphere};
 pub use directions::DirectionMapping;
 pub use lookup::{FieldTrace, Positional, Sample};
 pub use positions::OctahedralGrid;

@@ -59,7 +59,7 @@ impl FieldParams {
     pub fn validate(&self) -> Result<()> {
         if self.grid.side == 0 || self.grid.side > MAX_GRID_SIDE {
             return Err(Error::param(
-                "--positions",
+                "positions",
                 format!(
                     "must give between 1 and {} positional samples (a {MAX_GRID_SIDE} x {MAX_GRID_SIDE} grid), got a {} x {} grid",
                     MAX_GRID_SIDE * MAX_GRID_SIDE,
@@ -70,7 +70,7 @@ impl FieldParams {
         }
         if self.res < 2 || self.res > MAX_RES {
             return Err(Error::param(
-                "--res",
+                "res",
                 format!("must be between 2 and {MAX_RES}, got {}", self.res),
             ));
         }

@@ -1,4 +1,5 @@
-//! Buffer creation within the device's limits, and blocking readback.
+//! Buffer creation within the device's limits, buffers kept and grown
+//! between calls, and blocking readback.
 
 use wgpu::util::DeviceExt;
 
@@ -20,7 +21,7 @@ pub fn check_size(max: u64, what: &str, bytes: u64) -> Result<()> {
     if bytes > max {
         return Err(Error::Device(format!(
             "{what} needs {:.1} MiB in one storage buffer; this device allows {:.1} MiB per binding \
-             (use --device cpu, or a smaller input)",
+             (use `device` cpu, or a smaller input)",
             bytes as f64 / 1048576.0,
             max as f64 / 1048576.0
         )));
@@ -90,6 +91,73 @@ pub fn read_back<T: bytemuck::Pod>(device: &wgpu::Device, buffer: &wgpu::Buffer,
     };
     buffer.unmap();
     Ok(out)
+}
+
+/// A buffer kept between calls and grown (never shrunk) when a request
+/// needs more, so a pass reallocates, and rebuilds its bind groups, only
+/// when its work gets larger (glyphon's `prepare` pattern).
+pub struct GrowingBuffer {
+    label: &'static str,
+    usage: wgpu::BufferUsages,
+    buffer: Option<wgpu::Buffer>,
+}
+
+impl GrowingBuffer {
+    pub const fn new(label: &'static str, usage: wgpu::BufferUsages) -> GrowingBuffer {
+        GrowingBuffer {
+            label,
+            usage,
+            buffer: None,
+        }
+    }
+
+    /// Makes room for `bytes`; returns whether the buffer was (re)allocated.
+    /// A storage buffer must fit one binding of the device.
+    pub fn reserve(&mut self, device: &wgpu::Device, bytes: u64) -> Result<bool> {
+        if self.buffer.as_ref().is_some_and(|b| b.size() >= bytes) {
+            return Ok(false);
+        }
+        if self.usage.contains(wgpu::BufferUsages::STORAGE) {
+            check_storage_size(device, self.label, bytes)?;
+        }
+        self.buffer = Some(zeroed_buffer(device, self.label, bytes, self.usage));
+        Ok(true)
+    }
+
+    /// Writes `data` at the start of the buffer, growing it first; returns
+    /// whether it was reallocated.
+    pub fn write(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, data: &[u8]) -> Result<bool> {
+        let grown = self.reserve(device, data.len() as u64)?;
+        if !data.is_empty() {
+            queue.write_buffer(self.get(), 0, data);
+        }
+        Ok(grown)
+    }
+
+    /// The buffer (call `reserve` or `write` first).
+    pub fn get(&self) -> &wgpu::Buffer {
+        self.buffer.as_ref().expect("GrowingBuffer used before reserve")
+    }
+}
+
+/// Copies a buffer's first `len` elements into a new readback buffer and
+/// reads them (blocking).
+pub fn read_buffer<T: bytemuck::Pod>(
+    ctx: &crate::gpu::GpuContext,
+    buffer: &wgpu::Buffer,
+    len: usize,
+) -> Result<Vec<T>> {
+    let bytes = (len * std::mem::size_of::<T>()) as u64;
+    let readback = zeroed_buffer(
+        &ctx.device,
+        "readback",
+        bytes,
+        wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+    );
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    encoder.copy_buffer_to_buffer(buffer, 0, &readback, 0, bytes.next_multiple_of(4));
+    ctx.queue.submit([encoder.finish()]);
+    read_back(&ctx.device, &readback, len)
 }
 
 #[cfg(test)]

@@ -131,7 +131,7 @@ fn pick_adapter() -> Result<wgpu::Adapter> {
     adapters.into_iter().next().ok_or_else(|| {
         Error::Device(
             "no GPU adapter found (on Debian, `apt-get install mesa-vulkan-drivers` provides \
-             lavapipe); use --device cpu for the CPU reference path"
+             lavapipe); use `device` cpu for the CPU reference path"
                 .into(),
         )
     })

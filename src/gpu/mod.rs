@@ -1,15 +1,20 @@
-//! GPU plumbing shared by every pass: the device context, buffer helpers,
+//! GPU plumbing shared by every pass: the device context, bind-group
+//! layouts, buffers kept and grown between calls, the one batch loop,
 //! timestamp timing and the per-device pipeline cache.
 //!
 //! Passes (e.g. `kdtree::gpu::TraceRaysPass`) follow the glyphon / egui-wgpu
-//! pattern: built once for a `&wgpu::Device`, they own their bind group
-//! layouts and pipelines and record into a caller's `CommandEncoder`, so a
-//! host engine can embed them. `GpuContext` adds the convenience of a
-//! headless device and blocking helpers for the CLI and tests.
+//! pattern: `new(device)` builds their bind group layouts and pipelines,
+//! `prepare(device, queue, ...)` uploads into buffers they keep (grown, not
+//! reallocated, per call), `record(encoder, ...)` only records into a
+//! caller's `CommandEncoder`, so a host engine can embed them. `GpuContext`
+//! adds the convenience of a headless device and the blocking helpers
+//! (`batch::run_batches`) used by the method runners, the CLI and tests.
 
+pub mod batch;
 pub mod buffers;
 mod context;
 pub(crate) mod kernels;
+pub mod layout;
 pub mod timer;
 
 pub use context::{AdapterSummary, GpuContext, enumerate_adapters};

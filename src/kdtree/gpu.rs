@@ -1,16 +1,26 @@
 //! The kd-tree on the GPU: its three arrays uploaded as they are, and the
 //! `trace_rays.wgsl` pass (closest hit, any hit, closest hit with counters).
+//!
+//! `TraceRaysPass` follows glyphon's split: `new(device)` builds its layouts
+//! and pipelines, `prepare` uploads rays into buffers it keeps (and grows
+//! when a request is larger), `record` only records into the caller's
+//! encoder. `trace_rays` is the blocking convenience that splits a large
+//! request into batches the device takes (`gpu::batch`).
 
-use std::time::Instant;
+use std::ops::Range;
+use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
 
 use super::KdTree;
 use crate::error::{Error, Result};
-use crate::gpu::buffers::{read_back, storage_buffer, uniform_buffer, zeroed_buffer};
-use crate::gpu::kernels::record_dispatch;
+use crate::gpu::batch::{BatchPass, BatchPlan, readback_buffer, run_batches};
+use crate::gpu::buffers::{GrowingBuffer, storage_buffer, uniform_buffer};
+use crate::gpu::kernels::{compute_pipelines, record_dispatch};
+use crate::gpu::layout::{bind_group, layout, storage_entry, uniform_entry};
 use crate::gpu::timer::PassTimer;
 use crate::gpu::{GpuContext, dispatch_grid};
+use crate::progress::Progress;
 use crate::ray::{Hit, Ray};
 
 /// `KdScene` in `wgsl/kdtree_traverse.wgsl`.
@@ -23,64 +33,19 @@ struct KdSceneUniform {
     triangle_count: u32,
 }
 
-pub(crate) fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
-pub(crate) fn uniform_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
 /// Layout of bind group 0 of every kernel that traverses the tree. Layouts
 /// with equal entries are interchangeable, so any pass's copy will do.
 pub fn kdtree_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("kd-tree"),
-        entries: &[
+    layout(
+        device,
+        "kd-tree",
+        &[
             storage_entry(0, true),
             storage_entry(1, true),
             storage_entry(2, true),
             uniform_entry(3),
         ],
-    })
-}
-
-pub(crate) fn bind_group(
-    device: &wgpu::Device,
-    label: &str,
-    layout: &wgpu::BindGroupLayout,
-    buffers: &[(u32, &wgpu::Buffer)],
-) -> wgpu::BindGroup {
-    let entries: Vec<_> = buffers
-        .iter()
-        .map(|&(binding, b)| wgpu::BindGroupEntry {
-            binding,
-            resource: b.as_entire_binding(),
-        })
-        .collect();
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some(label),
-        layout,
-        entries: &entries,
-    })
+    )
 }
 
 /// A kd-tree resident on a device (bind group 0 of the traversal kernels).
@@ -114,11 +79,10 @@ impl GpuKdTree {
                 triangle_count: tree.triangles.len() as u32,
             },
         );
-        let layout = kdtree_bind_group_layout(device);
         let bind_group = bind_group(
             device,
             "kd-tree",
-            &layout,
+            &kdtree_bind_group_layout(device),
             &[(0, &nodes), (1, &leaf_triangles), (2, &triangles), (3, &scene)],
         );
         let bytes = nodes.size() + leaf_triangles.size() + triangles.size();
@@ -152,35 +116,35 @@ pub enum TraceMode {
     ClosestCounted,
 }
 
-/// The ray-tracing pass: layouts and pipelines for one device.
-pub struct TraceRaysPass {
+/// The layouts and pipelines of `trace_rays.wgsl` for one device.
+pub struct TraceRaysKernels {
     pub io_layout: wgpu::BindGroupLayout,
     closest: wgpu::ComputePipeline,
     any: wgpu::ComputePipeline,
     counted: wgpu::ComputePipeline,
 }
 
-impl TraceRaysPass {
-    pub fn new(device: &wgpu::Device) -> TraceRaysPass {
-        let scene_layout = kdtree_bind_group_layout(device);
+impl TraceRaysKernels {
+    pub fn new(device: &wgpu::Device) -> TraceRaysKernels {
         // rays (read), hits (write), params (uniform), counts (write)
-        let io_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("trace rays io"),
-            entries: &[
+        let io_layout = layout(
+            device,
+            "trace rays io",
+            &[
                 storage_entry(0, true),
                 storage_entry(1, false),
                 uniform_entry(2),
                 storage_entry(3, false),
             ],
-        });
-        let pipelines = crate::gpu::kernels::compute_pipelines(
+        );
+        let pipelines = compute_pipelines(
             device,
             &crate::wgsl::TRACE_RAYS_MODULE,
-            &[&scene_layout, &io_layout],
+            &[&kdtree_bind_group_layout(device), &io_layout],
             &["trace_closest", "trace_any", "trace_closest_counted"],
         );
         let [closest, any, counted] = pipelines.try_into().expect("three entry points");
-        TraceRaysPass {
+        TraceRaysKernels {
             io_layout,
             closest,
             any,
@@ -188,48 +152,128 @@ impl TraceRaysPass {
         }
     }
 
-    /// Bind group 1: rays (6 f32 each), hits (2 u32 each), params, counts.
-    pub fn io_bind_group(
-        &self,
-        device: &wgpu::Device,
-        rays: &wgpu::Buffer,
-        hits: &wgpu::Buffer,
-        params: &wgpu::Buffer,
-        counts: &wgpu::Buffer,
-    ) -> wgpu::BindGroup {
-        bind_group(
-            device,
-            "trace rays io",
-            &self.io_layout,
-            &[(0, rays), (1, hits), (2, params), (3, counts)],
-        )
+    /// The kernels cached on `ctx`.
+    pub fn cached(ctx: &GpuContext) -> Arc<TraceRaysKernels> {
+        ctx.kernels.get_or_insert(|| TraceRaysKernels::new(&ctx.device))
+    }
+}
+
+/// The ray-tracing pass: kernels and the buffers of one batch of rays.
+pub struct TraceRaysPass {
+    kernels: Arc<TraceRaysKernels>,
+    rays: GrowingBuffer,
+    hits: GrowingBuffer,
+    counts: GrowingBuffer,
+    params: wgpu::Buffer,
+    io: Option<wgpu::BindGroup>,
+    mode: TraceMode,
+    ray_count: u32,
+    grid: (u32, u32),
+}
+
+const STORAGE_IN: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_DST);
+/// Results: copied out, and clearable by a host.
+const STORAGE_OUT: wgpu::BufferUsages = STORAGE_IN.union(wgpu::BufferUsages::COPY_SRC);
+
+impl TraceRaysPass {
+    /// Builds the kernels for `device`.
+    pub fn new(device: &wgpu::Device) -> TraceRaysPass {
+        Self::with_kernels(device, Arc::new(TraceRaysKernels::new(device)))
     }
 
-    /// Records one dispatch over `params.ray_count` rays into the caller's
-    /// encoder. `grid` comes from `dispatch_grid` (its row pitch must be in
-    /// the params).
+    /// A pass with kernels built before (e.g. `TraceRaysKernels::cached`).
+    pub fn with_kernels(device: &wgpu::Device, kernels: Arc<TraceRaysKernels>) -> TraceRaysPass {
+        TraceRaysPass {
+            kernels,
+            rays: GrowingBuffer::new("rays", STORAGE_IN),
+            hits: GrowingBuffer::new("hits", STORAGE_OUT),
+            counts: GrowingBuffer::new("trace counts", STORAGE_OUT),
+            params: uniform_buffer(device, "trace params", &TraceParams::zeroed()),
+            io: None,
+            mode: TraceMode::Closest,
+            ray_count: 0,
+            grid: (0, 0),
+        }
+    }
+
+    /// Uploads `rays` (at most what one storage binding holds) for `mode`,
+    /// hits within `0 < t < t_max` in units of each ray's direction.
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        rays: &[Ray],
+        mode: TraceMode,
+        t_max: f32,
+    ) -> Result<()> {
+        let n = rays.len();
+        let mut grown = self.rays.write(device, queue, bytemuck::cast_slice(rays))?;
+        grown |= self.hits.reserve(device, n as u64 * 8)?;
+        let count_bytes = if mode == TraceMode::ClosestCounted {
+            n as u64 * 8
+        } else {
+            8
+        };
+        grown |= self.counts.reserve(device, count_bytes)?;
+        if grown || self.io.is_none() {
+            self.io = Some(bind_group(
+                device,
+                "trace rays io",
+                &self.kernels.io_layout,
+                &[
+                    (0, self.rays.get()),
+                    (1, self.hits.get()),
+                    (2, &self.params),
+                    (3, self.counts.get()),
+                ],
+            ));
+        }
+        let (gx, gy, pitch) = dispatch_grid(n as u32, device.limits().max_compute_workgroups_per_dimension);
+        let params = TraceParams {
+            ray_count: n as u32,
+            row_pitch: pitch,
+            t_max: if t_max.is_finite() { t_max } else { f32::MAX },
+            _pad: 0,
+        };
+        queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        self.mode = mode;
+        self.ray_count = n as u32;
+        self.grid = (gx, gy);
+        Ok(())
+    }
+
+    /// Records the dispatch over the prepared rays into the caller's encoder.
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
         tree: &GpuKdTree,
-        io: &wgpu::BindGroup,
-        mode: TraceMode,
-        grid: (u32, u32),
     ) {
-        let pipeline = match mode {
-            TraceMode::Closest => &self.closest,
-            TraceMode::Any => &self.any,
-            TraceMode::ClosestCounted => &self.counted,
+        let k = &self.kernels;
+        let pipeline = match self.mode {
+            TraceMode::Closest => &k.closest,
+            TraceMode::Any => &k.any,
+            TraceMode::ClosestCounted => &k.counted,
         };
+        let io = self.io.as_ref().expect("TraceRaysPass::record before prepare");
         record_dispatch(
             encoder,
             "trace rays",
             timestamp_writes,
             pipeline,
             &[&tree.bind_group, io],
-            grid,
+            self.grid,
         );
+    }
+
+    /// (t bits, triangle) per prepared ray, after the recorded dispatch.
+    pub fn hits(&self) -> &wgpu::Buffer {
+        self.hits.get()
+    }
+
+    /// (traversal steps, intersection tests) per ray in `ClosestCounted` mode.
+    pub fn counts(&self) -> &wgpu::Buffer {
+        self.counts.get()
     }
 }
 
@@ -240,8 +284,6 @@ pub struct GpuTrace {
     pub counts: Option<Vec<[u32; 2]>>,
     /// Kernel time from timestamp queries, where supported.
     pub gpu_ms: Option<f64>,
-    /// Wall time of upload, kernels and readback.
-    pub wall_ms: f64,
 }
 
 /// Largest batch of rays per dispatch: the device's storage-binding limit for
@@ -252,11 +294,104 @@ fn batch_size(device: &wgpu::Device) -> usize {
     ((max_binding / 24) as usize).clamp(1, 1 << 22)
 }
 
+/// A pass and the kept read-back buffer of its batches: what a runner
+/// keeps on a device to trace many requests without reallocating.
+pub struct TraceRaysBatches {
+    pub pass: TraceRaysPass,
+    readback: GrowingBuffer,
+}
+
+impl TraceRaysBatches {
+    pub fn new(ctx: &GpuContext) -> TraceRaysBatches {
+        TraceRaysBatches {
+            pass: TraceRaysPass::with_kernels(&ctx.device, TraceRaysKernels::cached(ctx)),
+            readback: readback_buffer(),
+        }
+    }
+
+    /// Traces `rays` (blocking), at most `max_batch` per dispatch (clamped to
+    /// what the device allows).
+    #[allow(clippy::too_many_arguments)]
+    pub fn trace(
+        &mut self,
+        ctx: &GpuContext,
+        tree: &GpuKdTree,
+        rays: &[Ray],
+        mode: TraceMode,
+        t_max: f32,
+        max_batch: usize,
+    ) -> Result<GpuTrace> {
+        let counted = mode == TraceMode::ClosestCounted;
+        let mut hits = Vec::with_capacity(rays.len());
+        let mut counts = counted.then(|| Vec::with_capacity(rays.len()));
+        let plan = BatchPlan::new(rays.len(), max_batch.clamp(1, batch_size(&ctx.device)), 1);
+        let mut batch = RayBatch {
+            pass: &mut self.pass,
+            tree,
+            rays,
+            mode,
+            t_max,
+        };
+        let gpu_ms = run_batches(
+            ctx,
+            &mut batch,
+            &mut self.readback,
+            plan,
+            &Progress::hidden(),
+            |items, words: &[[u32; 2]]| {
+                let n = items.len();
+                hits.extend(words[..n].iter().map(|&[t, triangle]| Hit {
+                    t: f32::from_bits(t),
+                    triangle,
+                }));
+                if let Some(c) = counts.as_mut() {
+                    c.extend_from_slice(&words[n..2 * n]);
+                }
+                Ok(())
+            },
+        )?;
+        if hits.len() != rays.len() {
+            return Err(Error::internal("GPU trace returned the wrong number of hits"));
+        }
+        Ok(GpuTrace { hits, counts, gpu_ms })
+    }
+}
+
+/// One request of rays as a `BatchPass`.
+struct RayBatch<'a> {
+    pass: &'a mut TraceRaysPass,
+    tree: &'a GpuKdTree,
+    rays: &'a [Ray],
+    mode: TraceMode,
+    t_max: f32,
+}
+
+impl BatchPass for RayBatch<'_> {
+    fn prepare(&mut self, ctx: &GpuContext, items: Range<usize>) -> Result<()> {
+        self.pass
+            .prepare(&ctx.device, &ctx.queue, &self.rays[items], self.mode, self.t_max)
+    }
+
+    fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &mut Option<PassTimer>) {
+        self.pass
+            .record(encoder, timer.as_mut().and_then(|t| t.next_pass()), self.tree);
+    }
+
+    fn results(&self) -> Vec<(&wgpu::Buffer, u64)> {
+        let bytes = self.pass.ray_count as u64 * 8;
+        let mut out = vec![(self.pass.hits(), bytes)];
+        if self.mode == TraceMode::ClosestCounted {
+            out.push((self.pass.counts(), bytes));
+        }
+        out
+    }
+}
+
 /// Traces `rays` on the GPU (blocking), splitting them into batches that fit
 /// the device. Directions need not be normalised; hits are in t units of the
 /// given direction, with `0 < t < t_max`.
 pub fn trace_rays(ctx: &GpuContext, tree: &GpuKdTree, rays: &[Ray], mode: TraceMode, t_max: f32) -> Result<GpuTrace> {
-    trace_rays_batched(ctx, tree, rays, mode, t_max, batch_size(&ctx.device))
+    trace_rays_batched(ctx, tree, rays, mode, t_max, usize::MAX)
 }
 
 /// `trace_rays` with at most `max_batch` rays per dispatch (clamped to what
@@ -269,87 +404,5 @@ pub fn trace_rays_batched(
     t_max: f32,
     max_batch: usize,
 ) -> Result<GpuTrace> {
-    let start = Instant::now();
-    let device = &ctx.device;
-    let pass = ctx.kernels.get_or_insert(|| TraceRaysPass::new(device));
-    let batch = max_batch.clamp(1, batch_size(device)).min(rays.len().max(1));
-    let batches = rays.len().div_ceil(batch);
-    let counted = mode == TraceMode::ClosestCounted;
-    let ray_buf = zeroed_buffer(
-        device,
-        "rays",
-        (batch * 24) as u64,
-        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-    );
-    let hit_buf = zeroed_buffer(
-        device,
-        "hits",
-        (batch * 8) as u64,
-        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-    );
-    let count_bytes = if counted { (batch * 8) as u64 } else { 8 };
-    let count_buf = zeroed_buffer(
-        device,
-        "trace counts",
-        count_bytes,
-        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-    );
-    let readback = zeroed_buffer(
-        device,
-        "hits readback",
-        (batch * 8) as u64 + if counted { count_bytes } else { 0 },
-        wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-    );
-    let params_buf = uniform_buffer(device, "trace params", &TraceParams::zeroed());
-    let io = pass.io_bind_group(device, &ray_buf, &hit_buf, &params_buf, &count_buf);
-    let mut timer = PassTimer::new(ctx, batches as u32);
-    let max_dim = device.limits().max_compute_workgroups_per_dimension;
-    let t_max = if t_max.is_finite() { t_max } else { f32::MAX };
-
-    let mut hits = Vec::with_capacity(rays.len());
-    let mut counts = counted.then(|| Vec::with_capacity(rays.len()));
-    for chunk in rays.chunks(batch) {
-        let n = chunk.len();
-        let (gx, gy, pitch) = dispatch_grid(n as u32, max_dim);
-        ctx.queue.write_buffer(&ray_buf, 0, bytemuck::cast_slice(chunk));
-        let params = TraceParams {
-            ray_count: n as u32,
-            row_pitch: pitch,
-            t_max,
-            _pad: 0,
-        };
-        ctx.queue.write_buffer(&params_buf, 0, bytemuck::bytes_of(&params));
-        let mut encoder = device.create_command_encoder(&Default::default());
-        pass.record(
-            &mut encoder,
-            timer.as_mut().and_then(|t| t.next_pass()),
-            tree,
-            &io,
-            mode,
-            (gx, gy),
-        );
-        encoder.copy_buffer_to_buffer(&hit_buf, 0, &readback, 0, (n * 8) as u64);
-        if counted {
-            encoder.copy_buffer_to_buffer(&count_buf, 0, &readback, (batch * 8) as u64, (n * 8) as u64);
-        }
-        ctx.queue.submit([encoder.finish()]);
-        let words: Vec<[u32; 2]> = read_back(device, &readback, batch + if counted { n } else { 0 })?;
-        hits.extend(words[..n].iter().map(|&[t, triangle]| Hit {
-            t: f32::from_bits(t),
-            triangle,
-        }));
-        if let Some(c) = counts.as_mut() {
-            c.extend_from_slice(&words[batch..batch + n]);
-        }
-    }
-    let gpu_ms = PassTimer::finish(timer, ctx)?;
-    if hits.len() != rays.len() {
-        return Err(Error::internal("GPU trace returned the wrong number of hits"));
-    }
-    Ok(GpuTrace {
-        hits,
-        counts,
-        gpu_ms,
-        wall_ms: start.elapsed().as_secs_f64() * 1e3,
-    })
+    TraceRaysBatches::new(ctx).trace(ctx, tree, rays, mode, t_max, max_batch)
 }

@@ -107,12 +107,29 @@ impl KdTree {
         })
     }
 
-    /// Closest hits of many rays, in parallel on the current rayon pool.
+    /// Closest hits of many rays, in parallel on the current rayon pool:
+    /// the CPU twin of `trace_closest` in `wgsl/trace_rays.wgsl`.
     pub fn trace_closest(&self, rays: &[Ray]) -> Vec<Hit> {
         rays.par_iter()
             .with_min_len(1024)
             .map(|r| self.closest_hit(r.o(), r.d(), f32::INFINITY))
             .collect()
+    }
+
+    /// Traversal steps and intersection tests of the closest hits of
+    /// `rays`, summed (the twin of `trace_closest_counted`'s counters).
+    pub fn traversal_counts(&self, rays: &[Ray]) -> TraversalCounts {
+        rays.par_iter()
+            .with_min_len(1024)
+            .map(|r| {
+                let mut c = TraversalCounts::default();
+                self.closest_hit_counted(r.o(), r.d(), f32::INFINITY, &mut c);
+                c
+            })
+            .reduce(TraversalCounts::default, |mut a, b| {
+                a += b;
+                a
+            })
     }
 }
 

@@ -27,6 +27,7 @@ use std::time::Instant;
 use clap::ValueEnum;
 use serde_json::{Value, json};
 
+use crate::color::rms_difference as rmse;
 use crate::error::{Error, Result};
 use rayon::prelude::*;
 
@@ -53,7 +54,7 @@ pub fn validate_samples(n: u32) -> Result<()> {
     let k = (n as f64).sqrt() as u32;
     if k * k != n || !(4..=64).contains(&n) {
         return Err(Error::param(
-            "--aa-samples",
+            "aa_samples",
             format!("must be a square from 4 to 64, got {n}"),
         ));
     }
@@ -257,18 +258,6 @@ pub fn reference(p: &Prepared, camera: &Camera, width: u32, height: u32) -> Refe
         edges,
         uniform: None,
     }
-}
-
-fn rmse(a: &[f32], b: &[f32], mask: Option<&[bool]>) -> f64 {
-    let (mut sum, mut count) = (0.0f64, 0usize);
-    for i in 0..a.len() {
-        if mask.is_none_or(|m| m[i]) {
-            let d = (a[i] - b[i]) as f64;
-            sum += d * d;
-            count += 1;
-        }
-    }
-    if count == 0 { 0.0 } else { (sum / count as f64).sqrt() }
 }
 
 impl AaResult {

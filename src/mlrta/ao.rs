@@ -1,7 +1,7 @@
 //! AO rays through the MLRTA machinery: the rays of one point share their
 //! origin, so each point's rays are sorted by sign class (octant) and traced
 //! in packets of up to 16 with their own entry points. The result is the same
-//! visibility mask `ao::raycast::visibility_cpu` computes, ray for ray.
+//! visibility mask `ao::raycast::ao_rays` computes, ray for ray.
 
 use glam::Vec3;
 use rayon::prelude::*;

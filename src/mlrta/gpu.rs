@@ -3,18 +3,23 @@
 //! workgroup per 4x4 packet, the packet's entry node and frustum shared by its
 //! lanes). Hits equal the CPU packets' and the single-ray path's.
 
+use std::ops::Range;
+use std::sync::Arc;
 use std::time::Instant;
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use rayon::prelude::*;
 
+use crate::device::elapsed_ms;
 use crate::error::Result;
 use crate::gpu::GpuContext;
-use crate::gpu::buffers::{check_storage_size, read_back, storage_buffer, uniform_buffer, zeroed_buffer};
-use crate::gpu::kernels::record_dispatch;
+use crate::gpu::batch::{BatchPass, BatchPlan, readback_buffer, run_batches};
+use crate::gpu::buffers::{GrowingBuffer, uniform_buffer};
+use crate::gpu::kernels::{compute_pipelines, record_dispatch};
+use crate::gpu::layout::{bind_group, layout, storage_entry, uniform_entry};
 use crate::gpu::timer::PassTimer;
-use crate::kdtree::gpu::{GpuKdTree, bind_group, kdtree_bind_group_layout, storage_entry, uniform_entry};
+use crate::kdtree::gpu::{GpuKdTree, kdtree_bind_group_layout};
 use crate::mlrta::entry_point::EntryPoint;
 use crate::mlrta::frustum::sign_class;
 use crate::mlrta::packet::{MlrtaCounts, PACKET, Packet};
@@ -23,6 +28,7 @@ use crate::mlrta::tiles::{
     Ctx, ImageTrace, MlrtaParams, Rect, SHADOW_EPSILON, ShadowRays, TileOut, block_rects, pixels, search_below,
     shadow_tile_entry, split_tiles,
 };
+use crate::progress::Progress;
 use crate::ray::{Hit, Ray};
 
 /// `PacketRecord` in `wgsl/packet_traverse.wgsl`.
@@ -59,54 +65,147 @@ struct PacketParams {
     _pad: [u32; 2],
 }
 
-/// The packet pass: layouts and pipeline for one device.
-pub struct PacketPass {
+/// The layouts and pipeline of `packet_traverse.wgsl` for one device.
+pub struct PacketKernels {
     pub io_layout: wgpu::BindGroupLayout,
     pipeline: wgpu::ComputePipeline,
 }
 
-impl PacketPass {
-    pub fn new(device: &wgpu::Device) -> PacketPass {
-        let scene_layout = kdtree_bind_group_layout(device);
+impl PacketKernels {
+    pub fn new(device: &wgpu::Device) -> PacketKernels {
         // packets, directions, hits, params, counts
-        let io_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("packets io"),
-            entries: &[
+        let io_layout = layout(
+            device,
+            "packets io",
+            &[
                 storage_entry(0, true),
                 storage_entry(1, true),
                 storage_entry(2, false),
                 uniform_entry(3),
                 storage_entry(4, false),
             ],
-        });
-        let pipeline = crate::gpu::kernels::compute_pipelines(
+        );
+        let pipeline = compute_pipelines(
             device,
             &crate::wgsl::PACKET_TRAVERSE_MODULE,
-            &[&scene_layout, &io_layout],
-            &["trace_packets"],
+            &[&kdtree_bind_group_layout(device), &io_layout],
+            &["trace_packet"],
         )
         .remove(0);
-        PacketPass { io_layout, pipeline }
+        PacketKernels { io_layout, pipeline }
     }
 
-    /// Records one dispatch: a workgroup per `PACKETS_PER_WORKGROUP` packets
-    /// over a 2D grid whose rows hold `row_pitch` workgroups (in the params).
+    /// The kernels cached on `ctx`.
+    pub fn cached(ctx: &GpuContext) -> Arc<PacketKernels> {
+        ctx.kernels.get_or_insert(|| PacketKernels::new(&ctx.device))
+    }
+}
+
+/// The packet pass: kernels and the buffers of one batch of packets.
+pub struct PacketPass {
+    kernels: Arc<PacketKernels>,
+    records: GrowingBuffer,
+    dirs: GrowingBuffer,
+    hits: GrowingBuffer,
+    counts: GrowingBuffer,
+    params: wgpu::Buffer,
+    io: Option<wgpu::BindGroup>,
+    rays: u64,
+    grid: (u32, u32),
+}
+
+impl PacketPass {
+    /// Builds the kernels for `device`.
+    pub fn new(device: &wgpu::Device) -> PacketPass {
+        Self::with_kernels(device, Arc::new(PacketKernels::new(device)))
+    }
+
+    /// A pass with kernels built before (e.g. `PacketKernels::cached`).
+    pub fn with_kernels(device: &wgpu::Device, kernels: Arc<PacketKernels>) -> PacketPass {
+        let input = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        let output = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        PacketPass {
+            kernels,
+            records: GrowingBuffer::new("packet records", input),
+            dirs: GrowingBuffer::new("packet directions", input),
+            hits: GrowingBuffer::new("packet hits", output),
+            counts: GrowingBuffer::new("packet counts", output),
+            params: uniform_buffer(device, "packet params", &PacketParams::zeroed()),
+            io: None,
+            rays: 0,
+            grid: (0, 0),
+        }
+    }
+
+    /// Uploads packets whose rays' directions are `dirs` (3 f32 each, in
+    /// the order of the records' `first_ray`).
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        records: &[PacketRecord],
+        dirs: &[f32],
+    ) -> Result<()> {
+        let rays = dirs.len() as u64 / 3;
+        let mut grown = self.records.write(device, queue, bytemuck::cast_slice(records))?;
+        grown |= self.dirs.write(device, queue, bytemuck::cast_slice(dirs))?;
+        grown |= self.hits.reserve(device, rays * 8)?;
+        grown |= self.counts.reserve(device, rays * 8)?;
+        if grown || self.io.is_none() {
+            self.io = Some(bind_group(
+                device,
+                "packets io",
+                &self.kernels.io_layout,
+                &[
+                    (0, self.records.get()),
+                    (1, self.dirs.get()),
+                    (2, self.hits.get()),
+                    (3, &self.params),
+                    (4, self.counts.get()),
+                ],
+            ));
+        }
+        let n = records.len() as u32;
+        let groups = n.div_ceil(PACKETS_PER_WORKGROUP).max(1);
+        let x = groups.min(device.limits().max_compute_workgroups_per_dimension);
+        let params = PacketParams {
+            packet_count: n,
+            row_pitch: x,
+            _pad: [0; 2],
+        };
+        queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        self.rays = rays;
+        self.grid = (x, groups.div_ceil(x));
+        Ok(())
+    }
+
+    /// Records the dispatch: a workgroup per `PACKETS_PER_WORKGROUP` packets.
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
         tree: &GpuKdTree,
-        io: &wgpu::BindGroup,
-        grid: (u32, u32),
     ) {
+        let io = self.io.as_ref().expect("PacketPass::record before prepare");
+        let pipeline = &self.kernels.pipeline;
         record_dispatch(
             encoder,
             "packets",
             timestamp_writes,
-            &self.pipeline,
+            pipeline,
             &[&tree.bind_group, io],
-            grid,
+            self.grid,
         );
+    }
+
+    /// (t bits, triangle) per prepared ray.
+    pub fn hits(&self) -> &wgpu::Buffer {
+        self.hits.get()
+    }
+
+    /// (traversal steps, intersection tests) per prepared ray.
+    pub fn counts(&self) -> &wgpu::Buffer {
+        self.counts.get()
     }
 }
 
@@ -210,7 +309,8 @@ pub struct GpuImageTrace {
     pub wall_ms: f64,
 }
 
-/// `tiles::trace_image` with the packets traced on the GPU.
+/// `tiles::trace_image` with the packets traced on the GPU, with a pass
+/// made for this call.
 #[allow(clippy::too_many_arguments)]
 pub fn trace_image_gpu(
     ctx: &GpuContext,
@@ -222,100 +322,169 @@ pub fn trace_image_gpu(
     params: &MlrtaParams,
     light: Option<Vec3>,
 ) -> Result<GpuImageTrace> {
-    let start = Instant::now();
-    let c = Ctx::new(p, rays, width, height, params, light)?;
-    // Tiles and entry points on the CPU; each final block becomes packets.
-    let parts: Vec<(TileOut, Batch)> = c
-        .initial_tiles(height)
-        .par_iter()
-        .map(|&rect| {
-            let mut out = TileOut::default();
-            let mut batch = Batch::default();
-            let mut emit = |entry: &EntryPoint, block: Rect, out: &mut TileOut| {
-                let ids: Vec<u32> = pixels(block, width).collect();
-                let dirs: Vec<Vec3> = ids.iter().map(|&i| rays[i as usize].d()).collect();
-                batch.add_group(
-                    p,
-                    c.origin,
-                    &dirs,
-                    &ids,
-                    f32::INFINITY,
-                    false,
-                    entry,
-                    None,
-                    &mut out.counts,
-                );
-            };
-            split_tiles(&c, rect, c.root(), 0, &mut out, &mut emit);
-            (out, batch)
-        })
-        .collect();
-    let mut batch = Batch::default();
-    let mut outs = Vec::new();
-    for (out, b) in parts {
-        merge(&mut batch, b);
-        outs.push(out);
-    }
-    let mut cpu_ms = start.elapsed().as_secs_f64() * 1e3;
-    let mut image = c.gather(outs, height);
-    let PacketOutput {
-        hits,
-        counts,
-        mut gpu_ms,
-    } = run_packets(ctx, gpu_tree, &batch)?;
-    image.hits = vec![Hit::MISS; rays.len()];
-    scatter(&batch, &hits, &counts, &mut image.hits, &mut image.counts);
+    PacketBatches::new(ctx).trace_image(ctx, gpu_tree, p, rays, width, height, params, light)
+}
 
-    if let Some(light) = light {
-        let cpu_start = Instant::now();
-        let mut shadow = Batch::default();
-        let mut shadow_counts = MlrtaCounts::default();
-        // As on the CPU: an entry point per final tile, packets from it.
-        let hit = |i: u32| image.hits[i as usize];
-        for tile in image.tiles.iter().filter(|t| t.entry.is_some()) {
-            let Some(start) = shadow_tile_entry(&c, light, tile.rect, hit, &mut shadow_counts) else {
-                continue;
-            };
-            for block in block_rects(tile.rect) {
-                let rays = ShadowRays::new(&c, light, block, hit);
-                if rays.len == 0 {
-                    continue;
-                }
-                shadow.add_group(
-                    p,
-                    light,
-                    &rays.to_points[..rays.len],
-                    &rays.pixels[..rays.len],
-                    1.0 - SHADOW_EPSILON,
-                    true,
-                    &start,
-                    None,
-                    &mut shadow_counts,
-                );
-            }
+/// The packet pass and its read-back buffer, as a runner keeps them on a
+/// device between images.
+pub struct PacketBatches {
+    pub pass: PacketPass,
+    readback: GrowingBuffer,
+}
+
+impl PacketBatches {
+    pub fn new(ctx: &GpuContext) -> PacketBatches {
+        PacketBatches {
+            pass: PacketPass::with_kernels(&ctx.device, PacketKernels::cached(ctx)),
+            readback: readback_buffer(),
         }
-        cpu_ms += cpu_start.elapsed().as_secs_f64() * 1e3;
-        let PacketOutput {
-            hits: blocked,
-            counts,
-            gpu_ms: ms,
-        } = run_packets(ctx, gpu_tree, &shadow)?;
-        let mut shadow_hits = vec![Hit::MISS; rays.len()];
-        scatter(&shadow, &blocked, &counts, &mut shadow_hits, &mut shadow_counts);
-        shadow_counts.packets = image.counts.packets;
-        image.shadowed = Some(shadow_hits.iter().map(Hit::is_hit).collect());
-        image.shadow_counts = shadow_counts;
-        gpu_ms = match (gpu_ms, ms) {
-            (Some(a), Some(b)) => Some(a + b),
-            _ => None,
-        };
     }
-    Ok(GpuImageTrace {
-        image,
-        gpu_ms,
-        cpu_ms,
-        wall_ms: start.elapsed().as_secs_f64() * 1e3,
-    })
+
+    /// `tiles::trace_image` with the packets traced on the GPU.
+    #[allow(clippy::too_many_arguments)]
+    pub fn trace_image(
+        &mut self,
+        ctx: &GpuContext,
+        gpu_tree: &GpuKdTree,
+        p: &Prepared,
+        rays: &[Ray],
+        width: u32,
+        height: u32,
+        params: &MlrtaParams,
+        light: Option<Vec3>,
+    ) -> Result<GpuImageTrace> {
+        let start = Instant::now();
+        let c = Ctx::new(p, rays, width, height, params, light)?;
+        // Tiles and entry points on the CPU; each final block becomes packets.
+        let parts: Vec<(TileOut, Batch)> = c
+            .initial_tiles(height)
+            .par_iter()
+            .map(|&rect| {
+                let mut out = TileOut::default();
+                let mut batch = Batch::default();
+                let mut emit = |entry: &EntryPoint, block: Rect, out: &mut TileOut| {
+                    let ids: Vec<u32> = pixels(block, width).collect();
+                    let dirs: Vec<Vec3> = ids.iter().map(|&i| rays[i as usize].d()).collect();
+                    batch.add_group(
+                        p,
+                        c.origin,
+                        &dirs,
+                        &ids,
+                        f32::INFINITY,
+                        false,
+                        entry,
+                        None,
+                        &mut out.counts,
+                    );
+                };
+                split_tiles(&c, rect, c.root(), 0, &mut out, &mut emit);
+                (out, batch)
+            })
+            .collect();
+        let mut batch = Batch::default();
+        let mut outs = Vec::new();
+        for (out, b) in parts {
+            merge(&mut batch, b);
+            outs.push(out);
+        }
+        let mut cpu_ms = elapsed_ms(start);
+        let mut image = c.gather(outs, height);
+        let PacketOutput {
+            hits,
+            counts,
+            mut gpu_ms,
+        } = self.run_packets(ctx, gpu_tree, &batch)?;
+        image.hits = vec![Hit::MISS; rays.len()];
+        scatter(&batch, &hits, &counts, &mut image.hits, &mut image.counts);
+
+        if let Some(light) = light {
+            let cpu_start = Instant::now();
+            let mut shadow = Batch::default();
+            let mut shadow_counts = MlrtaCounts::default();
+            // As on the CPU: an entry point per final tile, packets from it.
+            let hit = |i: u32| image.hits[i as usize];
+            for tile in image.tiles.iter().filter(|t| t.entry.is_some()) {
+                let Some(start) = shadow_tile_entry(&c, light, tile.rect, hit, &mut shadow_counts) else {
+                    continue;
+                };
+                for block in block_rects(tile.rect) {
+                    let rays = ShadowRays::new(&c, light, block, hit);
+                    if rays.len == 0 {
+                        continue;
+                    }
+                    shadow.add_group(
+                        p,
+                        light,
+                        &rays.to_points[..rays.len],
+                        &rays.pixels[..rays.len],
+                        1.0 - SHADOW_EPSILON,
+                        true,
+                        &start,
+                        None,
+                        &mut shadow_counts,
+                    );
+                }
+            }
+            cpu_ms += elapsed_ms(cpu_start);
+            let PacketOutput {
+                hits: blocked,
+                counts,
+                gpu_ms: ms,
+            } = self.run_packets(ctx, gpu_tree, &shadow)?;
+            let mut shadow_hits = vec![Hit::MISS; rays.len()];
+            scatter(&shadow, &blocked, &counts, &mut shadow_hits, &mut shadow_counts);
+            shadow_counts.packets = image.counts.packets;
+            image.shadowed = Some(shadow_hits.iter().map(Hit::is_hit).collect());
+            image.shadow_counts = shadow_counts;
+            gpu_ms = match (gpu_ms, ms) {
+                (Some(a), Some(b)) => Some(a + b),
+                _ => None,
+            };
+        }
+        Ok(GpuImageTrace {
+            image,
+            gpu_ms,
+            cpu_ms,
+            wall_ms: elapsed_ms(start),
+        })
+    }
+
+    fn run_packets(&mut self, ctx: &GpuContext, tree: &GpuKdTree, batch: &Batch) -> Result<PacketOutput> {
+        if batch.records.is_empty() {
+            return Ok(PacketOutput {
+                hits: Vec::new(),
+                counts: Vec::new(),
+                gpu_ms: Some(0.0),
+            });
+        }
+        let n_rays = batch.targets.len();
+        let mut hits = Vec::with_capacity(n_rays);
+        let mut counts = Vec::with_capacity(n_rays);
+        let mut packets = PacketBatch {
+            pass: &mut self.pass,
+            tree,
+            batch,
+        };
+        let plan = BatchPlan::new(batch.records.len(), PACKETS_PER_BATCH, 1);
+        let progress = Progress::hidden();
+        let gpu_ms = run_batches(
+            ctx,
+            &mut packets,
+            &mut self.readback,
+            plan,
+            &progress,
+            |_, w: &[[u32; 2]]| {
+                let n = w.len() / 2;
+                hits.extend(w[..n].iter().map(|&[t, triangle]| Hit {
+                    t: f32::from_bits(t),
+                    triangle,
+                }));
+                counts.extend_from_slice(&w[n..]);
+                Ok(())
+            },
+        )?;
+        Ok(PacketOutput { hits, counts, gpu_ms })
+    }
 }
 
 fn merge(into: &mut Batch, b: Batch) {
@@ -361,96 +530,46 @@ struct PacketOutput {
     gpu_ms: Option<f64>,
 }
 
-fn run_packets(ctx: &GpuContext, tree: &GpuKdTree, batch: &Batch) -> Result<PacketOutput> {
-    let n_rays = batch.targets.len();
-    if batch.records.is_empty() {
-        return Ok(PacketOutput {
-            hits: Vec::new(),
-            counts: Vec::new(),
-            gpu_ms: Some(0.0),
-        });
+/// Packets of a `Batch` as a `BatchPass`: each batch of records with the
+/// directions of its rays, `first_ray` made relative to the batch.
+struct PacketBatch<'a> {
+    pass: &'a mut PacketPass,
+    tree: &'a GpuKdTree,
+    batch: &'a Batch,
+}
+
+impl PacketBatch<'_> {
+    fn rays(&self, items: &Range<usize>) -> Range<usize> {
+        let r = &self.batch.records;
+        let last = &r[items.end - 1];
+        r[items.start].first_ray as usize..(last.first_ray + last.ray_count) as usize
     }
-    let device = &ctx.device;
-    let pass = ctx.kernels.get_or_insert(|| PacketPass::new(device));
-    check_storage_size(device, "packet directions", batch.dirs.len() as u64 * 4)?;
-    let dirs = storage_buffer(device, "packet directions", bytemuck::cast_slice(&batch.dirs))?;
-    let hits_buf = zeroed_buffer(
-        device,
-        "packet hits",
-        n_rays as u64 * 8,
-        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-    );
-    let counts_buf = zeroed_buffer(
-        device,
-        "packet counts",
-        n_rays as u64 * 8,
-        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-    );
-    let readback = zeroed_buffer(
-        device,
-        "packet readback",
-        n_rays as u64 * 16,
-        wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-    );
-    let chunks: Vec<&[PacketRecord]> = batch.records.chunks(PACKETS_PER_BATCH).collect();
-    let mut timer = PassTimer::new(ctx, chunks.len() as u32);
-    let max_dim = device.limits().max_compute_workgroups_per_dimension;
-    let mut encoder = device.create_command_encoder(&Default::default());
-    let mut keep = Vec::new();
-    for chunk in &chunks {
-        let records = storage_buffer(device, "packet records", bytemuck::cast_slice(chunk))?;
-        let n = chunk.len() as u32;
-        let groups = n.div_ceil(PACKETS_PER_WORKGROUP);
-        let x = groups.min(max_dim);
-        let params = uniform_buffer(
-            device,
-            "packet params",
-            &PacketParams {
-                packet_count: n,
-                row_pitch: x,
-                _pad: [0; 2],
-            },
-        );
-        let io = bind_group(
-            device,
-            "packets io",
-            &pass.io_layout,
-            &[
-                (0, &records),
-                (1, &dirs),
-                (2, &hits_buf),
-                (3, &params),
-                (4, &counts_buf),
-            ],
-        );
-        let grid = (x, groups.div_ceil(x));
-        pass.record(
-            &mut encoder,
-            timer.as_mut().and_then(|t| t.next_pass()),
-            tree,
-            &io,
-            grid,
-        );
-        keep.push((records, params, io));
+}
+
+impl BatchPass for PacketBatch<'_> {
+    fn prepare(&mut self, ctx: &GpuContext, items: Range<usize>) -> Result<()> {
+        let rays = self.rays(&items);
+        let base = rays.start as u32;
+        let records: Vec<PacketRecord> = self.batch.records[items]
+            .iter()
+            .map(|r| PacketRecord {
+                first_ray: r.first_ray - base,
+                ..*r
+            })
+            .collect();
+        let dirs = &self.batch.dirs[3 * rays.start..3 * rays.end];
+        self.pass.prepare(&ctx.device, &ctx.queue, &records, dirs)
     }
-    encoder.copy_buffer_to_buffer(&hits_buf, 0, &readback, 0, n_rays as u64 * 8);
-    encoder.copy_buffer_to_buffer(&counts_buf, 0, &readback, n_rays as u64 * 8, n_rays as u64 * 8);
-    ctx.queue.submit([encoder.finish()]);
-    let words: Vec<[u32; 2]> = read_back(device, &readback, 2 * n_rays)?;
-    drop(keep);
-    let hits = words[..n_rays]
-        .iter()
-        .map(|&[t, triangle]| Hit {
-            t: f32::from_bits(t),
-            triangle,
-        })
-        .collect();
-    let gpu_ms = PassTimer::finish(timer, ctx)?;
-    Ok(PacketOutput {
-        hits,
-        counts: words[n_rays..].to_vec(),
-        gpu_ms,
-    })
+
+    fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &mut Option<PassTimer>) {
+        self.pass
+            .record(encoder, timer.as_mut().and_then(|t| t.next_pass()), self.tree);
+    }
+
+    fn results(&self) -> Vec<(&wgpu::Buffer, u64)> {
+        let bytes = self.pass.rays * 8;
+        vec![(self.pass.hits(), bytes), (self.pass.counts(), bytes)]
+    }
 }
 
 const _: () = assert!(std::mem::size_of::<PacketRecord>() == 96 && PACKET == 16);

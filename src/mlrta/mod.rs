@@ -7,7 +7,9 @@
 //! * `entry_point`: the entry-point search with its stopping rules (4.1);
 //! * `packet`: 4x4 packets and the interval traversal (4.3);
 //! * `tiles`: tile splitting for primary rays, shadow rays (4.2, 6);
-//! * `ao`: AO ray groups through the same machinery.
+//! * `ao`: AO ray groups through the same machinery;
+//! * `runner`: a camera's image by single rays, packets or MLRTA, with
+//!   shadows and anti-aliasing, on any device (`penumbra trace`).
 //!
 //! Every ray's hit equals the single-ray path's (`KdTree::closest_hit`): the
 //! packet's decisions are conservative for each of its rays, and entry points
@@ -20,6 +22,7 @@ pub mod frustum;
 pub mod gpu;
 pub mod packet;
 pub mod prepared;
+pub mod runner;
 pub mod tiles;
 
 pub use packet::MlrtaCounts;

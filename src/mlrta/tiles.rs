@@ -69,7 +69,7 @@ impl MlrtaParams {
         let side = (self.split_factor as f64).sqrt() as u32;
         if self.split_factor < 4 || side * side != self.split_factor {
             return Err(Error::param(
-                "--split-factor",
+                "split_factor",
                 format!(
                     "must be a square of at least 4 (4, 16, 64...), got {}",
                     self.split_factor
@@ -78,7 +78,7 @@ impl MlrtaParams {
         }
         if self.min_tile < 4 || self.initial_tile < self.min_tile {
             return Err(Error::param(
-                "--tile/--min-tile",
+                "initial_tile/min_tile",
                 format!(
                     "need 4 <= min tile <= initial tile, got {} and {}",
                     self.min_tile, self.initial_tile

@@ -2,10 +2,11 @@
 //! the twin of `CellTables::integrate` + `ShRotation::frame_to_world` +
 //! `radiance`, over masks rasterised on the CPU (`Prt::frame_masks`).
 //!
-//! Like the other passes it is built once for a host's `&wgpu::Device` and
-//! records into the host's `CommandEncoder`. `GpuTransfer` holds what one
-//! mesh needs on the device (tables, per-frame buffers, bind groups) and
-//! `run_frame` is the blocking convenience for the CLI and tests.
+//! Like the other passes it follows glyphon's split: `ShTransferPass::new`
+//! builds its pipeline (or takes it from the context's cache) and uploads
+//! one mesh's tables, `prepare` writes a batch of vertices into buffers it
+//! keeps, `record` only records into the caller's encoder. `GpuTransfer`
+//! runs a whole frame in batches that fit the device (`gpu::batch`).
 //!
 //! The masks are not rasterised on the GPU: on lavapipe the "GPU" is the
 //! same two cores, and the rasteriser's cost is the per-vertex gather and
@@ -14,6 +15,7 @@
 //! cloth frame) to save an AND/OR loop that already runs at ~10 ns a
 //! triangle on the CPU.
 
+use std::ops::Range;
 use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
@@ -23,17 +25,19 @@ use super::pipeline::Prt;
 use super::transfer::{Brdf, Integration};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
-use crate::gpu::buffers::{read_back, storage_buffer, zeroed_buffer};
+use crate::gpu::batch::{BatchPass, BatchPlan, readback_buffer, run_batches};
+use crate::gpu::buffers::{GrowingBuffer, storage_buffer, uniform_buffer};
+use crate::gpu::kernels::{compute_pipelines, record_dispatch};
+use crate::gpu::layout::{bind_group, layout, storage_entry, uniform_entry};
 use crate::gpu::timer::PassTimer;
-use crate::kdtree::gpu::{bind_group, storage_entry, uniform_entry};
+use crate::progress::Progress;
 
 /// Most vertices per workgroup (`MAX_VERTS` in the kernel); fewer for 64x64
 /// masks, whose words and cells must fit the 1024-entry workgroup arrays.
 pub const MAX_VERTICES_PER_WORKGROUP: u32 = 16;
 /// Largest SH order the kernel's workgroup arrays hold (`MAX_COEFFS` = 64).
 pub const MAX_GPU_BANDS: usize = 8;
-/// Vertex batches are multiples of this, which keeps every buffer offset a
-/// multiple of 256 bytes (the storage offset alignment).
+/// Vertex batches are multiples of this (whole workgroups).
 const BATCH_QUANTUM: u64 = 64;
 
 /// The kernel's uniform (`Params` in the WGSL).
@@ -49,122 +53,92 @@ struct Params {
     tables_b: [u32; 4],
 }
 
-/// Layouts and pipeline, built once per device.
-pub struct ShTransferPass {
+/// The layouts and pipeline of `sh_transfer.wgsl` for one device.
+pub struct ShTransferKernels {
     pub tables_layout: wgpu::BindGroupLayout,
     pub frame_layout: wgpu::BindGroupLayout,
     pipeline: wgpu::ComputePipeline,
 }
 
-impl ShTransferPass {
-    pub fn new(device: &wgpu::Device) -> ShTransferPass {
-        let tables_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("sh_transfer tables"),
-            entries: &[storage_entry(0, true), storage_entry(1, true), storage_entry(2, true)],
-        });
-        let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("sh_transfer frame"),
-            entries: &[
+impl ShTransferKernels {
+    pub fn new(device: &wgpu::Device) -> ShTransferKernels {
+        let tables_layout = layout(
+            device,
+            "sh_transfer tables",
+            &[storage_entry(0, true), storage_entry(1, true), storage_entry(2, true)],
+        );
+        let frame_layout = layout(
+            device,
+            "sh_transfer frame",
+            &[
                 uniform_entry(0),
                 storage_entry(1, true),
                 storage_entry(2, true),
                 storage_entry(3, false),
                 storage_entry(4, false),
             ],
-        });
-        let pipeline = crate::gpu::kernels::compute_pipelines(
+        );
+        let pipeline = compute_pipelines(
             device,
             &crate::wgsl::SH_TRANSFER_MODULE,
             &[&tables_layout, &frame_layout],
             &["sh_transfer"],
         )
         .remove(0);
-        ShTransferPass {
+        ShTransferKernels {
             tables_layout,
             frame_layout,
             pipeline,
         }
     }
 
-    /// The pass cached on `ctx`.
-    pub fn cached(ctx: &GpuContext) -> Arc<ShTransferPass> {
-        ctx.kernels.get_or_insert(|| ShTransferPass::new(&ctx.device))
-    }
-
-    /// Records the kernel for every batch of `gpu` into `encoder`.
-    pub fn record(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        gpu: &GpuTransfer,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("sh_transfer"),
-            timestamp_writes,
-        });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &gpu.tables_group, &[]);
-        for batch in &gpu.batches {
-            pass.set_bind_group(1, &batch.group, &[]);
-            pass.dispatch_workgroups(batch.grid.0, batch.grid.1, 1);
-        }
+    /// The kernels cached on `ctx`.
+    pub fn cached(ctx: &GpuContext) -> Arc<ShTransferKernels> {
+        ctx.kernels.get_or_insert(|| ShTransferKernels::new(&ctx.device))
     }
 }
 
-struct Batch {
-    group: wgpu::BindGroup,
+/// The SH transfer pass of one mesh: its tables on the device, and the
+/// buffers of one batch of vertices.
+pub struct ShTransferPass {
+    kernels: Arc<ShTransferKernels>,
+    tables_group: wgpu::BindGroup,
+    lighting: wgpu::Buffer,
     params: wgpu::Buffer,
+    masks: GrowingBuffer,
+    vertices: GrowingBuffer,
+    transfer: GrowingBuffer,
+    radiance: GrowingBuffer,
+    frame_group: Option<wgpu::BindGroup>,
+    /// The uniform without the batch's vertex count, grid and eye.
     base: Params,
+    verts_per_group: u32,
+    coeffs: usize,
+    words32: usize,
+    batch_vertices: u64,
     grid: (u32, u32),
 }
 
-/// One mesh's tables and per-frame buffers on a device.
-pub struct GpuTransfer {
-    vertex_count: usize,
-    coeffs: usize,
-    words32: usize,
-    lighting: wgpu::Buffer,
-    masks: wgpu::Buffer,
-    vertices: wgpu::Buffer,
-    transfer: wgpu::Buffer,
-    radiance: wgpu::Buffer,
-    readback: wgpu::Buffer,
-    tables_group: wgpu::BindGroup,
-    batches: Vec<Batch>,
-}
-
-/// One frame's GPU results.
-#[derive(Debug, Clone, Default)]
-pub struct GpuFrame {
-    pub transfer: Vec<f32>,
-    pub radiance: Vec<[f32; 3]>,
-    /// Kernel time from timestamps, where the device has them.
-    pub kernel_ms: Option<f64>,
-}
-
-impl GpuTransfer {
-    /// Uploads `prt`'s tables; buffers for its vertex count.
-    pub fn new(ctx: &GpuContext, pass: &ShTransferPass, prt: &Prt) -> Result<GpuTransfer> {
-        Self::with_batch_limit(ctx, pass, prt, u64::MAX)
+impl ShTransferPass {
+    /// Builds the kernels for `device` and uploads `prt`'s tables.
+    pub fn new(device: &wgpu::Device, prt: &Prt) -> Result<ShTransferPass> {
+        Self::with_kernels(device, Arc::new(ShTransferKernels::new(device)), prt)
     }
 
-    /// As `new`, with at most `max_batch` vertices per dispatch (rounded up to
-    /// 64); larger meshes are always split to fit the device's binding size.
-    pub fn with_batch_limit(ctx: &GpuContext, pass: &ShTransferPass, prt: &Prt, max_batch: u64) -> Result<GpuTransfer> {
+    /// As `new`, with kernels built before (e.g. `ShTransferKernels::cached`).
+    pub fn with_kernels(device: &wgpu::Device, kernels: Arc<ShTransferKernels>, prt: &Prt) -> Result<ShTransferPass> {
         let settings = &prt.settings;
         if settings.bands > MAX_GPU_BANDS {
             return Err(Error::param(
-                "--order",
+                "bands",
                 format!(
-                    "the GPU kernel integrates up to {MAX_GPU_BANDS} bands, got {}; use --device cpu",
+                    "the GPU kernel integrates up to {MAX_GPU_BANDS} bands, got {}; use `device` cpu",
                     settings.bands
                 ),
             ));
         }
-        let device = &ctx.device;
         let t = &prt.tables;
         let n = t.coeffs;
-        let nv = prt.vertex_count;
         let words32 = prt.grid.words * 2;
 
         // Tables, packed one after another (offsets in the uniform).
@@ -204,39 +178,9 @@ impl GpuTransfer {
         let tables_group = bind_group(
             device,
             "sh_transfer tables",
-            &pass.tables_layout,
+            &kernels.tables_layout,
             &[(0, &tables), (1, &lighting), (2, &cell_basis)],
         );
-
-        // Per-vertex buffers, bound batch by batch.
-        let per_vertex = [words32 as u64 * 4, 32, n as u64 * 4, 12];
-        let limits = device.limits();
-        let max_binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
-        let fit = max_binding / per_vertex.iter().max().copied().unwrap_or(1);
-        let batch = (fit.min(max_batch) / BATCH_QUANTUM * BATCH_QUANTUM).max(BATCH_QUANTUM);
-        let total = |i: usize| (per_vertex[i] * nv.max(1) as u64).next_multiple_of(256);
-        for (i, what) in ["masks", "vertices", "transfer", "radiance"].iter().enumerate() {
-            if total(i) > limits.max_buffer_size {
-                return Err(Error::Device(format!(
-                    "the {what} of {nv} vertices need {:.1} MiB; this device allows {:.1} MiB per buffer",
-                    total(i) as f64 / 1048576.0,
-                    limits.max_buffer_size as f64 / 1048576.0
-                )));
-            }
-        }
-        let copy_dst = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        let copy_src = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
-        let masks = zeroed_buffer(device, "sh_transfer masks", total(0), copy_dst);
-        let vertices = zeroed_buffer(device, "sh_transfer vertices", total(1), copy_dst);
-        let transfer = zeroed_buffer(device, "sh_transfer transfer", total(2), copy_src);
-        let radiance = zeroed_buffer(device, "sh_transfer radiance", total(3), copy_src);
-        let readback = zeroed_buffer(
-            device,
-            "sh_transfer readback",
-            total(2) + total(3),
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        );
-
         let (brdf, phong) = match settings.brdf {
             Brdf::Diffuse => (0, [0.0; 4]),
             Brdf::Phong { shininess, specular } => (1, [shininess, specular, 0.0, 0.0]),
@@ -246,186 +190,265 @@ impl GpuTransfer {
             Integration::CellsLinear => 1,
             Integration::Pixels => 2,
         };
-        let max_groups = limits.max_compute_workgroups_per_dimension;
         let cells = (t.side / 4) * (t.side / 4);
-        let verts = MAX_VERTICES_PER_WORKGROUP
+        let verts_per_group = MAX_VERTICES_PER_WORKGROUP
             .min(1024 / words32 as u32)
             .min(1024 / cells as u32);
-        let mut batches = Vec::new();
-        let mut first = 0u64;
-        while first < nv as u64 {
-            let count = batch.min(nv as u64 - first);
-            let groups = (count as u32).div_ceil(verts);
-            let gx = groups.min(max_groups);
-            let grid = (gx, groups.div_ceil(gx));
-            let base = Params {
-                counts: [count as u32, n as u32, settings.bands as u32, prt.grid.side as u32],
-                shape: [t.side as u32 / 4, words32 as u32, integration, brdf],
-                grid: [gx, verts, 0, 0],
-                phong,
-                eye: [0.0; 4],
-                tables_a: [0, 0, off_nibble, off_dirs],
-                tables_b: [off_unoccluded, off_area, off_pixel, off_x90],
-            };
-            let params = zeroed_buffer(
-                device,
-                "sh_transfer params",
-                std::mem::size_of::<Params>() as u64,
-                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            );
-            fn slice<'a>(
-                buffer: &'a wgpu::Buffer,
-                i: usize,
-                first: u64,
-                count: u64,
-                per_vertex: &[u64; 4],
-            ) -> wgpu::BindGroupEntry<'a> {
-                wgpu::BindGroupEntry {
-                    binding: i as u32 + 1,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer,
-                        offset: first * per_vertex[i],
-                        size: wgpu::BufferSize::new(count * per_vertex[i]),
-                    }),
-                }
-            }
-            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("sh_transfer frame"),
-                layout: &pass.frame_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: params.as_entire_binding(),
-                    },
-                    slice(&masks, 0, first, count, &per_vertex),
-                    slice(&vertices, 1, first, count, &per_vertex),
-                    slice(&transfer, 2, first, count, &per_vertex),
-                    slice(&radiance, 3, first, count, &per_vertex),
-                ],
-            });
-            batches.push(Batch {
-                group,
-                params,
-                base,
-                grid,
-            });
-            first += count;
-        }
-        Ok(GpuTransfer {
-            vertex_count: nv,
+        let base = Params {
+            counts: [0, n as u32, settings.bands as u32, prt.grid.side as u32],
+            shape: [t.side as u32 / 4, words32 as u32, integration, brdf],
+            grid: [0, verts_per_group, 0, 0],
+            phong,
+            eye: [0.0; 4],
+            tables_a: [0, 0, off_nibble, off_dirs],
+            tables_b: [off_unoccluded, off_area, off_pixel, off_x90],
+        };
+        let input = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        let output = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        Ok(ShTransferPass {
+            tables_group,
+            lighting,
+            params: uniform_buffer(device, "sh_transfer params", &base),
+            masks: GrowingBuffer::new("sh_transfer masks", input),
+            vertices: GrowingBuffer::new("sh_transfer vertices", input),
+            transfer: GrowingBuffer::new("sh_transfer transfer", output),
+            radiance: GrowingBuffer::new("sh_transfer radiance", output),
+            frame_group: None,
+            base,
+            verts_per_group,
             coeffs: n,
             words32,
-            lighting,
-            masks,
-            vertices,
-            transfer,
-            radiance,
-            readback,
-            tables_group,
-            batches,
+            batch_vertices: 0,
+            grid: (0, 0),
+            kernels,
         })
     }
 
-    /// Dispatches per frame (one per batch).
-    pub fn batch_count(&self) -> usize {
-        self.batches.len()
+    /// Bytes per vertex of the batch buffers: mask, vertex, transfer, radiance.
+    fn per_vertex(&self) -> [u64; 4] {
+        [self.words32 as u64 * 4, 32, self.coeffs as u64 * 4, 12]
     }
 
-    /// Writes one frame's inputs: masks (`Prt::frame_masks`, u64 words per
-    /// vertex), positions, shading normals, eye and planar RGB lighting.
-    pub fn upload(
-        &self,
-        queue: &wgpu::Queue,
-        masks: &[u64],
-        positions: &[Vec3],
-        normals: &[Vec3],
-        eye: Option<Vec3>,
-        lighting: &[f32],
-    ) -> Result<()> {
-        let nv = self.vertex_count;
-        if masks.len() * 2 != nv * self.words32
-            || positions.len() != nv
-            || normals.len() != nv
-            || lighting.len() != 3 * self.coeffs
-        {
+    /// Uploads one batch of vertices (`frame` holds just them).
+    pub fn prepare(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, frame: &FrameInputs) -> Result<()> {
+        let FrameInputs {
+            masks,
+            positions,
+            normals,
+            eye,
+            lighting,
+        } = *frame;
+        let nv = positions.len();
+        if masks.len() * 2 != nv * self.words32 || normals.len() != nv || lighting.len() != 3 * self.coeffs {
             return Err(Error::internal(format!(
-                "GPU transfer inputs for {nv} vertices: {} mask words, {} positions, {} normals, {} lighting values",
+                "GPU transfer inputs for {nv} vertices: {} mask words, {} normals, {} lighting values",
                 masks.len(),
-                positions.len(),
                 normals.len(),
                 lighting.len()
             )));
         }
-        if nv == 0 {
-            return Ok(());
-        }
-        queue.write_buffer(&self.masks, 0, bytemuck::cast_slice(masks));
         let verts: Vec<[f32; 4]> = positions
             .iter()
             .zip(normals)
             .flat_map(|(p, n)| [p.extend(0.0).to_array(), n.extend(0.0).to_array()])
             .collect();
-        queue.write_buffer(&self.vertices, 0, bytemuck::cast_slice(&verts));
-        queue.write_buffer(&self.lighting, 0, bytemuck::cast_slice(lighting));
-        let eye = eye.map_or([0.0; 4], |e| [e.x, e.y, e.z, 1.0]);
-        for b in &self.batches {
-            queue.write_buffer(&b.params, 0, bytemuck::bytes_of(&Params { eye, ..b.base }));
+        let per_vertex = self.per_vertex();
+        let mut grown = self.masks.write(device, queue, bytemuck::cast_slice(masks))?;
+        grown |= self.vertices.write(device, queue, bytemuck::cast_slice(&verts))?;
+        grown |= self.transfer.reserve(device, per_vertex[2] * nv as u64)?;
+        grown |= self.radiance.reserve(device, per_vertex[3] * nv as u64)?;
+        if grown || self.frame_group.is_none() {
+            self.frame_group = Some(bind_group(
+                device,
+                "sh_transfer frame",
+                &self.kernels.frame_layout,
+                &[
+                    (0, &self.params),
+                    (1, self.masks.get()),
+                    (2, self.vertices.get()),
+                    (3, self.transfer.get()),
+                    (4, self.radiance.get()),
+                ],
+            ));
         }
+        queue.write_buffer(&self.lighting, 0, bytemuck::cast_slice(lighting));
+        let groups = (nv as u32).div_ceil(self.verts_per_group).max(1);
+        let gx = groups.min(device.limits().max_compute_workgroups_per_dimension);
+        let mut params = self.base;
+        params.counts[0] = nv as u32;
+        params.grid[0] = gx;
+        params.eye = eye.map_or([0.0; 4], |e| [e.x, e.y, e.z, 1.0]);
+        queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        self.batch_vertices = nv as u64;
+        self.grid = (gx, groups.div_ceil(gx));
         Ok(())
     }
 
-    /// Records the copies of the results into the readback buffer.
-    pub fn record_readback(&self, encoder: &mut wgpu::CommandEncoder) {
-        let t = self.transfer.size();
-        encoder.copy_buffer_to_buffer(&self.transfer, 0, &self.readback, 0, t);
-        encoder.copy_buffer_to_buffer(&self.radiance, 0, &self.readback, t, self.radiance.size());
+    /// Records the kernel over the prepared batch.
+    pub fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) {
+        let frame = self
+            .frame_group
+            .as_ref()
+            .expect("ShTransferPass::record before prepare");
+        let groups = [&self.tables_group, frame];
+        record_dispatch(
+            encoder,
+            "sh_transfer",
+            timestamp_writes,
+            &self.kernels.pipeline,
+            &groups,
+            self.grid,
+        );
     }
 
-    /// Reads the results back (after `record_readback` was submitted).
-    pub fn read(&self, device: &wgpu::Device) -> Result<(Vec<f32>, Vec<[f32; 3]>)> {
-        let all: Vec<f32> = read_back(device, &self.readback, (self.readback.size() / 4) as usize)?;
-        let t = (self.transfer.size() / 4) as usize;
-        let transfer = all[..self.vertex_count * self.coeffs].to_vec();
-        let radiance = all[t..t + 3 * self.vertex_count]
-            .chunks_exact(3)
-            .map(|c| [c[0], c[1], c[2]])
-            .collect();
-        Ok((transfer, radiance))
+    /// World-space transfer vectors of the prepared batch, `coeffs` per vertex.
+    pub fn transfer(&self) -> &wgpu::Buffer {
+        self.transfer.get()
+    }
+
+    /// Exitant radiance of the prepared batch, 3 f32 per vertex.
+    pub fn radiance(&self) -> &wgpu::Buffer {
+        self.radiance.get()
+    }
+}
+
+/// What a frame of the kernel reads: per vertex its mask (`Prt::frame_masks`,
+/// u64 words), position and shading normal; the eye and the planar RGB
+/// lighting (`3 x coeffs`).
+#[derive(Debug, Clone, Copy)]
+pub struct FrameInputs<'a> {
+    pub masks: &'a [u64],
+    pub positions: &'a [Vec3],
+    pub normals: &'a [Vec3],
+    pub eye: Option<Vec3>,
+    pub lighting: &'a [f32],
+}
+
+impl<'a> FrameInputs<'a> {
+    /// The inputs of vertices `range` (masks of `words` u64 each).
+    fn slice(&self, range: Range<usize>, words: usize) -> FrameInputs<'a> {
+        FrameInputs {
+            masks: &self.masks[range.start * words..range.end * words],
+            positions: &self.positions[range.clone()],
+            normals: &self.normals[range],
+            ..*self
+        }
+    }
+}
+
+/// One frame's GPU results.
+#[derive(Debug, Clone, Default)]
+pub struct GpuFrame {
+    pub transfer: Vec<f32>,
+    pub radiance: Vec<[f32; 3]>,
+    /// Kernel time from timestamps, where the device has them.
+    pub kernel_ms: Option<f64>,
+}
+
+/// One mesh's transfer on a device: the pass, its batch size and the kept
+/// read-back buffer.
+pub struct GpuTransfer {
+    pub pass: ShTransferPass,
+    readback: GrowingBuffer,
+    vertex_count: usize,
+    batch: usize,
+}
+
+impl GpuTransfer {
+    /// Uploads `prt`'s tables (kernels cached on `ctx`).
+    pub fn new(ctx: &GpuContext, prt: &Prt) -> Result<GpuTransfer> {
+        Self::with_batch_limit(ctx, prt, u64::MAX)
+    }
+
+    /// As `new`, with at most `max_batch` vertices per dispatch (rounded up to
+    /// 64); larger meshes are always split to fit the device's binding size.
+    pub fn with_batch_limit(ctx: &GpuContext, prt: &Prt, max_batch: u64) -> Result<GpuTransfer> {
+        let pass = ShTransferPass::with_kernels(&ctx.device, ShTransferKernels::cached(ctx), prt)?;
+        let limits = ctx.device.limits();
+        let max_binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+        let fit = max_binding / pass.per_vertex().iter().max().copied().unwrap_or(1);
+        let batch = (fit.min(max_batch) / BATCH_QUANTUM * BATCH_QUANTUM).max(BATCH_QUANTUM);
+        Ok(GpuTransfer {
+            pass,
+            readback: readback_buffer(),
+            vertex_count: prt.vertex_count,
+            batch: batch as usize,
+        })
+    }
+
+    /// Dispatches per frame (one per batch).
+    pub fn batch_count(&self) -> usize {
+        self.vertex_count.div_ceil(self.batch)
     }
 
     /// Upload, integrate, read back (blocking).
-    #[allow(clippy::too_many_arguments)]
-    pub fn run_frame(
-        &self,
-        ctx: &GpuContext,
-        pass: &ShTransferPass,
-        masks: &[u64],
-        positions: &[Vec3],
-        normals: &[Vec3],
-        eye: Option<Vec3>,
-        lighting: &[f32],
-    ) -> Result<GpuFrame> {
-        self.upload(&ctx.queue, masks, positions, normals, eye, lighting)?;
-        if self.vertex_count == 0 {
-            return Ok(GpuFrame::default());
+    pub fn run_frame(&mut self, ctx: &GpuContext, frame: &FrameInputs) -> Result<GpuFrame> {
+        let FrameInputs {
+            masks,
+            positions,
+            normals,
+            ..
+        } = *frame;
+        let nv = self.vertex_count;
+        if positions.len() != nv || normals.len() != nv || masks.len() * 2 != nv * self.pass.words32 {
+            return Err(Error::internal(format!(
+                "GPU transfer inputs for {nv} vertices: {} mask words, {} positions, {} normals",
+                masks.len(),
+                positions.len(),
+                normals.len()
+            )));
         }
-        let mut timer = PassTimer::new(ctx, 1);
-        let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        pass.record(&mut encoder, self, timer.as_mut().and_then(|t| t.next_pass()));
-        self.record_readback(&mut encoder);
-        if let Some(t) = &timer {
-            t.resolve(&mut encoder);
-        }
-        ctx.queue.submit([encoder.finish()]);
-        let (transfer, radiance) = self.read(&ctx.device)?;
-        let kernel_ms = match &timer {
-            Some(t) => Some(t.total_ms(&ctx.device)?),
-            None => None,
+        let n = self.pass.coeffs;
+        let mut transfer = Vec::with_capacity(nv * n);
+        let mut radiance = Vec::with_capacity(nv);
+        let mut batch = VertexBatch {
+            pass: &mut self.pass,
+            frame,
         };
+        let plan = BatchPlan::new(nv, self.batch, 1);
+        let kernel_ms = run_batches(
+            ctx,
+            &mut batch,
+            &mut self.readback,
+            plan,
+            &Progress::hidden(),
+            |items, v: &[f32]| {
+                let k = items.len() * n;
+                transfer.extend_from_slice(&v[..k]);
+                radiance.extend(v[k..k + 3 * items.len()].chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+                Ok(())
+            },
+        )?;
         Ok(GpuFrame {
             transfer,
             radiance,
             kernel_ms,
         })
+    }
+}
+
+struct VertexBatch<'a> {
+    pass: &'a mut ShTransferPass,
+    frame: &'a FrameInputs<'a>,
+}
+
+impl BatchPass for VertexBatch<'_> {
+    fn prepare(&mut self, ctx: &GpuContext, items: Range<usize>) -> Result<()> {
+        let frame = self.frame.slice(items, self.pass.words32 / 2);
+        self.pass.prepare(&ctx.device, &ctx.queue, &frame)
+    }
+
+    fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &mut Option<PassTimer>) {
+        self.pass.record(encoder, timer.as_mut().and_then(|t| t.next_pass()));
+    }
+
+    fn results(&self) -> Vec<(&wgpu::Buffer, u64)> {
+        let [_, _, t, r] = self.pass.per_vertex();
+        let nv = self.pass.batch_vertices;
+        vec![(self.pass.transfer(), t * nv), (self.pass.radiance(), r * nv)]
     }
 }

@@ -36,7 +36,8 @@ use super::Csr;
 use crate::error::{Error, Result};
 
 /// Which fine triangles are drawn near a vertex.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
 pub enum NearField {
     /// Whole clusters of the k-ring's triangles, their coarse triangles skipped.
     Clusters,
@@ -106,16 +107,16 @@ impl Hierarchy {
     /// Builds the hierarchy from the rest pose.
     pub fn build(rest: &[Vec3], triangles: &[[u32; 3]], s: &HierarchySettings) -> Result<Hierarchy> {
         if !(1..=2).contains(&s.ring) {
-            return Err(Error::param("--ring", format!("must be 1 or 2, got {}", s.ring)));
+            return Err(Error::param("ring", format!("must be 1 or 2, got {}", s.ring)));
         }
         if !(1..=4096).contains(&s.group_size) {
             return Err(Error::param(
-                "--group-size",
+                "group_size",
                 format!("must be between 1 and 4096, got {}", s.group_size),
             ));
         }
         if s.coarse_triangles == Some(0) {
-            return Err(Error::param("--coarse", "must be at least 1"));
+            return Err(Error::param("coarse_triangles", "must be at least 1"));
         }
         let nv = rest.len();
         let vertex_triangles = Csr::from_lists(

@@ -59,13 +59,13 @@ impl PlaneLut {
     /// Builds the table for `grid` with `n` x `n` cells per face.
     pub fn build(grid: &MaskGrid, n: usize) -> Result<PlaneLut> {
         if n == 0 {
-            return Err(Error::param("--lut", "must be at least 1"));
+            return Err(Error::param("lut_size", "must be at least 1"));
         }
         let words = grid.words;
         let bytes = 3 * n * n * words * 8;
         if bytes > MAX_LUT_BYTES {
             return Err(Error::param(
-                "--lut",
+                "lut_size",
                 format!(
                     "a 6 x {n} x {n} table of {s}x{s} masks needs {} MiB (limit {} MiB)",
                     bytes >> 20,

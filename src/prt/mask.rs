@@ -48,7 +48,7 @@ impl MaskGrid {
     pub fn new(side: usize) -> Result<MaskGrid> {
         if !MASK_SIDES.contains(&side) {
             return Err(Error::param(
-                "--mask",
+                "mask_side",
                 format!("mask side {side} is not supported; use 16, 32 or 64"),
             ));
         }

@@ -14,6 +14,7 @@
 //! * `pipeline` — the per-frame loop on the CPU
 //! * `reference` — Monte Carlo ray-traced transfer (the error measure of Table 1)
 //! * `gpu` — the WGSL passes
+//! * `runner` — per-frame transfer of a deforming mesh on any device, with checks
 
 pub mod clip;
 pub mod gpu;
@@ -25,6 +26,7 @@ pub mod pvs;
 pub mod raster;
 pub mod reference;
 pub mod render;
+pub mod runner;
 pub mod transfer;
 
 /// Compressed lists: `items[offsets[i]..offsets[i+1]]` is list i.

@@ -26,15 +26,13 @@ use super::mask::MaskGrid;
 use super::raster::{BatchRefs, TriangleBatch, batch_or, batch_refs_inline};
 use super::transfer::{Brdf, CellTables, Integration, radiance};
 use crate::error::{Error, Result};
+use crate::scene::{ORIGIN_OFFSET, used_bounds, vertex_normals};
 use crate::sh::{MAX_BANDS, ShRotation, coefficient_count, tangent_frame};
 
-/// Ray origins and the rasteriser's eye point sit this far above the
-/// surface, in bounding-box diagonals (the command-line contract's offset).
-pub const ORIGIN_OFFSET: f32 = 1e-4;
-
 /// On, off, or decided from the mesh.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Toggle {
+    /// Decided from the mesh.
     Auto,
     On,
     Off,
@@ -84,22 +82,22 @@ impl PrtSettings {
     pub fn validate(&self) -> Result<()> {
         if self.bands == 0 || self.bands > MAX_BANDS {
             return Err(Error::param(
-                "--order",
+                "bands",
                 format!("must be between 1 and {MAX_BANDS} bands, got {}", self.bands),
             ));
         }
         if self.lut_size == 0 {
-            return Err(Error::param("--lut", "must be at least 1"));
+            return Err(Error::param("lut_size", "must be at least 1"));
         }
         if let Brdf::Phong { shininess, specular } = self.brdf {
             if !(shininess.is_finite() && (0.0..=1e4).contains(&shininess)) {
                 return Err(Error::param(
-                    "--shininess",
+                    "shininess",
                     format!("must be in [0, 10000], got {shininess}"),
                 ));
             }
             if !(0.0..=1.0).contains(&specular) {
-                return Err(Error::param("--specular", format!("must be in [0, 1], got {specular}")));
+                return Err(Error::param("specular", format!("must be in [0, 1], got {specular}")));
             }
         }
         MaskGrid::new(self.mask_side).map(|_| ())
@@ -125,6 +123,22 @@ pub struct FrameStats {
     /// Nanoseconds in transform, rasterisation, integration, other (summed
     /// over threads; only with profiling on).
     pub phase_ns: [u64; 4],
+}
+
+impl std::ops::AddAssign<&FrameStats> for FrameStats {
+    fn add_assign(&mut self, s: &FrameStats) {
+        self.vertices += s.vertices;
+        self.without_normal += s.without_normal;
+        self.candidates += s.candidates;
+        self.group_culled += s.group_culled;
+        self.below_horizon += s.below_horizon;
+        self.back_facing += s.back_facing;
+        self.edge_on += s.edge_on;
+        self.drawn += s.drawn;
+        for (sum, ns) in self.phase_ns.iter_mut().zip(s.phase_ns) {
+            *sum += ns;
+        }
+    }
 }
 
 /// One frame's results.
@@ -158,8 +172,8 @@ pub struct Prt {
     pub cull_backfaces: bool,
     pub two_sided: bool,
     pub vertex_count: usize,
-    /// Bounding-box diagonal of the rest pose (sets the origin offset and
-    /// the scale of tangent-frame coordinates).
+    /// Bounding-box diagonal of the rest pose's used vertices (sets the
+    /// contract's origin offset and the scale of tangent-frame coordinates).
     pub scale: f32,
     pub lut_ms: f64,
     pub setup_ms: f64,
@@ -280,8 +294,7 @@ impl Prt {
             Toggle::Auto => !closed,
             t => t == Toggle::On,
         };
-        let bounds = crate::aabb::Aabb::from_points(rest.iter());
-        let scale = bounds.diagonal().max(f32::MIN_POSITIVE);
+        let scale = used_bounds(rest, triangles).diagonal().max(f32::MIN_POSITIVE);
         #[cfg(target_arch = "x86_64")]
         let avx2 = std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma");
         #[cfg(not(target_arch = "x86_64"))]
@@ -769,21 +782,4 @@ fn emit(local: &[Vec<f32>; 3], l: [u16; 3], tris: &mut TriangleBatch) -> bool {
     let above = t[0].z > 0.0 || t[1].z > 0.0 || t[2].z > 0.0;
     tris.len += above as usize;
     above
-}
-
-/// The contract's vertex normals (area-weighted face normals, normalised;
-/// zero where no triangle of non-zero area is incident), into `out`.
-pub fn vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]], out: &mut Vec<Vec3>) {
-    out.clear();
-    out.resize(positions.len(), Vec3::ZERO);
-    for t in triangles {
-        let [a, b, c] = t.map(|i| positions[i as usize]);
-        let n = (b - a).cross(c - a);
-        for &i in t {
-            out[i as usize] += n;
-        }
-    }
-    for n in out.iter_mut() {
-        *n = n.normalize_or_zero();
-    }
 }

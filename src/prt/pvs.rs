@@ -17,9 +17,10 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::Csr;
-use super::pipeline::{ORIGIN_OFFSET, Prt, vertex_normals};
+use super::pipeline::Prt;
 use crate::error::Result;
 use crate::kdtree::{KdTree, KdTreeParams};
+use crate::scene::{ORIGIN_OFFSET, vertex_normals};
 use crate::sh::tangent_frame;
 
 /// Builds a static PVS from the given frames (positions per frame).

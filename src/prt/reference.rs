@@ -9,10 +9,10 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::pipeline::ORIGIN_OFFSET;
 use super::transfer::Brdf;
 use crate::kdtree::KdTree;
 use crate::sampling::{Frame, SampleSequence, cosine_hemisphere};
+use crate::scene::ORIGIN_OFFSET;
 use crate::sh::{ShBasis, coefficient_count};
 
 /// Reference transfer vectors (world space, `bands²` per vertex) for the

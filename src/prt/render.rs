@@ -6,6 +6,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use crate::color::srgb8;
 use crate::error::Result;
 use crate::kdtree::{KdTree, KdTreeParams};
 use crate::scene::{Camera, EnvironmentMap};
@@ -64,17 +65,6 @@ pub fn barycentric(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
     let v = (d11 * d20 - d01 * d21) / denom;
     let w = (d00 * d21 - d01 * d20) / denom;
     Vec3::new(1.0 - v - w, v, w).clamp(Vec3::ZERO, Vec3::ONE)
-}
-
-/// Linear value to 8-bit sRGB (clamped).
-pub fn srgb8(x: f32) -> u8 {
-    let x = x.clamp(0.0, 1.0);
-    let s = if x <= 0.003_130_8 {
-        12.92 * x
-    } else {
-        1.055 * x.powf(1.0 / 2.4) - 0.055
-    };
-    (s * 255.0).round() as u8
 }
 
 /// The exposure that maps the mean luminance of the shaded vertices to 0.45.

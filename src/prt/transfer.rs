@@ -44,7 +44,8 @@ use super::mask::{CELL, MaskGrid, disk_rect_quadrature};
 use crate::sh::{ShBasis, coefficient_count};
 
 /// The BRDF of the transfer.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[serde(tag = "kind", rename_all = "lowercase")]
 pub enum Brdf {
     /// Lambertian, albedo 1 (colour is applied at shading).
     Diffuse,
@@ -66,6 +67,14 @@ impl Brdf {
         }
     }
 
+    /// `kind` with the Phong lobe's exponent and weight (unused for diffuse).
+    pub fn new(kind: BrdfKind, shininess: f32, specular: f32) -> Brdf {
+        match kind {
+            BrdfKind::Diffuse => Brdf::Diffuse,
+            BrdfKind::Phong => Brdf::Phong { shininess, specular },
+        }
+    }
+
     pub fn name(&self) -> &'static str {
         match self {
             Brdf::Diffuse => "diffuse",
@@ -74,8 +83,18 @@ impl Brdf {
     }
 }
 
+/// Which BRDF, without its parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum BrdfKind {
+    /// Lambertian.
+    Diffuse,
+    /// Diffuse base plus a normalised Phong lobe (view-dependent transfer vector).
+    Phong,
+}
+
 /// How a mask is integrated against the basis.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Integration {
     /// The paper's 4x4 grey levels: each cell's occluded fraction times the
     /// cell's mean basis values.

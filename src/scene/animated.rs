@@ -29,7 +29,7 @@ impl AnimatedScene {
             "cloth" => Ok(AnimatedScene::Cloth),
             "character" => Ok(AnimatedScene::Character),
             other => Err(Error::param(
-                "--animated",
+                "animation",
                 format!("unknown scene '{other}' (expected cloth or character)"),
             )),
         }
@@ -52,6 +52,7 @@ impl AnimatedScene {
 }
 
 /// A mesh whose vertices move with time.
+#[derive(Debug, Clone)]
 pub struct Animation {
     pub name: &'static str,
     pub triangles: Vec<[u32; 3]>,
@@ -60,6 +61,7 @@ pub struct Animation {
     pub camera: (Vec3, Vec3, f32),
 }
 
+#[derive(Debug, Clone)]
 enum Kind {
     Cloth { n: usize },
     Character { rig: Rig },
@@ -177,7 +179,7 @@ fn cloth_positions(n: usize, t: f32, out: &mut Vec<Vec3>) {
 
 /// One vertex of the rig: its rest position in its part's frame and how
 /// it is skinned.
-#[derive(Clone, Copy)]
+#[derive(Debug, Clone, Copy)]
 struct RigVertex {
     part: usize,
     local: Vec3,
@@ -186,6 +188,7 @@ struct RigVertex {
     weight: f32,
 }
 
+#[derive(Debug, Clone)]
 struct Rig {
     verts: Vec<RigVertex>,
 }

@@ -1,4 +1,5 @@
-//! Pinhole camera and the command-line contract's default camera.
+//! Pinhole camera, the command-line contract's default camera, and images
+//! asked of a scene (`View`: a camera given in part, and a size).
 
 use glam::Vec3;
 
@@ -6,12 +7,85 @@ use crate::aabb::Aabb;
 use crate::error::{Error, Result};
 use crate::ray::Ray;
 
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Camera {
     pub eye: Vec3,
     pub target: Vec3,
     /// Vertical field of view in degrees.
+    #[serde(rename = "fov")]
     pub fov_degrees: f32,
+}
+
+/// A camera given in part (the command line's `--eye/--target/--fov`):
+/// what is missing comes from the scene's camera, else from the contract's
+/// default camera for the scene's bounds.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct CameraSpec {
+    pub eye: Option<Vec3>,
+    pub target: Option<Vec3>,
+    pub fov_degrees: Option<f32>,
+}
+
+impl CameraSpec {
+    /// The whole camera: `base` (a scene's) or the default for `bounds`,
+    /// with each given part replacing its own. Validated.
+    pub fn resolve(&self, base: Option<Camera>, bounds: &Aabb) -> Result<Camera> {
+        let base = base.unwrap_or_else(|| Camera::default_for(bounds));
+        let camera = Camera {
+            eye: self.eye.unwrap_or(base.eye),
+            target: self.target.unwrap_or(base.target),
+            fov_degrees: self.fov_degrees.unwrap_or(base.fov_degrees),
+        };
+        camera.validate()?;
+        Ok(camera)
+    }
+}
+
+impl From<Camera> for CameraSpec {
+    fn from(c: Camera) -> CameraSpec {
+        CameraSpec {
+            eye: Some(c.eye),
+            target: Some(c.target),
+            fov_degrees: Some(c.fov_degrees),
+        }
+    }
+}
+
+/// Most pixels of one image.
+pub const MAX_PIXELS: u64 = 1 << 28;
+
+/// An image asked of a scene: its camera, resolved against the scene, and
+/// its size in pixels.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct View {
+    pub camera: CameraSpec,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl View {
+    pub fn new(camera: CameraSpec, width: u32, height: u32) -> Result<View> {
+        check_image_size(width, height)?;
+        Ok(View { camera, width, height })
+    }
+
+    pub fn pixels(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+}
+
+/// An image size of at least one and at most `MAX_PIXELS` pixels.
+pub fn check_image_size(width: u32, height: u32) -> Result<()> {
+    if width == 0 || height == 0 {
+        return Err(Error::param("width/height", "must be at least 1"));
+    }
+    if width as u64 * height as u64 > MAX_PIXELS {
+        return Err(Error::param(
+            "width/height",
+            format!("{width}x{height} is more than 2^28 pixels"),
+        ));
+    }
+    Ok(())
 }
 
 impl Camera {
@@ -33,14 +107,14 @@ impl Camera {
 
     pub fn validate(&self) -> Result<()> {
         if !self.eye.is_finite() || !self.target.is_finite() {
-            return Err(Error::param("--eye/--target", "must be finite"));
+            return Err(Error::param("eye/target", "must be finite"));
         }
         if self.eye == self.target {
-            return Err(Error::param("--eye/--target", "eye and target are the same point"));
+            return Err(Error::param("eye/target", "eye and target are the same point"));
         }
         if !(self.fov_degrees > 0.0 && self.fov_degrees < 180.0) {
             return Err(Error::param(
-                "--fov",
+                "fov_degrees",
                 format!("must be in (0, 180) degrees, got {}", self.fov_degrees),
             ));
         }

@@ -7,6 +7,12 @@ use glam::Vec3;
 use crate::aabb::Aabb;
 use crate::error::{Error, Result};
 
+/// Ray origins for per-vertex (and per-pixel) work are lifted off the
+/// surface along the normal by this fraction of the bounding-box diagonal
+/// (the command-line contract's offset), so rays do not hit the surface
+/// they start on.
+pub const ORIGIN_OFFSET: f32 = 1e-4;
+
 /// A named run of consecutive triangles: one `o`/`g` block of an OBJ file or
 /// one instance of a scene.
 #[derive(Debug, Clone, PartialEq)]
@@ -87,10 +93,13 @@ impl Mesh {
 
     /// Bounds of the vertices that triangles use.
     pub fn bounds(&self) -> Aabb {
-        self.triangles
-            .iter()
-            .flatten()
-            .fold(Aabb::EMPTY, |b, &v| b.grow(self.positions[v as usize]))
+        used_bounds(&self.positions, &self.triangles)
+    }
+
+    /// How far ray origins are lifted off this mesh: `ORIGIN_OFFSET` times
+    /// its bounding-box diagonal.
+    pub fn origin_offset(&self) -> f32 {
+        ORIGIN_OFFSET * self.bounds().diagonal()
     }
 
     /// Face normal as the contract defines it: `cross(v1 - v0, v2 - v0)`,
@@ -100,22 +109,11 @@ impl Mesh {
         (b - a).cross(c - a)
     }
 
-    /// Vertex normals as the contract defines them: the area-weighted sum of
-    /// the adjacent face normals, normalised. A vertex no triangle uses, or
-    /// whose adjacent triangles all have zero area, gets the zero vector.
+    /// Vertex normals as the contract defines them (see `vertex_normals`).
     pub fn vertex_normals(&self) -> Vec<Vec3> {
-        let mut sums = vec![glam::DVec3::ZERO; self.positions.len()];
-        for t in 0..self.triangles.len() {
-            // Sum in f64: a vertex shared by thousands of needle triangles
-            // would otherwise lose the small ones.
-            let n = self.face_normal(t).as_dvec3();
-            for &v in &self.triangles[t] {
-                sums[v as usize] += n;
-            }
-        }
-        sums.into_iter()
-            .map(|s| s.try_normalize().map_or(Vec3::ZERO, |n| n.as_vec3()))
-            .collect()
+        let mut out = Vec::new();
+        vertex_normals(&self.positions, &self.triangles, &mut out);
+        out
     }
 
     /// Appends `other`, renumbering its vertices and shifting its objects.
@@ -142,9 +140,45 @@ impl Mesh {
 
     /// Object that contains triangle `t`.
     pub fn object_of(&self, t: u32) -> Option<&MeshObject> {
-        let i = self.objects.partition_point(|o| o.triangles.end <= t);
-        self.objects.get(i).filter(|o| o.triangles.contains(&t))
+        self.object_index(t).map(|i| &self.objects[i])
     }
+
+    /// Index of the object that contains triangle `t`.
+    pub fn object_index(&self, t: u32) -> Option<usize> {
+        let i = self.objects.partition_point(|o| o.triangles.end <= t);
+        self.objects.get(i).filter(|o| o.triangles.contains(&t)).map(|_| i)
+    }
+}
+
+/// Bounds of the vertices that `triangles` use.
+pub fn used_bounds(positions: &[Vec3], triangles: &[[u32; 3]]) -> Aabb {
+    triangles
+        .iter()
+        .flatten()
+        .fold(Aabb::EMPTY, |b, &v| b.grow(positions[v as usize]))
+}
+
+/// Vertex normals as the contract defines them, into `out`: the
+/// area-weighted sum of the adjacent face normals (`cross(v1 - v0, v2 -
+/// v0)`), normalised. A vertex no triangle uses, or whose adjacent
+/// triangles all have zero area, gets the zero vector. Every method's
+/// normals (AO points, PRT frames of a deforming mesh) come from here.
+pub fn vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]], out: &mut Vec<Vec3>) {
+    // Sum in f64: a vertex shared by thousands of needle triangles would
+    // otherwise lose the small ones.
+    let mut sums = vec![glam::DVec3::ZERO; positions.len()];
+    for t in triangles {
+        let [a, b, c] = t.map(|i| positions[i as usize]);
+        let n = (b - a).cross(c - a).as_dvec3();
+        for &v in t {
+            sums[v as usize] += n;
+        }
+    }
+    out.clear();
+    out.extend(
+        sums.into_iter()
+            .map(|s| s.try_normalize().map_or(Vec3::ZERO, |n| n.as_vec3())),
+    );
 }
 
 #[cfg(test)]

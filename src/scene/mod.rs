@@ -1,7 +1,12 @@
-//! Scenes: meshes from OBJ files, instances of them with rigid transforms and
-//! roles, a camera, lights and an environment map. Features ask a scene only
-//! for what its roles require: occluders are built from casters, sample
-//! points are taken from receivers.
+//! Scenes: the one geometry model of every method. Meshes (from OBJ files,
+//! or deforming: a closed-form animation), instances of them with rigid
+//! transforms, motions and roles, a camera, lights and an environment map.
+//! Features ask a scene only for what its roles require: occluders are built
+//! from casters, sample points are taken from receivers. Rigid motion moves
+//! instances per animation frame (`world_mesh_at`); a deforming mesh moves
+//! its vertices with time (`SceneMesh::positions_at`). Vertex normals and
+//! the origin offset of per-vertex rays are the contract's, computed in
+//! `mesh` for everyone.
 
 pub mod animated;
 mod camera;
@@ -17,9 +22,9 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use serde::Deserialize;
 
-pub use camera::Camera;
+pub use camera::{Camera, CameraSpec, MAX_PIXELS, View, check_image_size};
 pub use environment::EnvironmentMap;
-pub use mesh::{Mesh, MeshObject};
+pub use mesh::{Mesh, MeshObject, ORIGIN_OFFSET, used_bounds, vertex_normals};
 pub use obj::{load_obj, parse_obj, write_obj};
 pub use scene_file::load_scene;
 pub use transform::{Motion, Transform};
@@ -50,7 +55,34 @@ impl Role {
 pub struct SceneMesh {
     pub name: String,
     pub path: PathBuf,
+    /// The mesh (a deforming one's rest pose).
     pub mesh: Mesh,
+    /// How its vertices move with time, if they do (same topology).
+    pub animation: Option<animated::Animation>,
+}
+
+impl SceneMesh {
+    /// A static mesh read from `path`.
+    pub fn new(name: &str, path: &Path, mesh: Mesh) -> SceneMesh {
+        SceneMesh {
+            name: name.into(),
+            path: path.to_path_buf(),
+            mesh,
+            animation: None,
+        }
+    }
+
+    /// The vertex positions at `seconds` of the mesh's animation (a static
+    /// mesh's positions whatever the time), into `out`.
+    pub fn positions_at(&self, seconds: f32, out: &mut Vec<Vec3>) {
+        match &self.animation {
+            Some(a) => a.positions_at(seconds, out),
+            None => {
+                out.clear();
+                out.extend_from_slice(&self.mesh.positions);
+            }
+        }
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -100,14 +132,35 @@ impl Scene {
     /// A scene of one mesh, one untransformed instance that is both caster
     /// and receiver: what `--mesh FILE` means.
     pub fn from_mesh(name: &str, path: &Path, mesh: Mesh) -> Scene {
+        Self::of(SceneMesh::new(name, path, mesh))
+    }
+
+    /// A scene of one deforming mesh (its rest pose at time 0), framed by
+    /// the animation's camera.
+    pub fn from_animation(animation: animated::Animation) -> Scene {
+        let name = animation.name;
+        let mut scene = Self::of(SceneMesh {
+            name: name.into(),
+            path: PathBuf::from(format!("<{name} animation>")),
+            mesh: animation.mesh_at(0.0),
+            animation: None,
+        });
+        let (eye, target, fov_degrees) = animation.camera;
+        scene.camera = Some(Camera {
+            eye,
+            target,
+            fov_degrees,
+        });
+        scene.meshes[0].animation = Some(animation);
+        scene
+    }
+
+    fn of(mesh: SceneMesh) -> Scene {
+        let name = mesh.name.clone();
         Scene {
-            meshes: vec![SceneMesh {
-                name: name.into(),
-                path: path.to_path_buf(),
-                mesh,
-            }],
+            meshes: vec![mesh],
             instances: vec![Instance {
-                name: name.into(),
+                name,
                 mesh: 0,
                 role: Role::Both,
                 transform: Transform::default(),

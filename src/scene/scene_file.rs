@@ -163,11 +163,7 @@ pub fn load_scene(path: &Path) -> Result<Scene> {
         let resolved = resolve(path, &field, mesh_path)?;
         let mesh = load_obj(&resolved)?;
         index_of.insert(name.clone(), meshes.len());
-        meshes.push(SceneMesh {
-            name: name.clone(),
-            path: resolved,
-            mesh,
-        });
+        meshes.push(SceneMesh::new(name, &resolved, mesh));
     }
     if file.instances.is_empty() {
         return Err(Error::file(

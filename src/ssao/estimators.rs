@@ -55,14 +55,21 @@ use super::{ShadeSettings, SsaoSettings};
 use crate::error::Result;
 use crate::sampling::{Frame, SampleSequence, concentric_disk, cosine_hemisphere};
 
-/// The estimators of the paper (`--estimator`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+/// The estimators of the paper.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Estimator {
+    /// N rays x M steps (section 3.2), the baseline.
     Raymarch,
+    /// Uniform points in the neighbourhood sphere (4.1).
     Sphere,
+    /// Uniform points in the half sphere above the surface (4.2).
     Hemisphere,
+    /// Cosine directions, r = mu^-1(xi) (4.3).
     Importance,
+    /// Uniform points in the tangent sphere (4.4).
     TangentSphere,
+    /// Pipes through the base disk, analytic line integral (4.5; poly4 only).
     BaseDisk,
 }
 

@@ -1,6 +1,6 @@
 //! The G-buffer: per pixel the camera-space normal and depth, the radiance
 //! (albedo x direct light) and the albedo. `wgsl/gbuffer.wgsl` rasterises
-//! it (`gpu::GBufferPass`); `render_cpu` is its CPU twin, built from kd-tree
+//! it (`gpu::GBufferPass`); `gbuffer` is its CPU twin, built from kd-tree
 //! primary rays through the same pixel centres.
 //!
 //! Layout (two `Rgba32Float` targets, the same on the CPU):
@@ -207,7 +207,7 @@ pub const MAX_LIGHTS: usize = 4;
 pub fn validate_lights(lights: &[Light]) -> Result<()> {
     if lights.len() > MAX_LIGHTS {
         return Err(Error::param(
-            "--scene",
+            "scene",
             format!(
                 "lights: the G-buffer takes at most {MAX_LIGHTS} lights, the scene has {}",
                 lights.len()
@@ -251,7 +251,7 @@ pub fn texel(camera: &Camera, lights: &[Light], p: Vec3, n: Vec3, albedo: f32) -
 
 /// CPU twin of the G-buffer pass: the closest hit of each pixel's primary
 /// ray through its centre (the rasteriser samples pixel centres too).
-pub fn render_cpu(tree: &KdTree, mesh: &Mesh, camera: &Camera, lights: &[Light], width: u32, height: u32) -> GBuffer {
+pub fn gbuffer(tree: &KdTree, mesh: &Mesh, camera: &Camera, lights: &[Light], width: u32, height: u32) -> GBuffer {
     let rays = camera.primary_rays(width, height);
     let albedos = triangle_albedos(mesh);
     let lights = lights_or_default(lights);

@@ -15,11 +15,12 @@ use bytemuck::{Pod, Zeroable};
 use super::estimators::{Family, SampleTable, SsaoParams};
 use super::gbuffer::{GBuffer, ScreenView, ViewUniform, triangle_albedos};
 use super::{ShadeSettings, SsaoFrame, SsaoSettings, Timings, final_ao};
+use crate::device::Timing;
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
-use crate::gpu::buffers::{check_storage_size, read_back, storage_buffer, uniform_buffer, zeroed_buffer};
+use crate::gpu::buffers::{check_storage_size, read_back, read_buffer, storage_buffer, uniform_buffer, zeroed_buffer};
+use crate::gpu::layout::{bind_group, layout, storage_entry, texture_entry, uniform_entry, uniform_entry_for};
 use crate::gpu::timer::PassTimer;
-use crate::kdtree::gpu::{bind_group, storage_entry, uniform_entry};
 use crate::scene::{Camera, Light, Mesh};
 
 /// Format of both G-buffer colour targets.
@@ -219,19 +220,11 @@ pub struct GBufferPass {
 
 impl GBufferPass {
     pub fn new(device: &wgpu::Device) -> GBufferPass {
-        let view_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("g-buffer view"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            }],
-        });
+        let view_layout = layout(
+            device,
+            "g-buffer view",
+            &[uniform_entry_for(0, wgpu::ShaderStages::VERTEX_FRAGMENT)],
+        );
         let module = &crate::wgsl::GBUFFER_MODULE;
         let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(module.name),
@@ -374,28 +367,14 @@ pub struct SsaoPass {
     pipelines: [wgpu::ComputePipeline; 8],
 }
 
-fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: false },
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
-        },
-        count: None,
-    }
-}
-
 impl SsaoPass {
     pub fn new(device: &wgpu::Device) -> SsaoPass {
-        let gbuffer_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("ssao g-buffer"),
-            entries: &[texture_entry(0), texture_entry(1)],
-        });
-        let io_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("ssao io"),
-            entries: &[
+        let texture = |binding| texture_entry(binding, wgpu::TextureViewDimension::D2, false);
+        let gbuffer_layout = layout(device, "ssao g-buffer", &[texture(0), texture(1)]);
+        let io_layout = layout(
+            device,
+            "ssao io",
+            &[
                 uniform_entry(0),
                 storage_entry(1, true),
                 storage_entry(2, false),
@@ -405,7 +384,7 @@ impl SsaoPass {
                 storage_entry(6, false),
                 storage_entry(7, false),
             ],
-        });
+        );
         let layouts = [&gbuffer_layout, &io_layout];
         let build =
             |module, entries: &[&str]| crate::gpu::kernels::compute_pipelines(device, module, &layouts, entries);
@@ -676,12 +655,12 @@ pub fn run_frame(
             filter_ms: best[2],
             indirect_ms: best[3],
             compose_ms: best[4],
-            timing: "gpu-timestamps",
+            timing: Timing::GpuTimestamps,
         }
     } else {
         Timings {
             estimate_ms: wall_ms,
-            timing: "wall",
+            timing: Timing::Wall,
             ..Default::default()
         }
     };
@@ -708,19 +687,4 @@ pub fn run_frame(
         },
         gbuffer,
     })
-}
-
-/// Copies a storage buffer's first `len` elements back (blocking).
-pub fn read_buffer<T: Pod>(ctx: &GpuContext, buffer: &wgpu::Buffer, len: usize) -> Result<Vec<T>> {
-    let bytes = (len * std::mem::size_of::<T>()) as u64;
-    let readback = zeroed_buffer(
-        &ctx.device,
-        "ssao readback",
-        bytes,
-        wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-    );
-    let mut encoder = ctx.device.create_command_encoder(&Default::default());
-    encoder.copy_buffer_to_buffer(buffer, 0, &readback, 0, bytes);
-    ctx.queue.submit([encoder.finish()]);
-    read_back(&ctx.device, &readback, len)
 }

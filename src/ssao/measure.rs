@@ -32,7 +32,33 @@ pub enum Measure {
     Poly4,
 }
 
+/// Which measure, without its parameter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum MeasureKind {
+    /// mu = 0 below R, 1 beyond: classical AO with a maximum distance.
+    Step,
+    /// 1 - exp(-sigma r), truncated at R and renormalised.
+    Exp,
+    /// (r/R)^4.
+    Poly4,
+}
+
 impl Measure {
+    /// `kind` for neighbourhood radius `radius`; `sigma` (exp only) defaults
+    /// to 3 / R.
+    pub fn new(kind: MeasureKind, sigma: Option<f32>, radius: f32) -> Result<Measure> {
+        if sigma.is_some() && kind != MeasureKind::Exp {
+            return Err(Error::param("sigma", "only applies to `measure` exp"));
+        }
+        Ok(match kind {
+            MeasureKind::Step => Measure::Step,
+            MeasureKind::Poly4 => Measure::Poly4,
+            MeasureKind::Exp => Measure::Exp {
+                sigma: sigma.unwrap_or(3.0 / radius),
+            },
+        })
+    }
+
     pub fn name(&self) -> &'static str {
         match self {
             Measure::Step => "step",
@@ -46,7 +72,7 @@ impl Measure {
             && !(sigma > 0.0 && sigma.is_finite())
         {
             return Err(Error::param(
-                "--sigma",
+                "sigma",
                 format!("must be positive and finite, got {sigma}"),
             ));
         }

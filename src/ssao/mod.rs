@@ -22,14 +22,16 @@ pub mod gpu;
 pub mod indirect;
 pub mod interleave;
 pub mod measure;
+pub mod runner;
 pub mod truth;
 
 use std::time::Instant;
 
 pub use estimators::{Estimator, Family, SampleTable};
 pub use gbuffer::{GBuffer, ScreenConstants, ScreenView};
-pub use measure::Measure;
+pub use measure::{Measure, MeasureKind};
 
+use crate::device::Timing;
 use crate::error::{Error, Result};
 
 /// Largest samples per pixel (the sample tables stay within a storage binding).
@@ -91,26 +93,26 @@ impl SsaoSettings {
     pub fn validate(&self) -> Result<()> {
         if self.spp == 0 || self.spp > MAX_SPP {
             return Err(Error::param(
-                "--spp",
+                "spp",
                 format!("must be between 1 and {MAX_SPP}, got {}", self.spp),
             ));
         }
         if !(self.radius > 0.0 && self.radius.is_finite()) {
             return Err(Error::param(
-                "--radius",
+                "radius",
                 format!("must be positive and finite, got {}", self.radius),
             ));
         }
         self.measure.validate()?;
         if self.estimator == Estimator::Raymarch {
             if self.steps == 0 {
-                return Err(Error::param("--steps", "must be at least 1"));
+                return Err(Error::param("steps", "must be at least 1"));
             }
             if !self.spp.is_multiple_of(self.steps) {
                 return Err(Error::param(
-                    "--steps",
+                    "steps",
                     format!(
-                        "raymarch takes spp / steps rays: --spp {} is not a multiple of --steps {}",
+                        "raymarch takes spp / steps rays: `spp` {} is not a multiple of `steps` {}",
                         self.spp, self.steps
                     ),
                 ));
@@ -120,31 +122,31 @@ impl SsaoSettings {
             && !(d > 0.0 && d.is_finite())
         {
             return Err(Error::param(
-                "--filter-depth",
+                "filter_depth",
                 format!("must be positive and finite, got {d}"),
             ));
         }
         if !(self.bias_px >= 0.0 && self.bias_px.is_finite()) {
             return Err(Error::param(
-                "--bias",
+                "bias_px",
                 format!("must be >= 0 and finite, got {}", self.bias_px),
             ));
         }
         if self.estimator.needs_density() && !self.measure.has_density() {
             return Err(Error::param(
-                "--estimator",
+                "estimator",
                 format!(
                     "{} draws distances uniformly in a volume and weights them by dmu/dr, which \
-                     the step measure does not have (a Dirac delta at R); use --measure exp or \
-                     poly4, or --estimator importance/raymarch",
+                     the step measure does not have (a Dirac delta at R); use `measure` exp or \
+                     poly4, or `estimator` importance/raymarch",
                     self.estimator.name()
                 ),
             ));
         }
         if self.estimator == Estimator::BaseDisk && self.measure != Measure::Poly4 {
             return Err(Error::param(
-                "--estimator",
-                "base-disk integrates each pipe analytically, which needs --measure poly4 \
+                "estimator",
+                "base-disk integrates each pipe analytically, which needs `measure` poly4 \
                  (section 4.5: (dmu/dr)/r must be a polynomial of r^2)",
             ));
         }
@@ -163,6 +165,18 @@ impl SsaoSettings {
 pub struct ShadeSettings {
     /// Ambient radiance La (grey).
     pub ambient: f32,
+}
+
+impl ShadeSettings {
+    pub fn validate(&self) -> Result<()> {
+        if !(self.ambient >= 0.0 && self.ambient.is_finite()) {
+            return Err(Error::param(
+                "ambient",
+                format!("must be >= 0 and finite, got {}", self.ambient),
+            ));
+        }
+        Ok(())
+    }
 }
 
 impl Default for ShadeSettings {
@@ -186,15 +200,27 @@ pub struct SsaoFrame {
 }
 
 /// Milliseconds per step (GPU: timestamps where the device has them).
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Timings {
     pub gbuffer_ms: f64,
     pub estimate_ms: f64,
     pub filter_ms: f64,
     pub indirect_ms: f64,
     pub compose_ms: f64,
-    /// "gpu-timestamps" or "wall".
-    pub timing: &'static str,
+    pub timing: Timing,
+}
+
+impl Default for Timings {
+    fn default() -> Self {
+        Timings {
+            gbuffer_ms: 0.0,
+            estimate_ms: 0.0,
+            filter_ms: 0.0,
+            indirect_ms: 0.0,
+            compose_ms: 0.0,
+            timing: Timing::Wall,
+        }
+    }
 }
 
 impl Timings {
@@ -222,7 +248,7 @@ pub fn run_cpu(
     let table = SampleTable::build(settings)?;
     let params = estimators::SsaoParams::new(view, settings, &table, shade.copied().unwrap_or_default());
     let mut timings = Timings {
-        timing: "wall",
+        timing: Timing::Wall,
         ..Default::default()
     };
     let start = Instant::now();
@@ -272,15 +298,8 @@ pub fn final_ao(gb: &GBuffer, ao: &[f32]) -> Vec<f32> {
 
 /// Root-mean-square difference over the G-buffer's surface pixels.
 pub fn rmse(gb: &GBuffer, a: &[f32], b: &[f32]) -> f64 {
-    let (mut sum, mut n) = (0.0f64, 0usize);
-    for i in 0..gb.pixels() {
-        if gb.is_surface(i) {
-            let d = a[i] as f64 - b[i] as f64;
-            sum += d * d;
-            n += 1;
-        }
-    }
-    if n == 0 { 0.0 } else { (sum / n as f64).sqrt() }
+    let surface: Vec<bool> = (0..gb.pixels()).map(|i| gb.is_surface(i)).collect();
+    crate::color::rms_difference(&a[..gb.pixels()], &b[..gb.pixels()], Some(&surface))
 }
 
 fn ms(start: Instant) -> f64 {

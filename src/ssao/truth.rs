@@ -25,14 +25,14 @@ use rayon::prelude::*;
 use super::estimators::{occluded, shaded_point};
 use super::gbuffer::{GBuffer, ScreenView, world_point};
 use super::{Measure, SsaoSettings};
-use crate::ao::points::ORIGIN_OFFSET;
 use crate::kdtree::KdTree;
 use crate::sampling::{Frame, SampleSequence, cosine_hemisphere};
-use crate::scene::Camera;
+use crate::scene::{Camera, ORIGIN_OFFSET};
 
 /// Per-pixel values (1 on background) and their estimated noise.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Estimate {
+    #[serde(skip)]
     pub values: Vec<f32>,
     /// RMS over surface pixels of the estimated standard deviation of each value.
     pub noise_rms: f64,

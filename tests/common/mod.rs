@@ -5,6 +5,7 @@ pub mod cli;
 
 use std::path::PathBuf;
 
+use penumbra::device::Device;
 use penumbra::gpu::GpuContext;
 
 /// The GPU if there is one. Tests must pass without an adapter: they then run
@@ -20,6 +21,14 @@ pub fn gpu() -> Option<GpuContext> {
             None
         }
     }
+}
+
+/// The CPU, then the GPU if there is one: every runner should give the
+/// same answers on both.
+pub fn devices() -> Vec<Device> {
+    let mut devices = vec![Device::cpu()];
+    devices.extend(gpu().map(Device::gpu));
+    devices
 }
 
 /// A model of the shared data set, when `PENUMBRA_DATA` is set. If it is set

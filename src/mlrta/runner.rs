@@ -1,0 +1,462 @@
+//! The trace runner (`penumbra trace`): a camera's primary rays through a
+//! mesh one ray at a time (the foundation's path, for comparison) or as
+//! 4x4 packets with multi-level ray tracing, optionally shadow rays to a
+//! point light and anti-aliasing, on the CPU or with the packets in WGSL;
+//! with the per-packet statistics of the MLRTA paper's Tables 2 and 3.
+
+use glam::Vec3;
+use rayon::prelude::*;
+use serde::Serialize;
+use serde_json::Value;
+
+use super::aa::{self, AaMode};
+use super::gpu::PacketBatches;
+use super::packet::MlrtaCounts;
+use super::prepared::{Prepared, PreparedStats};
+use super::tiles::{ImageTrace, MlrtaParams, SHADOW_EPSILON, TileReport, trace_image};
+use crate::aabb::Aabb;
+use crate::device::{Device, GpuOutput, Timing, elapsed_ms};
+use crate::error::Result;
+use crate::kdtree::gpu::GpuKdTree;
+use crate::kdtree::{BuildStats, KdTree};
+use crate::progress::Bars;
+use crate::ray::{Hit, Ray};
+use crate::scene::{Camera, Mesh, View};
+use crate::tracer::{Tracer, build_tree};
+
+/// Rays per side of a packet in the statistics.
+const PACKET: u32 = 4;
+
+/// Where shadow rays go.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ShadowLight {
+    None,
+    /// A point light one scene diagonal above the scene, slightly off-axis.
+    AboveScene,
+    At(Vec3),
+}
+
+impl ShadowLight {
+    pub fn position(self, bounds: &Aabb) -> Option<Vec3> {
+        match self {
+            ShadowLight::None => None,
+            ShadowLight::AboveScene => {
+                Some(bounds.center() + Vec3::new(-0.4, 1.0, 0.3).normalize() * bounds.diagonal())
+            }
+            ShadowLight::At(p) => Some(p),
+        }
+    }
+}
+
+/// Anti-aliasing and its measurement.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AaRequest {
+    pub mode: AaMode,
+    /// Rays per pixel where it applies (a square, 4 to 64).
+    pub samples: u32,
+    /// Also render 16 rays per pixel everywhere and report the edge error.
+    pub reference: bool,
+}
+
+/// One image to trace.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TraceRequest {
+    pub view: View,
+    /// One ray at a time instead of packets.
+    pub single_ray: bool,
+    /// Packets: entry points on or off, tile sizes.
+    pub params: MlrtaParams,
+    pub light: ShadowLight,
+    pub aa: AaRequest,
+}
+
+impl TraceRequest {
+    pub fn validate(&self) -> Result<()> {
+        crate::scene::check_image_size(self.view.width, self.view.height)?;
+        self.params.validate()?;
+        aa::validate_samples(self.aa.samples)
+    }
+}
+
+/// A traced image: its rays, hits and shadows, and what it cost.
+pub struct TracedImage {
+    pub camera: Camera,
+    pub width: u32,
+    pub height: u32,
+    pub rays: Vec<Ray>,
+    pub hits: Vec<Hit>,
+    /// Per pixel, whether the hit is in shadow (with a light).
+    pub shadowed: Option<Vec<bool>>,
+    pub light: Option<Vec3>,
+    /// Final tiles (packets only).
+    pub tiles: Vec<TileReport>,
+    /// The anti-aliased image and where its rays went (with AA).
+    pub aa: Option<aa::AaResult>,
+    pub stats: TraceStats,
+}
+
+/// What `penumbra trace --json` reports, by the paper's Tables 2 and 3.
+#[derive(Debug, Clone, Serialize)]
+pub struct TraceStats {
+    pub rays: usize,
+    pub hits: usize,
+    pub build_ms: f64,
+    pub kdtree: BuildStats,
+    pub camera: Camera,
+    /// "single-ray", or MLRTA "on"/"off".
+    pub mlrta: &'static str,
+    pub timing: Timing,
+    /// Primary (and shadow) rays' time: kernel time on a GPU with timestamps.
+    pub trace_ms: f64,
+    pub mrays_per_s: f64,
+    /// Traversal steps (entry-point and packet steps together) per 4x4 packet.
+    pub cells_per_packet: f64,
+    pub isects_per_packet: f64,
+    #[serde(flatten)]
+    pub packets: Option<PacketStats>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shadows: Option<ShadowStats>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub aa: Option<Value>,
+}
+
+/// Statistics of packets with or without entry points.
+#[derive(Debug, Clone, Serialize)]
+pub struct PacketStats {
+    pub ep_steps_per_packet: f64,
+    pub counts: MlrtaCounts,
+    pub prepare_ms: f64,
+    pub prepared: PreparedStats,
+    pub tiles: TileStats,
+    /// GPU: CPU time of tiles, entry points and packet records.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cpu_ms: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wall_ms: Option<f64>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct TileStats {
+    pub initial: u32,
+    pub min: u32,
+    pub split_factor: u32,
+    #[serde(rename = "final")]
+    pub final_tiles: usize,
+    pub diverging: usize,
+    pub stopped_at_occluder: usize,
+}
+
+/// Shadow rays: primary + shadow statistics (packets only), and results.
+#[derive(Debug, Clone, Serialize)]
+pub struct ShadowStats {
+    pub light: [f32; 3],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cells_per_packet: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub isects_per_packet: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ep_steps_per_packet: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub counts: Option<MlrtaCounts>,
+    pub shadow_rays: usize,
+    pub shadowed_hits: usize,
+}
+
+/// Traces `request`'s image of `mesh` (the scene at one moment; its camera,
+/// if any, is `scene_camera`) on `device`.
+pub fn trace_view(
+    device: &Device,
+    mesh: &Mesh,
+    scene_camera: Option<Camera>,
+    request: &TraceRequest,
+    bars: Bars,
+) -> Result<TracedImage> {
+    request.validate()?;
+    let (width, height) = (request.view.width, request.view.height);
+    let bounds = mesh.bounds();
+    let camera = request.view.camera.resolve(scene_camera, &bounds)?;
+    let light = request.light.position(&bounds);
+    let tree = build_tree(mesh, bars, "trace")?;
+    let rays = camera.primary_rays(width, height);
+    let packets = (width.div_ceil(PACKET) as u64 * height.div_ceil(PACKET) as u64) as f64;
+    let progress = bars.spinner(&format!("tracing {width}x{height} primary rays"));
+    let kdtree = tree.stats.clone();
+    let mut image = if request.single_ray {
+        single_ray(device, tree, &rays, light, packets)?
+    } else {
+        packet_image(device, &tree, mesh, &camera, &rays, request, light, packets)?
+    };
+    progress.finish();
+    let hits = image.hits.iter().filter(|h| h.is_hit()).count();
+    if let (Some(stats), Some(shadowed)) = (image.stats.shadows.as_mut(), &image.shadowed) {
+        stats.shadow_rays = hits;
+        stats.shadowed_hits = shadowed.iter().filter(|&&x| x).count();
+    }
+    // With a light, every hit also sends a shadow ray within the timed work.
+    let traced = rays.len() + if light.is_some() { hits } else { 0 };
+    let s = &mut image.stats;
+    s.rays = rays.len();
+    s.hits = hits;
+    s.build_ms = kdtree.build_ms;
+    s.kdtree = kdtree;
+    s.camera = camera;
+    s.mrays_per_s = mrays_per_s(traced, s.trace_ms);
+    Ok(TracedImage {
+        camera,
+        width,
+        height,
+        rays,
+        light,
+        ..image
+    })
+}
+
+/// Millions of rays per second of `rays` in `ms` (0 when nothing was timed).
+pub fn mrays_per_s(rays: usize, ms: f64) -> f64 {
+    if ms > 0.0 { rays as f64 / (ms * 1e3) } else { 0.0 }
+}
+
+fn stats(mlrta: &'static str, timing: Timing, trace_ms: f64) -> TraceStats {
+    TraceStats {
+        rays: 0,
+        hits: 0,
+        build_ms: 0.0,
+        kdtree: BuildStats::default(),
+        camera: Camera::default_for(&Aabb::EMPTY),
+        mlrta,
+        timing,
+        trace_ms,
+        mrays_per_s: 0.0,
+        cells_per_packet: 0.0,
+        isects_per_packet: 0.0,
+        packets: None,
+        shadows: None,
+        aa: None,
+    }
+}
+
+/// The foundation's single-ray path; statistics summed over the 16 rays of
+/// each 4x4 block; shadow rays on the CPU, timed into the trace.
+fn single_ray(device: &Device, tree: KdTree, rays: &[Ray], light: Option<Vec3>, packets: f64) -> Result<TracedImage> {
+    let mut tracer = Tracer::from_tree(device, tree)?;
+    let traced = tracer.closest(rays)?;
+    let counts = tracer.traversal_counts(rays)?;
+    let mut stats = stats("single-ray", traced.timing, traced.ms);
+    stats.cells_per_packet = counts.cells as f64 / packets;
+    stats.isects_per_packet = counts.intersections as f64 / packets;
+    let hits = traced.value;
+    let shadowed = light.map(|l| {
+        let start = std::time::Instant::now();
+        let tree = tracer.tree();
+        let shadow: Vec<bool> = rays
+            .par_iter()
+            .zip(&hits)
+            .map(|(r, h)| h.is_hit() && tree.any_hit(l, r.o() + h.t * r.d() - l, 1.0 - SHADOW_EPSILON))
+            .collect();
+        stats.trace_ms += elapsed_ms(start);
+        stats.shadows = Some(ShadowStats {
+            light: l.to_array(),
+            cells_per_packet: None,
+            isects_per_packet: None,
+            ep_steps_per_packet: None,
+            counts: None,
+            shadow_rays: 0,
+            shadowed_hits: 0,
+        });
+        shadow
+    });
+    Ok(TracedImage {
+        camera: stats.camera,
+        width: 0,
+        height: 0,
+        rays: Vec::new(),
+        hits,
+        shadowed,
+        light,
+        tiles: Vec::new(),
+        aa: None,
+        stats,
+    })
+}
+
+fn cells(c: &MlrtaCounts) -> f64 {
+    (c.ep_steps + c.xp_cells + c.single_cells) as f64
+}
+
+fn isects(c: &MlrtaCounts) -> f64 {
+    (c.isects + c.single_isects) as f64
+}
+
+/// 4x4 packets, with or without entry points, on the device; AA on the CPU.
+#[allow(clippy::too_many_arguments)]
+fn packet_image(
+    device: &Device,
+    tree: &KdTree,
+    mesh: &Mesh,
+    camera: &Camera,
+    rays: &[Ray],
+    request: &TraceRequest,
+    light: Option<Vec3>,
+    packets: f64,
+) -> Result<TracedImage> {
+    let (w, h) = (request.view.width, request.view.height);
+    let params = &request.params;
+    let prepare = std::time::Instant::now();
+    let (prepared, prepared_stats) = Prepared::new(tree, mesh);
+    let prepare_ms = elapsed_ms(prepare);
+    let mut gpu = device.prepare(|ctx| Ok((GpuKdTree::upload(&ctx.device, tree)?, PacketBatches::new(ctx))))?;
+    let (mut cpu_ms, mut wall_ms) = (None, None);
+    let traced = gpu.run(
+        |ctx, (gpu_tree, batches)| {
+            let t = batches.trace_image(ctx, gpu_tree, &prepared, rays, w, h, params, light)?;
+            (cpu_ms, wall_ms) = (Some(t.cpu_ms), Some(t.wall_ms));
+            Ok(GpuOutput {
+                value: t.image,
+                gpu_ms: t.gpu_ms,
+            })
+        },
+        || trace_image(&prepared, rays, w, h, params, light),
+    )?;
+    let ImageTrace {
+        hits,
+        shadowed,
+        counts: c,
+        shadow_counts: s,
+        tiles,
+    } = traced.value;
+    let mut stats = stats(if params.entry_points { "on" } else { "off" }, traced.timing, traced.ms);
+    stats.cells_per_packet = cells(&c) / packets;
+    stats.isects_per_packet = isects(&c) / packets;
+    stats.packets = Some(PacketStats {
+        ep_steps_per_packet: c.ep_steps as f64 / packets,
+        counts: c,
+        prepare_ms,
+        prepared: prepared_stats,
+        tiles: TileStats {
+            initial: params.initial_tile,
+            min: params.min_tile,
+            split_factor: params.split_factor,
+            final_tiles: tiles.len(),
+            diverging: tiles.iter().filter(|t| t.diverging).count(),
+            stopped_at_occluder: tiles.iter().filter(|t| t.stopped).count(),
+        },
+        cpu_ms,
+        wall_ms,
+    });
+    stats.shadows = light.map(|l| ShadowStats {
+        light: l.to_array(),
+        cells_per_packet: Some((cells(&c) + cells(&s)) / packets),
+        isects_per_packet: Some((isects(&c) + isects(&s)) / packets),
+        ep_steps_per_packet: Some((c.ep_steps + s.ep_steps) as f64 / packets),
+        counts: Some(s),
+        shadow_rays: 0,
+        shadowed_hits: 0,
+    });
+    let aa = if request.aa.mode == AaMode::None {
+        None
+    } else {
+        let (mode, samples) = (request.aa.mode, request.aa.samples);
+        let result = aa::render(&prepared, camera, w, h, params, mode, samples, &tiles)?;
+        let reference = if request.aa.reference {
+            let mut r = aa::reference(&prepared, camera, w, h);
+            if mode == AaMode::Adaptive {
+                r.uniform = Some(aa::render(
+                    &prepared,
+                    camera,
+                    w,
+                    h,
+                    params,
+                    AaMode::Uniform,
+                    samples,
+                    &tiles,
+                )?);
+            }
+            Some(r)
+        } else {
+            None
+        };
+        stats.aa = Some(result.report(reference));
+        Some(result)
+    };
+    Ok(TracedImage {
+        camera: *camera,
+        width: w,
+        height: h,
+        rays: Vec::new(),
+        hits,
+        shadowed,
+        light,
+        tiles,
+        aa,
+        stats,
+    })
+}
+
+impl TracedImage {
+    /// The shaded image: |cos| between the ray and the hit triangle, shadowed
+    /// hits at a quarter, `None` where nothing is hit; the anti-aliased
+    /// image when there is one.
+    pub fn shading(&self, mesh: &Mesh) -> Vec<Option<f32>> {
+        if let Some(aa) = &self.aa {
+            return aa.image.iter().map(|&x| Some(x)).collect();
+        }
+        let shadowed = self.shadowed.as_deref();
+        self.rays
+            .iter()
+            .zip(&self.hits)
+            .enumerate()
+            .map(|(i, (r, h))| {
+                h.is_hit().then(|| {
+                    let n = mesh.face_normal(h.triangle as usize).normalize_or_zero();
+                    let lit = n.dot(r.d().normalize()).abs();
+                    if shadowed.is_some_and(|s| s[i]) {
+                        0.25 * lit
+                    } else {
+                        lit
+                    }
+                })
+            })
+            .collect()
+    }
+
+    /// Where anti-aliasing put its rays: rays per pixel over the most (AA only).
+    pub fn aa_rays(&self) -> Option<Vec<Option<f32>>> {
+        self.aa.as_ref().map(|aa| {
+            let max = aa.spp.iter().copied().max().unwrap_or(1).max(1) as f32;
+            aa.spp.iter().map(|&n| Some(n as f32 / max)).collect()
+        })
+    }
+
+    /// Figure 7 of the paper, with complexity: each final tile's brightness
+    /// is log2 of its entry point's subtree size (relative to the largest);
+    /// red marks diverging tiles, blue tiles whose search stopped at an
+    /// occluder; tile borders are dark. RGB per pixel.
+    pub fn tile_map(&self) -> Vec<[u8; 3]> {
+        let width = self.width;
+        let mut img = vec![[0u8; 3]; width as usize * self.height as usize];
+        let max = self.tiles.iter().map(|t| t.complexity).max().unwrap_or(1).max(2) as f32;
+        for t in &self.tiles {
+            let level = if t.complexity == 0 {
+                0.0
+            } else {
+                (t.complexity as f32).log2() / max.log2()
+            };
+            let g = (40.0 + 215.0 * level) as u8;
+            let color = if t.diverging {
+                [220, 40, 40]
+            } else if t.stopped {
+                [g / 2, g / 2, g]
+            } else {
+                [g, g, g]
+            };
+            let r = t.rect;
+            for y in r.y..r.y + r.h {
+                for x in r.x..r.x + r.w {
+                    let border = x == r.x || y == r.y;
+                    img[(y * width + x) as usize] = if border { [0, 0, 0] } else { color };
+                }
+            }
+        }
+        img
+    }
+}

@@ -1,0 +1,548 @@
+//! The PRT runner: per-frame transfer and radiance of a deforming mesh on
+//! any device (the masks are rasterised on the CPU; integration, rotation
+//! and shading run in `sh_transfer.wgsl` on a GPU or in their CPU twin),
+//! with the Monte Carlo ray-traced reference for checks. `PrtRunner::frame`
+//! is what a host calls every frame with its own vertex positions;
+//! `animate` is the command line's loop over a scene mesh's animation.
+
+use std::time::Instant;
+
+use glam::{DMat3, Vec3};
+use serde::Serialize;
+
+use super::gpu::{FrameInputs, GpuTransfer, MAX_GPU_BANDS};
+use super::hierarchy::NearField;
+use super::pipeline::{FrameOutput, FrameStats, Prt, PrtSettings};
+use super::reference::{reference_transfer, relative_l2_error};
+use super::transfer::{Brdf, Integration, radiance};
+use crate::device::{Device, OnDevice, elapsed_ms};
+use crate::error::{Error, Result};
+use crate::kdtree::{KdTree, KdTreeParams};
+use crate::scene::{EnvironmentMap, SceneMesh};
+use crate::sh::{ShRgb, ShRotation, coefficient_count, project_environment};
+
+/// Where a frame's visibility comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Shadows {
+    /// Hemispherical rasterisation.
+    On,
+    /// No visibility (unshadowed transfer).
+    Off,
+    /// Monte Carlo ray-traced visibility (the reference's rays per vertex; slow).
+    Raytraced,
+}
+
+/// The Monte Carlo ray-traced reference: rays per vertex and the sequence's seed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RayTraced {
+    pub rays: u32,
+    pub seed: u32,
+}
+
+/// Transfer of one mesh, frame after frame, on a device.
+pub struct PrtRunner {
+    prt: Prt,
+    triangles: Vec<[u32; 3]>,
+    shadows: Shadows,
+    reference: RayTraced,
+    device: Device,
+    gpu: OnDevice<GpuTransfer>,
+    notes: Vec<String>,
+}
+
+impl PrtRunner {
+    /// Builds the tables and hierarchy of the mesh from its rest pose and,
+    /// on a GPU, uploads them. A device chosen automatically runs what its
+    /// GPU kernel cannot (more than `MAX_GPU_BANDS` bands) on the CPU, with
+    /// a note; a GPU asked for explicitly is an error then.
+    pub fn new(
+        device: &Device,
+        rest: &[Vec3],
+        triangles: &[[u32; 3]],
+        settings: &PrtSettings,
+        shadows: Shadows,
+        reference: RayTraced,
+    ) -> Result<PrtRunner> {
+        let settings = PrtSettings {
+            shadows: shadows == Shadows::On,
+            ..settings.clone()
+        };
+        settings.validate()?;
+        let mut notes = Vec::new();
+        let mut device = device.clone();
+        if device.is_gpu() && settings.bands > MAX_GPU_BANDS && device.is_automatic() {
+            notes.push(format!(
+                "the GPU kernel integrates up to {MAX_GPU_BANDS} SH bands; `bands` {} runs on the CPU",
+                settings.bands
+            ));
+            device = device.cpu_instead();
+        }
+        let prt = Prt::new(rest, triangles, &settings)?;
+        // Ray-traced shadows need no kernel: the GPU integrates masks only.
+        let gpu = match shadows {
+            Shadows::Raytraced => OnDevice::Cpu,
+            _ => device.prepare(|ctx| GpuTransfer::new(ctx, &prt))?,
+        };
+        Ok(PrtRunner {
+            prt,
+            triangles: triangles.to_vec(),
+            shadows,
+            reference,
+            device,
+            gpu,
+            notes,
+        })
+    }
+
+    pub fn prt(&self) -> &Prt {
+        &self.prt
+    }
+
+    /// The device the runner computes on (the CPU where it fell back).
+    pub fn device(&self) -> &Device {
+        &self.device
+    }
+
+    /// What the runner chose on its own (e.g. falling back to the CPU).
+    pub fn notes(&self) -> &[String] {
+        &self.notes
+    }
+
+    /// Replaces the hierarchy's blocker lists by potentially visible sets
+    /// gathered from sampled poses (positions per pose).
+    pub fn use_pvs(&mut self, poses: &[Vec<Vec3>]) -> Result<()> {
+        let pvs = super::pvs::build_pvs(&self.prt, poses)?;
+        self.prt.set_pvs(Some(pvs));
+        Ok(())
+    }
+
+    /// One frame: transfer, radiance and shading normals at every vertex
+    /// for `positions` (the mesh's current pose), seen from `eye` (two-sided
+    /// meshes, glossy BRDFs), under planar RGB SH `lighting` (`3 x coeffs`).
+    /// Returns the GPU kernel's time where there is one.
+    pub fn frame(
+        &mut self,
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        lighting: &[f32],
+        profile: bool,
+        out: &mut FrameOutput,
+    ) -> Result<Option<f64>> {
+        let prt = &self.prt;
+        match (self.shadows, &mut self.gpu) {
+            (Shadows::Raytraced, _) => {
+                prt.shading_normals(positions, eye, &mut out.normals);
+                out.transfer = self.reference_transfer(positions, &out.normals, eye)?;
+                out.radiance = out
+                    .transfer
+                    .chunks(prt.coeffs())
+                    .map(|t| radiance(lighting, t))
+                    .collect();
+                out.stats = FrameStats::default();
+                Ok(None)
+            }
+            (_, OnDevice::Gpu { ctx, state }) => {
+                prt.frame_masks(positions, eye, profile, out)?;
+                let inputs = FrameInputs {
+                    masks: &out.masks,
+                    positions,
+                    normals: &out.normals,
+                    eye,
+                    lighting,
+                };
+                let g = state.run_frame(ctx, &inputs)?;
+                out.transfer = g.transfer;
+                out.radiance = g.radiance;
+                Ok(g.kernel_ms)
+            }
+            (_, OnDevice::Cpu) => {
+                prt.frame(positions, eye, lighting, profile, false, out)?;
+                Ok(None)
+            }
+        }
+    }
+
+    /// Monte Carlo ray-traced transfer of a pose (kd-tree of the full mesh)
+    /// for the given shading normals.
+    pub fn reference_transfer(&self, positions: &[Vec3], normals: &[Vec3], eye: Option<Vec3>) -> Result<Vec<f32>> {
+        let soup: Vec<[Vec3; 3]> = self
+            .triangles
+            .iter()
+            .map(|t| t.map(|i| positions[i as usize]))
+            .collect();
+        let tree = KdTree::from_triangles(soup, &KdTreeParams::default())?;
+        let s = &self.prt.settings;
+        let RayTraced { rays, seed } = self.reference;
+        Ok(reference_transfer(
+            &tree,
+            positions,
+            normals,
+            self.prt.scale,
+            s.bands,
+            &s.brdf,
+            eye,
+            rays,
+            seed,
+        ))
+    }
+
+    /// The frame's mean relative L2 transfer error against ray tracing:
+    /// (error, vertices counted, vertices skipped as nearly dark).
+    pub fn transfer_error(
+        &self,
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        frame: &FrameOutput,
+    ) -> Result<(f64, usize, usize)> {
+        // Ray-traced shadows already are the reference: no second trace.
+        let reference = match self.shadows {
+            Shadows::Raytraced => frame.transfer.clone(),
+            _ => self.reference_transfer(positions, &frame.normals, eye)?,
+        };
+        let t = &self.prt.tables;
+        let unoccluded = t.unoccluded.iter().map(|v| v * v).sum::<f32>().sqrt();
+        Ok(relative_l2_error(
+            &frame.transfer,
+            &reference,
+            t.coeffs,
+            0.01 * unoccluded,
+        ))
+    }
+}
+
+/// How an animation is played: frames, time, lighting spin, PVS, checks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Playback {
+    pub frames: usize,
+    /// Animation time of the first frame and between frames, seconds.
+    pub start: f32,
+    pub dt: f32,
+    /// Turn the lighting about +y by this many degrees per frame.
+    pub env_spin: f32,
+    pub pvs: Option<PvsSampling>,
+    /// Frames compared with ray tracing, evenly spread (0: none).
+    pub check_frames: usize,
+    /// Per-phase times (the paper's Table 2).
+    pub profile: bool,
+}
+
+/// Poses a PVS is gathered from: `frames` over `span` seconds from the
+/// start (default: the frames' span, at least 2 s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PvsSampling {
+    pub frames: usize,
+    pub span: Option<f32>,
+}
+
+impl Playback {
+    pub fn validate(&self) -> Result<()> {
+        for (name, v) in [
+            ("frames", self.frames),
+            ("pvs_frames", self.pvs.map_or(1, |p| p.frames)),
+        ] {
+            if v == 0 {
+                return Err(Error::param(name, format!("must be positive, got {v}")));
+            }
+        }
+        if !(self.dt.is_finite() && self.start.is_finite() && self.env_spin.is_finite()) {
+            return Err(Error::param("dt/start/env_spin", "must be finite"));
+        }
+        Ok(())
+    }
+
+    fn time(&self, frame: usize) -> f32 {
+        self.start + frame as f32 * self.dt
+    }
+
+    /// The frames checked against ray tracing.
+    fn checked(&self) -> Vec<usize> {
+        let k = self.check_frames.min(self.frames);
+        (0..k)
+            .map(|i| if k == 1 { 0 } else { i * (self.frames - 1) / (k - 1) })
+            .collect()
+    }
+}
+
+/// Runs `animation` of `mesh` under `env`, seen from `eye`, calling
+/// `on_frame` with each frame's index, pose and results.
+pub fn animate(
+    runner: &mut PrtRunner,
+    mesh: &SceneMesh,
+    env: &EnvironmentMap,
+    eye: Option<Vec3>,
+    animation: &Playback,
+    mut on_frame: impl FnMut(usize, &[Vec3], &FrameOutput) -> Result<()>,
+) -> Result<PrtReport> {
+    animation.validate()?;
+    let bands = runner.prt.settings.bands;
+    let lighting_world = project_environment(env, bands);
+    let rotation = ShRotation::new(bands);
+    let pvs = match animation.pvs {
+        Some(sampling) => Some(gather_pvs(runner, mesh, animation, sampling)?),
+        None => None,
+    };
+    let checked = animation.checked();
+    let mut check = CheckReport {
+        rays: runner.reference.rays,
+        frames: checked.clone(),
+        per_frame: Vec::new(),
+        vertices: 0,
+        skipped_dark: 0,
+        seed: runner.reference.seed,
+    };
+    let mut frame_ms = Vec::with_capacity(animation.frames);
+    let mut gpu_ms = Vec::new();
+    let mut sum = FrameStats::default();
+    let mut out = FrameOutput::default();
+    let mut positions = Vec::new();
+    for f in 0..animation.frames {
+        mesh.positions_at(animation.time(f), &mut positions);
+        let lighting = spun(&lighting_world, &rotation, animation.env_spin * f as f32).to_f32_planar();
+        let start = Instant::now();
+        if let Some(ms) = runner.frame(&positions, eye, &lighting, animation.profile, &mut out)? {
+            gpu_ms.push(ms);
+        }
+        frame_ms.push(elapsed_ms(start));
+        sum += &out.stats;
+        if checked.contains(&f) {
+            let (e, counted, skipped) = runner.transfer_error(&positions, eye, &out)?;
+            check.per_frame.push(e);
+            check.vertices += counted;
+            check.skipped_dark += skipped;
+        }
+        on_frame(f, &positions, &out)?;
+    }
+    Ok(PrtReport::new(
+        runner,
+        animation,
+        &frame_ms,
+        &gpu_ms,
+        &sum,
+        pvs,
+        (!checked.is_empty()).then_some(check),
+    ))
+}
+
+fn gather_pvs(
+    runner: &mut PrtRunner,
+    mesh: &SceneMesh,
+    animation: &Playback,
+    sampling: PvsSampling,
+) -> Result<PvsReport> {
+    let start = Instant::now();
+    let span = sampling
+        .span
+        .unwrap_or(((animation.frames - 1) as f32 * animation.dt).max(2.0));
+    let poses: Vec<Vec<Vec3>> = (0..sampling.frames)
+        .map(|k| {
+            let mut p = Vec::new();
+            let time = animation.start + span * k as f32 / (sampling.frames.max(2) - 1) as f32;
+            mesh.positions_at(time, &mut p);
+            p
+        })
+        .collect();
+    runner.use_pvs(&poses)?;
+    let prt = &runner.prt;
+    let size = prt.pvs().map_or(0, |p| p.items.len());
+    Ok(PvsReport {
+        frames: sampling.frames,
+        build_ms: elapsed_ms(start),
+        avg_size: size as f64 / prt.vertex_count.max(1) as f64,
+    })
+}
+
+/// `lighting` turned about +y by `degrees`.
+pub fn spun(lighting: &ShRgb, rotation: &ShRotation, degrees: f32) -> ShRgb {
+    if degrees == 0.0 {
+        return lighting.clone();
+    }
+    lighting.rotated(rotation, DMat3::from_rotation_y((degrees as f64).to_radians()))
+}
+
+/// What a run measured, with the settings it ran with (`prt --json`).
+#[derive(Debug, Clone, Serialize)]
+pub struct PrtReport {
+    pub vertices: usize,
+    pub triangles: usize,
+    pub avg_blockers_per_vertex: f64,
+    pub fps: f64,
+    pub fps_best: f64,
+    /// Mean relative L2 error of the transfer against ray tracing (checks only).
+    pub transfer_l2_error: Option<f64>,
+    pub frames: usize,
+    pub frame_ms: FrameTimes,
+    pub gpu_ms_per_frame: Option<f64>,
+    pub order: usize,
+    pub coefficients: usize,
+    pub mask: usize,
+    pub integration: Integration,
+    pub lut: LutReport,
+    pub brdf: Brdf,
+    pub shadows: Shadows,
+    pub hierarchy: HierarchyReport,
+    pub backface_culling: bool,
+    pub two_sided: bool,
+    pub pvs: Option<PvsReport>,
+    pub avg_candidates_per_vertex: f64,
+    pub culling_per_vertex: CullingReport,
+    pub without_normal: u64,
+    pub phases: Option<Phases>,
+    pub setup_ms: f64,
+    pub check: Option<CheckReport>,
+}
+
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct FrameTimes {
+    pub mean: f64,
+    pub median: f64,
+    pub best: f64,
+}
+
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct LutReport {
+    pub size: usize,
+    pub bytes: usize,
+    /// The paper's six-face layout (we store three faces and complement).
+    pub paper_layout_bytes: usize,
+    pub build_ms: f64,
+}
+
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct HierarchyReport {
+    pub enabled: bool,
+    pub near: NearField,
+    pub ring: usize,
+    pub low_res_triangles: Option<usize>,
+    pub groups: usize,
+    pub group_culling: bool,
+}
+
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct PvsReport {
+    pub frames: usize,
+    pub build_ms: f64,
+    pub avg_size: f64,
+}
+
+/// Blockers culled per vertex, by reason.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct CullingReport {
+    pub groups: f64,
+    pub below_horizon: f64,
+    pub back_facing: f64,
+    pub edge_on: f64,
+}
+
+/// Share of frame time per phase (the paper's Table 2) and ms per frame.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Phases {
+    pub transform: f64,
+    pub rasterization: f64,
+    pub integration: f64,
+    pub other: f64,
+    pub ms_per_frame: [f64; 4],
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct CheckReport {
+    pub rays: u32,
+    pub frames: Vec<usize>,
+    pub per_frame: Vec<f64>,
+    pub vertices: usize,
+    pub skipped_dark: usize,
+    pub seed: u32,
+}
+
+impl PrtReport {
+    fn new(
+        runner: &PrtRunner,
+        animation: &Playback,
+        frame_ms: &[f64],
+        gpu_ms: &[f64],
+        sum: &FrameStats,
+        pvs: Option<PvsReport>,
+        check: Option<CheckReport>,
+    ) -> PrtReport {
+        let prt = &runner.prt;
+        let s = &prt.settings;
+        let nf = animation.frames as f64;
+        let verts = sum.vertices.max(1) as f64;
+        let total_ms: f64 = frame_ms.iter().sum();
+        let best = frame_ms.iter().cloned().fold(f64::INFINITY, f64::min);
+        let mut sorted = frame_ms.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        let gpu_ms_per_frame = (!gpu_ms.is_empty()).then(|| mean(gpu_ms));
+        let phases = animation.profile.then(|| {
+            // CPU phases are summed over threads; per frame they are divided
+            // by the thread count. On the GPU path integration is the
+            // kernel's time and "other" the rest of the frame (uploads,
+            // readback, waits).
+            let threads = rayon::current_num_threads() as f64;
+            let mut ms = sum.phase_ns.map(|n| n as f64 * 1e-6 / nf / threads);
+            if let Some(kernel) = gpu_ms_per_frame {
+                ms[2] = kernel;
+                ms[3] = (total_ms / nf - ms[0] - ms[1] - ms[2]).max(0.0);
+            }
+            let total: f64 = ms.iter().sum::<f64>().max(1e-12);
+            Phases {
+                transform: ms[0] / total,
+                rasterization: ms[1] / total,
+                integration: ms[2] / total,
+                other: ms[3] / total,
+                ms_per_frame: ms,
+            }
+        });
+        let h = &prt.hierarchy;
+        PrtReport {
+            vertices: prt.vertex_count,
+            triangles: runner.triangles.len(),
+            avg_blockers_per_vertex: sum.drawn as f64 / verts,
+            fps: 1e3 * nf / total_ms.max(1e-9),
+            fps_best: 1e3 / best.max(1e-9),
+            transfer_l2_error: check.as_ref().map(|c| mean(&c.per_frame)),
+            frames: animation.frames,
+            frame_ms: FrameTimes {
+                mean: total_ms / nf,
+                median: sorted[sorted.len() / 2],
+                best,
+            },
+            gpu_ms_per_frame,
+            order: s.bands,
+            coefficients: coefficient_count(s.bands),
+            mask: s.mask_side,
+            integration: s.integration,
+            lut: LutReport {
+                size: s.lut_size,
+                bytes: prt.lut.bytes(),
+                paper_layout_bytes: prt.lut.six_face_bytes(),
+                build_ms: prt.lut_ms,
+            },
+            brdf: s.brdf,
+            shadows: runner.shadows,
+            hierarchy: HierarchyReport {
+                enabled: s.hierarchy.enabled,
+                near: s.hierarchy.near,
+                ring: s.hierarchy.ring,
+                low_res_triangles: h.coarse.then_some(h.far.len()),
+                groups: h.groups.len(),
+                group_culling: s.group_culling,
+            },
+            backface_culling: prt.cull_backfaces,
+            two_sided: prt.two_sided,
+            pvs,
+            avg_candidates_per_vertex: sum.candidates as f64 / verts,
+            culling_per_vertex: CullingReport {
+                groups: sum.group_culled as f64 / verts,
+                below_horizon: sum.below_horizon as f64 / verts,
+                back_facing: sum.back_facing as f64 / verts,
+                edge_on: sum.edge_on as f64 / verts,
+            },
+            without_normal: sum.without_normal / animation.frames as u64,
+            phases,
+            setup_ms: prt.setup_ms,
+            check,
+        }
+    }
+}

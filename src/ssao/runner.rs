@@ -1,0 +1,237 @@
+//! The SSAO runner (`penumbra ssao`): a scene's G-buffer, one of the
+//! paper's estimators with its filter, optionally the indirect light and
+//! shaded image, on the GPU or in the CPU twins; then the estimator's error
+//! against world-space ray-traced AO of the same measure and against the
+//! screen-space reference (dense quadrature over the same depth buffer).
+
+use serde::Serialize;
+
+use super::gbuffer::{GBuffer, ScreenView, gbuffer, validate_lights};
+use super::gpu::{GBufferSource, run_frame};
+use super::truth::{Estimate, raytraced, screen_reference};
+use super::{Estimator, Measure, ShadeSettings, SsaoFrame, SsaoSettings, Timings, rmse, run_cpu};
+use crate::device::{Device, GpuOutput, Timing, elapsed_ms};
+use crate::error::{Error, Result};
+use crate::progress::Bars;
+use crate::scene::{Camera, Scene, View};
+use crate::tracer::build_tree;
+
+/// One SSAO frame and its measurements.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SsaoRequest {
+    pub settings: SsaoSettings,
+    pub view: View,
+    /// The indirect light and shaded image (ambient La), if wanted.
+    pub shade: Option<ShadeSettings>,
+    /// Rays per pixel of the ray-traced truth (0: none).
+    pub truth_rays: u32,
+    /// Samples per pixel of the screen-space reference (0: none).
+    pub reference_spp: u32,
+    /// GPU passes run this many times; each pass's fastest is reported.
+    pub repeat: u32,
+}
+
+impl SsaoRequest {
+    pub fn validate(&self) -> Result<()> {
+        self.settings.validate()?;
+        crate::scene::check_image_size(self.view.width, self.view.height)?;
+        if let Some(shade) = &self.shade {
+            shade.validate()?;
+        }
+        if self.repeat == 0 || self.repeat > 1000 {
+            return Err(Error::param("repeat", "must be between 1 and 1000"));
+        }
+        Ok(())
+    }
+}
+
+/// A frame with its G-buffer and references.
+pub struct SsaoRun {
+    pub camera: Camera,
+    pub gbuffer: GBuffer,
+    pub frame: SsaoFrame,
+    pub truth: Option<Estimate>,
+    pub reference: Option<Estimate>,
+    pub report: SsaoReport,
+}
+
+/// What `ssao --json` reports.
+#[derive(Debug, Clone, Serialize)]
+pub struct SsaoReport {
+    pub estimator: Estimator,
+    pub spp: u32,
+    pub ao_ms: f64,
+    pub rmse_vs_raytraced: Option<f64>,
+    pub rmse_vs_screen_reference: Option<f64>,
+    pub timing: Timing,
+    pub gbuffer_ms: f64,
+    pub estimate_ms: f64,
+    pub filter_ms: f64,
+    pub indirect_ms: f64,
+    pub compose_ms: f64,
+    pub frame_ms: f64,
+    pub radius: f32,
+    pub measure: &'static str,
+    pub sigma: Option<f32>,
+    pub steps: Option<u32>,
+    pub interleave: bool,
+    pub filter: bool,
+    pub filter_depth: f32,
+    pub bias_px: f32,
+    pub calibrate: bool,
+    pub seed: u32,
+    pub width: u32,
+    pub height: u32,
+    pub surface_pixels: usize,
+    pub mean_ao: f64,
+    pub truth: Option<Estimate>,
+    pub reference: Option<Estimate>,
+    pub build_ms: f64,
+    pub camera: Camera,
+    /// What screen space cannot see (with a reference; null without truth).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rmse_reference_vs_raytraced: Option<Option<f64>>,
+}
+
+/// Runs `request` on `scene` (every instance is drawn; casters occlude the
+/// ray-traced truth) on `device`.
+pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: Bars) -> Result<SsaoRun> {
+    request.validate()?;
+    validate_lights(&scene.lights)?;
+    let settings = &request.settings;
+    let mesh = scene.world_mesh(|_| true);
+    let occluders = scene.occluders();
+    let camera = request.view.camera.resolve(scene.camera, &mesh.bounds())?;
+    let (w, h) = (request.view.width, request.view.height);
+    let view = ScreenView::new(&camera, w, h);
+    let shade = request.shade.as_ref();
+    let tree = build_tree(&mesh, bars, "ssao")?;
+    let mut on_device = device.prepare(|_| Ok(()))?;
+    let framed = on_device.run(
+        |ctx, _| {
+            let source = GBufferSource::Render {
+                mesh: &mesh,
+                camera: &camera,
+                lights: &scene.lights,
+            };
+            let f = run_frame(ctx, source, &view, settings, shade, request.repeat)?;
+            Ok(GpuOutput {
+                value: (f.gbuffer, f.frame),
+                gpu_ms: None,
+            })
+        },
+        || {
+            let start = std::time::Instant::now();
+            let gb = gbuffer(&tree, &mesh, &camera, &scene.lights, w, h);
+            let gbuffer_ms = elapsed_ms(start);
+            let mut frame = run_cpu(&gb, &view, settings, shade)?;
+            frame.timings.gbuffer_ms = gbuffer_ms;
+            Ok((gb, frame))
+        },
+    )?;
+    let (gb, frame) = framed.value;
+    // Ground truth: only casters occlude.
+    let truth = if request.truth_rays > 0 {
+        let caster_tree;
+        let occ_tree = if occluders.triangles.len() == mesh.triangles.len() {
+            &tree
+        } else if occluders.triangles.is_empty() {
+            return Err(Error::param("scene", "no instance is a caster: nothing occludes"));
+        } else {
+            caster_tree = build_tree(&occluders, bars, "casters")?;
+            &caster_tree
+        };
+        let (measure, radius) = (settings.measure, settings.radius);
+        Some(raytraced(
+            occ_tree,
+            &camera,
+            &view,
+            &gb,
+            measure,
+            radius,
+            request.truth_rays,
+            settings.seed,
+        ))
+    } else {
+        None
+    };
+    let reference = (request.reference_spp > 0).then(|| screen_reference(&gb, &view, settings, request.reference_spp));
+    let report = SsaoReport::new(request, &camera, &gb, &frame, &truth, &reference, tree.stats.build_ms);
+    Ok(SsaoRun {
+        camera,
+        gbuffer: gb,
+        frame,
+        truth,
+        reference,
+        report,
+    })
+}
+
+impl SsaoRun {
+    /// Final accessibility per pixel; `None` on the background.
+    pub fn ao_image(&self) -> Vec<Option<f32>> {
+        (0..self.gbuffer.pixels())
+            .map(|i| self.gbuffer.is_surface(i).then_some(self.frame.ao[i]))
+            .collect()
+    }
+}
+
+impl SsaoReport {
+    fn new(
+        request: &SsaoRequest,
+        camera: &Camera,
+        gb: &GBuffer,
+        frame: &SsaoFrame,
+        truth: &Option<Estimate>,
+        reference: &Option<Estimate>,
+        build_ms: f64,
+    ) -> SsaoReport {
+        let s = &request.settings;
+        let t: Timings = frame.timings;
+        let surface = gb.surface_pixels();
+        let mean_ao = (0..gb.pixels())
+            .filter(|&i| gb.is_surface(i))
+            .map(|i| frame.ao[i] as f64)
+            .sum::<f64>()
+            / surface.max(1) as f64;
+        let against = |e: &Option<Estimate>| e.as_ref().map(|e| rmse(gb, &frame.ao, &e.values));
+        SsaoReport {
+            estimator: s.estimator,
+            spp: s.spp,
+            ao_ms: t.ao_ms(),
+            rmse_vs_raytraced: against(truth),
+            rmse_vs_screen_reference: against(reference),
+            timing: t.timing,
+            gbuffer_ms: t.gbuffer_ms,
+            estimate_ms: t.estimate_ms,
+            filter_ms: t.filter_ms,
+            indirect_ms: t.indirect_ms,
+            compose_ms: t.compose_ms,
+            frame_ms: t.frame_ms(),
+            radius: s.radius,
+            measure: s.measure.name(),
+            sigma: match s.measure {
+                Measure::Exp { sigma } => Some(sigma),
+                _ => None,
+            },
+            steps: (s.estimator == Estimator::Raymarch).then_some(s.steps),
+            interleave: s.interleave,
+            filter: s.filter,
+            filter_depth: s.filter_depth(),
+            bias_px: s.bias_px,
+            calibrate: s.calibrate,
+            seed: s.seed,
+            width: gb.width,
+            height: gb.height,
+            surface_pixels: surface,
+            mean_ao,
+            truth: truth.clone(),
+            reference: reference.clone(),
+            build_ms,
+            camera: *camera,
+            rmse_reference_vs_raytraced: reference
+                .as_ref()
+                .map(|r| truth.as_ref().map(|t| rmse(gb, &r.values, &t.values))),
+        }
+    }
+}

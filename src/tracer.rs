@@ -1,0 +1,144 @@
+//! A kd-tree ready on a device: the runner every ray-casting method goes
+//! through. Closest hits (`trace-rays`, primary visibility of images) and AO
+//! rays (reference AO, and the ground truth of fields, SSAO and PRT) run in
+//! the WGSL kernels on a GPU or in their CPU twins, with identical results;
+//! on a GPU the tree is uploaded once and the passes keep their buffers
+//! between calls.
+
+use crate::ao::gpu::AoRaysBatches;
+use crate::ao::raycast::ao_rays;
+use crate::ao::{AoPoint, AoSettings, VisibilityMasks};
+use crate::device::{Device, GpuOutput, OnDevice, Timed};
+use crate::error::Result;
+use crate::gpu::GpuContext;
+use crate::kdtree::gpu::{GpuKdTree, TraceMode, TraceRaysBatches};
+use crate::kdtree::{KdTree, KdTreeParams, TraversalCounts};
+use crate::progress::{Bars, Progress};
+use crate::ray::{Hit, Ray};
+use crate::scene::Mesh;
+
+/// Meshes above this many triangles get a spinner while their tree builds.
+const SPINNER_TRIANGLES: usize = 200_000;
+
+/// Builds the kd-tree of `mesh` with default parameters; a spinner names
+/// `what` while a large mesh builds.
+pub fn build_tree(mesh: &Mesh, bars: Bars, what: &str) -> Result<KdTree> {
+    let progress = if mesh.triangles.len() > SPINNER_TRIANGLES {
+        bars.spinner(&format!("building kd-tree ({what})"))
+    } else {
+        Progress::hidden()
+    };
+    let tree = KdTree::build(mesh, &KdTreeParams::default())?;
+    progress.finish();
+    Ok(tree)
+}
+
+/// What a tracer keeps on a GPU.
+pub struct GpuTracer {
+    pub tree: GpuKdTree,
+    rays: Option<TraceRaysBatches>,
+    ao: Option<AoRaysBatches>,
+}
+
+/// A kd-tree and, on a GPU, its upload and passes.
+pub struct Tracer {
+    tree: KdTree,
+    gpu: OnDevice<GpuTracer>,
+}
+
+impl Tracer {
+    /// Builds the tree over `mesh` (default parameters) and uploads it;
+    /// `what` names the mesh on a spinner for large meshes.
+    pub fn build(device: &Device, mesh: &Mesh, bars: Bars, what: &str) -> Result<Tracer> {
+        Self::from_tree(device, build_tree(mesh, bars, what)?)
+    }
+
+    /// A tree built elsewhere, uploaded to `device`.
+    pub fn from_tree(device: &Device, tree: KdTree) -> Result<Tracer> {
+        let gpu = device.prepare(|ctx| {
+            Ok(GpuTracer {
+                tree: GpuKdTree::upload(&ctx.device, &tree)?,
+                rays: None,
+                ao: None,
+            })
+        })?;
+        Ok(Tracer { tree, gpu })
+    }
+
+    pub fn tree(&self) -> &KdTree {
+        &self.tree
+    }
+
+    /// The tree on the GPU, if the device is one.
+    pub fn gpu_tree(&self) -> Option<&GpuKdTree> {
+        self.gpu.state().map(|g| &g.tree)
+    }
+
+    /// Closest hits of `rays` (directions need not be normalised; t in their units).
+    pub fn closest(&mut self, rays: &[Ray]) -> Result<Timed<Vec<Hit>>> {
+        let tree = &self.tree;
+        self.gpu.run(
+            |ctx, g| {
+                let traced = g.trace(ctx, rays, TraceMode::Closest)?;
+                Ok(GpuOutput {
+                    value: traced.hits,
+                    gpu_ms: traced.gpu_ms,
+                })
+            },
+            || Ok(tree.trace_closest(rays)),
+        )
+    }
+
+    /// Traversal steps and intersection tests of the closest hits of
+    /// `rays`, summed (the kernel's counters on a GPU; not timed).
+    pub fn traversal_counts(&mut self, rays: &[Ray]) -> Result<TraversalCounts> {
+        let tree = &self.tree;
+        let counted = self.gpu.run(
+            |ctx, g| {
+                let traced = g.trace(ctx, rays, TraceMode::ClosestCounted)?;
+                let sum = traced
+                    .counts
+                    .unwrap_or_default()
+                    .iter()
+                    .fold(TraversalCounts::default(), |mut acc, c| {
+                        acc.cells += c[0] as u64;
+                        acc.intersections += c[1] as u64;
+                        acc
+                    });
+                Ok(GpuOutput {
+                    value: sum,
+                    gpu_ms: None,
+                })
+            },
+            || Ok(tree.traversal_counts(rays)),
+        )?;
+        Ok(counted.value)
+    }
+
+    /// AO rays of `points`: which of each point's rays escape.
+    pub fn ao_visibility(
+        &mut self,
+        points: &[AoPoint],
+        settings: &AoSettings,
+        progress: &Progress,
+    ) -> Result<Timed<VisibilityMasks>> {
+        settings.validate()?;
+        let tree = &self.tree;
+        self.gpu.run(
+            |ctx, g| {
+                let batches = g.ao.get_or_insert_with(|| AoRaysBatches::new(ctx));
+                let rays_per_batch = crate::ao::gpu::RAYS_PER_BATCH;
+                let (masks, gpu_ms) = batches.visibility(ctx, &g.tree, points, settings, progress, rays_per_batch)?;
+                Ok(GpuOutput { value: masks, gpu_ms })
+            },
+            || Ok(ao_rays(tree, points, settings, progress)),
+        )
+    }
+}
+
+impl GpuTracer {
+    fn trace(&mut self, ctx: &GpuContext, rays: &[Ray], mode: TraceMode) -> Result<crate::kdtree::gpu::GpuTrace> {
+        let batches = self.rays.get_or_insert_with(|| TraceRaysBatches::new(ctx));
+        batches.trace(ctx, &self.tree, rays, mode, f32::INFINITY, usize::MAX)
+    }
+}
