@@ -24,7 +24,7 @@ use glam::{Quat, Vec3};
 use penumbra::ao::points::vertex_points;
 use penumbra::ao::raycast::ao_rays;
 use penumbra::ao::{AoPoint, AoSettings};
-use penumbra::field::gpu::{FieldGroup, GpuField, GpuInstance, visibility_field_gpu};
+use penumbra::field::gpu::{FieldAoBatches, FieldGroup, GpuField, GpuInstance};
 use penumbra::field::{
     DirectionMapping, DisplacementField, FieldCaster, FieldParams, NO_OWNER, OctahedralGrid, Positional, Storage,
     field_ao,
@@ -143,17 +143,19 @@ fn all(c: &mut Criterion) {
             field: &g,
             instances: vec![GpuInstance::new(&placement(m), 0)],
         }];
+        let mut batches = FieldAoBatches::new(&ctx);
         gpu.bench_function(m.name.as_str(), |b| {
             b.iter(|| {
-                visibility_field_gpu(
-                    &ctx,
-                    &groups,
-                    black_box(&points),
-                    &owners,
-                    &SETTINGS,
-                    &Progress::hidden(),
-                )
-                .unwrap()
+                batches
+                    .visibility(
+                        &ctx,
+                        &groups,
+                        black_box(&points),
+                        &owners,
+                        &SETTINGS,
+                        &Progress::hidden(),
+                    )
+                    .unwrap()
             })
         });
     }

@@ -17,7 +17,7 @@
 //!   (`--min-tile 8`: fewest traversal steps) and `mlrta+shadows`
 //!   (plus a shadow ray per hit to the CLI's default light; the rays counted
 //!   are the primary ones).
-//! - `mlrta_gpu/<model>/<mode>/<W>x<H>`: `mlrta::gpu::trace_image_gpu`
+//! - `mlrta_gpu/<model>/<mode>/<W>x<H>`: `mlrta::gpu::PacketBatches::trace_image`
 //!   (wall time: CPU tiles and entry points, upload, kernel, readback), only
 //!   with a GPU adapter; 512x512 on a software adapter.
 
@@ -31,7 +31,7 @@ use criterion::{BenchmarkId, Criterion, SamplingMode, Throughput, criterion_grou
 use glam::Vec3;
 use penumbra::gpu::GpuContext;
 use penumbra::kdtree::gpu::GpuKdTree;
-use penumbra::mlrta::gpu::trace_image_gpu;
+use penumbra::mlrta::gpu::PacketBatches;
 use penumbra::mlrta::tiles::DEFAULT_MIN_TILE;
 use penumbra::mlrta::{MlrtaParams, Prepared, trace_image};
 use penumbra::ray::{Hit, Ray};
@@ -160,9 +160,12 @@ fn bench_gpu(c: &mut Criterion, models: &[Model]) {
             ("mlrta", true, DEFAULT_MIN_TILE),
             ("mlrta-min-tile-8", true, 8),
         ];
+        let mut packets = PacketBatches::new(&ctx);
         for (mode, entry_points, min_tile) in modes {
             let p = params(entry_points, min_tile);
-            let first = trace_image_gpu(&ctx, &gpu_tree, &prepared, &rays, size, size, &p, None).expect("GPU packets");
+            let first = packets
+                .trace_image(&ctx, &gpu_tree, &prepared, &rays, size, size, &p, None)
+                .expect("GPU packets");
             eprintln!(
                 "mlrta_gpu/{}/{mode}: wall {:.1} ms (CPU part {:.1} ms), kernel {}",
                 m.name,
@@ -176,7 +179,8 @@ fn bench_gpu(c: &mut Criterion, models: &[Model]) {
             let id = BenchmarkId::new(format!("{}/{mode}", m.name), format!("{size}x{size}"));
             group.bench_function(id, |b| {
                 b.iter(|| {
-                    trace_image_gpu(&ctx, &gpu_tree, &prepared, black_box(&rays), size, size, &p, None)
+                    packets
+                        .trace_image(&ctx, &gpu_tree, &prepared, black_box(&rays), size, size, &p, None)
                         .expect("GPU packets")
                         .image
                         .hits

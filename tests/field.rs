@@ -10,7 +10,7 @@ use glam::{Quat, Vec3};
 use penumbra::ao::points::vertex_points;
 use penumbra::ao::raycast::ao_rays;
 use penumbra::ao::{AoSettings, VisibilityMasks};
-use penumbra::field::gpu::{FieldGroup, GpuField, GpuInstance, probe_gpu, visibility_field_gpu};
+use penumbra::field::gpu::{FieldAoBatches, FieldGroup, GpuField, GpuInstance, probe_gpu};
 use penumbra::field::{
     DirectionMapping, DisplacementField, FieldCaster, FieldParams, FieldTrace, NO_OWNER, OctahedralGrid, Positional,
     Storage, field_ao, file,
@@ -270,7 +270,9 @@ fn gpu_field_ao_equals_the_cpu_twin() {
             field: &g,
             instances: vec![GpuInstance::new(&transform, 1)],
         }];
-        let gpu_ao = visibility_field_gpu(&ctx, &groups, &points, &owners, &settings, &Progress::hidden()).unwrap();
+        let gpu_ao = FieldAoBatches::new(&ctx)
+            .visibility(&ctx, &groups, &points, &owners, &settings, &Progress::hidden())
+            .unwrap();
         let differ = cpu.differing_rays(&gpu_ao.masks);
         let total = (points.len() * 64) as u64;
         let worst = cpu

@@ -14,12 +14,12 @@ mod common;
 
 use common::{Rng, asset, data_model, gpu};
 use glam::Vec3;
-use penumbra::ao::gpu::{ray_samples_gpu, visibility_gpu};
+use penumbra::ao::gpu::{AoRaysBatches, RAYS_PER_BATCH, ray_samples_gpu};
 use penumbra::ao::points::vertex_points;
 use penumbra::ao::raycast::{ao_rays, ao_samples};
 use penumbra::ao::{AoPoint, AoSettings};
 use penumbra::gpu::GpuContext;
-use penumbra::kdtree::gpu::{GpuKdTree, TraceMode, trace_rays};
+use penumbra::kdtree::gpu::{GpuKdTree, TraceMode, TraceRaysBatches, trace_rays};
 use penumbra::kdtree::{KdTree, KdTreeParams, TraversalCounts};
 use penumbra::progress::Progress;
 use penumbra::ray::Ray;
@@ -161,13 +161,15 @@ fn compare_ao(ctx: &GpuContext, name: &str, mesh: &Mesh, rays_per_point: u32) {
         seed: 1,
     };
     let cpu = ao_rays(&tree, &points, &settings, &Progress::hidden());
-    let gpu = visibility_gpu(ctx, &gpu_tree, &points, &settings, &Progress::hidden()).unwrap();
+    let (gpu, _) = AoRaysBatches::new(ctx)
+        .visibility(ctx, &gpu_tree, &points, &settings, &Progress::hidden(), RAYS_PER_BATCH)
+        .unwrap();
     let total = points.len() as u64 * rays_per_point as u64;
-    let differing = cpu.differing_rays(&gpu.masks);
+    let differing = cpu.differing_rays(&gpu);
     let worst_ao = cpu
         .accessibility()
         .iter()
-        .zip(gpu.masks.accessibility())
+        .zip(gpu.accessibility())
         .map(|(a, b)| (a - b).abs())
         .fold(0f32, f32::max);
     println!(
@@ -210,9 +212,9 @@ fn large_requests_are_split_into_batches_with_the_same_results() {
     let gpu_tree = GpuKdTree::upload(&ctx.device, &tree).unwrap();
     let rays = random_rays(&mesh, 10_007, 5);
     let whole = trace_rays(&ctx, &gpu_tree, &rays, TraceMode::Closest, f32::INFINITY).unwrap();
-    let split =
-        penumbra::kdtree::gpu::trace_rays_batched(&ctx, &gpu_tree, &rays, TraceMode::Closest, f32::INFINITY, 999)
-            .unwrap();
+    let split = TraceRaysBatches::new(&ctx)
+        .trace(&ctx, &gpu_tree, &rays, TraceMode::Closest, f32::INFINITY, 999)
+        .unwrap();
     assert_eq!(whole.hits, split.hits, "11 batches of <= 999 rays");
 
     let points = vertex_points(&mesh);
@@ -221,11 +223,17 @@ fn large_requests_are_split_into_batches_with_the_same_results() {
         radius: 0.5,
         seed: 4,
     };
-    let whole = visibility_gpu(&ctx, &gpu_tree, &points, &settings, &Progress::hidden()).unwrap();
-    let split =
-        penumbra::ao::gpu::visibility_gpu_batched(&ctx, &gpu_tree, &points, &settings, &Progress::hidden(), 4000)
-            .unwrap();
-    assert_eq!(whole.masks, split.masks, "batches of 100 points");
+    let mut batches = AoRaysBatches::new(&ctx);
+    let (whole, _) = batches
+        .visibility(&ctx, &gpu_tree, &points, &settings, &Progress::hidden(), RAYS_PER_BATCH)
+        .unwrap();
+    let (split, _) = batches
+        .visibility(&ctx, &gpu_tree, &points, &settings, &Progress::hidden(), 4000)
+        .unwrap();
+    assert_eq!(
+        whole, split,
+        "batches of 100 points, with the kept buffers of the first run"
+    );
     println!(
         "{} rays and {} AO points: batched results identical",
         rays.len(),
@@ -238,6 +246,7 @@ fn large_requests_are_split_into_batches_with_the_same_results() {
 /// between its own commands.
 #[test]
 fn passes_record_into_a_host_engines_encoder() {
+    use penumbra::gpu::batch::Pass;
     use penumbra::kdtree::gpu::TraceRaysPass;
 
     let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {

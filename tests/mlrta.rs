@@ -245,7 +245,7 @@ fn parameters_are_validated() {
 /// The GPU packet kernel against the CPU: hits and shadows ray for ray.
 fn compare_gpu(ctx: &penumbra::gpu::GpuContext, name: &str, mesh: &Mesh, camera: &Camera, size: u32) {
     use penumbra::kdtree::gpu::GpuKdTree;
-    use penumbra::mlrta::gpu::trace_image_gpu;
+    use penumbra::mlrta::gpu::PacketBatches;
     let tree = KdTree::build(mesh, &KdTreeParams::default()).unwrap();
     let (prepared, _) = Prepared::new(&tree, mesh);
     let gpu_tree = GpuKdTree::upload(&ctx.device, &tree).unwrap();
@@ -266,7 +266,9 @@ fn compare_gpu(ctx: &penumbra::gpu::GpuContext, name: &str, mesh: &Mesh, camera:
             ..Default::default()
         };
         let cpu = trace_image(&prepared, &rays, size, size, &params, Some(light)).unwrap();
-        let gpu = trace_image_gpu(ctx, &gpu_tree, &prepared, &rays, size, size, &params, Some(light)).unwrap();
+        let gpu = PacketBatches::new(ctx)
+            .trace_image(ctx, &gpu_tree, &prepared, &rays, size, size, &params, Some(light))
+            .unwrap();
         check(
             &format!("{name} GPU packets, entry points {entry_points}, min tile {min_tile}"),
             &agreement(&gpu.image.hits, &single),

@@ -27,10 +27,10 @@ use super::lookup::Positional;
 use super::storage::{FieldData, Storage};
 use crate::ao::{AoPoint, AoSettings, VisibilityMasks};
 use crate::error::{Error, Result};
-use crate::gpu::batch::{BatchPass, BatchPlan, readback_buffer, run_batches};
+use crate::gpu::batch::{BatchPass, BatchPlan, Batched, Pass, run_batches};
 use crate::gpu::buffers::{GrowingBuffer, read_buffer, storage_buffer, uniform_buffer};
-use crate::gpu::kernels::{compute_pipelines, record_dispatch};
-use crate::gpu::layout::{bind_group, layout, storage_entry, texture_entry, uniform_entry};
+use crate::gpu::kernels::{Kernels, compute_pipelines, record_dispatch};
+use crate::gpu::layout::{Io, bind_group, io_layout, layout, storage_entry, texture_entry, uniform_entry};
 use crate::gpu::timer::PassTimer;
 use crate::gpu::{GpuContext, dispatch_grid};
 use crate::progress::Progress;
@@ -376,6 +376,22 @@ fn stack_maps(field: &DisplacementField, layout: &TextureLayout, texel_bytes: u3
     out
 }
 
+/// `field_ao`'s io: params, points, owners, instances, ray classes.
+const FIELD_AO_IO: &[Io] = &[
+    Io::Uniform(0, "field ao params", std::mem::size_of::<FieldAoParams>() as u64),
+    Io::In(1, "field ao points"),
+    Io::In(2, "field ao owners"),
+    Io::In(3, "field instances"),
+    Io::Out(4, "field AO ray classes"),
+];
+
+/// `field_probe`'s io: params, rays, results.
+const PROBE_IO: &[Io] = &[
+    Io::Uniform(0, "probe params", std::mem::size_of::<ProbeParams>() as u64),
+    Io::In(1, "probe rays"),
+    Io::Out(2, "probe results"),
+];
+
 /// The layouts and pipelines of one map access.
 pub struct FieldPipelines {
     pub maps_layout: wgpu::BindGroupLayout,
@@ -393,12 +409,14 @@ pub struct FieldKernels {
     bits: OnceLock<FieldPipelines>,
 }
 
-impl FieldKernels {
-    /// The kernels cached on `ctx`.
-    pub fn cached(ctx: &GpuContext) -> Arc<FieldKernels> {
-        ctx.kernels.get_or_insert(FieldKernels::default)
+impl Kernels for FieldKernels {
+    /// Nothing yet: each map access's pipelines are built on first use.
+    fn build(_device: &wgpu::Device) -> FieldKernels {
+        FieldKernels::default()
     }
+}
 
+impl FieldKernels {
     pub fn pipelines(&self, device: &wgpu::Device, access: MapAccess) -> &FieldPipelines {
         use crate::wgsl::*;
         let (cell, ao_module, probe_module) = match access {
@@ -408,24 +426,8 @@ impl FieldKernels {
         };
         cell.get_or_init(|| {
             let maps = maps_layout(device, access);
-            // params, points, owners, instances, classes
-            let ao_layout = layout(
-                device,
-                "field ao io",
-                &[
-                    uniform_entry(0),
-                    storage_entry(1, true),
-                    storage_entry(2, true),
-                    storage_entry(3, true),
-                    storage_entry(4, false),
-                ],
-            );
-            // params, rays, results
-            let probe_layout = layout(
-                device,
-                "field probe io",
-                &[uniform_entry(0), storage_entry(1, true), storage_entry(2, false)],
-            );
+            let ao_layout = io_layout(device, "field ao io", FIELD_AO_IO);
+            let probe_layout = io_layout(device, "field probe io", PROBE_IO);
             let ao = compute_pipelines(device, &ao_module, &[&maps, &ao_layout], &["field_ao"]).remove(0);
             let probe = compute_pipelines(device, &probe_module, &[&maps, &probe_layout], &["field_probe"]).remove(0);
             FieldPipelines {
@@ -466,14 +468,10 @@ pub struct FieldAoPass {
 
 const STORAGE_IN: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_DST);
 
-impl FieldAoPass {
-    /// A pass for `device` (its pipelines are built on first use).
-    pub fn new() -> FieldAoPass {
-        Self::with_kernels(Arc::new(FieldKernels::default()))
-    }
+impl Pass for FieldAoPass {
+    type Kernels = FieldKernels;
 
-    /// A pass with kernels built before (e.g. `FieldKernels::cached`).
-    pub fn with_kernels(kernels: Arc<FieldKernels>) -> FieldAoPass {
+    fn with_kernels(_device: &wgpu::Device, kernels: Arc<FieldKernels>) -> FieldAoPass {
         FieldAoPass {
             kernels,
             points: GrowingBuffer::new("field ao points", STORAGE_IN),
@@ -487,7 +485,9 @@ impl FieldAoPass {
             grid: (0, 0),
         }
     }
+}
 
+impl FieldAoPass {
     /// Uploads a batch of points with their owners (`NO_OWNER` for none)
     /// and every group's instances; `groups` must be the ones `record` gets.
     pub fn prepare(
@@ -587,13 +587,7 @@ impl FieldAoPass {
     }
 }
 
-impl Default for FieldAoPass {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-/// Result of `visibility_field_gpu`.
+/// Result of `FieldAoBatches::visibility`.
 pub struct GpuFieldAo {
     pub masks: VisibilityMasks,
     pub classes: RayClasses,
@@ -603,20 +597,10 @@ pub struct GpuFieldAo {
 /// Rays per batch of points.
 const RAYS_PER_BATCH: u64 = 1 << 22;
 
-/// The pass and its read-back buffer, as a runner keeps them on a device.
-pub struct FieldAoBatches {
-    pub pass: FieldAoPass,
-    readback: GrowingBuffer,
-}
+/// The pass with its read-back buffer, as a runner keeps it on a device.
+pub type FieldAoBatches = Batched<FieldAoPass>;
 
-impl FieldAoBatches {
-    pub fn new(ctx: &GpuContext) -> FieldAoBatches {
-        FieldAoBatches {
-            pass: FieldAoPass::with_kernels(FieldKernels::cached(ctx)),
-            readback: readback_buffer(),
-        }
-    }
-
+impl Batched<FieldAoPass> {
     /// `field::field_ao` on the GPU (blocking): the same rays, one
     /// dispatch per field per batch of points.
     pub fn visibility(
@@ -631,9 +615,9 @@ impl FieldAoBatches {
         settings.validate()?;
         assert_eq!(points.len(), owners.len());
         let words = settings.words_per_point() as usize;
-        let groups: Vec<&FieldGroup> = groups.iter().filter(|g| !g.instances.is_empty()).collect();
         let groups: Vec<FieldGroup> = groups
-            .into_iter()
+            .iter()
+            .filter(|g| !g.instances.is_empty())
             .map(|g| FieldGroup {
                 field: g.field,
                 instances: g.instances.clone(),
@@ -709,19 +693,6 @@ impl BatchPass for FieldBatch<'_> {
     fn results(&self) -> Vec<(&wgpu::Buffer, u64)> {
         vec![(self.pass.classes(), 3 * self.pass.words * 4)]
     }
-}
-
-/// `field::field_ao` on the GPU (blocking), with a pass made for
-/// this call.
-pub fn visibility_field_gpu(
-    ctx: &GpuContext,
-    groups: &[FieldGroup],
-    points: &[AoPoint],
-    owners: &[u32],
-    settings: &AoSettings,
-    progress: &Progress,
-) -> Result<GpuFieldAo> {
-    FieldAoBatches::new(ctx).visibility(ctx, groups, points, owners, settings, progress)
 }
 
 /// Single lookups on the GPU: per object-space ray (origin, unit

@@ -5,12 +5,14 @@
 //! copied into a kept read-back buffer, submitted and read.
 
 use std::ops::Range;
+use std::sync::Arc;
 
 use bytemuck::Pod;
 
 use crate::error::Result;
 use crate::gpu::GpuContext;
 use crate::gpu::buffers::{GrowingBuffer, read_back};
+use crate::gpu::kernels::Kernels;
 use crate::gpu::timer::PassTimer;
 use crate::progress::Progress;
 
@@ -59,6 +61,48 @@ impl BatchPlan {
 /// A kept read-back buffer for `run_batches`.
 pub fn readback_buffer() -> GrowingBuffer {
     GrowingBuffer::new("readback", wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST)
+}
+
+/// A pass built from kernels that are cached per device: `new` for a
+/// host's device, `for_context` from a context's cache.
+pub trait Pass: Sized {
+    type Kernels: Kernels;
+
+    /// A pass (with empty kept buffers) over kernels built before.
+    fn with_kernels(device: &wgpu::Device, kernels: Arc<Self::Kernels>) -> Self;
+
+    /// Builds the kernels for `device`.
+    fn new(device: &wgpu::Device) -> Self {
+        Self::with_kernels(device, Arc::new(Self::Kernels::build(device)))
+    }
+
+    /// A pass over the kernels cached on `ctx`.
+    fn for_context(ctx: &GpuContext) -> Self {
+        Self::with_kernels(&ctx.device, Self::Kernels::cached(ctx))
+    }
+}
+
+/// A pass with the read-back buffer of its batches: what a runner keeps on
+/// a device to serve many requests without reallocating.
+pub struct Batched<P> {
+    pub pass: P,
+    pub(crate) readback: GrowingBuffer,
+}
+
+impl<P> Batched<P> {
+    pub fn with_pass(pass: P) -> Batched<P> {
+        Batched {
+            pass,
+            readback: readback_buffer(),
+        }
+    }
+}
+
+impl<P: Pass> Batched<P> {
+    /// The pass over the kernels cached on `ctx`.
+    pub fn new(ctx: &GpuContext) -> Batched<P> {
+        Self::with_pass(P::for_context(ctx))
+    }
 }
 
 /// Runs `pass` over the plan's batches, handing each batch's results (as

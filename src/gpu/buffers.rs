@@ -140,6 +140,128 @@ impl GrowingBuffer {
     }
 }
 
+/// One binding of a `KeptGroup`.
+pub enum Kept {
+    /// Kept between calls, grown when a call needs more.
+    Growing(GrowingBuffer),
+    /// Fixed size (a uniform).
+    Fixed(wgpu::Buffer),
+}
+
+impl Kept {
+    /// A storage buffer the pass reads (uploaded by `write`).
+    pub fn input(label: &'static str) -> Kept {
+        Kept::Growing(GrowingBuffer::new(label, STORAGE_IN))
+    }
+
+    /// A storage buffer the pass writes, copied out (or cleared) after it.
+    pub fn output(label: &'static str) -> Kept {
+        Kept::Growing(GrowingBuffer::new(label, STORAGE_IN | wgpu::BufferUsages::COPY_SRC))
+    }
+
+    fn get(&self) -> &wgpu::Buffer {
+        match self {
+            Kept::Growing(b) => b.get(),
+            Kept::Fixed(b) => b,
+        }
+    }
+}
+
+const STORAGE_IN: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_DST);
+
+/// A pass's bind group over buffers it keeps between calls: rebuilt only
+/// when one of them grows.
+pub struct KeptGroup {
+    label: &'static str,
+    bindings: Vec<(u32, Kept)>,
+    group: Option<wgpu::BindGroup>,
+}
+
+impl KeptGroup {
+    pub fn new(label: &'static str, bindings: Vec<(u32, Kept)>) -> KeptGroup {
+        KeptGroup {
+            label,
+            bindings,
+            group: None,
+        }
+    }
+
+    /// The kept buffers of an io bind group as `io` declares it.
+    pub fn for_io(device: &wgpu::Device, label: &'static str, io: &[crate::gpu::layout::Io]) -> KeptGroup {
+        use crate::gpu::layout::Io;
+        let bindings = io
+            .iter()
+            .map(|&b| {
+                let kept = match b {
+                    Io::In(_, name) => Kept::input(name),
+                    Io::Out(_, name) => Kept::output(name),
+                    Io::Uniform(_, name, bytes) => Kept::Fixed(zeroed_buffer(
+                        device,
+                        name,
+                        bytes,
+                        wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    )),
+                };
+                (b.binding(), kept)
+            })
+            .collect();
+        Self::new(label, bindings)
+    }
+
+    fn slot(&mut self, binding: u32) -> &mut Kept {
+        let at = self.bindings.iter().position(|(b, _)| *b == binding);
+        &mut self.bindings[at.expect("a binding of the group")].1
+    }
+
+    /// Writes `data` into a binding (growing a kept buffer first).
+    pub fn write(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, binding: u32, data: &[u8]) -> Result<()> {
+        let grown = match self.slot(binding) {
+            Kept::Growing(b) => b.write(device, queue, data)?,
+            Kept::Fixed(b) => {
+                queue.write_buffer(b, 0, data);
+                false
+            }
+        };
+        if grown {
+            self.group = None;
+        }
+        Ok(())
+    }
+
+    /// Makes room for `bytes` in a kept buffer.
+    pub fn reserve(&mut self, device: &wgpu::Device, binding: u32, bytes: u64) -> Result<()> {
+        if let Kept::Growing(b) = self.slot(binding)
+            && b.reserve(device, bytes)?
+        {
+            self.group = None;
+        }
+        Ok(())
+    }
+
+    /// The buffer of a binding.
+    pub fn buffer(&self, binding: u32) -> &wgpu::Buffer {
+        let (_, kept) = self
+            .bindings
+            .iter()
+            .find(|(b, _)| *b == binding)
+            .expect("a binding of the group");
+        kept.get()
+    }
+
+    /// Rebuilds the bind group if a buffer grew (call after writing).
+    pub fn update(&mut self, device: &wgpu::Device, layout: &wgpu::BindGroupLayout) {
+        if self.group.is_none() {
+            let buffers: Vec<(u32, &wgpu::Buffer)> = self.bindings.iter().map(|(b, k)| (*b, k.get())).collect();
+            self.group = Some(crate::gpu::layout::bind_group(device, self.label, layout, &buffers));
+        }
+    }
+
+    /// The bind group (after `update`).
+    pub fn group(&self) -> &wgpu::BindGroup {
+        self.group.as_ref().expect("KeptGroup used before update")
+    }
+}
+
 /// Copies a buffer's first `len` elements into a new readback buffer and
 /// reads them (blocking).
 pub fn read_buffer<T: bytemuck::Pod>(

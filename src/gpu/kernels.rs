@@ -23,9 +23,20 @@ impl KernelCache {
     }
 }
 
+/// A set of layouts and pipelines for one device, built once and cached
+/// on a context (`cached`) for every later pass.
+pub trait Kernels: Any + Send + Sync + Sized {
+    fn build(device: &wgpu::Device) -> Self;
+
+    /// The kernels cached on `ctx`, built on first use.
+    fn cached(ctx: &crate::gpu::GpuContext) -> Arc<Self> {
+        ctx.kernels.get_or_insert(|| Self::build(&ctx.device))
+    }
+}
+
 /// Builds one compute pipeline per entry point of a composed WGSL module,
 /// sharing a pipeline layout made of `layouts` (bind groups 0, 1, ...).
-pub(crate) fn compute_pipelines(
+pub fn compute_pipelines(
     device: &wgpu::Device,
     module: &crate::wgsl::Composition,
     layouts: &[&wgpu::BindGroupLayout],
@@ -58,7 +69,7 @@ pub(crate) fn compute_pipelines(
 
 /// Records one compute pass: `pipeline` with bind groups 0, 1, ... over a
 /// 2D grid of workgroups (from `gpu::dispatch_grid`).
-pub(crate) fn record_dispatch(
+pub fn record_dispatch(
     encoder: &mut wgpu::CommandEncoder,
     label: &str,
     timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,

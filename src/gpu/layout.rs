@@ -51,6 +51,40 @@ pub fn texture_entry(
     }
 }
 
+/// One binding of a pass's io bind group: what its layout declares and
+/// which buffer the pass keeps for it (`buffers::KeptGroup::for_io`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Io {
+    /// A storage buffer the kernel reads.
+    In(u32, &'static str),
+    /// A storage buffer the kernel writes.
+    Out(u32, &'static str),
+    /// A uniform of this many bytes.
+    Uniform(u32, &'static str, u64),
+}
+
+impl Io {
+    pub fn binding(self) -> u32 {
+        match self {
+            Io::In(b, _) | Io::Out(b, _) | Io::Uniform(b, _, _) => b,
+        }
+    }
+
+    fn entry(self) -> wgpu::BindGroupLayoutEntry {
+        match self {
+            Io::In(b, _) => storage_entry(b, true),
+            Io::Out(b, _) => storage_entry(b, false),
+            Io::Uniform(b, _, _) => uniform_entry(b),
+        }
+    }
+}
+
+/// The layout of an io bind group.
+pub fn io_layout(device: &wgpu::Device, label: &str, io: &[Io]) -> wgpu::BindGroupLayout {
+    let entries: Vec<_> = io.iter().map(|b| b.entry()).collect();
+    layout(device, label, &entries)
+}
+
 /// A layout of `entries`.
 pub fn layout(device: &wgpu::Device, label: &str, entries: &[wgpu::BindGroupLayoutEntry]) -> wgpu::BindGroupLayout {
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {

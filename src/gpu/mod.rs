@@ -13,7 +13,7 @@
 pub mod batch;
 pub mod buffers;
 mod context;
-pub(crate) mod kernels;
+pub mod kernels;
 pub mod layout;
 pub mod timer;
 

@@ -4,21 +4,20 @@
 //! `TraceRaysPass` follows glyphon's split: `new(device)` builds its layouts
 //! and pipelines, `prepare` uploads rays into buffers it keeps (and grows
 //! when a request is larger), `record` only records into the caller's
-//! encoder. `trace_rays` is the blocking convenience that splits a large
-//! request into batches the device takes (`gpu::batch`).
+//! encoder. `TraceRaysBatches::trace` is the blocking convenience that
+//! splits a large request into batches the device takes (`gpu::batch`).
 
 use std::ops::Range;
-use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
 
 use super::KdTree;
+use super::pass::{Dispatch, TreeBatch, TreeKernelSet, TreeKernels, TreePass};
 use crate::error::{Error, Result};
-use crate::gpu::batch::{BatchPass, BatchPlan, readback_buffer, run_batches};
-use crate::gpu::buffers::{GrowingBuffer, storage_buffer, uniform_buffer};
-use crate::gpu::kernels::{compute_pipelines, record_dispatch};
-use crate::gpu::layout::{bind_group, layout, storage_entry, uniform_entry};
-use crate::gpu::timer::PassTimer;
+use crate::gpu::batch::{BatchPlan, Batched, run_batches};
+use crate::gpu::buffers::{storage_buffer, uniform_buffer};
+use crate::gpu::kernels::Kernels;
+use crate::gpu::layout::{Io, bind_group, layout, storage_entry, uniform_entry};
 use crate::gpu::{GpuContext, dispatch_grid};
 use crate::progress::Progress;
 use crate::ray::{Hit, Ray};
@@ -107,7 +106,7 @@ pub struct TraceParams {
     pub _pad: u32,
 }
 
-/// Which entry point of `trace_rays.wgsl` to run.
+/// Which entry point of `trace_rays.wgsl` to run (in `TraceRaysKernels`' order).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TraceMode {
     Closest,
@@ -116,86 +115,38 @@ pub enum TraceMode {
     ClosestCounted,
 }
 
-/// The layouts and pipelines of `trace_rays.wgsl` for one device.
-pub struct TraceRaysKernels {
-    pub io_layout: wgpu::BindGroupLayout,
-    closest: wgpu::ComputePipeline,
-    any: wgpu::ComputePipeline,
-    counted: wgpu::ComputePipeline,
+/// The trace pass's io: rays (6 f32 each), hits (t bits, triangle), params,
+/// counts (traversal steps, intersection tests; `ClosestCounted` only).
+const TRACE_IO: &[Io] = &[
+    Io::In(0, "rays"),
+    Io::Out(1, "hits"),
+    Io::Uniform(2, "trace params", std::mem::size_of::<TraceParams>() as u64),
+    Io::Out(3, "trace counts"),
+];
+
+/// The pipelines of `trace_rays.wgsl` for one device, in `TraceMode` order.
+pub struct TraceRaysKernels(TreeKernels);
+
+impl Kernels for TraceRaysKernels {
+    fn build(device: &wgpu::Device) -> TraceRaysKernels {
+        let entries = ["trace_closest", "trace_any", "trace_closest_counted"];
+        let module = &crate::wgsl::TRACE_RAYS_MODULE;
+        TraceRaysKernels(TreeKernels::build(device, module, TRACE_IO, &entries))
+    }
 }
 
-impl TraceRaysKernels {
-    pub fn new(device: &wgpu::Device) -> TraceRaysKernels {
-        // rays (read), hits (write), params (uniform), counts (write)
-        let io_layout = layout(
-            device,
-            "trace rays io",
-            &[
-                storage_entry(0, true),
-                storage_entry(1, false),
-                uniform_entry(2),
-                storage_entry(3, false),
-            ],
-        );
-        let pipelines = compute_pipelines(
-            device,
-            &crate::wgsl::TRACE_RAYS_MODULE,
-            &[&kdtree_bind_group_layout(device), &io_layout],
-            &["trace_closest", "trace_any", "trace_closest_counted"],
-        );
-        let [closest, any, counted] = pipelines.try_into().expect("three entry points");
-        TraceRaysKernels {
-            io_layout,
-            closest,
-            any,
-            counted,
-        }
-    }
-
-    /// The kernels cached on `ctx`.
-    pub fn cached(ctx: &GpuContext) -> Arc<TraceRaysKernels> {
-        ctx.kernels.get_or_insert(|| TraceRaysKernels::new(&ctx.device))
+impl TreeKernelSet for TraceRaysKernels {
+    const IO: &'static [Io] = TRACE_IO;
+    const LABEL: &'static str = "trace rays";
+    fn tree_kernels(&self) -> &TreeKernels {
+        &self.0
     }
 }
 
 /// The ray-tracing pass: kernels and the buffers of one batch of rays.
-pub struct TraceRaysPass {
-    kernels: Arc<TraceRaysKernels>,
-    rays: GrowingBuffer,
-    hits: GrowingBuffer,
-    counts: GrowingBuffer,
-    params: wgpu::Buffer,
-    io: Option<wgpu::BindGroup>,
-    mode: TraceMode,
-    ray_count: u32,
-    grid: (u32, u32),
-}
+pub type TraceRaysPass = TreePass<TraceRaysKernels>;
 
-const STORAGE_IN: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_DST);
-/// Results: copied out, and clearable by a host.
-const STORAGE_OUT: wgpu::BufferUsages = STORAGE_IN.union(wgpu::BufferUsages::COPY_SRC);
-
-impl TraceRaysPass {
-    /// Builds the kernels for `device`.
-    pub fn new(device: &wgpu::Device) -> TraceRaysPass {
-        Self::with_kernels(device, Arc::new(TraceRaysKernels::new(device)))
-    }
-
-    /// A pass with kernels built before (e.g. `TraceRaysKernels::cached`).
-    pub fn with_kernels(device: &wgpu::Device, kernels: Arc<TraceRaysKernels>) -> TraceRaysPass {
-        TraceRaysPass {
-            kernels,
-            rays: GrowingBuffer::new("rays", STORAGE_IN),
-            hits: GrowingBuffer::new("hits", STORAGE_OUT),
-            counts: GrowingBuffer::new("trace counts", STORAGE_OUT),
-            params: uniform_buffer(device, "trace params", &TraceParams::zeroed()),
-            io: None,
-            mode: TraceMode::Closest,
-            ray_count: 0,
-            grid: (0, 0),
-        }
-    }
-
+impl TreePass<TraceRaysKernels> {
     /// Uploads `rays` (at most what one storage binding holds) for `mode`,
     /// hits within `0 < t < t_max` in units of each ray's direction.
     pub fn prepare(
@@ -206,28 +157,7 @@ impl TraceRaysPass {
         mode: TraceMode,
         t_max: f32,
     ) -> Result<()> {
-        let n = rays.len();
-        let mut grown = self.rays.write(device, queue, bytemuck::cast_slice(rays))?;
-        grown |= self.hits.reserve(device, n as u64 * 8)?;
-        let count_bytes = if mode == TraceMode::ClosestCounted {
-            n as u64 * 8
-        } else {
-            8
-        };
-        grown |= self.counts.reserve(device, count_bytes)?;
-        if grown || self.io.is_none() {
-            self.io = Some(bind_group(
-                device,
-                "trace rays io",
-                &self.kernels.io_layout,
-                &[
-                    (0, self.rays.get()),
-                    (1, self.hits.get()),
-                    (2, &self.params),
-                    (3, self.counts.get()),
-                ],
-            ));
-        }
+        let n = rays.len() as u64;
         let (gx, gy, pitch) = dispatch_grid(n as u32, device.limits().max_compute_workgroups_per_dimension);
         let params = TraceParams {
             ray_count: n as u32,
@@ -235,45 +165,34 @@ impl TraceRaysPass {
             t_max: if t_max.is_finite() { t_max } else { f32::MAX },
             _pad: 0,
         };
-        queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
-        self.mode = mode;
-        self.ray_count = n as u32;
-        self.grid = (gx, gy);
-        Ok(())
-    }
-
-    /// Records the dispatch over the prepared rays into the caller's encoder.
-    pub fn record(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-        tree: &GpuKdTree,
-    ) {
-        let k = &self.kernels;
-        let pipeline = match self.mode {
-            TraceMode::Closest => &k.closest,
-            TraceMode::Any => &k.any,
-            TraceMode::ClosestCounted => &k.counted,
+        let counted = mode == TraceMode::ClosestCounted;
+        let io = self.io();
+        io.write(device, queue, 0, bytemuck::cast_slice(rays))?;
+        io.reserve(device, 1, n * 8)?;
+        io.write(device, queue, 2, bytemuck::bytes_of(&params))?;
+        io.reserve(device, 3, if counted { n * 8 } else { 8 })?;
+        let mut results = vec![(1, n * 8)];
+        if counted {
+            results.push((3, n * 8));
+        }
+        let dispatch = Dispatch {
+            entry: mode as usize,
+            grid: (gx, gy),
+            clear: None,
+            results,
         };
-        let io = self.io.as_ref().expect("TraceRaysPass::record before prepare");
-        record_dispatch(
-            encoder,
-            "trace rays",
-            timestamp_writes,
-            pipeline,
-            &[&tree.bind_group, io],
-            self.grid,
-        );
+        self.set_dispatch(device, dispatch);
+        Ok(())
     }
 
     /// (t bits, triangle) per prepared ray, after the recorded dispatch.
     pub fn hits(&self) -> &wgpu::Buffer {
-        self.hits.get()
+        self.buffer(1)
     }
 
     /// (traversal steps, intersection tests) per ray in `ClosestCounted` mode.
     pub fn counts(&self) -> &wgpu::Buffer {
-        self.counts.get()
+        self.buffer(3)
     }
 }
 
@@ -294,24 +213,13 @@ fn batch_size(device: &wgpu::Device) -> usize {
     ((max_binding / 24) as usize).clamp(1, 1 << 22)
 }
 
-/// A pass and the kept read-back buffer of its batches: what a runner
-/// keeps on a device to trace many requests without reallocating.
-pub struct TraceRaysBatches {
-    pub pass: TraceRaysPass,
-    readback: GrowingBuffer,
-}
+/// The pass with its read-back buffer, as a runner keeps it on a device.
+pub type TraceRaysBatches = Batched<TraceRaysPass>;
 
-impl TraceRaysBatches {
-    pub fn new(ctx: &GpuContext) -> TraceRaysBatches {
-        TraceRaysBatches {
-            pass: TraceRaysPass::with_kernels(&ctx.device, TraceRaysKernels::cached(ctx)),
-            readback: readback_buffer(),
-        }
-    }
-
+impl Batched<TraceRaysPass> {
     /// Traces `rays` (blocking), at most `max_batch` per dispatch (clamped to
-    /// what the device allows).
-    #[allow(clippy::too_many_arguments)]
+    /// what the device allows). Directions need not be normalised; hits are
+    /// in t units of the given direction, with `0 < t < t_max`.
     pub fn trace(
         &mut self,
         ctx: &GpuContext,
@@ -321,35 +229,29 @@ impl TraceRaysBatches {
         t_max: f32,
         max_batch: usize,
     ) -> Result<GpuTrace> {
-        let counted = mode == TraceMode::ClosestCounted;
         let mut hits = Vec::with_capacity(rays.len());
-        let mut counts = counted.then(|| Vec::with_capacity(rays.len()));
+        let mut counts = (mode == TraceMode::ClosestCounted).then(|| Vec::with_capacity(rays.len()));
         let plan = BatchPlan::new(rays.len(), max_batch.clamp(1, batch_size(&ctx.device)), 1);
-        let mut batch = RayBatch {
+        let mut batch = TreeBatch {
             pass: &mut self.pass,
             tree,
-            rays,
-            mode,
-            t_max,
-        };
-        let gpu_ms = run_batches(
-            ctx,
-            &mut batch,
-            &mut self.readback,
-            plan,
-            &Progress::hidden(),
-            |items, words: &[[u32; 2]]| {
-                let n = items.len();
-                hits.extend(words[..n].iter().map(|&[t, triangle]| Hit {
-                    t: f32::from_bits(t),
-                    triangle,
-                }));
-                if let Some(c) = counts.as_mut() {
-                    c.extend_from_slice(&words[n..2 * n]);
-                }
-                Ok(())
+            prepare: |pass: &mut TraceRaysPass, ctx: &GpuContext, items: Range<usize>| {
+                pass.prepare(&ctx.device, &ctx.queue, &rays[items], mode, t_max)
             },
-        )?;
+        };
+        let progress = Progress::hidden();
+        let take = |items: Range<usize>, w: &[[u32; 2]]| {
+            let n = items.len();
+            hits.extend(w[..n].iter().map(|&[t, triangle]| Hit {
+                t: f32::from_bits(t),
+                triangle,
+            }));
+            if let Some(c) = counts.as_mut() {
+                c.extend_from_slice(&w[n..2 * n]);
+            }
+            Ok(())
+        };
+        let gpu_ms = run_batches(ctx, &mut batch, &mut self.readback, plan, &progress, take)?;
         if hits.len() != rays.len() {
             return Err(Error::internal("GPU trace returned the wrong number of hits"));
         }
@@ -357,52 +259,8 @@ impl TraceRaysBatches {
     }
 }
 
-/// One request of rays as a `BatchPass`.
-struct RayBatch<'a> {
-    pass: &'a mut TraceRaysPass,
-    tree: &'a GpuKdTree,
-    rays: &'a [Ray],
-    mode: TraceMode,
-    t_max: f32,
-}
-
-impl BatchPass for RayBatch<'_> {
-    fn prepare(&mut self, ctx: &GpuContext, items: Range<usize>) -> Result<()> {
-        self.pass
-            .prepare(&ctx.device, &ctx.queue, &self.rays[items], self.mode, self.t_max)
-    }
-
-    fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &mut Option<PassTimer>) {
-        self.pass
-            .record(encoder, timer.as_mut().and_then(|t| t.next_pass()), self.tree);
-    }
-
-    fn results(&self) -> Vec<(&wgpu::Buffer, u64)> {
-        let bytes = self.pass.ray_count as u64 * 8;
-        let mut out = vec![(self.pass.hits(), bytes)];
-        if self.mode == TraceMode::ClosestCounted {
-            out.push((self.pass.counts(), bytes));
-        }
-        out
-    }
-}
-
-/// Traces `rays` on the GPU (blocking), splitting them into batches that fit
-/// the device. Directions need not be normalised; hits are in t units of the
-/// given direction, with `0 < t < t_max`.
+/// Traces `rays` on the GPU (blocking) with a pass made for this call,
+/// splitting them into batches that fit the device.
 pub fn trace_rays(ctx: &GpuContext, tree: &GpuKdTree, rays: &[Ray], mode: TraceMode, t_max: f32) -> Result<GpuTrace> {
-    trace_rays_batched(ctx, tree, rays, mode, t_max, usize::MAX)
-}
-
-/// `trace_rays` with at most `max_batch` rays per dispatch (clamped to what
-/// the device allows), for hosts that want to bound the memory it takes.
-pub fn trace_rays_batched(
-    ctx: &GpuContext,
-    tree: &GpuKdTree,
-    rays: &[Ray],
-    mode: TraceMode,
-    t_max: f32,
-    max_batch: usize,
-) -> Result<GpuTrace> {
-    TraceRaysBatches::new(ctx).trace(ctx, tree, rays, mode, t_max, max_batch)
+    TraceRaysBatches::new(ctx).trace(ctx, tree, rays, mode, t_max, usize::MAX)
 }

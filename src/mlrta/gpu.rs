@@ -4,7 +4,6 @@
 //! lanes). Hits equal the CPU packets' and the single-ray path's.
 
 use std::ops::Range;
-use std::sync::Arc;
 use std::time::Instant;
 
 use bytemuck::{Pod, Zeroable};
@@ -14,12 +13,11 @@ use rayon::prelude::*;
 use crate::device::elapsed_ms;
 use crate::error::Result;
 use crate::gpu::GpuContext;
-use crate::gpu::batch::{BatchPass, BatchPlan, readback_buffer, run_batches};
-use crate::gpu::buffers::{GrowingBuffer, uniform_buffer};
-use crate::gpu::kernels::{compute_pipelines, record_dispatch};
-use crate::gpu::layout::{bind_group, layout, storage_entry, uniform_entry};
-use crate::gpu::timer::PassTimer;
-use crate::kdtree::gpu::{GpuKdTree, kdtree_bind_group_layout};
+use crate::gpu::batch::{BatchPlan, Batched, run_batches};
+use crate::gpu::kernels::Kernels;
+use crate::gpu::layout::Io;
+use crate::kdtree::gpu::GpuKdTree;
+use crate::kdtree::pass::{Dispatch, TreeBatch, TreeKernelSet, TreeKernels, TreePass};
 use crate::mlrta::entry_point::EntryPoint;
 use crate::mlrta::frustum::sign_class;
 use crate::mlrta::packet::{MlrtaCounts, PACKET, Packet};
@@ -65,80 +63,41 @@ struct PacketParams {
     _pad: [u32; 2],
 }
 
-/// The layouts and pipeline of `packet_traverse.wgsl` for one device.
-pub struct PacketKernels {
-    pub io_layout: wgpu::BindGroupLayout,
-    pipeline: wgpu::ComputePipeline,
+/// The packet pass's io: records, directions (3 f32 per ray), hits,
+/// params, counts (per ray).
+const PACKET_IO: &[Io] = &[
+    Io::In(0, "packet records"),
+    Io::In(1, "packet directions"),
+    Io::Out(2, "packet hits"),
+    Io::Uniform(3, "packet params", std::mem::size_of::<PacketParams>() as u64),
+    Io::Out(4, "packet counts"),
+];
+
+/// The pipeline of `packet_traverse.wgsl` for one device.
+pub struct PacketKernels(TreeKernels);
+
+impl Kernels for PacketKernels {
+    fn build(device: &wgpu::Device) -> PacketKernels {
+        let module = &crate::wgsl::PACKET_TRAVERSE_MODULE;
+        PacketKernels(TreeKernels::build(device, module, PACKET_IO, &["trace_packet"]))
+    }
 }
 
-impl PacketKernels {
-    pub fn new(device: &wgpu::Device) -> PacketKernels {
-        // packets, directions, hits, params, counts
-        let io_layout = layout(
-            device,
-            "packets io",
-            &[
-                storage_entry(0, true),
-                storage_entry(1, true),
-                storage_entry(2, false),
-                uniform_entry(3),
-                storage_entry(4, false),
-            ],
-        );
-        let pipeline = compute_pipelines(
-            device,
-            &crate::wgsl::PACKET_TRAVERSE_MODULE,
-            &[&kdtree_bind_group_layout(device), &io_layout],
-            &["trace_packet"],
-        )
-        .remove(0);
-        PacketKernels { io_layout, pipeline }
-    }
-
-    /// The kernels cached on `ctx`.
-    pub fn cached(ctx: &GpuContext) -> Arc<PacketKernels> {
-        ctx.kernels.get_or_insert(|| PacketKernels::new(&ctx.device))
+impl TreeKernelSet for PacketKernels {
+    const IO: &'static [Io] = PACKET_IO;
+    const LABEL: &'static str = "packets";
+    fn tree_kernels(&self) -> &TreeKernels {
+        &self.0
     }
 }
 
 /// The packet pass: kernels and the buffers of one batch of packets.
-pub struct PacketPass {
-    kernels: Arc<PacketKernels>,
-    records: GrowingBuffer,
-    dirs: GrowingBuffer,
-    hits: GrowingBuffer,
-    counts: GrowingBuffer,
-    params: wgpu::Buffer,
-    io: Option<wgpu::BindGroup>,
-    rays: u64,
-    grid: (u32, u32),
-}
+pub type PacketPass = TreePass<PacketKernels>;
 
-impl PacketPass {
-    /// Builds the kernels for `device`.
-    pub fn new(device: &wgpu::Device) -> PacketPass {
-        Self::with_kernels(device, Arc::new(PacketKernels::new(device)))
-    }
-
-    /// A pass with kernels built before (e.g. `PacketKernels::cached`).
-    pub fn with_kernels(device: &wgpu::Device, kernels: Arc<PacketKernels>) -> PacketPass {
-        let input = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        let output = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
-        PacketPass {
-            kernels,
-            records: GrowingBuffer::new("packet records", input),
-            dirs: GrowingBuffer::new("packet directions", input),
-            hits: GrowingBuffer::new("packet hits", output),
-            counts: GrowingBuffer::new("packet counts", output),
-            params: uniform_buffer(device, "packet params", &PacketParams::zeroed()),
-            io: None,
-            rays: 0,
-            grid: (0, 0),
-        }
-    }
-
+impl TreePass<PacketKernels> {
     /// Uploads packets whose rays' directions are `dirs` (3 f32 each, in
-    /// the order of the records' `first_ray`).
+    /// the order of the records' `first_ray`): a workgroup per
+    /// `PACKETS_PER_WORKGROUP` packets.
     pub fn prepare(
         &mut self,
         device: &wgpu::Device,
@@ -147,24 +106,6 @@ impl PacketPass {
         dirs: &[f32],
     ) -> Result<()> {
         let rays = dirs.len() as u64 / 3;
-        let mut grown = self.records.write(device, queue, bytemuck::cast_slice(records))?;
-        grown |= self.dirs.write(device, queue, bytemuck::cast_slice(dirs))?;
-        grown |= self.hits.reserve(device, rays * 8)?;
-        grown |= self.counts.reserve(device, rays * 8)?;
-        if grown || self.io.is_none() {
-            self.io = Some(bind_group(
-                device,
-                "packets io",
-                &self.kernels.io_layout,
-                &[
-                    (0, self.records.get()),
-                    (1, self.dirs.get()),
-                    (2, self.hits.get()),
-                    (3, &self.params),
-                    (4, self.counts.get()),
-                ],
-            ));
-        }
         let n = records.len() as u32;
         let groups = n.div_ceil(PACKETS_PER_WORKGROUP).max(1);
         let x = groups.min(device.limits().max_compute_workgroups_per_dimension);
@@ -173,39 +114,20 @@ impl PacketPass {
             row_pitch: x,
             _pad: [0; 2],
         };
-        queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
-        self.rays = rays;
-        self.grid = (x, groups.div_ceil(x));
+        let io = self.io();
+        io.write(device, queue, 0, bytemuck::cast_slice(records))?;
+        io.write(device, queue, 1, bytemuck::cast_slice(dirs))?;
+        io.reserve(device, 2, rays * 8)?;
+        io.write(device, queue, 3, bytemuck::bytes_of(&params))?;
+        io.reserve(device, 4, rays * 8)?;
+        let dispatch = Dispatch {
+            entry: 0,
+            grid: (x, groups.div_ceil(x)),
+            clear: None,
+            results: vec![(2, rays * 8), (4, rays * 8)],
+        };
+        self.set_dispatch(device, dispatch);
         Ok(())
-    }
-
-    /// Records the dispatch: a workgroup per `PACKETS_PER_WORKGROUP` packets.
-    pub fn record(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-        tree: &GpuKdTree,
-    ) {
-        let io = self.io.as_ref().expect("PacketPass::record before prepare");
-        let pipeline = &self.kernels.pipeline;
-        record_dispatch(
-            encoder,
-            "packets",
-            timestamp_writes,
-            pipeline,
-            &[&tree.bind_group, io],
-            self.grid,
-        );
-    }
-
-    /// (t bits, triangle) per prepared ray.
-    pub fn hits(&self) -> &wgpu::Buffer {
-        self.hits.get()
-    }
-
-    /// (traversal steps, intersection tests) per prepared ray.
-    pub fn counts(&self) -> &wgpu::Buffer {
-        self.counts.get()
     }
 }
 
@@ -309,37 +231,11 @@ pub struct GpuImageTrace {
     pub wall_ms: f64,
 }
 
-/// `tiles::trace_image` with the packets traced on the GPU, with a pass
-/// made for this call.
-#[allow(clippy::too_many_arguments)]
-pub fn trace_image_gpu(
-    ctx: &GpuContext,
-    gpu_tree: &GpuKdTree,
-    p: &Prepared,
-    rays: &[Ray],
-    width: u32,
-    height: u32,
-    params: &MlrtaParams,
-    light: Option<Vec3>,
-) -> Result<GpuImageTrace> {
-    PacketBatches::new(ctx).trace_image(ctx, gpu_tree, p, rays, width, height, params, light)
-}
-
-/// The packet pass and its read-back buffer, as a runner keeps them on a
+/// The packet pass with its read-back buffer, as a runner keeps it on a
 /// device between images.
-pub struct PacketBatches {
-    pub pass: PacketPass,
-    readback: GrowingBuffer,
-}
+pub type PacketBatches = Batched<PacketPass>;
 
-impl PacketBatches {
-    pub fn new(ctx: &GpuContext) -> PacketBatches {
-        PacketBatches {
-            pass: PacketPass::with_kernels(&ctx.device, PacketKernels::cached(ctx)),
-            readback: readback_buffer(),
-        }
-    }
-
+impl Batched<PacketPass> {
     /// `tiles::trace_image` with the packets traced on the GPU.
     #[allow(clippy::too_many_arguments)]
     pub fn trace_image(
@@ -460,10 +356,13 @@ impl PacketBatches {
         let n_rays = batch.targets.len();
         let mut hits = Vec::with_capacity(n_rays);
         let mut counts = Vec::with_capacity(n_rays);
-        let mut packets = PacketBatch {
+        let mut packets = TreeBatch {
             pass: &mut self.pass,
             tree,
-            batch,
+            prepare: |pass: &mut PacketPass, ctx: &GpuContext, items: Range<usize>| {
+                let (records, dirs) = batch.slice(items);
+                pass.prepare(&ctx.device, &ctx.queue, &records, dirs)
+            },
         };
         let plan = BatchPlan::new(batch.records.len(), PACKETS_PER_BATCH, 1);
         let progress = Progress::hidden();
@@ -484,6 +383,24 @@ impl PacketBatches {
             },
         )?;
         Ok(PacketOutput { hits, counts, gpu_ms })
+    }
+}
+
+impl Batch {
+    /// Records `items` with `first_ray` made relative to them, and the
+    /// directions of their rays.
+    fn slice(&self, items: Range<usize>) -> (Vec<PacketRecord>, &[f32]) {
+        let r = &self.records[items];
+        let (first, last) = (&r[0], &r[r.len() - 1]);
+        let rays = first.first_ray as usize..(last.first_ray + last.ray_count) as usize;
+        let records = r
+            .iter()
+            .map(|p| PacketRecord {
+                first_ray: p.first_ray - first.first_ray,
+                ..*p
+            })
+            .collect();
+        (records, &self.dirs[3 * rays.start..3 * rays.end])
     }
 }
 
@@ -528,48 +445,6 @@ struct PacketOutput {
     hits: Vec<Hit>,
     counts: Vec<[u32; 2]>,
     gpu_ms: Option<f64>,
-}
-
-/// Packets of a `Batch` as a `BatchPass`: each batch of records with the
-/// directions of its rays, `first_ray` made relative to the batch.
-struct PacketBatch<'a> {
-    pass: &'a mut PacketPass,
-    tree: &'a GpuKdTree,
-    batch: &'a Batch,
-}
-
-impl PacketBatch<'_> {
-    fn rays(&self, items: &Range<usize>) -> Range<usize> {
-        let r = &self.batch.records;
-        let last = &r[items.end - 1];
-        r[items.start].first_ray as usize..(last.first_ray + last.ray_count) as usize
-    }
-}
-
-impl BatchPass for PacketBatch<'_> {
-    fn prepare(&mut self, ctx: &GpuContext, items: Range<usize>) -> Result<()> {
-        let rays = self.rays(&items);
-        let base = rays.start as u32;
-        let records: Vec<PacketRecord> = self.batch.records[items]
-            .iter()
-            .map(|r| PacketRecord {
-                first_ray: r.first_ray - base,
-                ..*r
-            })
-            .collect();
-        let dirs = &self.batch.dirs[3 * rays.start..3 * rays.end];
-        self.pass.prepare(&ctx.device, &ctx.queue, &records, dirs)
-    }
-
-    fn record(&self, encoder: &mut wgpu::CommandEncoder, timer: &mut Option<PassTimer>) {
-        self.pass
-            .record(encoder, timer.as_mut().and_then(|t| t.next_pass()), self.tree);
-    }
-
-    fn results(&self) -> Vec<(&wgpu::Buffer, u64)> {
-        let bytes = self.pass.rays * 8;
-        vec![(self.pass.hits(), bytes), (self.pass.counts(), bytes)]
-    }
 }
 
 const _: () = assert!(std::mem::size_of::<PacketRecord>() == 96 && PACKET == 16);

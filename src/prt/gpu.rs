@@ -26,9 +26,9 @@ use super::transfer::{Brdf, Integration};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::gpu::batch::{BatchPass, BatchPlan, readback_buffer, run_batches};
-use crate::gpu::buffers::{GrowingBuffer, storage_buffer, uniform_buffer};
-use crate::gpu::kernels::{compute_pipelines, record_dispatch};
-use crate::gpu::layout::{bind_group, layout, storage_entry, uniform_entry};
+use crate::gpu::buffers::{GrowingBuffer, KeptGroup, storage_buffer};
+use crate::gpu::kernels::{Kernels, compute_pipelines, record_dispatch};
+use crate::gpu::layout::{Io, bind_group, io_layout, layout, storage_entry};
 use crate::gpu::timer::PassTimer;
 use crate::progress::Progress;
 
@@ -53,6 +53,16 @@ struct Params {
     tables_b: [u32; 4],
 }
 
+/// A batch's io: params, masks (u32 words), vertices (position, normal),
+/// transfer (`coeffs` per vertex), radiance (3 per vertex).
+const FRAME_IO: &[Io] = &[
+    Io::Uniform(0, "sh_transfer params", std::mem::size_of::<Params>() as u64),
+    Io::In(1, "sh_transfer masks"),
+    Io::In(2, "sh_transfer vertices"),
+    Io::Out(3, "sh_transfer transfer"),
+    Io::Out(4, "sh_transfer radiance"),
+];
+
 /// The layouts and pipeline of `sh_transfer.wgsl` for one device.
 pub struct ShTransferKernels {
     pub tables_layout: wgpu::BindGroupLayout,
@@ -60,24 +70,14 @@ pub struct ShTransferKernels {
     pipeline: wgpu::ComputePipeline,
 }
 
-impl ShTransferKernels {
-    pub fn new(device: &wgpu::Device) -> ShTransferKernels {
+impl Kernels for ShTransferKernels {
+    fn build(device: &wgpu::Device) -> ShTransferKernels {
         let tables_layout = layout(
             device,
             "sh_transfer tables",
             &[storage_entry(0, true), storage_entry(1, true), storage_entry(2, true)],
         );
-        let frame_layout = layout(
-            device,
-            "sh_transfer frame",
-            &[
-                uniform_entry(0),
-                storage_entry(1, true),
-                storage_entry(2, true),
-                storage_entry(3, false),
-                storage_entry(4, false),
-            ],
-        );
+        let frame_layout = io_layout(device, "sh_transfer frame", FRAME_IO);
         let pipeline = compute_pipelines(
             device,
             &crate::wgsl::SH_TRANSFER_MODULE,
@@ -91,11 +91,6 @@ impl ShTransferKernels {
             pipeline,
         }
     }
-
-    /// The kernels cached on `ctx`.
-    pub fn cached(ctx: &GpuContext) -> Arc<ShTransferKernels> {
-        ctx.kernels.get_or_insert(|| ShTransferKernels::new(&ctx.device))
-    }
 }
 
 /// The SH transfer pass of one mesh: its tables on the device, and the
@@ -104,12 +99,8 @@ pub struct ShTransferPass {
     kernels: Arc<ShTransferKernels>,
     tables_group: wgpu::BindGroup,
     lighting: wgpu::Buffer,
-    params: wgpu::Buffer,
-    masks: GrowingBuffer,
-    vertices: GrowingBuffer,
-    transfer: GrowingBuffer,
-    radiance: GrowingBuffer,
-    frame_group: Option<wgpu::BindGroup>,
+    /// The batch's buffers (`FRAME_IO`).
+    frame: KeptGroup,
     /// The uniform without the batch's vertex count, grid and eye.
     base: Params,
     verts_per_group: u32,
@@ -122,7 +113,7 @@ pub struct ShTransferPass {
 impl ShTransferPass {
     /// Builds the kernels for `device` and uploads `prt`'s tables.
     pub fn new(device: &wgpu::Device, prt: &Prt) -> Result<ShTransferPass> {
-        Self::with_kernels(device, Arc::new(ShTransferKernels::new(device)), prt)
+        Self::with_kernels(device, Arc::new(ShTransferKernels::build(device)), prt)
     }
 
     /// As `new`, with kernels built before (e.g. `ShTransferKernels::cached`).
@@ -203,17 +194,10 @@ impl ShTransferPass {
             tables_a: [0, 0, off_nibble, off_dirs],
             tables_b: [off_unoccluded, off_area, off_pixel, off_x90],
         };
-        let input = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        let output = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
         Ok(ShTransferPass {
             tables_group,
             lighting,
-            params: uniform_buffer(device, "sh_transfer params", &base),
-            masks: GrowingBuffer::new("sh_transfer masks", input),
-            vertices: GrowingBuffer::new("sh_transfer vertices", input),
-            transfer: GrowingBuffer::new("sh_transfer transfer", output),
-            radiance: GrowingBuffer::new("sh_transfer radiance", output),
-            frame_group: None,
+            frame: KeptGroup::for_io(device, "sh_transfer frame", FRAME_IO),
             base,
             verts_per_group,
             coeffs: n,
@@ -252,33 +236,21 @@ impl ShTransferPass {
             .zip(normals)
             .flat_map(|(p, n)| [p.extend(0.0).to_array(), n.extend(0.0).to_array()])
             .collect();
-        let per_vertex = self.per_vertex();
-        let mut grown = self.masks.write(device, queue, bytemuck::cast_slice(masks))?;
-        grown |= self.vertices.write(device, queue, bytemuck::cast_slice(&verts))?;
-        grown |= self.transfer.reserve(device, per_vertex[2] * nv as u64)?;
-        grown |= self.radiance.reserve(device, per_vertex[3] * nv as u64)?;
-        if grown || self.frame_group.is_none() {
-            self.frame_group = Some(bind_group(
-                device,
-                "sh_transfer frame",
-                &self.kernels.frame_layout,
-                &[
-                    (0, &self.params),
-                    (1, self.masks.get()),
-                    (2, self.vertices.get()),
-                    (3, self.transfer.get()),
-                    (4, self.radiance.get()),
-                ],
-            ));
-        }
-        queue.write_buffer(&self.lighting, 0, bytemuck::cast_slice(lighting));
         let groups = (nv as u32).div_ceil(self.verts_per_group).max(1);
         let gx = groups.min(device.limits().max_compute_workgroups_per_dimension);
         let mut params = self.base;
         params.counts[0] = nv as u32;
         params.grid[0] = gx;
         params.eye = eye.map_or([0.0; 4], |e| [e.x, e.y, e.z, 1.0]);
-        queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        let per_vertex = self.per_vertex();
+        let io = &mut self.frame;
+        io.write(device, queue, 0, bytemuck::bytes_of(&params))?;
+        io.write(device, queue, 1, bytemuck::cast_slice(masks))?;
+        io.write(device, queue, 2, bytemuck::cast_slice(&verts))?;
+        io.reserve(device, 3, per_vertex[2] * nv as u64)?;
+        io.reserve(device, 4, per_vertex[3] * nv as u64)?;
+        io.update(device, &self.kernels.frame_layout);
+        queue.write_buffer(&self.lighting, 0, bytemuck::cast_slice(lighting));
         self.batch_vertices = nv as u64;
         self.grid = (gx, groups.div_ceil(gx));
         Ok(())
@@ -290,11 +262,7 @@ impl ShTransferPass {
         encoder: &mut wgpu::CommandEncoder,
         timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) {
-        let frame = self
-            .frame_group
-            .as_ref()
-            .expect("ShTransferPass::record before prepare");
-        let groups = [&self.tables_group, frame];
+        let groups = [&self.tables_group, self.frame.group()];
         record_dispatch(
             encoder,
             "sh_transfer",
@@ -307,12 +275,12 @@ impl ShTransferPass {
 
     /// World-space transfer vectors of the prepared batch, `coeffs` per vertex.
     pub fn transfer(&self) -> &wgpu::Buffer {
-        self.transfer.get()
+        self.frame.buffer(3)
     }
 
     /// Exitant radiance of the prepared batch, 3 f32 per vertex.
     pub fn radiance(&self) -> &wgpu::Buffer {
-        self.radiance.get()
+        self.frame.buffer(4)
     }
 }
 
