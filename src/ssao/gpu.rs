@@ -8,6 +8,7 @@
 //! `Rgba32Float` textures in the layout of `gbuffer`). `run_frame` is the
 //! blocking convenience for the CLI, tests and benches.
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use bytemuck::{Pod, Zeroable};
@@ -18,8 +19,10 @@ use super::{ShadeSettings, SsaoFrame, SsaoSettings, Timings, final_ao};
 use crate::device::Timing;
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
-use crate::gpu::buffers::{check_storage_size, read_back, read_buffer, storage_buffer, uniform_buffer, zeroed_buffer};
-use crate::gpu::layout::{bind_group, layout, storage_entry, texture_entry, uniform_entry, uniform_entry_for};
+use crate::gpu::batch::Pass;
+use crate::gpu::buffers::{KeptGroup, check_storage_size, read_back, read_buffer, uniform_buffer, zeroed_buffer};
+use crate::gpu::kernels::{Kernels, compute_pipelines, record_dispatch};
+use crate::gpu::layout::{Io, io_layout, layout, texture_entry, uniform_entry_for};
 use crate::gpu::timer::PassTimer;
 use crate::scene::{Camera, Light, Mesh};
 
@@ -337,9 +340,9 @@ impl GBufferPass {
     }
 }
 
-/// The SSAO kernels (one entry point each).
+/// The SSAO kernels (one entry point each), in `SsaoKernels`' order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SsaoKernel {
+enum SsaoKernel {
     PackDepth,
     Points,
     March,
@@ -351,7 +354,7 @@ pub enum SsaoKernel {
 }
 
 impl SsaoKernel {
-    pub fn estimator(family: Family) -> SsaoKernel {
+    fn estimator(family: Family) -> SsaoKernel {
         match family {
             Family::Points => SsaoKernel::Points,
             Family::March => SsaoKernel::March,
@@ -360,50 +363,138 @@ impl SsaoKernel {
     }
 }
 
-/// The SSAO compute pass: layouts and pipelines for one device.
-pub struct SsaoPass {
+/// The SSAO io bind group: params, sample table, raw and filtered AO, raw
+/// and filtered indirect light, image, packed depth.
+const SSAO_IO: &[Io] = &[
+    Io::Uniform(0, "ssao params", std::mem::size_of::<SsaoParams>() as u64),
+    Io::In(1, "ssao sample table"),
+    Io::Out(2, "ssao ao"),
+    Io::Out(3, "ssao ao filtered"),
+    Io::Out(4, "ssao indirect"),
+    Io::Out(5, "ssao indirect filtered"),
+    Io::Out(6, "ssao image"),
+    Io::Out(7, "ssao depth"),
+];
+
+/// The layouts and pipelines of the SSAO kernels for one device.
+pub struct SsaoKernels {
     pub gbuffer_layout: wgpu::BindGroupLayout,
     pub io_layout: wgpu::BindGroupLayout,
     pipelines: [wgpu::ComputePipeline; 8],
 }
 
-impl SsaoPass {
-    pub fn new(device: &wgpu::Device) -> SsaoPass {
+impl Kernels for SsaoKernels {
+    fn build(device: &wgpu::Device) -> SsaoKernels {
         let texture = |binding| texture_entry(binding, wgpu::TextureViewDimension::D2, false);
         let gbuffer_layout = layout(device, "ssao g-buffer", &[texture(0), texture(1)]);
-        let io_layout = layout(
-            device,
-            "ssao io",
-            &[
-                uniform_entry(0),
-                storage_entry(1, true),
-                storage_entry(2, false),
-                storage_entry(3, false),
-                storage_entry(4, false),
-                storage_entry(5, false),
-                storage_entry(6, false),
-                storage_entry(7, false),
-            ],
-        );
+        let io_layout = io_layout(device, "ssao io", SSAO_IO);
         let layouts = [&gbuffer_layout, &io_layout];
-        let build =
-            |module, entries: &[&str]| crate::gpu::kernels::compute_pipelines(device, module, &layouts, entries);
+        let build = |module, entries: &[&str]| compute_pipelines(device, module, &layouts, entries);
         let mut all = build(
             &crate::wgsl::SSAO_ESTIMATE_MODULE,
             &["ssao_pack_depth", "ssao_points", "ssao_march", "ssao_disk"],
         );
         all.extend(build(&crate::wgsl::SSAO_INDIRECT_MODULE, &["ssao_indirect"]));
-        all.extend(build(
-            &crate::wgsl::SSAO_FILTER_MODULE,
-            &["ssao_filter_ao", "ssao_filter_indirect"],
-        ));
+        let filters = ["ssao_filter_ao", "ssao_filter_indirect"];
+        all.extend(build(&crate::wgsl::SSAO_FILTER_MODULE, &filters));
         all.extend(build(&crate::wgsl::SSAO_INDIRECT_MODULE, &["ssao_compose"]));
         let pipelines: [wgpu::ComputePipeline; 8] = all.try_into().expect("eight entry points");
-        SsaoPass {
+        SsaoKernels {
             gbuffer_layout,
             io_layout,
             pipelines,
         }
+    }
+}
+
+/// What `SsaoPass::record` records, in order.
+enum Action {
+    Run(SsaoKernel, SsaoStep),
+    /// Binding to binding (a filter turned off).
+    Copy(u32, u32),
+}
+
+/// A step of a frame, as timings split it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SsaoStep {
+    GBuffer,
+    Estimate,
+    Filter,
+    Indirect,
+    Compose,
+}
+
+/// The SSAO compute pass over a G-buffer (two `Rgba32Float` textures in
+/// the layout of `gbuffer`): `prepare` uploads a frame's parameters and
+/// sample table into buffers it keeps, `record` records the frame's kernels
+/// into the caller's encoder, whose G-buffer the host may render itself.
+pub struct SsaoPass {
+    kernels: Arc<SsaoKernels>,
+    io: KeptGroup,
+    size: (u32, u32),
+    family: Family,
+    filter: bool,
+    shade: bool,
+}
+
+impl Pass for SsaoPass {
+    type Kernels = SsaoKernels;
+
+    fn with_kernels(device: &wgpu::Device, kernels: Arc<SsaoKernels>) -> SsaoPass {
+        SsaoPass {
+            kernels,
+            io: KeptGroup::for_io(device, "ssao io", SSAO_IO),
+            size: (0, 0),
+            family: Family::Points,
+            filter: false,
+            shade: false,
+        }
+    }
+}
+
+impl SsaoPass {
+    /// Uploads one frame's parameters and sample table for a `view` of the
+    /// G-buffer; with `shade`, the indirect light and shaded image too.
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        view: &ScreenView,
+        settings: &SsaoSettings,
+        shade: Option<&ShadeSettings>,
+    ) -> Result<()> {
+        settings.validate()?;
+        let (w, h) = (view.width, view.height);
+        let max_groups = device.limits().max_compute_workgroups_per_dimension;
+        if w.div_ceil(TILE) > max_groups || h.div_ceil(TILE) > max_groups {
+            return Err(Error::Device(format!(
+                "{w}x{h} needs more workgroups than this device allows"
+            )));
+        }
+        let pixels = w as u64 * h as u64;
+        check_storage_size(device, "SSAO pixels", pixels * 16)?;
+        let table = SampleTable::build(settings)?;
+        let params = SsaoParams::new(view, settings, &table, shade.copied().unwrap_or_default());
+        let rgba = if shade.is_some() { pixels * 16 } else { 16 };
+        let io = &mut self.io;
+        io.write(device, queue, 0, bytemuck::bytes_of(&params))?;
+        io.write(device, queue, 1, bytemuck::cast_slice(&table.entries))?;
+        for (binding, bytes) in [
+            (2, pixels * 4),
+            (3, pixels * 4),
+            (4, rgba),
+            (5, rgba),
+            (6, rgba),
+            (7, pixels * 4),
+        ] {
+            io.reserve(device, binding, bytes)?;
+        }
+        io.update(device, &self.kernels.io_layout);
+        self.size = (w, h);
+        self.family = table.family;
+        self.filter = settings.filter;
+        self.shade = shade.is_some();
+        Ok(())
     }
 
     /// Bind group 0: the two G-buffer textures (`Rgba32Float`).
@@ -415,7 +506,7 @@ impl SsaoPass {
     ) -> wgpu::BindGroup {
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("ssao g-buffer"),
-            layout: &self.gbuffer_layout,
+            layout: &self.kernels.gbuffer_layout,
             entries: &[
                 wgpu::BindGroupEntry {
                     binding: 0,
@@ -429,84 +520,67 @@ impl SsaoPass {
         })
     }
 
-    /// Bind group 1.
-    pub fn io_bind_group(&self, device: &wgpu::Device, b: &SsaoBuffers) -> wgpu::BindGroup {
-        bind_group(
-            device,
-            "ssao io",
-            &self.io_layout,
-            &[
-                (0, &b.params),
-                (1, &b.table),
-                (2, &b.ao),
-                (3, &b.ao_out),
-                (4, &b.indirect),
-                (5, &b.indirect_out),
-                (6, &b.image),
-                (7, &b.depth),
-            ],
-        )
-    }
-
-    /// Records one kernel over a `width x height` image.
-    #[allow(clippy::too_many_arguments)]
+    /// Records the prepared frame after its G-buffer: packed depth,
+    /// estimator, filter and, with shading, the indirect light and image;
+    /// each kernel gets the next timestamps of `timer`. Returns the step
+    /// each timed kernel belongs to.
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
-        kernel: SsaoKernel,
         gbuffer: &wgpu::BindGroup,
-        io: &wgpu::BindGroup,
-        width: u32,
-        height: u32,
-    ) {
-        crate::gpu::kernels::record_dispatch(
-            encoder,
-            "ssao",
-            timestamp_writes,
-            &self.pipelines[kernel as usize],
-            &[gbuffer, io],
-            (width.div_ceil(TILE), height.div_ceil(TILE)),
-        );
+        mut timer: Option<&mut PassTimer>,
+    ) -> Vec<SsaoStep> {
+        use Action::{Copy, Run};
+        // Without the filter, its output is the unfiltered buffer's copy.
+        let filtered = |kernel, step, from, to| if self.filter { Run(kernel, step) } else { Copy(from, to) };
+        let mut actions = vec![
+            // The packed depth is part of the G-buffer's cost.
+            Run(SsaoKernel::PackDepth, SsaoStep::GBuffer),
+            Run(SsaoKernel::estimator(self.family), SsaoStep::Estimate),
+            filtered(SsaoKernel::FilterAo, SsaoStep::Filter, 2, 3),
+        ];
+        if self.shade {
+            actions.extend([
+                Run(SsaoKernel::Indirect, SsaoStep::Indirect),
+                filtered(SsaoKernel::FilterIndirect, SsaoStep::Indirect, 4, 5),
+                Run(SsaoKernel::Compose, SsaoStep::Compose),
+            ]);
+        }
+        let grid = (self.size.0.div_ceil(TILE), self.size.1.div_ceil(TILE));
+        let mut steps = Vec::new();
+        for action in actions {
+            match action {
+                Run(kernel, step) => {
+                    let writes = timer.as_mut().and_then(|t| t.next_pass());
+                    let pipeline = &self.kernels.pipelines[kernel as usize];
+                    record_dispatch(encoder, "ssao", writes, pipeline, &[gbuffer, self.io.group()], grid);
+                    steps.push(step);
+                }
+                Copy(from, to) => encoder.copy_buffer_to_buffer(self.io.buffer(from), 0, self.io.buffer(to), 0, None),
+            }
+        }
+        steps
     }
-}
 
-/// The buffers of bind group 1.
-pub struct SsaoBuffers {
-    pub params: wgpu::Buffer,
-    pub table: wgpu::Buffer,
-    pub ao: wgpu::Buffer,
-    pub ao_out: wgpu::Buffer,
-    pub indirect: wgpu::Buffer,
-    pub indirect_out: wgpu::Buffer,
-    pub image: wgpu::Buffer,
-    /// The G-buffer's depth as a tight array (`ssao_pack_depth`).
-    pub depth: wgpu::Buffer,
-}
+    /// The estimator's output per pixel, before filtering (f32).
+    pub fn raw_ao(&self) -> &wgpu::Buffer {
+        self.io.buffer(2)
+    }
 
-impl SsaoBuffers {
-    /// `with_indirect`: allocate full-size indirect and image buffers
-    /// (otherwise placeholders).
-    pub fn new(
-        device: &wgpu::Device,
-        params: &SsaoParams,
-        table: &[[f32; 4]],
-        with_indirect: bool,
-    ) -> Result<SsaoBuffers> {
-        let pixels = params.width as u64 * params.height as u64;
-        check_storage_size(device, "SSAO pixels", pixels * 16)?;
-        let rw = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
-        let rgba = if with_indirect { pixels * 16 } else { 16 };
-        Ok(SsaoBuffers {
-            params: uniform_buffer(device, "ssao params", params),
-            table: storage_buffer(device, "ssao sample table", bytemuck::cast_slice(table))?,
-            ao: zeroed_buffer(device, "ssao ao", pixels * 4, rw),
-            ao_out: zeroed_buffer(device, "ssao ao filtered", pixels * 4, rw),
-            indirect: zeroed_buffer(device, "ssao indirect", rgba, rw),
-            indirect_out: zeroed_buffer(device, "ssao indirect filtered", rgba, rw),
-            image: zeroed_buffer(device, "ssao image", rgba, rw),
-            depth: zeroed_buffer(device, "ssao depth", pixels * 4, rw),
-        })
+    /// Accessibility per pixel after the filter (f32; clamp to [0, 1] and
+    /// ignore background pixels, as `final_ao` does).
+    pub fn ao(&self) -> &wgpu::Buffer {
+        self.io.buffer(3)
+    }
+
+    /// Filtered indirect light L~ per pixel (rgb, count), with shading.
+    pub fn indirect(&self) -> &wgpu::Buffer {
+        self.io.buffer(5)
+    }
+
+    /// Linear RGBA of the shaded image, with shading.
+    pub fn image(&self) -> &wgpu::Buffer {
+        self.io.buffer(6)
     }
 }
 
@@ -540,21 +614,11 @@ pub fn run_frame(
     shade: Option<&ShadeSettings>,
     repeat: u32,
 ) -> Result<GpuFrame> {
-    settings.validate()?;
     let device = &ctx.device;
     let (w, h) = (view.width, view.height);
-    let max_groups = device.limits().max_compute_workgroups_per_dimension;
-    if w.div_ceil(TILE) > max_groups || h.div_ceil(TILE) > max_groups {
-        return Err(Error::Device(format!(
-            "{w}x{h} needs more workgroups than this device allows"
-        )));
-    }
-    let table = SampleTable::build(settings)?;
-    let params = SsaoParams::new(view, settings, &table, shade.copied().unwrap_or_default());
-    let ssao = ctx.kernels.get_or_insert(|| SsaoPass::new(device));
+    let mut ssao = SsaoPass::for_context(ctx);
+    ssao.prepare(device, &ctx.queue, view, settings, shade)?;
     let targets = GBufferTargets::new(device, w, h)?;
-    let buffers = SsaoBuffers::new(device, &params, &table.entries, shade.is_some())?;
-    let io = ssao.io_bind_group(device, &buffers);
     let gb_group = ssao.gbuffer_bind_group(
         device,
         &targets.geometry.create_view(&Default::default()),
@@ -596,36 +660,13 @@ pub fn run_frame(
                 &targets,
                 group,
             );
-            kinds.push(0);
+            kinds.push(SsaoStep::GBuffer as usize);
         }
-        let mut dispatch = |encoder: &mut wgpu::CommandEncoder, kernel, timer: &mut Option<PassTimer>, kind| {
-            ssao.record(
-                encoder,
-                timer.as_mut().and_then(|t| t.next_pass()),
-                kernel,
-                &gb_group,
-                &io,
-                w,
-                h,
-            );
-            kinds.push(kind);
-        };
-        dispatch(&mut encoder, SsaoKernel::PackDepth, &mut timer, 0);
-        dispatch(&mut encoder, SsaoKernel::estimator(table.family), &mut timer, 1);
-        if settings.filter {
-            dispatch(&mut encoder, SsaoKernel::FilterAo, &mut timer, 2);
-        } else {
-            encoder.copy_buffer_to_buffer(&buffers.ao, 0, &buffers.ao_out, 0, None);
-        }
-        if shade.is_some() {
-            dispatch(&mut encoder, SsaoKernel::Indirect, &mut timer, 3);
-            if settings.filter {
-                dispatch(&mut encoder, SsaoKernel::FilterIndirect, &mut timer, 3);
-            } else {
-                encoder.copy_buffer_to_buffer(&buffers.indirect, 0, &buffers.indirect_out, 0, None);
-            }
-            dispatch(&mut encoder, SsaoKernel::Compose, &mut timer, 4);
-        }
+        kinds.extend(
+            ssao.record(&mut encoder, &gb_group, timer.as_mut())
+                .into_iter()
+                .map(|s| s as usize),
+        );
         if let Some(t) = &timer {
             t.resolve(&mut encoder);
         }
@@ -666,12 +707,12 @@ pub fn run_frame(
     };
     let gbuffer = targets.read(ctx)?;
     let pixels = (w * h) as usize;
-    let ao_raw: Vec<f32> = read_buffer(ctx, &buffers.ao, pixels)?;
-    let ao_out: Vec<f32> = read_buffer(ctx, &buffers.ao_out, pixels)?;
+    let ao_raw: Vec<f32> = read_buffer(ctx, ssao.raw_ao(), pixels)?;
+    let ao_out: Vec<f32> = read_buffer(ctx, ssao.ao(), pixels)?;
     let (indirect, image) = if shade.is_some() {
         (
-            Some(read_buffer::<[f32; 4]>(ctx, &buffers.indirect_out, pixels)?),
-            Some(read_buffer::<[f32; 4]>(ctx, &buffers.image, pixels)?),
+            Some(read_buffer::<[f32; 4]>(ctx, ssao.indirect(), pixels)?),
+            Some(read_buffer::<[f32; 4]>(ctx, ssao.image(), pixels)?),
         )
     } else {
         (None, None)
