@@ -109,7 +109,7 @@ fn bench_gpu(c: &mut Criterion, models: &[Model]) {
         // reports the kernel-only time where timestamps exist.
         let start = std::time::Instant::now();
         let first = tracer.closest(&rays).expect("GPU trace");
-        let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+        let wall_ms = penumbra::device::elapsed_ms(start);
         let cpu = trace_sequential(&m.tree, &rays);
         let differ = first.value.iter().zip(&cpu).filter(|(g, c)| g != c).count();
         let kernel = match first.timing {

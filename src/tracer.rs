@@ -96,23 +96,19 @@ impl Tracer {
         let counted = self.gpu.run(
             |ctx, g| {
                 let traced = g.trace(ctx, rays, TraceMode::ClosestCounted)?;
-                let sum = traced
-                    .counts
-                    .unwrap_or_default()
-                    .iter()
-                    .fold(TraversalCounts::default(), |mut acc, c| {
-                        acc.cells += c[0] as u64;
-                        acc.intersections += c[1] as u64;
-                        acc
-                    });
                 Ok(GpuOutput {
-                    value: sum,
+                    value: traced.counts.unwrap_or_default(),
                     gpu_ms: None,
                 })
             },
-            || Ok(tree.traversal_counts(rays)),
+            || Ok(tree.trace_closest_counted(rays).1),
         )?;
-        Ok(counted.value)
+        let sum = counted.value.iter().fold(TraversalCounts::default(), |mut acc, c| {
+            acc.cells += c[0] as u64;
+            acc.intersections += c[1] as u64;
+            acc
+        });
+        Ok(sum)
     }
 
     /// AO rays of `points`: which of each point's rays escape.

@@ -23,6 +23,8 @@ macro_rules! wgsl_file {
 }
 
 pub const SAMPLING: WgslFile = wgsl_file!("sampling.wgsl");
+pub const FRAME: WgslFile = wgsl_file!("frame.wgsl");
+pub const ALBEDO: WgslFile = wgsl_file!("albedo.wgsl");
 pub const KDTREE_TRAVERSE: WgslFile = wgsl_file!("kdtree_traverse.wgsl");
 pub const TRACE_RAYS: WgslFile = wgsl_file!("trace_rays.wgsl");
 pub const AO_RAYS: WgslFile = wgsl_file!("ao_rays.wgsl");
@@ -44,6 +46,8 @@ pub const SH_TRANSFER: WgslFile = wgsl_file!("sh_transfer.wgsl");
 /// Every file compiled in (the validation test checks this against `wgsl/`).
 pub const FILES: &[WgslFile] = &[
     SAMPLING,
+    FRAME,
+    ALBEDO,
     KDTREE_TRAVERSE,
     TRACE_RAYS,
     AO_RAYS,
@@ -77,7 +81,7 @@ pub const TRACE_RAYS_MODULE: Composition = Composition {
 
 pub const AO_RAYS_MODULE: Composition = Composition {
     name: "ao_rays",
-    parts: &[SAMPLING, KDTREE_TRAVERSE, AO_RAYS],
+    parts: &[SAMPLING, FRAME, KDTREE_TRAVERSE, AO_RAYS],
 };
 
 pub const PACKET_TRAVERSE_MODULE: Composition = Composition {
@@ -91,7 +95,7 @@ macro_rules! field_module {
     ($name:literal, $maps:ident, $kernel:ident) => {
         Composition {
             name: $name,
-            parts: &[SAMPLING, FIELD_LOOKUP, $maps, FIELD_TRACE, $kernel],
+            parts: &[SAMPLING, FRAME, FIELD_LOOKUP, $maps, FIELD_TRACE, $kernel],
         }
     };
 }
@@ -107,22 +111,22 @@ pub const FIELD_PROBE_BITS_MODULE: Composition = field_module!("field_probe_bits
 /// The G-buffer render pipeline (vertex and fragment stages).
 pub const GBUFFER_MODULE: Composition = Composition {
     name: "gbuffer",
-    parts: &[GBUFFER],
+    parts: &[ALBEDO, GBUFFER],
 };
 
 pub const SSAO_ESTIMATE_MODULE: Composition = Composition {
     name: "ssao_estimate",
-    parts: &[SSAO_COMMON, SSAO_ESTIMATE],
+    parts: &[FRAME, SSAO_COMMON, SSAO_ESTIMATE],
 };
 
 pub const SSAO_FILTER_MODULE: Composition = Composition {
     name: "ssao_filter",
-    parts: &[SSAO_COMMON, SSAO_FILTER],
+    parts: &[FRAME, SSAO_COMMON, SSAO_FILTER],
 };
 
 pub const SSAO_INDIRECT_MODULE: Composition = Composition {
     name: "ssao_indirect",
-    parts: &[SSAO_COMMON, SSAO_INDIRECT],
+    parts: &[FRAME, ALBEDO, SSAO_COMMON, SSAO_INDIRECT],
 };
 
 pub const SH_TRANSFER_MODULE: Composition = Composition {

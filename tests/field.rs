@@ -13,7 +13,7 @@ use penumbra::ao::{AoSettings, VisibilityMasks};
 use penumbra::field::gpu::{FieldAoBatches, FieldGroup, GpuField, GpuInstance, probe_gpu};
 use penumbra::field::{
     DirectionMapping, DisplacementField, FieldCaster, FieldParams, FieldTrace, NO_OWNER, OctahedralGrid, Positional,
-    Storage, field_ao, file,
+    Storage, field_ao, field_probe, file,
 };
 use penumbra::kdtree::{KdTree, KdTreeParams};
 use penumbra::progress::Progress;
@@ -205,14 +205,14 @@ fn gpu_lookup_equals_the_cpu_lookup() {
             let rays = random_rays(&field, 20_000, 4.0, 3);
             let g = GpuField::upload(&ctx.device, &ctx.queue, &field, Positional::Bilinear).unwrap();
             let out = probe_gpu(&ctx, &g, &rays).unwrap();
+            let cpu_out = field_probe(&field, &rays, Positional::Bilinear);
             let (mut worst, mut over, mut n, mut flips) = (0.0f32, 0, 0, 0);
-            for ((o, d), r) in rays.iter().zip(&out) {
+            for (cpu, r) in cpu_out.iter().zip(&out) {
                 assert!(r.iter().all(|x| x.is_finite()), "NaN from the GPU: {r:?}");
-                let Some((p, _, _)) = field.entry(*o, *d) else {
+                let Some(cpu) = cpu else {
                     assert_eq!(r[0] as u32 % 4, 0, "the CPU says the ray misses the sphere");
                     continue;
                 };
-                let cpu = field.sample(p, *d, Positional::Bilinear);
                 let diff = (cpu.coverage - r[2]).abs().max((cpu.weighted_distance - r[3]).abs());
                 worst = worst.max(diff);
                 over += (diff > tolerance) as usize;

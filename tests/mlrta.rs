@@ -19,6 +19,7 @@ use penumbra::mlrta::tiles::{DEFAULT_MIN_TILE, Group, trace_group};
 use penumbra::mlrta::{MlrtaParams, Prepared, trace_image};
 use penumbra::progress::Progress;
 use penumbra::ray::Hit;
+use penumbra::scene::procedural::all_scenes;
 use penumbra::scene::{Camera, Mesh, load_obj};
 
 struct Agreement {
@@ -99,14 +100,7 @@ fn compare_image(name: &str, mesh: &Mesh, camera: &Camera, size: u32, params: Ml
 
 #[test]
 fn primary_and_shadow_rays_equal_single_rays_on_procedural_scenes() {
-    for name in [
-        "corner.obj",
-        "cube-with-hole.obj",
-        "sphere-on-plane.obj",
-        "closed-box.obj",
-        "cylindrical-well.obj",
-    ] {
-        let mesh = load_obj(&asset(name)).unwrap();
+    for (name, mesh) in all_scenes() {
         let camera = Camera::default_for(&mesh.bounds());
         // Small tiles so that the splitting and the stopping rules run.
         let params = MlrtaParams {

@@ -17,6 +17,7 @@ use common::{asset, data_model, gpu};
 use glam::Vec3;
 use penumbra::gpu::GpuContext;
 use penumbra::kdtree::{KdTree, KdTreeParams};
+use penumbra::scene::procedural::all_scenes;
 use penumbra::scene::{Camera, Mesh, load_obj};
 use penumbra::ssao::gbuffer::{GBuffer, ScreenView, gbuffer};
 use penumbra::ssao::gpu::{GBufferSource, run_frame};
@@ -118,13 +119,7 @@ fn compare_gbuffers(ctx: &GpuContext, name: &str, mesh: &Mesh, camera: &Camera) 
 #[test]
 fn gbuffer_pass_agrees_with_kd_tree_primary_rays() {
     let Some(ctx) = gpu() else { return };
-    for name in [
-        "sphere-on-plane.obj",
-        "cube-with-hole.obj",
-        "closed-box.obj",
-        "corner.obj",
-    ] {
-        let mesh = load_obj(&asset(name)).unwrap();
+    for (name, mesh) in all_scenes() {
         compare_gbuffers(&ctx, name, &mesh, &Camera::default_for(&mesh.bounds()));
     }
     for model in ["stanford-bunny.obj", "kitchen.obj"] {

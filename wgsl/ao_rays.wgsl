@@ -1,8 +1,9 @@
 // Kernel: ambient-occlusion rays, the GPU twin of src/ao/raycast.rs
-// (`visibility_bits`). One invocation per ray: ray j of point p goes in the
-// cosine-weighted direction of sample j of the point's stream of the seeded
-// sequence, and sets bit j of the point's mask when nothing is hit within
-// the radius. Composed after sampling.wgsl and kdtree_traverse.wgsl.
+// (`ao_rays`, and `ao_samples` for the check below). One invocation per
+// ray: ray j of point p goes in the cosine-weighted direction of sample j of
+// the point's stream of the seeded sequence, and sets bit j of the point's
+// mask when nothing is hit within the radius. Composed after sampling.wgsl,
+// frame.wgsl and kdtree_traverse.wgsl.
 //
 // points: 8 words per point (origin xyz, stream index, unit normal xyz, pad),
 //         origins already offset; a zero normal casts no rays (all visible).

@@ -1,9 +1,9 @@
 // Kernel: ambient occlusion through displacement fields (Algorithm 2 of the
-// paper), the GPU twin of src/field/ao.rs (`visibility_field`). One
+// paper), the GPU twin of src/field/ao.rs (`field_ao`). One
 // invocation per ray: ray j of point p follows sample j of the point's
 // stream, as in ao_rays.wgsl, and asks every instance of this dispatch's
 // field (not the point's own instance). Composed after sampling.wgsl,
-// field_lookup.wgsl and a map-access file. A scene with several fields runs
+// frame.wgsl, field_lookup.wgsl, a map-access file and field_trace.wgsl. A scene with several fields runs
 // one dispatch per field into the same `classes` buffer.
 //
 // classes: three bit masks of words_per_point words per point, one after the

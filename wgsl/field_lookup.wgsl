@@ -1,7 +1,7 @@
 // Library: displacement-field geometry, the GPU twin of src/field/positions.rs
 // and directions.rs: the field's parameters, the octahedral grid of
 // positional samples and the hemisphere mappings. A kernel composes
-//     sampling.wgsl, field_lookup.wgsl, a map-access file, field_trace.wgsl
+//     sampling.wgsl, frame.wgsl, field_lookup.wgsl, a map-access file, field_trace.wgsl
 // where the map-access file (field_maps_*.wgsl) binds the maps and defines
 //     fn field_map_taps(m: u32, x: f32, y: f32) -> vec2<f32>
 // the four texels around continuous texel coordinates (x, y) of map m (x, y

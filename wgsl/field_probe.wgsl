@@ -1,6 +1,8 @@
-// Kernel: single lookups, for the CPU twin's check (DisplacementField::trace
-// and ::distance on the same object-space rays). Composed after
-// sampling.wgsl, field_lookup.wgsl and a map-access file.
+// Kernel: single lookups, the GPU twin of `field_probe` in
+// src/field/lookup.rs (the sample at each object-space ray's entry point,
+// and DisplacementField::trace's outcome). Composed after
+// sampling.wgsl, frame.wgsl, field_lookup.wgsl, a map-access file and
+// field_trace.wgsl.
 //
 // rays: per ray two vec4s, (origin, 0) and (unit direction, 0).
 // results: per ray (kind + 4 flags, t, coverage, weighted distance), kind 0

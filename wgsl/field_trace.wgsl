@@ -1,7 +1,7 @@
 // Library: the displacement-field query, the GPU twin of src/field/lookup.rs
-// (DisplacementField::map_value, ::distance, ::trace). Composed after
-// sampling.wgsl (frame_basis), field_lookup.wgsl and a map-access file
-// (field_map_texel).
+// (DisplacementField::map_sample_world, ::sample, ::trace). Composed after
+// frame.wgsl (frame_basis), field_lookup.wgsl and a map-access file
+// (field_map_taps).
 
 // DisplacementField::map_sample_world: (coverage, weighted distance) of the
 // four texels around direction d in map m, through field_map_taps.

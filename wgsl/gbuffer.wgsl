@@ -1,5 +1,6 @@
 // Render pipeline: the G-buffer of src/ssao/gbuffer.rs (CPU twin:
-// `render_cpu`, kd-tree primary rays through the pixel centres).
+// `gbuffer`, kd-tree primary rays through the pixel centres). Composed
+// after albedo.wgsl.
 //
 // Vertices are unindexed, three per triangle: world position, the unit
 // world face normal (zero for degenerate triangles) and the packed albedo.
@@ -55,11 +56,6 @@ fn gbuffer_vs(v: VertexIn) -> VertexOut {
     out.normal = v.normal;
     out.albedo = v.albedo;
     return out;
-}
-
-fn unpack_albedo(v: f32) -> vec3<f32> {
-    let b = u32(v);
-    return vec3<f32>(f32(b & 255u), f32((b >> 8u) & 255u), f32((b >> 16u) & 255u)) * (1.0 / 255.0);
 }
 
 // Twin of gbuffer::direct_light (no shadows).

@@ -1,7 +1,7 @@
 // Twin of src/sampling/: Owen-scrambled Sobol points (integer arithmetic,
-// bit-identical to the CPU), the concentric disk map, Malley's cosine
-// hemisphere and the orthonormal basis of Duff et al. 2017.
-// Self-contained: kernels prepend it.
+// bit-identical to the CPU), the concentric disk map and Malley's cosine
+// hemisphere (the orthonormal basis is frame.wgsl). Self-contained:
+// kernels prepend it.
 
 const SAMPLING_PI_OVER_4: f32 = 0.78539816339744830962;
 const SAMPLING_PI_OVER_2: f32 = 1.57079632679489661923;
@@ -92,21 +92,4 @@ fn cosine_hemisphere(u: f32, v: f32) -> vec3<f32> {
     let d = concentric_disk(u, v);
     let z = sqrt(max(0.0, 1.0 - d.x * d.x - d.y * d.y));
     return vec3<f32>(d.x, d.y, z);
-}
-
-// Frame::from_normal(n) as the columns (t, b, n). copysign(1, n.z) reads the
-// sign bit so that n.z = -0.0 gives the same frame as on the CPU.
-fn frame_basis(n: vec3<f32>) -> mat3x3<f32> {
-    let sign = select(1.0, -1.0, (bitcast<u32>(n.z) & 0x80000000u) != 0u);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    let t = vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-    let bt = vec3<f32>(b, sign + n.y * n.y * a, -n.y);
-    return mat3x3<f32>(t, bt, n);
-}
-
-// Frame::from_normal(n).to_world(local).
-fn frame_to_world(n: vec3<f32>, local: vec3<f32>) -> vec3<f32> {
-    let f = frame_basis(n);
-    return f[0] * local.x + f[1] * local.y + f[2] * local.z;
 }

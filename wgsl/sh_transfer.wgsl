@@ -2,9 +2,9 @@
 // equation 3 and section 3.2), rotated from each vertex's tangent frame to
 // world space and dotted with the lighting (equation 2).
 //
-// CPU twin: `CellTables::integrate` (src/prt/transfer.rs),
-// `ShRotation::frame_to_world` (src/sh/rotation.rs) and `radiance`; the
-// tables are `CellTables`' arrays, packed by `src/prt/gpu.rs`.
+// CPU twin: `Prt::sh_transfer` (src/prt/pipeline.rs: `CellTables::integrate`,
+// `ShRotation::frame_to_world`, `radiance`); the tables are `CellTables`'
+// arrays, packed by `src/prt/gpu.rs`.
 //
 // A workgroup takes VERTS vertices. Their masks are staged in workgroup
 // memory; the 4x4 cells' grey levels and first moments (four nibble-table

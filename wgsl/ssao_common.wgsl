@@ -1,6 +1,6 @@
 // Shared by the SSAO kernels (twins in src/ssao/): parameters, bindings,
 // camera-space reconstruction and projection, the depth-buffer visibility
-// test, the tangent frame and the pixel's sample set.
+// test and the pixel's sample set. Composed after frame.wgsl.
 //
 // group(0): the G-buffer textures of gbuffer.wgsl (geometry = camera-space
 //           normal and z, shade = radiance and packed albedo).
@@ -107,22 +107,6 @@ fn shaded_point(x: u32, y: u32) -> Shaded {
     r.n = g.xyz;
     r.s = cam_point(x, y, g.w);
     return r;
-}
-
-// Frame::from_normal (Duff et al. 2017): columns t, b.
-struct Tangents {
-    t: vec3<f32>,
-    b: vec3<f32>,
-}
-
-fn tangent_frame(n: vec3<f32>) -> Tangents {
-    let sign = select(1.0, -1.0, (bitcast<u32>(n.z) & 0x80000000u) != 0u);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    var f: Tangents;
-    f.t = vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-    f.b = vec3<f32>(b, sign + n.y * n.y * a, -n.y);
-    return f;
 }
 
 // Params::pattern_index times the set size: the pixel's first table entry.

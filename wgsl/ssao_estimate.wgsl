@@ -26,12 +26,12 @@ fn ssao_points(@builtin(global_invocation_id) gid: vec3<u32>) {
         ao[pixel_index(gid)] = 1.0;
         return;
     }
-    let f = tangent_frame(sp.n);
+    let f = frame_basis(sp.n);
     let base = set_base(gid.x, gid.y);
     var sum = 0.0;
     for (var j = 0u; j < params.samples; j = j + 1u) {
         let q = table[base + j];
-        let p = sp.s + params.radius * (f.t * q.x + f.b * q.y + sp.n * q.z);
+        let p = sp.s + params.radius * (f[0] * q.x + f[1] * q.y + sp.n * q.z);
         if (!occluded(p)) {
             sum = sum + q.w;
         }
@@ -49,14 +49,14 @@ fn ssao_march(@builtin(global_invocation_id) gid: vec3<u32>) {
         ao[pixel_index(gid)] = 1.0;
         return;
     }
-    let f = tangent_frame(sp.n);
+    let f = frame_basis(sp.n);
     let base = set_base(gid.x, gid.y);
     var sum = 0.0;
     for (var ray = 0u; ray < params.rays; ray = ray + 1u) {
         var value = params.open_weight;
         for (var k = 0u; k < params.steps; k = k + 1u) {
             let q = table[base + ray * params.steps + k];
-            let p = sp.s + params.radius * (f.t * q.x + f.b * q.y + sp.n * q.z);
+            let p = sp.s + params.radius * (f[0] * q.x + f[1] * q.y + sp.n * q.z);
             if (occluded(p)) {
                 value = q.w;
                 break;

@@ -19,7 +19,7 @@ fn ssao_indirect(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let s = sp.s;
     let n = sp.n;
-    let f = tangent_frame(n);
+    let f = frame_basis(n);
     let base = set_base(gid.x, gid.y);
     let r2 = params.radius * params.radius;
     var sum = vec3<f32>(0.0);
@@ -30,7 +30,7 @@ fn ssao_indirect(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (params.table_kind == 1u) {
             p = s + params.radius * vec3<f32>(q.x, q.y, 0.0);
         } else {
-            p = s + params.radius * (f.t * q.x + f.b * q.y + n * q.z);
+            p = s + params.radius * (f[0] * q.x + f[1] * q.y + n * q.z);
         }
         let px = project(p);
         if (px.x < 0) {
@@ -55,11 +55,6 @@ fn ssao_indirect(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     indirect[i] = vec4<f32>(sum * (1.0 / f32(count)), f32(count));
-}
-
-fn unpack_albedo(v: f32) -> vec3<f32> {
-    let b = u32(v);
-    return vec3<f32>(f32(b & 255u), f32((b >> 8u) & 255u), f32((b >> 16u) & 255u)) * (1.0 / 255.0);
 }
 
 @compute @workgroup_size(8, 8)

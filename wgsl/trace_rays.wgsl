@@ -1,5 +1,6 @@
 // Kernel: closest hit (or any hit) of a batch of rays, the GPU twin of
-// KdTree::closest_hit / any_hit (src/kdtree/gpu.rs drives it).
+// KdTree::trace_closest / trace_any / trace_closest_counted (src/kdtree/;
+// src/kdtree/gpu.rs drives it).
 // Composed after kdtree_traverse.wgsl.
 //
 // rays: 6 f32 per ray (origin, direction), as in a RAYS.f32 file.

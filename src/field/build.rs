@@ -14,6 +14,7 @@ use serde::Serialize;
 use super::directions::DirectionMapping;
 use super::storage::{FieldData, FieldParams};
 use crate::aabb::Aabb;
+use crate::device::elapsed_ms;
 use crate::error::{Error, Result};
 use crate::kdtree::{KdTree, KdTreeParams};
 use crate::progress::Progress;
@@ -113,7 +114,7 @@ impl DisplacementField {
         }
         let start = Instant::now();
         let tree = KdTree::build(mesh, &KdTreeParams::default())?;
-        let kdtree_ms = start.elapsed().as_secs_f64() * 1e3;
+        let kdtree_ms = elapsed_ms(start);
         let (center, radius) = bounding_sphere(mesh);
         let texels = params.texels_per_map();
         // The local texel directions are the same for every map.
@@ -154,7 +155,7 @@ impl DisplacementField {
             rays,
             hit_fraction: hits as f64 / rays as f64,
             kdtree_ms,
-            build_ms: start.elapsed().as_secs_f64() * 1e3,
+            build_ms: elapsed_ms(start),
         };
         Ok((field, stats))
     }

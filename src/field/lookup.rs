@@ -190,3 +190,12 @@ impl DisplacementField {
         }
     }
 }
+
+/// Single lookups, the CPU twin of `wgsl/field_probe.wgsl`: per
+/// object-space ray (origin, unit direction), the sample at its entry
+/// point, `None` where it misses the sphere.
+pub fn field_probe(field: &DisplacementField, rays: &[(Vec3, Vec3)], positional: Positional) -> Vec<Option<Sample>> {
+    rays.iter()
+        .map(|&(o, d)| field.entry(o, d).map(|(p, _, _)| field.sample(p, d, positional)))
+        .collect()
+}

@@ -32,6 +32,6 @@ pub mod storage;
 pub use ao::{FieldCaster, NO_OWNER, RayClasses, field_ao};
 pub use build::{BuildStats, DisplacementField, FieldSummary, bounding_sphere};
 pub use directions::DirectionMapping;
-pub use lookup::{FieldTrace, Positional, Sample};
+pub use lookup::{FieldTrace, Positional, Sample, field_probe};
 pub use positions::OctahedralGrid;
 pub use storage::{FieldData, FieldParams, Storage};

@@ -21,6 +21,7 @@ pub use node::{KdNode, MAX_TREE_DEPTH};
 pub use traverse::{Counters, NoCounts, TRAVERSAL_SLACK, TraversalCounts};
 
 use crate::aabb::Aabb;
+use crate::device::elapsed_ms;
 use crate::error::{Error, Result};
 use crate::ray::{Hit, Ray};
 use crate::scene::Mesh;
@@ -97,7 +98,7 @@ impl KdTree {
             ));
         }
         let leaf_vertices = leaf_triangles.iter().map(|&t| triangles[t as usize]).collect();
-        stats.build_ms = start.elapsed().as_secs_f64() * 1e3;
+        stats.build_ms = elapsed_ms(start);
         Ok(KdTree {
             nodes,
             leaf_triangles,
@@ -117,20 +118,26 @@ impl KdTree {
             .collect()
     }
 
-    /// Traversal steps and intersection tests of the closest hits of
-    /// `rays`, summed (the twin of `trace_closest_counted`'s counters).
-    pub fn traversal_counts(&self, rays: &[Ray]) -> TraversalCounts {
+    /// Whether each ray hits anything (the twin of `trace_any`, which
+    /// reports the first hit it finds).
+    pub fn trace_any(&self, rays: &[Ray]) -> Vec<bool> {
+        rays.par_iter()
+            .with_min_len(1024)
+            .map(|r| self.any_hit(r.o(), r.d(), f32::INFINITY))
+            .collect()
+    }
+
+    /// Closest hits with each ray's (traversal steps, intersection tests):
+    /// the twin of `trace_closest_counted`.
+    pub fn trace_closest_counted(&self, rays: &[Ray]) -> (Vec<Hit>, Vec<[u32; 2]>) {
         rays.par_iter()
             .with_min_len(1024)
             .map(|r| {
                 let mut c = TraversalCounts::default();
-                self.closest_hit_counted(r.o(), r.d(), f32::INFINITY, &mut c);
-                c
+                let hit = self.closest_hit_counted(r.o(), r.d(), f32::INFINITY, &mut c);
+                (hit, [c.cells as u32, c.intersections as u32])
             })
-            .reduce(TraversalCounts::default, |mut a, b| {
-                a += b;
-                a
-            })
+            .unzip()
     }
 }
 

@@ -28,6 +28,7 @@ use clap::ValueEnum;
 use serde_json::{Value, json};
 
 use crate::color::rms_difference as rmse;
+use crate::device::elapsed_ms;
 use crate::error::{Error, Result};
 use rayon::prelude::*;
 
@@ -229,7 +230,7 @@ pub fn render(
         rays,
         complex_units: if mode == AaMode::Adaptive { complex.len() } else { 0 },
         tiles: tiles.len(),
-        ms: start.elapsed().as_secs_f64() * 1e3,
+        ms: elapsed_ms(start),
     })
 }
 

@@ -28,6 +28,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::aabb::Aabb;
+use crate::device::elapsed_ms;
 use crate::kdtree::KdTree;
 use crate::scene::Mesh;
 
@@ -127,7 +128,7 @@ impl<'a> Prepared<'a> {
             }
             prepared.occluders[i] = merged;
         }
-        stats.prepare_ms = start.elapsed().as_secs_f64() * 1e3;
+        stats.prepare_ms = elapsed_ms(start);
         (prepared, stats)
     }
 

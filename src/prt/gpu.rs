@@ -1,6 +1,6 @@
 //! SH integration on the GPU: `ShTransferPass` runs `wgsl/sh_transfer.wgsl`,
-//! the twin of `CellTables::integrate` + `ShRotation::frame_to_world` +
-//! `radiance`, over masks rasterised on the CPU (`Prt::frame_masks`).
+//! the twin of `Prt::sh_transfer`, over masks rasterised on the CPU
+//! (`Prt::frame_masks`).
 //!
 //! Like the other passes it follows glyphon's split: `ShTransferPass::new`
 //! builds its pipeline (or takes it from the context's cache) and uploads

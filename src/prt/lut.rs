@@ -103,7 +103,7 @@ impl PlaneLut {
     }
 
     /// The entry of the plane with normal `m` (any length); `None` for the
-    /// zero vector. Identical arithmetic in `wgsl/hemi_raster.wgsl`.
+    /// zero vector. (Masks are rasterised on the CPU only: see `prt::gpu`.)
     #[inline(always)]
     pub fn lookup(&self, m: Vec3) -> Option<LutRef> {
         lut_index(self.n as u32, m)

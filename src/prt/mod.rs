@@ -7,7 +7,7 @@
 //! * `mask` — the disk grid, pixel areas and directions (section 3.1)
 //! * `lut` — the plane LUT with its cube-map index (3.1.1)
 //! * `clip` — blockers against the horizon (3.1.1)
-//! * `raster` — spherical rasterisation, CPU twin of `wgsl/hemi_raster.wgsl`
+//! * `raster` — spherical rasterisation (CPU only; see `gpu`)
 //! * `transfer` — cells, integration, rotation, shading, twin of `wgsl/sh_transfer.wgsl` (3, 3.2)
 //! * `hierarchy` — two-level mesh and culling groups (3.2)
 //! * `pvs` — potentially visible sets from sampled frames (3.2)

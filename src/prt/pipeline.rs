@@ -25,6 +25,7 @@ use super::lut::PlaneLut;
 use super::mask::MaskGrid;
 use super::raster::{BatchRefs, TriangleBatch, batch_or, batch_refs_inline};
 use super::transfer::{Brdf, CellTables, Integration, radiance};
+use crate::device::elapsed_ms;
 use crate::error::{Error, Result};
 use crate::scene::{ORIGIN_OFFSET, used_bounds, vertex_normals};
 use crate::sh::{MAX_BANDS, ShRotation, coefficient_count, tangent_frame};
@@ -281,7 +282,7 @@ impl Prt {
         let grid = MaskGrid::new(settings.mask_side)?;
         let t = Instant::now();
         let lut = PlaneLut::build(&grid, settings.lut_size)?;
-        let lut_ms = t.elapsed().as_secs_f64() * 1e3;
+        let lut_ms = elapsed_ms(t);
         let tables = CellTables::with_integration(&grid, settings.bands, settings.integration);
         let rotation = ShRotation::new(settings.bands);
         let hierarchy = Hierarchy::build(rest, triangles, &settings.hierarchy)?;
@@ -317,7 +318,7 @@ impl Prt {
             avx2,
         };
         prt.build_own_lists();
-        prt.setup_ms = start.elapsed().as_secs_f64() * 1e3;
+        prt.setup_ms = elapsed_ms(start);
         Ok(prt)
     }
 
@@ -652,10 +653,8 @@ impl Prt {
             }
             _ => Vec3::Z,
         };
-        self.tables.integrate(mask, &self.settings.brdf, reflected, transfer);
-        self.rotation.frame_to_world(normal, transfer);
+        let out = self.sh_transfer(mask, normal, reflected, shared.lighting, transfer);
         let t3 = clock(shared.profile);
-        let out = radiance(shared.lighting, transfer);
         if let (Some(t0), Some(t1), Some(t2), Some(t3)) = (t0, t1, t2, t3) {
             counts[8] += (t1 - t0).as_nanos() as u64;
             counts[9] += (t2 - t1).as_nanos() as u64;
@@ -663,6 +662,24 @@ impl Prt {
             counts[11] += t3.elapsed().as_nanos() as u64;
         }
         out
+    }
+
+    /// One vertex's transfer and radiance from its mask, the CPU twin of
+    /// `wgsl/sh_transfer.wgsl`: the mask integrated against the basis and
+    /// BRDF in the tangent frame of `normal` (`reflected`: the reflected
+    /// view there), rotated to world space into `transfer`, dotted with the
+    /// planar RGB `lighting`.
+    pub fn sh_transfer(
+        &self,
+        mask: &[u64],
+        normal: Vec3,
+        reflected: Vec3,
+        lighting: &[f32],
+        transfer: &mut [f32],
+    ) -> [f32; 3] {
+        self.tables.integrate(mask, &self.settings.brdf, reflected, transfer);
+        self.rotation.frame_to_world(normal, transfer);
+        radiance(lighting, transfer)
     }
 
     /// Transform phase: the candidate blockers of vertex v into the tangent

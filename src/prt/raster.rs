@@ -1,5 +1,6 @@
 //! Spherical rasterisation of blocker triangles into a visibility mask
-//! (section 3.1.1, Figure 2): the CPU twin of `wgsl/hemi_raster.wgsl`.
+//! (section 3.1.1, Figure 2), on the CPU (`prt::gpu` explains why the
+//! masks are not rasterised in WGSL).
 //!
 //! Each edge of a triangle abc (in the tangent frame, origin at the vertex)
 //! defines a plane through the origin with normal `a × b`. With

@@ -1,5 +1,6 @@
 //! Transfer vectors from visibility masks (equation 3 and section 3.2):
-//! the CPU twin of `wgsl/sh_transfer.wgsl`.
+//! the tables and integration behind `Prt::sh_transfer`, the CPU twin of
+//! `wgsl/sh_transfer.wgsl`.
 //!
 //! In the tangent frame, with the Nusselt projection `dA = cos θ dω`,
 //! equation 3 becomes an integral over the unit disk:

@@ -17,6 +17,7 @@ use super::estimators::{Family, SampleTable, SsaoParams};
 use super::gbuffer::{GBuffer, ScreenView, ViewUniform, triangle_albedos};
 use super::{ShadeSettings, SsaoFrame, SsaoSettings, Timings, final_ao};
 use crate::device::Timing;
+use crate::device::elapsed_ms;
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::gpu::batch::Pass;
@@ -687,7 +688,7 @@ pub fn run_frame(
             Some(b) => b.iter().zip(&per_kind).map(|(a, c)| a.min(*c)).collect(),
         });
     }
-    let wall_ms = start.elapsed().as_secs_f64() * 1e3 / repeat.max(1) as f64;
+    let wall_ms = elapsed_ms(start) / repeat.max(1) as f64;
     let best = best.unwrap_or_default();
     let timings = if ctx.timestamps {
         Timings {

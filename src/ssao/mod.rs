@@ -31,7 +31,7 @@ pub use estimators::{Estimator, Family, SampleTable};
 pub use gbuffer::{GBuffer, ScreenConstants, ScreenView};
 pub use measure::{Measure, MeasureKind};
 
-use crate::device::Timing;
+use crate::device::{Timing, elapsed_ms};
 use crate::error::{Error, Result};
 
 /// Largest samples per pixel (the sample tables stay within a storage binding).
@@ -253,14 +253,14 @@ pub fn run_cpu(
     };
     let start = Instant::now();
     let ao_raw = estimators::estimate_cpu(table.family, gb, &params, &table.entries);
-    timings.estimate_ms = ms(start);
+    timings.estimate_ms = elapsed_ms(start);
     let start = Instant::now();
     let ao_filtered = if settings.filter {
         filter::ssao_filter_ao(gb, &params, &ao_raw)
     } else {
         ao_raw.clone()
     };
-    timings.filter_ms = ms(start);
+    timings.filter_ms = elapsed_ms(start);
     let mut indirect = None;
     let mut image = None;
     if shade.is_some() {
@@ -271,10 +271,10 @@ pub fn run_cpu(
         } else {
             raw
         };
-        timings.indirect_ms = ms(start);
+        timings.indirect_ms = elapsed_ms(start);
         let start = Instant::now();
         image = Some(indirect::ssao_compose(gb, &params, &ao_filtered, &l));
-        timings.compose_ms = ms(start);
+        timings.compose_ms = elapsed_ms(start);
         indirect = Some(l);
     }
     let ao = final_ao(gb, &ao_filtered);
@@ -300,8 +300,4 @@ pub fn final_ao(gb: &GBuffer, ao: &[f32]) -> Vec<f32> {
 pub fn rmse(gb: &GBuffer, a: &[f32], b: &[f32]) -> f64 {
     let surface: Vec<bool> = (0..gb.pixels()).map(|i| gb.is_surface(i)).collect();
     crate::color::rms_difference(&a[..gb.pixels()], &b[..gb.pixels()], Some(&surface))
-}
-
-fn ms(start: Instant) -> f64 {
-    start.elapsed().as_secs_f64() * 1e3
 }

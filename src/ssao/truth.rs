@@ -25,6 +25,7 @@ use rayon::prelude::*;
 use super::estimators::{occluded, shaded_point};
 use super::gbuffer::{GBuffer, ScreenView, world_point};
 use super::{Measure, SsaoSettings};
+use crate::device::elapsed_ms;
 use crate::kdtree::KdTree;
 use crate::sampling::{Frame, SampleSequence, cosine_hemisphere};
 use crate::scene::{Camera, ORIGIN_OFFSET};
@@ -68,7 +69,7 @@ fn halves(gb: &GBuffer, samples: u32, seed: u32, f: impl Fn(u32, u32, &SampleSeq
         values: pairs.iter().map(|(a, b)| 0.5 * (a + b)).collect(),
         noise_rms: if n == 0 { 0.0 } else { 0.5 * (sum / n as f64).sqrt() },
         samples: 2 * half,
-        ms: start.elapsed().as_secs_f64() * 1e3,
+        ms: elapsed_ms(start),
     }
 }
 
