@@ -18,16 +18,43 @@ use crate::kdtree::gpu::GpuKdTree;
 use crate::kdtree::pass::{Dispatch, TreeBatch, TreeKernelSet, TreeKernels, TreePass};
 use crate::progress::Progress;
 
-/// `AoParams` in `wgsl/ao_rays.wgsl`.
+/// The AO rays of a batch of points, as `wgsl/ao_rays.wgsl`'s `AoParams`
+/// and `wgsl/field_ao.wgsl`'s `FieldAoParams` begin.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct AoParams {
+pub struct AoRays {
     pub point_count: u32,
     pub rays_per_point: u32,
     pub words_per_point: u32,
     pub seed: u32,
+    /// Invocations per row of the 2D dispatch grid.
     pub row_pitch: u32,
+    /// `f32::MAX` for an infinite radius (WGSL may assume no infinities).
     pub radius: f32,
+}
+
+impl AoRays {
+    pub fn new(points: usize, settings: &AoSettings, row_pitch: u32) -> AoRays {
+        AoRays {
+            point_count: points as u32,
+            rays_per_point: settings.rays_per_point,
+            words_per_point: settings.words_per_point(),
+            seed: settings.seed,
+            row_pitch,
+            radius: if settings.radius.is_finite() {
+                settings.radius
+            } else {
+                f32::MAX
+            },
+        }
+    }
+}
+
+/// `AoParams` in `wgsl/ao_rays.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct AoParams {
+    pub rays: AoRays,
     pub _pad: [u32; 2],
 }
 
@@ -77,19 +104,11 @@ impl TreePass<AoRaysKernels> {
         let words = (points.len() * settings.words_per_point() as usize) as u64;
         let rays = points.len() as u64 * settings.rays_per_point as u64;
         let (gx, gy, pitch) = dispatch_grid(rays as u32, device.limits().max_compute_workgroups_per_dimension);
-        let params = AoParams {
-            point_count: points.len() as u32,
-            rays_per_point: settings.rays_per_point,
-            words_per_point: settings.words_per_point(),
-            seed: settings.seed,
-            row_pitch: pitch,
-            radius: if settings.radius.is_finite() && !samples {
-                settings.radius
-            } else {
-                f32::MAX
-            },
-            _pad: [0; 2],
-        };
+        let mut ao = AoRays::new(points.len(), settings, pitch);
+        if samples {
+            ao.radius = f32::MAX;
+        }
+        let params = AoParams { rays: ao, _pad: [0; 2] };
         let io = self.io();
         io.write(device, queue, 0, bytemuck::cast_slice(points))?;
         io.reserve(device, 1, words * 4)?;

@@ -25,6 +25,7 @@ use glam::Vec3;
 use super::build::DisplacementField;
 use super::lookup::Positional;
 use super::storage::{FieldData, Storage};
+use crate::ao::gpu::AoRays;
 use crate::ao::{AoPoint, AoSettings, VisibilityMasks};
 use crate::error::{Error, Result};
 use crate::gpu::batch::{BatchPass, BatchPlan, Batched, Pass, run_batches};
@@ -58,12 +59,7 @@ pub struct FieldGpuParams {
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct FieldAoParams {
-    pub point_count: u32,
-    pub rays_per_point: u32,
-    pub words_per_point: u32,
-    pub seed: u32,
-    pub row_pitch: u32,
-    pub radius: f32,
+    pub rays: AoRays,
     pub instance_count: u32,
     pub _pad: u32,
 }
@@ -534,16 +530,7 @@ impl FieldAoPass {
                 ));
             }
             let params = FieldAoParams {
-                point_count: points.len() as u32,
-                rays_per_point: settings.rays_per_point,
-                words_per_point: settings.words_per_point(),
-                seed: settings.seed,
-                row_pitch: pitch,
-                radius: if settings.radius.is_finite() {
-                    settings.radius
-                } else {
-                    f32::MAX
-                },
+                rays: AoRays::new(points.len(), settings, pitch),
                 instance_count: g.instances.len() as u32,
                 _pad: 0,
             };

@@ -177,20 +177,25 @@ pub fn trace_image(
     light: Option<Vec3>,
 ) -> Result<ImageTrace> {
     let ctx = Ctx::new(p, rays, width, height, params, light)?;
-    let outs: Vec<TileOut> = ctx
-        .initial_tiles(height)
+    Ok(trace_tiles(&ctx, &ctx.initial_tiles(height), height))
+}
+
+/// Splits and traces `rects` as tiles (in parallel), with shadow rays when
+/// the context has a light, and gathers them into the image.
+fn trace_tiles(ctx: &Ctx, rects: &[Rect], height: u32) -> ImageTrace {
+    let outs: Vec<TileOut> = rects
         .par_iter()
         .map(|&rect| {
             let mut out = TileOut::for_rect(rect);
-            let mut emit = |entry: &EntryPoint, block: Rect, out: &mut TileOut| trace_block(&ctx, block, entry, out);
-            split_tiles(&ctx, rect, ctx.root(), 0, &mut out, &mut emit);
+            let mut emit = |entry: &EntryPoint, block: Rect, out: &mut TileOut| trace_block(ctx, block, entry, out);
+            split_tiles(ctx, rect, ctx.root(), 0, &mut out, &mut emit);
             if let Some(light) = ctx.light {
-                trace_shadows(&ctx, light, &mut out);
+                trace_shadows(ctx, light, &mut out);
             }
             out
         })
         .collect();
-    Ok(ctx.gather(outs, height))
+    ctx.gather(outs, height)
 }
 
 /// `trace_image` restricted to some rectangles of the image (their pixels'
@@ -205,19 +210,7 @@ pub fn trace_rects(
     rects: &[Rect],
 ) -> Result<ImageTrace> {
     let ctx = Ctx::new(p, rays, width, height, params, None)?;
-    let outs: Vec<TileOut> = rects
-        .par_iter()
-        .map(|&rect| {
-            let mut out = TileOut::for_rect(rect);
-            let mut emit = |entry: &EntryPoint, block: Rect, out: &mut TileOut| trace_block(&ctx, block, entry, out);
-            split_tiles(&ctx, rect, ctx.root(), 0, &mut out, &mut emit);
-            if let Some(light) = ctx.light {
-                trace_shadows(&ctx, light, &mut out);
-            }
-            out
-        })
-        .collect();
-    Ok(ctx.gather(outs, height))
+    Ok(trace_tiles(&ctx, rects, height))
 }
 
 impl<'p, 'a> Ctx<'p, 'a> {

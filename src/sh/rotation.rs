@@ -134,9 +134,9 @@ impl ShRotation {
     pub fn frame_to_world(&self, n: Vec3, coeffs: &mut [f32]) {
         let (ca, sa, cb, sb) = frame_angles(n);
         self.apply_x90_f32(coeffs, false);
-        rotate_z_f32(coeffs, self.bands, cb, sb);
+        rotate_z(coeffs, self.bands, cb, sb);
         self.apply_x90_f32(coeffs, true);
-        rotate_z_f32(coeffs, self.bands, ca, sa);
+        rotate_z(coeffs, self.bands, ca, sa);
     }
 }
 
@@ -170,26 +170,12 @@ pub fn tangent_frame(n: Vec3) -> Mat3 {
     )
 }
 
-/// `coeffs <- D(Rz(theta)) coeffs` given cos/sin of theta.
-pub fn rotate_z(coeffs: &mut [f64], bands: usize, c: f64, s: f64) {
-    let (mut cm, mut sm) = (1.0, 0.0);
-    for m in 1..bands {
-        let next = cm * c - sm * s;
-        sm = sm * c + cm * s;
-        cm = next;
-        for l in m..bands {
-            let ip = l * (l + 1) + m;
-            let im = l * (l + 1) - m;
-            let (a, b) = (coeffs[ip], coeffs[im]);
-            coeffs[ip] = a * cm - b * sm;
-            coeffs[im] = a * sm + b * cm;
-        }
-    }
-}
-
-/// Single-precision `rotate_z`.
-pub fn rotate_z_f32(coeffs: &mut [f32], bands: usize, c: f32, s: f32) {
-    let (mut cm, mut sm) = (1.0f32, 0.0f32);
+/// `coeffs <- D(Rz(theta)) coeffs` given cos/sin of theta, in f64 or f32.
+pub fn rotate_z<T>(coeffs: &mut [T], bands: usize, c: T, s: T)
+where
+    T: Copy + From<f32> + std::ops::Mul<Output = T> + std::ops::Add<Output = T> + std::ops::Sub<Output = T>,
+{
+    let (mut cm, mut sm) = (T::from(1.0), T::from(0.0));
     for m in 1..bands {
         let next = cm * c - sm * s;
         sm = sm * c + cm * s;
