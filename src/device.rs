@@ -122,6 +122,16 @@ impl Device {
         }
     }
 
+    /// Runs a method that keeps nothing on the device: `gpu` on a GPU, the
+    /// CPU twin `cpu` otherwise, timed as `OnDevice::run` times them.
+    pub fn run<T>(
+        &self,
+        gpu: impl FnOnce(&GpuContext) -> Result<GpuOutput<T>>,
+        cpu: impl FnOnce() -> Result<T>,
+    ) -> Result<Timed<T>> {
+        self.prepare(|_| Ok(()))?.run(|ctx, _| gpu(ctx), cpu)
+    }
+
     /// What a method keeps on this device: `upload`'s state on a GPU,
     /// nothing on the CPU.
     pub fn prepare<G>(&self, upload: impl FnOnce(&GpuContext) -> Result<G>) -> Result<OnDevice<G>> {

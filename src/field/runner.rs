@@ -52,6 +52,8 @@ pub struct FieldAo<'s> {
     fields: BTreeMap<usize, DisplacementField>,
     reports: Vec<FieldReport>,
     gpu: OnDevice<GpuFields>,
+    /// Where the fields live (the CPU until `upload`).
+    device: Device,
     bars: Bars,
 }
 
@@ -107,6 +109,7 @@ impl<'s> FieldAo<'s> {
             fields,
             reports,
             gpu: OnDevice::Cpu,
+            device: Device::cpu(),
             bars,
         })
     }
@@ -124,6 +127,7 @@ impl<'s> FieldAo<'s> {
                 batches: FieldAoBatches::new(ctx),
             })
         })?;
+        self.device = device.clone();
         Ok(())
     }
 
@@ -233,7 +237,7 @@ impl<'s> FieldAo<'s> {
         let ao = masks.accessibility();
         let last_frame = frames - 1;
         let reference = if reference {
-            let device = self.device();
+            let device = self.device.clone();
             let lookups = ErrorInputs {
                 combined: &masks,
                 fields: &field_masks,
@@ -263,14 +267,6 @@ impl<'s> FieldAo<'s> {
             reference,
             image,
         })
-    }
-
-    /// The device the fields live on (the CPU when they are not uploaded).
-    fn device(&self) -> Device {
-        match &self.gpu {
-            OnDevice::Gpu { ctx, .. } => Device::gpu(ctx.clone()),
-            OnDevice::Cpu => Device::cpu(),
-        }
     }
 
     /// Per-pixel AO through the fields at `frame`: the pixels the camera

@@ -162,6 +162,23 @@ pub struct ShadowStats {
     pub shadowed_hits: usize,
 }
 
+/// What a traversal mode traced, before the statistics every mode shares.
+struct Traced {
+    hits: Vec<Hit>,
+    shadowed: Option<Vec<bool>>,
+    tiles: Vec<TileReport>,
+    aa: Option<aa::AaResult>,
+    mlrta: &'static str,
+    timing: Timing,
+    trace_ms: f64,
+    /// Traversal steps and intersection tests over the image.
+    cells: f64,
+    isects: f64,
+    packets: Option<PacketStats>,
+    shadows: Option<ShadowStats>,
+    aa_report: Option<Value>,
+}
+
 /// Traces `request`'s image of `mesh` (the scene at one moment; its camera,
 /// if any, is `scene_camera`) on `device`.
 pub fn trace_view(
@@ -181,33 +198,46 @@ pub fn trace_view(
     let packets = (width.div_ceil(PACKET) as u64 * height.div_ceil(PACKET) as u64) as f64;
     let progress = bars.spinner(&format!("tracing {width}x{height} primary rays"));
     let kdtree = tree.stats.clone();
-    let mut image = if request.single_ray {
-        single_ray(device, tree, &rays, light, packets)?
+    let mut t = if request.single_ray {
+        single_ray(device, tree, &rays, light)?
     } else {
         packet_image(device, &tree, mesh, &camera, &rays, request, light, packets)?
     };
     progress.finish();
-    let hits = image.hits.iter().filter(|h| h.is_hit()).count();
-    if let (Some(stats), Some(shadowed)) = (image.stats.shadows.as_mut(), &image.shadowed) {
+    let hits = t.hits.iter().filter(|h| h.is_hit()).count();
+    if let (Some(stats), Some(shadowed)) = (t.shadows.as_mut(), &t.shadowed) {
         stats.shadow_rays = hits;
         stats.shadowed_hits = shadowed.iter().filter(|&&x| x).count();
     }
     // With a light, every hit also sends a shadow ray within the timed work.
     let traced = rays.len() + if light.is_some() { hits } else { 0 };
-    let s = &mut image.stats;
-    s.rays = rays.len();
-    s.hits = hits;
-    s.build_ms = kdtree.build_ms;
-    s.kdtree = kdtree;
-    s.camera = camera;
-    s.mrays_per_s = mrays_per_s(traced, s.trace_ms);
+    let stats = TraceStats {
+        rays: rays.len(),
+        hits,
+        build_ms: kdtree.build_ms,
+        kdtree,
+        camera,
+        mlrta: t.mlrta,
+        timing: t.timing,
+        trace_ms: t.trace_ms,
+        mrays_per_s: mrays_per_s(traced, t.trace_ms),
+        cells_per_packet: t.cells / packets,
+        isects_per_packet: t.isects / packets,
+        packets: t.packets,
+        shadows: t.shadows,
+        aa: t.aa_report,
+    };
     Ok(TracedImage {
         camera,
         width,
         height,
         rays,
+        hits: t.hits,
+        shadowed: t.shadowed,
         light,
-        ..image
+        tiles: t.tiles,
+        aa: t.aa,
+        stats,
     })
 }
 
@@ -216,35 +246,14 @@ pub fn mrays_per_s(rays: usize, ms: f64) -> f64 {
     if ms > 0.0 { rays as f64 / (ms * 1e3) } else { 0.0 }
 }
 
-fn stats(mlrta: &'static str, timing: Timing, trace_ms: f64) -> TraceStats {
-    TraceStats {
-        rays: 0,
-        hits: 0,
-        build_ms: 0.0,
-        kdtree: BuildStats::default(),
-        camera: Camera::default_for(&Aabb::EMPTY),
-        mlrta,
-        timing,
-        trace_ms,
-        mrays_per_s: 0.0,
-        cells_per_packet: 0.0,
-        isects_per_packet: 0.0,
-        packets: None,
-        shadows: None,
-        aa: None,
-    }
-}
-
-/// The foundation's single-ray path; statistics summed over the 16 rays of
-/// each 4x4 block; shadow rays on the CPU, timed into the trace.
-fn single_ray(device: &Device, tree: KdTree, rays: &[Ray], light: Option<Vec3>, packets: f64) -> Result<TracedImage> {
+/// The foundation's single-ray path (statistics summed over all rays);
+/// shadow rays on the CPU, timed into the trace.
+fn single_ray(device: &Device, tree: KdTree, rays: &[Ray], light: Option<Vec3>) -> Result<Traced> {
     let mut tracer = Tracer::from_tree(device, tree)?;
     let traced = tracer.closest(rays)?;
     let counts = tracer.traversal_counts(rays)?;
-    let mut stats = stats("single-ray", traced.timing, traced.ms);
-    stats.cells_per_packet = counts.cells as f64 / packets;
-    stats.isects_per_packet = counts.intersections as f64 / packets;
     let hits = traced.value;
+    let mut trace_ms = traced.ms;
     let shadowed = light.map(|l| {
         let start = std::time::Instant::now();
         let tree = tracer.tree();
@@ -253,29 +262,31 @@ fn single_ray(device: &Device, tree: KdTree, rays: &[Ray], light: Option<Vec3>, 
             .zip(&hits)
             .map(|(r, h)| h.is_hit() && tree.any_hit(l, r.o() + h.t * r.d() - l, 1.0 - SHADOW_EPSILON))
             .collect();
-        stats.trace_ms += elapsed_ms(start);
-        stats.shadows = Some(ShadowStats {
-            light: l.to_array(),
-            cells_per_packet: None,
-            isects_per_packet: None,
-            ep_steps_per_packet: None,
-            counts: None,
-            shadow_rays: 0,
-            shadowed_hits: 0,
-        });
+        trace_ms += elapsed_ms(start);
         shadow
     });
-    Ok(TracedImage {
-        camera: stats.camera,
-        width: 0,
-        height: 0,
-        rays: Vec::new(),
+    let shadows = light.map(|l| ShadowStats {
+        light: l.to_array(),
+        cells_per_packet: None,
+        isects_per_packet: None,
+        ep_steps_per_packet: None,
+        counts: None,
+        shadow_rays: 0,
+        shadowed_hits: 0,
+    });
+    Ok(Traced {
         hits,
         shadowed,
-        light,
         tiles: Vec::new(),
         aa: None,
-        stats,
+        mlrta: "single-ray",
+        timing: traced.timing,
+        trace_ms,
+        cells: counts.cells as f64,
+        isects: counts.intersections as f64,
+        packets: None,
+        shadows,
+        aa_report: None,
     })
 }
 
@@ -298,7 +309,7 @@ fn packet_image(
     request: &TraceRequest,
     light: Option<Vec3>,
     packets: f64,
-) -> Result<TracedImage> {
+) -> Result<Traced> {
     let (w, h) = (request.view.width, request.view.height);
     let params = &request.params;
     let prepare = std::time::Instant::now();
@@ -324,10 +335,7 @@ fn packet_image(
         shadow_counts: s,
         tiles,
     } = traced.value;
-    let mut stats = stats(if params.entry_points { "on" } else { "off" }, traced.timing, traced.ms);
-    stats.cells_per_packet = cells(&c) / packets;
-    stats.isects_per_packet = isects(&c) / packets;
-    stats.packets = Some(PacketStats {
+    let packet_stats = PacketStats {
         ep_steps_per_packet: c.ep_steps as f64 / packets,
         counts: c,
         prepare_ms,
@@ -342,8 +350,8 @@ fn packet_image(
         },
         cpu_ms,
         wall_ms,
-    });
-    stats.shadows = light.map(|l| ShadowStats {
+    };
+    let shadows = light.map(|l| ShadowStats {
         light: l.to_array(),
         cells_per_packet: Some((cells(&c) + cells(&s)) / packets),
         isects_per_packet: Some((isects(&c) + isects(&s)) / packets),
@@ -352,43 +360,46 @@ fn packet_image(
         shadow_rays: 0,
         shadowed_hits: 0,
     });
-    let aa = if request.aa.mode == AaMode::None {
-        None
-    } else {
-        let (mode, samples) = (request.aa.mode, request.aa.samples);
-        let result = aa::render(&prepared, camera, w, h, params, mode, samples, &tiles)?;
-        let reference = if request.aa.reference {
-            let mut r = aa::reference(&prepared, camera, w, h);
-            if mode == AaMode::Adaptive {
-                r.uniform = Some(aa::render(
-                    &prepared,
-                    camera,
-                    w,
-                    h,
-                    params,
-                    AaMode::Uniform,
-                    samples,
-                    &tiles,
-                )?);
-            }
-            Some(r)
-        } else {
-            None
-        };
-        stats.aa = Some(result.report(reference));
-        Some(result)
+    let (aa, aa_report) = match request.aa.mode {
+        AaMode::None => (None, None),
+        mode => {
+            let samples = request.aa.samples;
+            let result = aa::render(&prepared, camera, w, h, params, mode, samples, &tiles)?;
+            let reference = if request.aa.reference {
+                let mut r = aa::reference(&prepared, camera, w, h);
+                if mode == AaMode::Adaptive {
+                    r.uniform = Some(aa::render(
+                        &prepared,
+                        camera,
+                        w,
+                        h,
+                        params,
+                        AaMode::Uniform,
+                        samples,
+                        &tiles,
+                    )?);
+                }
+                Some(r)
+            } else {
+                None
+            };
+            let report = result.report(reference);
+            (Some(result), Some(report))
+        }
     };
-    Ok(TracedImage {
-        camera: *camera,
-        width: w,
-        height: h,
-        rays: Vec::new(),
+    Ok(Traced {
         hits,
         shadowed,
-        light,
         tiles,
         aa,
-        stats,
+        mlrta: if params.entry_points { "on" } else { "off" },
+        timing: traced.timing,
+        trace_ms: traced.ms,
+        cells: cells(&c),
+        isects: isects(&c),
+        packets: Some(packet_stats),
+        shadows,
+        aa_report,
     })
 }
 

@@ -106,9 +106,8 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: Bars) ->
     let view = ScreenView::new(&camera, w, h);
     let shade = request.shade.as_ref();
     let tree = build_tree(&mesh, bars, "ssao")?;
-    let mut on_device = device.prepare(|_| Ok(()))?;
-    let framed = on_device.run(
-        |ctx, _| {
+    let framed = device.run(
+        |ctx| {
             let source = GBufferSource::Render {
                 mesh: &mesh,
                 camera: &camera,
