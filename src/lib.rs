@@ -19,6 +19,7 @@ pub mod progress;
 pub mod prt;
 pub mod ray;
 pub mod ray_file;
+pub mod raytrace;
 pub mod sampling;
 pub mod scene;
 pub mod sh;

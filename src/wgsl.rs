@@ -42,6 +42,7 @@ pub const SSAO_ESTIMATE: WgslFile = wgsl_file!("ssao_estimate.wgsl");
 pub const SSAO_FILTER: WgslFile = wgsl_file!("ssao_filter.wgsl");
 pub const SSAO_INDIRECT: WgslFile = wgsl_file!("ssao_indirect.wgsl");
 pub const SH_TRANSFER: WgslFile = wgsl_file!("sh_transfer.wgsl");
+pub const WHITTED: WgslFile = wgsl_file!("whitted.wgsl");
 
 /// Every file compiled in (the validation test checks this against `wgsl/`).
 pub const FILES: &[WgslFile] = &[
@@ -65,6 +66,7 @@ pub const FILES: &[WgslFile] = &[
     SSAO_FILTER,
     SSAO_INDIRECT,
     SH_TRANSFER,
+    WHITTED,
 ];
 
 /// A shader module made of several files, in order.
@@ -82,6 +84,11 @@ pub const TRACE_RAYS_MODULE: Composition = Composition {
 pub const AO_RAYS_MODULE: Composition = Composition {
     name: "ao_rays",
     parts: &[SAMPLING, FRAME, KDTREE_TRAVERSE, AO_RAYS],
+};
+
+pub const WHITTED_MODULE: Composition = Composition {
+    name: "whitted",
+    parts: &[SAMPLING, KDTREE_TRAVERSE, WHITTED],
 };
 
 pub const PACKET_TRAVERSE_MODULE: Composition = Composition {
@@ -150,6 +157,7 @@ pub const MODULES: &[Composition] = &[
     SSAO_FILTER_MODULE,
     SSAO_INDIRECT_MODULE,
     SH_TRANSFER_MODULE,
+    WHITTED_MODULE,
 ];
 
 impl Composition {

@@ -98,6 +98,7 @@ fn scene_of(args: &AoArgs) -> Result<Scene> {
             role: Role::Receiver,
             transform: Transform::default(),
             motion: None,
+            material: None,
         });
     }
     Ok(scene)

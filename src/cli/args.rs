@@ -109,20 +109,7 @@ impl CameraArgs {
     }
 }
 
-pub(crate) fn parse_vec3(s: &str) -> std::result::Result<Vec3, String> {
-    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
-    if parts.len() != 3 {
-        return Err(format!("expected X,Y,Z, got '{s}'"));
-    }
-    let mut v = [0.0f32; 3];
-    for (slot, p) in v.iter_mut().zip(&parts) {
-        *slot = p.parse().map_err(|_| format!("'{p}' is not a number"))?;
-        if !slot.is_finite() {
-            return Err(format!("'{p}' is not finite"));
-        }
-    }
-    Ok(Vec3::from_array(v))
-}
+pub(crate) use crate::scene::parse_vec3;
 
 /// `--mesh FILE` or `--scene FILE` as a scene.
 pub fn load_input(mesh: Option<&Path>, scene: Option<&Path>) -> Result<Scene> {

@@ -16,6 +16,7 @@ mod field;
 mod info;
 mod io;
 mod prt;
+mod raytrace;
 mod ssao;
 mod trace;
 mod trace_rays;
@@ -56,7 +57,9 @@ enum Command {
     Field(field::FieldArgs),
     /// Screen-space ambient occlusion and indirect light (the paper's estimators).
     Ssao(ssao::SsaoArgs),
-    /// Write the procedural scenes (corner, closed box, well, ...) as OBJ files.
+    /// Whitted ray tracing of OBJ/MTL materials or a scene file (PNG, EXR or PFM).
+    Raytrace(raytrace::RaytraceArgs),
+    /// Write the procedural scenes (corner, closed box, well, ...) as OBJ files, and the ray tracer's scenes (OBJ, MTL, scene files) into OUT/raytrace.
     GenAssets(GenAssetsArgs),
 }
 
@@ -107,8 +110,10 @@ fn dispatch(command: Command) -> Result<()> {
         Command::Prt(a) => emit(a.common.json, prt::run(&a)?),
         Command::Field(a) => emit(field::json_flag(&a), field::run(&a)?),
         Command::Ssao(a) => emit(a.common.json, ssao::run(&a)?),
+        Command::Raytrace(a) => emit(a.common.json, raytrace::run(&a)?),
         Command::GenAssets(a) => {
-            let written = crate::scene::procedural::write_assets(&a.out)?;
+            let mut written = crate::scene::procedural::write_assets(&a.out)?;
+            written.extend(crate::raytrace::scenes::write_scenes(&a.out.join("raytrace"))?);
             let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
             emit(a.json, serde_json::json!({ "files": files }))
         }

@@ -10,11 +10,14 @@
 
 pub mod animated;
 mod camera;
+mod camera_path;
 pub mod environment;
 mod mesh;
+pub mod mtl;
 mod obj;
 pub mod procedural;
 mod scene_file;
+mod shading;
 mod transform;
 
 use std::path::{Path, PathBuf};
@@ -22,11 +25,17 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use serde::Deserialize;
 
-pub use camera::{Camera, CameraSpec, MAX_PIXELS, View, check_image_size};
+pub use camera::{Camera, CameraSpec, MAX_PIXELS, View, check_image_size, parse_vec3};
+pub use camera_path::CameraPath;
 pub use environment::EnvironmentMap;
 pub use mesh::{Mesh, MeshObject, ORIGIN_OFFSET, used_bounds, vertex_normals};
-pub use obj::{load_obj, parse_obj, write_obj};
-pub use scene_file::load_scene;
+pub use mtl::{Material, load_mtl, parse_mtl, write_mtl};
+pub use obj::{
+    DEFAULT_CREASE_DEGREES, NO_NORMAL, ObjFile, SMOOTH_DEFAULT, load_obj, load_obj_file, parse_obj, parse_obj_file,
+    write_obj,
+};
+pub use scene_file::{load_scene, load_scene_shaded};
+pub use shading::{MeshShading, SceneSphere};
 pub use transform::{Motion, Transform};
 
 /// What an instance takes part in.
@@ -59,6 +68,8 @@ pub struct SceneMesh {
     pub mesh: Mesh,
     /// How its vertices move with time, if they do (same topology).
     pub animation: Option<animated::Animation>,
+    /// Materials and shading normals, where the mesh was read for rendering.
+    pub shading: Option<MeshShading>,
 }
 
 impl SceneMesh {
@@ -69,6 +80,7 @@ impl SceneMesh {
             path: path.to_path_buf(),
             mesh,
             animation: None,
+            shading: None,
         }
     }
 
@@ -94,6 +106,8 @@ pub struct Instance {
     pub transform: Transform,
     /// Rigid motion over animation frames, if any.
     pub motion: Option<Motion>,
+    /// A scene material that replaces the mesh's own (rendering only).
+    pub material: Option<String>,
 }
 
 impl Instance {
@@ -105,8 +119,27 @@ impl Instance {
 
 #[derive(Debug, Clone, PartialEq)]
 pub enum Light {
-    Point { position: Vec3, intensity: Vec3 },
-    Directional { direction: Vec3, radiance: Vec3 },
+    Point {
+        position: Vec3,
+        intensity: Vec3,
+    },
+    /// `direction` is the direction the light travels.
+    Directional {
+        direction: Vec3,
+        radiance: Vec3,
+    },
+}
+
+impl Light {
+    /// The light of a scene that has none: a white directional light of
+    /// radiance 1 from above, slightly off-axis (the direction of `trace
+    /// --shadows`).
+    pub fn default_light() -> Light {
+        Light::Directional {
+            direction: -Vec3::new(-0.4, 1.0, 0.3).normalize(),
+            radiance: Vec3::ONE,
+        }
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -126,6 +159,16 @@ pub struct Scene {
     pub environment: Option<Environment>,
     /// Precomputed displacement fields by mesh index (`.dfield` paths).
     pub fields: std::collections::BTreeMap<usize, PathBuf>,
+    /// Analytic spheres (rendering only).
+    pub spheres: Vec<SceneSphere>,
+    /// Named materials of the scene file (instances and spheres use them).
+    pub materials: Vec<Material>,
+    /// Ambient light and the radiance of rays that leave the scene, where
+    /// the scene file gives them (rendering only).
+    pub ambient: Option<Vec3>,
+    pub background: Option<Vec3>,
+    /// Problems met while loading that do not stop it (MTL files...).
+    pub warnings: Vec<String>,
 }
 
 impl Scene {
@@ -144,6 +187,7 @@ impl Scene {
             path: PathBuf::from(format!("<{name} animation>")),
             mesh: animation.mesh_at(0.0),
             animation: None,
+            shading: None,
         });
         let (eye, target, fov_degrees) = animation.camera;
         scene.camera = Some(Camera {
@@ -165,12 +209,28 @@ impl Scene {
                 role: Role::Both,
                 transform: Transform::default(),
                 motion: None,
+                material: None,
             }],
             camera: None,
             lights: Vec::new(),
             environment: None,
             fields: Default::default(),
+            spheres: Vec::new(),
+            materials: Vec::new(),
+            ambient: None,
+            background: None,
+            warnings: Vec::new(),
         }
+    }
+
+    /// A scene of one OBJ file read for rendering: its materials and
+    /// shading normals kept, its warnings the scene's.
+    pub fn from_obj_file(name: &str, path: &Path, obj: ObjFile) -> Scene {
+        let mut mesh = SceneMesh::new(name, path, obj.mesh.clone());
+        mesh.shading = Some(MeshShading::from_obj(&obj));
+        let mut scene = Self::of(mesh);
+        scene.warnings = obj.warnings;
+        scene
     }
 
     /// All instances whose role passes `keep`, in world space, merged into one

@@ -22,6 +22,22 @@
 //! its translation) and moves it, frame after frame. `"fields"` names
 //! precomputed displacement fields (`penumbra field build`) of meshes.
 //!
+//! For rendering (`penumbra raytrace`), a scene file may also hold named
+//! materials (MTL's fields in lower case, as numbers or RGB triples),
+//! analytic spheres, an ambient light and a background radiance; an
+//! instance may replace its mesh's MTL materials with one of them:
+//!
+//! ```json
+//! "materials": { "glass": { "ks": [0.1, 0.1, 0.1], "tf": [1, 1, 1], "ni": 1.5, "illum": 7 },
+//!                "mirror": { "kd": [0, 0, 0], "ks": [0.9, 0.9, 0.9], "illum": 3 } },
+//! "spheres": [ { "name": "ball", "center": [0, 1, 0], "radius": 1, "material": "glass" } ],
+//! "ambient": [0.05, 0.05, 0.05], "background": [0.2, 0.3, 0.5],
+//! "instances": [ { "mesh": "box", "material": "mirror" } ]
+//! ```
+//!
+//! Methods that only cast rays ignore materials and spheres. Meshes are
+//! read with their MTL files only for rendering (`load_scene_shaded`).
+//!
 //! Paths are relative to the scene file; a leading `$PENUMBRA_DATA` is the
 //! shared data folder named by that environment variable. Unknown fields are
 //! errors, so a typo does not silently fall back to a default.
@@ -32,7 +48,10 @@ use std::path::{Path, PathBuf};
 use glam::{Quat, Vec3};
 use serde::Deserialize;
 
-use super::{Camera, Instance, Light, Motion, Role, Scene, SceneMesh, Transform, load_obj};
+use super::{
+    Camera, Instance, Light, Material, MeshShading, Motion, Role, Scene, SceneMesh, SceneSphere, Transform, load_obj,
+    load_obj_file,
+};
 use crate::error::{Error, Result};
 use crate::scene::environment::EnvironmentMap;
 
@@ -49,6 +68,41 @@ struct SceneFile {
     environment: Option<EnvironmentFile>,
     #[serde(default)]
     fields: BTreeMap<String, String>,
+    #[serde(default)]
+    materials: BTreeMap<String, MaterialFile>,
+    #[serde(default)]
+    spheres: Vec<SphereFile>,
+    #[serde(default)]
+    ambient: Option<[f32; 3]>,
+    #[serde(default)]
+    background: Option<[f32; 3]>,
+}
+
+/// A material in MTL's terms (lower-case field names); what is left out
+/// takes `Material::named`'s values.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialFile {
+    ka: Option<[f32; 3]>,
+    kd: Option<[f32; 3]>,
+    ks: Option<[f32; 3]>,
+    ke: Option<[f32; 3]>,
+    tf: Option<[f32; 3]>,
+    ns: Option<f32>,
+    ni: Option<f32>,
+    d: Option<f32>,
+    illum: Option<u32>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SphereFile {
+    #[serde(default)]
+    name: Option<String>,
+    center: [f32; 3],
+    radius: f32,
+    #[serde(default)]
+    material: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -67,6 +121,8 @@ struct InstanceFile {
     scale: f32,
     #[serde(default)]
     motion: Option<MotionFile>,
+    #[serde(default)]
+    material: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -151,20 +207,52 @@ fn finite(scene: &Path, field: &str, v: &[f32]) -> Result<()> {
     }
 }
 
+/// Reads a scene file for methods that cast rays: geometry only.
 pub fn load_scene(path: &Path) -> Result<Scene> {
+    load(path, false)
+}
+
+/// Reads a scene file for rendering: meshes with their MTL materials and
+/// shading normals (warnings about them in `Scene::warnings`).
+pub fn load_scene_shaded(path: &Path) -> Result<Scene> {
+    load(path, true)
+}
+
+fn load(path: &Path, shaded: bool) -> Result<Scene> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::read(path, e))?;
     let file: SceneFile = serde_json::from_str(&text)
         .map_err(|e| Error::file(path, format!("line {} column {}", e.line(), e.column()), e.to_string()))?;
 
     let mut meshes = Vec::new();
+    let mut warnings = Vec::new();
     let mut index_of = BTreeMap::new();
     for (name, mesh_path) in &file.meshes {
         let field = format!("meshes.{name}");
         let resolved = resolve(path, &field, mesh_path)?;
-        let mesh = load_obj(&resolved)?;
         index_of.insert(name.clone(), meshes.len());
-        meshes.push(SceneMesh::new(name, &resolved, mesh));
+        if shaded {
+            let obj = load_obj_file(&resolved)?;
+            warnings.extend(obj.warnings.iter().map(|w| format!("{}: {w}", resolved.display())));
+            let mut mesh = SceneMesh::new(name, &resolved, obj.mesh.clone());
+            mesh.shading = Some(MeshShading::from_obj(&obj));
+            meshes.push(mesh);
+        } else {
+            meshes.push(SceneMesh::new(name, &resolved, load_obj(&resolved)?));
+        }
     }
+    let materials = file
+        .materials
+        .iter()
+        .map(|(name, m)| material(path, name, m))
+        .collect::<Result<Vec<_>>>()?;
+    let known = |field: String, name: &Option<String>| match name {
+        Some(n) if !file.materials.contains_key(n) => Err(Error::file(
+            path,
+            field,
+            format!("no material named '{n}' in \"materials\""),
+        )),
+        _ => Ok(()),
+    };
     if file.instances.is_empty() {
         return Err(Error::file(
             path,
@@ -183,6 +271,7 @@ pub fn load_scene(path: &Path) -> Result<Scene> {
             )
         })?;
         finite(path, &format!("{field}.translate"), &inst.translate)?;
+        known(format!("{field}.material"), &inst.material)?;
         if !(inst.scale > 0.0 && inst.scale.is_finite()) {
             return Err(Error::file(
                 path,
@@ -235,8 +324,37 @@ pub fn load_scene(path: &Path) -> Result<Scene> {
                 scale: inst.scale,
             },
             motion,
+            material: inst.material.clone(),
         });
     }
+    let mut spheres = Vec::new();
+    for (i, sphere) in file.spheres.iter().enumerate() {
+        let field = format!("spheres[{i}]");
+        finite(path, &format!("{field}.center"), &sphere.center)?;
+        if !(sphere.radius > 0.0 && sphere.radius.is_finite()) {
+            return Err(Error::file(
+                path,
+                format!("{field}.radius"),
+                format!("must be positive and finite, got {}", sphere.radius),
+            ));
+        }
+        known(format!("{field}.material"), &sphere.material)?;
+        spheres.push(SceneSphere {
+            name: sphere.name.clone().unwrap_or_else(|| format!("sphere#{i}")),
+            center: Vec3::from_array(sphere.center),
+            radius: sphere.radius,
+            material: sphere.material.clone(),
+        });
+    }
+    let radiance = |field: &str, v: &Option<[f32; 3]>| -> Result<Option<Vec3>> {
+        match v {
+            None => Ok(None),
+            Some(c) if c.iter().all(|x| x.is_finite() && *x >= 0.0) => Ok(Some(Vec3::from_array(*c))),
+            Some(_) => Err(Error::file(path, field, "must be three finite numbers >= 0")),
+        }
+    };
+    let ambient = radiance("ambient", &file.ambient)?;
+    let background = radiance("background", &file.background)?;
     let camera = match &file.camera {
         None => None,
         Some(c) => {
@@ -305,6 +423,58 @@ pub fn load_scene(path: &Path) -> Result<Scene> {
         lights,
         environment,
         fields,
+        spheres,
+        materials,
+        ambient,
+        background,
+        warnings,
+    })
+}
+
+/// A scene file's material, checked as the MTL reader checks its fields.
+fn material(path: &Path, name: &str, m: &MaterialFile) -> Result<Material> {
+    let field = |f: &str| format!("materials.{name}.{f}");
+    let colour = |f: &str, v: Option<[f32; 3]>, default: Vec3| -> Result<Vec3> {
+        match v {
+            None => Ok(default),
+            Some(c) if c.iter().all(|x| x.is_finite() && *x >= 0.0) => Ok(Vec3::from_array(c)),
+            Some(_) => Err(Error::file(path, field(f), "must be three finite numbers >= 0")),
+        }
+    };
+    let base = Material::named(name);
+    let check = |f: &str, v: Option<f32>, default: f32, ok: &dyn Fn(f32) -> bool, rule: &str| -> Result<f32> {
+        match v {
+            None => Ok(default),
+            Some(x) if x.is_finite() && ok(x) => Ok(x),
+            Some(x) => Err(Error::file(path, field(f), format!("{rule}, got {x}"))),
+        }
+    };
+    let illum = m.illum.unwrap_or(base.illum);
+    if illum > 10 {
+        return Err(Error::file(
+            path,
+            field("illum"),
+            format!("must be 0 to 10, got {illum}"),
+        ));
+    }
+    Ok(Material {
+        ka: colour("ka", m.ka, base.ka)?,
+        kd: colour("kd", m.kd, base.kd)?,
+        ks: colour("ks", m.ks, base.ks)?,
+        ke: colour("ke", m.ke, base.ke)?,
+        tf: colour("tf", m.tf, base.tf)?,
+        has_tf: m.tf.is_some(),
+        ns: check("ns", m.ns, base.ns, &|x| x >= 0.0, "must be >= 0")?,
+        ni: check("ni", m.ni, base.ni, &|x| x > 0.0, "must be > 0")?,
+        dissolve: check(
+            "d",
+            m.d,
+            base.dissolve,
+            &|x| (0.0..=1.0).contains(&x),
+            "must be in [0, 1]",
+        )?,
+        illum,
+        ..base
     })
 }
 

@@ -186,18 +186,9 @@ pub fn triangle_albedos(mesh: &Mesh) -> Vec<f32> {
 /// is the direction the light travels.
 pub fn lights_or_default(lights: &[Light]) -> Vec<Light> {
     if lights.is_empty() {
-        vec![default_light()]
+        vec![Light::default_light()]
     } else {
         lights.to_vec()
-    }
-}
-
-/// Without scene lights: white directional light of radiance 1 coming from
-/// above, slightly off-axis (the direction `trace --shadows` uses).
-pub fn default_light() -> Light {
-    Light::Directional {
-        direction: -Vec3::new(-0.4, 1.0, 0.3).normalize(),
-        radiance: Vec3::ONE,
     }
 }
 

@@ -43,6 +43,17 @@ pub fn data_model(name: &str) -> Option<PathBuf> {
     Some(path)
 }
 
+/// A scene of the shared data set (`scenes/`), when `PENUMBRA_DATA` is set.
+pub fn data_scene(name: &str) -> Option<PathBuf> {
+    let Some(root) = std::env::var_os("PENUMBRA_DATA") else {
+        println!("PENUMBRA_DATA not set: skipping the {name} evaluation");
+        return None;
+    };
+    let path = PathBuf::from(root).join("scenes").join(name);
+    assert!(path.is_file(), "PENUMBRA_DATA is set but {} is missing", path.display());
+    Some(path)
+}
+
 pub fn asset(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets").join(name)
 }

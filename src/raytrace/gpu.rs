@@ -1,0 +1,155 @@
+//! The `whitted.wgsl` pass: the scene's shading data uploaded once
+//! (`prepare_scene`), then a batch of pixels at a time (`prepare`,
+//! `record`), over the kd-tree's bind group. Follows glyphon's split as
+//! every kd-tree pass does (`kdtree::pass`).
+
+use std::ops::Range;
+
+use super::scene::RenderScene;
+use super::whitted::{PixelOut, WhittedParams};
+use crate::error::{Error, Result};
+use crate::gpu::batch::{BatchPlan, Batched, run_batches};
+use crate::gpu::kernels::Kernels;
+use crate::gpu::layout::Io;
+use crate::gpu::{GpuContext, dispatch_grid};
+use crate::kdtree::gpu::GpuKdTree;
+use crate::kdtree::pass::{Dispatch, TreeBatch, TreeKernelSet, TreeKernels, TreePass};
+use crate::progress::Progress;
+
+/// The pass's io: params, per-triangle shading (two words4), shading
+/// normals, the scene's records (surfaces, lights, spheres), pixels out.
+const WHITTED_IO: &[Io] = &[
+    Io::Uniform(0, "whitted params", std::mem::size_of::<WhittedParams>() as u64),
+    Io::In(1, "triangle shading"),
+    Io::In(2, "shading normals"),
+    Io::In(3, "scene records"),
+    Io::Out(4, "pixels"),
+];
+
+/// Pixels per dispatch: short dispatches on a software rasteriser, and far
+/// below any device's limits (32 bytes a pixel).
+pub const PIXELS_PER_BATCH: usize = 1 << 16;
+
+/// The pipeline of `whitted.wgsl` for one device.
+pub struct WhittedKernels(TreeKernels);
+
+impl Kernels for WhittedKernels {
+    fn build(device: &wgpu::Device) -> WhittedKernels {
+        WhittedKernels(TreeKernels::build(
+            device,
+            &crate::wgsl::WHITTED_MODULE,
+            WHITTED_IO,
+            &["whitted"],
+        ))
+    }
+}
+
+impl TreeKernelSet for WhittedKernels {
+    const IO: &'static [Io] = WHITTED_IO;
+    const LABEL: &'static str = "whitted";
+    fn tree_kernels(&self) -> &TreeKernels {
+        &self.0
+    }
+}
+
+/// The ray-tracing pass: its kernel and the buffers of one scene and batch.
+pub type WhittedPass = TreePass<WhittedKernels>;
+
+/// The scene's records as the kernel reads them: surfaces, lights, spheres.
+pub fn scene_records(scene: &RenderScene) -> (Vec<u8>, u32, u32) {
+    let mut records: Vec<u8> = bytemuck::cast_slice(&scene.surfaces).to_vec();
+    let lights_at = (records.len() / 16) as u32;
+    records.extend_from_slice(bytemuck::cast_slice(&scene.lights));
+    let spheres_at = (records.len() / 16) as u32;
+    records.extend_from_slice(bytemuck::cast_slice(&scene.spheres));
+    (records, lights_at, spheres_at)
+}
+
+/// At least one words4, so an empty array still binds.
+fn non_empty(bytes: &[u8]) -> &[u8] {
+    if bytes.is_empty() { &[0; 16] } else { bytes }
+}
+
+impl TreePass<WhittedKernels> {
+    /// Uploads what the kernel reads of `scene` besides its tree.
+    pub fn prepare_scene(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &RenderScene) -> Result<()> {
+        let (records, _, _) = scene_records(scene);
+        let io = self.io();
+        io.write(device, queue, 1, non_empty(bytemuck::cast_slice(&scene.triangles)))?;
+        io.write(device, queue, 2, non_empty(bytemuck::cast_slice(&scene.normals)))?;
+        io.write(device, queue, 3, non_empty(&records))
+    }
+
+    /// Prepares the pixels `params.first_pixel ..+ params.pixel_count`
+    /// (`row_pitch` is set here).
+    pub fn prepare(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, params: &WhittedParams) -> Result<()> {
+        let n = params.pixel_count;
+        let (gx, gy, pitch) = dispatch_grid(n, device.limits().max_compute_workgroups_per_dimension);
+        let params = WhittedParams {
+            row_pitch: pitch,
+            ..*params
+        };
+        let bytes = n as u64 * std::mem::size_of::<PixelOut>() as u64;
+        let io = self.io();
+        io.write(device, queue, 0, bytemuck::bytes_of(&params))?;
+        io.reserve(device, 4, bytes.max(32))?;
+        self.set_dispatch(
+            device,
+            Dispatch {
+                entry: 0,
+                grid: (gx, gy),
+                clear: None,
+                results: vec![(4, bytes)],
+            },
+        );
+        Ok(())
+    }
+
+    /// The prepared batch's pixels, after the recorded dispatch.
+    pub fn pixels(&self) -> &wgpu::Buffer {
+        self.buffer(4)
+    }
+}
+
+/// The pass with its read-back buffer, as a renderer keeps it.
+pub type WhittedBatches = Batched<WhittedPass>;
+
+impl Batched<WhittedPass> {
+    /// Renders every pixel of `params` (blocking), in batches: the pixels
+    /// and the kernels' time where the device has timestamps. The scene
+    /// must have been prepared (`prepare_scene`).
+    pub fn render(
+        &mut self,
+        ctx: &GpuContext,
+        tree: &GpuKdTree,
+        params: &WhittedParams,
+        progress: &Progress,
+    ) -> Result<(Vec<PixelOut>, Option<f64>)> {
+        let total = params.width as usize * params.height as usize;
+        let mut pixels = Vec::with_capacity(total);
+        let plan = BatchPlan::new(total, PIXELS_PER_BATCH, 1);
+        let mut batch = TreeBatch {
+            pass: &mut self.pass,
+            tree,
+            prepare: |pass: &mut WhittedPass, ctx: &GpuContext, items: Range<usize>| {
+                let batch = WhittedParams {
+                    first_pixel: items.start as u32,
+                    pixel_count: items.len() as u32,
+                    ..*params
+                };
+                pass.prepare(&ctx.device, &ctx.queue, &batch)
+            },
+        };
+        let take = |items: Range<usize>, out: &[PixelOut]| {
+            pixels.extend_from_slice(&out[..items.len()]);
+            Ok(())
+        };
+        let gpu_ms = run_batches(ctx, &mut batch, &mut self.readback, plan, progress, take)?;
+        if pixels.len() != total {
+            return Err(Error::internal(
+                "the whitted kernel returned the wrong number of pixels",
+            ));
+        }
+        Ok((pixels, gpu_ms))
+    }
+}

@@ -1,0 +1,351 @@
+//! The Whitted renderer as a host and the CLI drive it: a scene made ready
+//! once on a device (its kd-tree built and, on a GPU, uploaded with its
+//! shading data), then images of it from any camera, with their ray counts
+//! and time; single rays with their ray trees for the bounded-error method.
+
+use glam::Vec3;
+use serde::Serialize;
+
+use super::gpu::WhittedBatches;
+use super::packets::render_packets;
+use super::ray_tree::RayTree;
+use super::scene::RenderScene;
+use super::whitted::{FRESNEL, MAX_DEPTH, Media, PixelOut, Whitted, WhittedParams, pixel_ray};
+use crate::aabb::Aabb;
+use crate::device::{Device, GpuOutput, OnDevice, Timing};
+use crate::error::{Error, Result};
+use crate::kdtree::KdTree;
+use crate::kdtree::gpu::GpuKdTree;
+use crate::mlrta::runner::mrays_per_s;
+use crate::mlrta::{MlrtaParams, Prepared};
+use crate::progress::{Bars, Progress};
+use crate::scene::Camera;
+use crate::tracer::build_tree;
+
+/// The knobs of a render.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct WhittedSettings {
+    /// Deepest reflection/refraction (0: primary rays and shadows only).
+    pub max_depth: u32,
+    /// Samples per pixel: 1 through the pixel's centre, more jittered.
+    pub spp: u32,
+    /// Seeds the jitter.
+    pub seed: u32,
+    /// Fresnel-weighted (Schlick) reflection and transmission instead of
+    /// the materials' constant coefficients.
+    pub fresnel: bool,
+    /// On the CPU, MLRTA packets for primary rays and point lights' shadow
+    /// rays (the same image, faster); off: every ray alone, as the GPU does.
+    pub packets: bool,
+}
+
+impl Default for WhittedSettings {
+    fn default() -> Self {
+        WhittedSettings {
+            max_depth: 5,
+            spp: 1,
+            seed: 0,
+            fresnel: false,
+            packets: true,
+        }
+    }
+}
+
+/// Most samples per pixel.
+pub const MAX_SPP: u32 = 4096;
+
+impl WhittedSettings {
+    pub fn validate(&self) -> Result<()> {
+        if self.max_depth > MAX_DEPTH {
+            return Err(Error::param(
+                "max_depth",
+                format!("must be at most {MAX_DEPTH}, got {}", self.max_depth),
+            ));
+        }
+        if self.spp == 0 || self.spp > MAX_SPP {
+            return Err(Error::param(
+                "spp",
+                format!("must be between 1 and {MAX_SPP}, got {}", self.spp),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Rays traced, by kind.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct RayCounts {
+    pub primary: u64,
+    pub shadow: u64,
+    pub reflection: u64,
+    pub refraction: u64,
+}
+
+impl RayCounts {
+    pub fn total(&self) -> u64 {
+        self.primary + self.shadow + self.reflection + self.refraction
+    }
+
+    fn of(pixels: &[PixelOut]) -> RayCounts {
+        let mut c = [0u64; 4];
+        for p in pixels {
+            for (sum, &r) in c.iter_mut().zip(&p.rays) {
+                *sum += r as u64;
+            }
+        }
+        RayCounts {
+            primary: c[0],
+            shadow: c[1],
+            reflection: c[2],
+            refraction: c[3],
+        }
+    }
+}
+
+/// What a render measured.
+#[derive(Debug, Clone, Serialize)]
+pub struct RenderStats {
+    pub rays: RayCounts,
+    pub render_ms: f64,
+    pub timing: Timing,
+    /// All rays (primary, shadow and secondary) per second of `render_ms`.
+    pub mrays_per_s: f64,
+    pub max_depth: u32,
+    pub spp: u32,
+    /// Which path traced the rays: "gpu", "cpu-packets" or "cpu-single".
+    pub path: &'static str,
+}
+
+/// An image and its statistics.
+#[derive(Debug, Clone)]
+pub struct Rendered {
+    pub width: u32,
+    pub height: u32,
+    pub camera: Camera,
+    /// Row-major, row 0 at the top.
+    pub pixels: Vec<PixelOut>,
+    pub stats: RenderStats,
+}
+
+impl Rendered {
+    /// Linear radiance per pixel.
+    pub fn radiance(&self) -> Vec<Vec3> {
+        self.pixels.iter().map(|p| Vec3::from_array(p.radiance)).collect()
+    }
+}
+
+/// What the renderer keeps on a GPU.
+pub struct GpuWhitted {
+    tree: GpuKdTree,
+    pass: WhittedBatches,
+}
+
+/// A scene ready to render on a device.
+pub struct WhittedRenderer {
+    scene: RenderScene,
+    tree: KdTree,
+    gpu: OnDevice<GpuWhitted>,
+    /// The kd-tree's build time.
+    pub build_ms: f64,
+}
+
+impl WhittedRenderer {
+    /// Builds the scene's kd-tree and, on a GPU, uploads it with the scene.
+    pub fn new(device: &Device, scene: RenderScene, bars: Bars) -> Result<WhittedRenderer> {
+        let tree = build_tree(&scene.mesh, bars, "raytrace")?;
+        let gpu = device.prepare(|ctx| {
+            let tree = GpuKdTree::upload(&ctx.device, &tree)?;
+            let mut pass = WhittedBatches::new(ctx);
+            pass.pass.prepare_scene(&ctx.device, &ctx.queue, &scene)?;
+            Ok(GpuWhitted { tree, pass })
+        })?;
+        Ok(WhittedRenderer {
+            build_ms: tree.stats.build_ms,
+            scene,
+            tree,
+            gpu,
+        })
+    }
+
+    pub fn scene(&self) -> &RenderScene {
+        &self.scene
+    }
+
+    /// Whether images render on a GPU.
+    pub fn is_gpu(&self) -> bool {
+        self.gpu.state().is_some()
+    }
+
+    pub fn tree(&self) -> &KdTree {
+        &self.tree
+    }
+
+    /// Bounds of the triangles and spheres (for the default camera).
+    pub fn bounds(&self) -> Aabb {
+        let mut b = self.scene.mesh.bounds();
+        for s in &self.scene.spheres {
+            b = b
+                .grow(s.center() - Vec3::splat(s.radius))
+                .grow(s.center() + Vec3::splat(s.radius));
+        }
+        b
+    }
+
+    /// The kernel's parameters for an image of `camera`.
+    pub fn params(
+        &self,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+        settings: &WhittedSettings,
+    ) -> Result<WhittedParams> {
+        settings.validate()?;
+        crate::scene::check_image_size(width, height)?;
+        camera.validate()?;
+        let (right, up, forward) = camera.basis();
+        let tan_half = (0.5 * camera.fov_degrees.to_radians()).tan();
+        let aspect = width as f32 / height as f32;
+        let media = self.scene.media_at(camera.eye);
+        let mut ids = [0u32; 4];
+        for (slot, &m) in ids.iter_mut().zip(&media) {
+            *slot = m;
+        }
+        let (_, lights_at, spheres_at) = super::gpu::scene_records(&self.scene);
+        Ok(WhittedParams {
+            eye: camera.eye.to_array(),
+            width,
+            forward: forward.to_array(),
+            height,
+            right: (right * (tan_half * aspect)).to_array(),
+            spp: settings.spp,
+            up: (up * tan_half).to_array(),
+            seed: settings.seed,
+            ambient: self.scene.ambient.to_array(),
+            max_depth: settings.max_depth,
+            background: self.scene.background.to_array(),
+            flags: if settings.fresnel { FRESNEL } else { 0 },
+            media: ids,
+            media_len: media.len().min(4) as u32,
+            light_count: self.scene.lights.len() as u32,
+            sphere_count: self.scene.spheres.len() as u32,
+            transmissive: self.scene.transmissive as u32,
+            first_pixel: 0,
+            pixel_count: width * height,
+            row_pitch: 0,
+            lights_at,
+            spheres_at,
+            _pad: [0; 3],
+        })
+    }
+
+    /// The CPU twin over this scene for `params`.
+    pub fn twin<'a>(&'a self, params: &'a WhittedParams) -> Whitted<'a> {
+        Whitted {
+            scene: &self.scene,
+            tree: &self.tree,
+            params,
+        }
+    }
+
+    /// Renders an image of `camera`: on a GPU the kernel, on the CPU the
+    /// twin (through packets where `settings.packets`).
+    pub fn render(
+        &mut self,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+        settings: &WhittedSettings,
+        progress: &Progress,
+    ) -> Result<Rendered> {
+        let params = self.params(camera, width, height, settings)?;
+        let (scene, tree) = (&self.scene, &self.tree);
+        let twin = Whitted {
+            scene,
+            tree,
+            params: &params,
+        };
+        let cpu_path = if settings.packets { "cpu-packets" } else { "cpu-single" };
+        let path = if self.gpu.state().is_some() { "gpu" } else { cpu_path };
+        let timed = self.gpu.run(
+            |ctx, g| {
+                let (pixels, gpu_ms) = g.pass.render(ctx, &g.tree, &params, progress)?;
+                Ok(GpuOutput { value: pixels, gpu_ms })
+            },
+            || {
+                if settings.packets {
+                    let (prepared, _) = Prepared::new(tree, &scene.mesh);
+                    // Corner rays bound a tile's rays only through pixel
+                    // centres; jittered edge pixels may leave that frustum.
+                    let mlrta = MlrtaParams {
+                        corner_frusta: settings.spp == 1,
+                        ..MlrtaParams::default()
+                    };
+                    Ok(render_packets(&twin, &prepared, &mlrta)?.0)
+                } else {
+                    use rayon::prelude::*;
+                    Ok((0..width * height)
+                        .into_par_iter()
+                        .with_min_len(64)
+                        .map(|i| twin.whitted(i))
+                        .collect())
+                }
+            },
+        )?;
+        let rays = RayCounts::of(&timed.value);
+        Ok(Rendered {
+            width,
+            height,
+            camera: *camera,
+            stats: RenderStats {
+                rays,
+                render_ms: timed.ms,
+                timing: timed.timing,
+                mrays_per_s: mrays_per_s(rays.total() as usize, timed.ms),
+                max_depth: settings.max_depth,
+                spp: settings.spp,
+                path,
+            },
+            pixels: timed.value,
+        })
+    }
+
+    /// The radiance and ray tree of sample `sample` of pixel (x, y) of an
+    /// image of `camera` (CPU).
+    pub fn pixel_tree(
+        &self,
+        camera: &Camera,
+        (width, height): (u32, u32),
+        settings: &WhittedSettings,
+        (x, y, sample): (u32, u32, u32),
+    ) -> Result<(Vec3, RayTree)> {
+        let params = self.params(camera, width, height, settings)?;
+        if x >= width || y >= height {
+            return Err(Error::param(
+                "pixel",
+                format!("({x}, {y}) is outside the {width}x{height} image"),
+            ));
+        }
+        let (o, d) = pixel_ray(&params, y * width + x, sample);
+        let media = Media::from_ids(&params.media[..params.media_len as usize]);
+        let mut tree = RayTree::default();
+        let out = self.twin(&params).shade(o, d, media, None, Some(&mut tree));
+        Ok((out.radiance, tree))
+    }
+
+    /// The radiance and ray tree of any ray from `origin` along `dir`
+    /// (normalised here), starting in the media around `origin` (CPU).
+    pub fn ray_tree(&self, origin: Vec3, dir: Vec3, settings: &WhittedSettings) -> Result<(Vec3, RayTree)> {
+        let camera = Camera {
+            eye: origin,
+            target: origin + dir,
+            fov_degrees: 45.0,
+        };
+        let params = self.params(&camera, 1, 1, settings)?;
+        let media = Media::from_ids(&params.media[..params.media_len as usize]);
+        let mut tree = RayTree::default();
+        let out = self
+            .twin(&params)
+            .shade(origin, dir.normalize(), media, None, Some(&mut tree));
+        Ok((out.radiance, tree))
+    }
+}

@@ -1,0 +1,134 @@
+//! Camera paths for animations (`raytrace --frames N --path FILE`): one
+//! keyframe a line, `EX,EY,EZ TX,TY,TZ FOV` (eye, target, vertical field of
+//! view in degrees), `#` comments and blank lines ignored. Frame `f` of `N`
+//! lies at `f / (N - 1)` of the way along the keys, interpolated linearly
+//! between neighbouring keys. Without a file, the frames orbit the camera
+//! once about the vertical axis through its target.
+
+use std::path::Path;
+
+use glam::{Quat, Vec3};
+
+use super::Camera;
+use crate::error::{Error, Result};
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum CameraPath {
+    Keys(Vec<Camera>),
+    /// A full turn about +y through the camera's target.
+    Orbit(Camera),
+}
+
+impl CameraPath {
+    pub fn load(path: &Path) -> Result<CameraPath> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::read(path, e))?;
+        Self::parse(&text).map_err(|e| e.in_file(path))
+    }
+
+    /// Parses keyframes; errors name the line.
+    pub fn parse(text: &str) -> Result<CameraPath> {
+        let mut keys = Vec::new();
+        for (i, raw) in text.lines().enumerate() {
+            let line = raw.split('#').next().unwrap_or("").trim();
+            if line.is_empty() {
+                continue;
+            }
+            let at = || format!("line {}", i + 1);
+            let parts: Vec<&str> = line.split_ascii_whitespace().collect();
+            let [eye, target, fov] = parts[..] else {
+                return Err(Error::input(
+                    at(),
+                    format!("expected 'EX,EY,EZ TX,TY,TZ FOV', got {} fields", parts.len()),
+                ));
+            };
+            let vec3 =
+                |what: &str, s: &str| super::parse_vec3(s).map_err(|e| Error::input(at(), format!("{what}: {e}")));
+            let fov_degrees: f32 = fov
+                .parse()
+                .map_err(|_| Error::input(at(), format!("field of view '{fov}' is not a number")))?;
+            let camera = Camera {
+                eye: vec3("eye", eye)?,
+                target: vec3("target", target)?,
+                fov_degrees,
+            };
+            camera.validate().map_err(|e| Error::input(at(), e.to_string()))?;
+            keys.push(camera);
+        }
+        if keys.is_empty() {
+            return Err(Error::input("path", "has no keyframes"));
+        }
+        Ok(CameraPath::Keys(keys))
+    }
+
+    /// The camera of frame `frame` of `frames`.
+    pub fn at(&self, frame: u32, frames: u32) -> Camera {
+        let u = if frames > 1 {
+            frame as f32 / (frames - 1) as f32
+        } else {
+            0.0
+        };
+        match self {
+            CameraPath::Keys(keys) => {
+                let x = u * (keys.len() - 1) as f32;
+                let k = (x.floor() as usize).min(keys.len() - 1);
+                let (a, b) = (keys[k], keys[(k + 1).min(keys.len() - 1)]);
+                let s = x - k as f32;
+                Camera {
+                    eye: a.eye.lerp(b.eye, s),
+                    target: a.target.lerp(b.target, s),
+                    fov_degrees: a.fov_degrees + (b.fov_degrees - a.fov_degrees) * s,
+                }
+            }
+            CameraPath::Orbit(c) => {
+                let turn = if frames > 0 { frame as f32 / frames as f32 } else { 0.0 };
+                let spin = Quat::from_axis_angle(Vec3::Y, turn * std::f32::consts::TAU);
+                Camera {
+                    eye: c.target + spin * (c.eye - c.target),
+                    ..*c
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keys_interpolate_and_errors_name_the_line() {
+        let p = CameraPath::parse("# a path\n0,0,5 0,0,0 40\n\n10,0,5 10,0,0 60\n").unwrap();
+        assert_eq!(p.at(0, 3).eye, Vec3::new(0.0, 0.0, 5.0));
+        assert_eq!(p.at(1, 3).eye, Vec3::new(5.0, 0.0, 5.0));
+        assert_eq!(p.at(1, 3).fov_degrees, 50.0);
+        assert_eq!(p.at(2, 3).target, Vec3::new(10.0, 0.0, 0.0));
+        for (text, problem) in [
+            ("0,0,5 0,0,0\n", "got 2 fields"),
+            ("0,0,5 0,0,0 x\n", "not a number"),
+            ("0,0,5 0,0,5 40\n", "same point"),
+            ("0,0 0,0,0 40\n", "eye"),
+            ("# nothing\n", "no keyframes"),
+        ] {
+            let e = CameraPath::parse(text).unwrap_err().to_string();
+            assert!(e.contains(problem), "{text:?}: {e}");
+        }
+        assert!(
+            CameraPath::parse("\n0,0,5 0,0,0 x\n")
+                .unwrap_err()
+                .to_string()
+                .contains("line 2")
+        );
+    }
+
+    #[test]
+    fn orbit_turns_about_the_target() {
+        let c = Camera {
+            eye: Vec3::new(0.0, 1.0, 4.0),
+            target: Vec3::new(0.0, 1.0, 0.0),
+            fov_degrees: 45.0,
+        };
+        let p = CameraPath::Orbit(c);
+        assert_eq!(p.at(0, 4), c);
+        assert!((p.at(1, 4).eye - Vec3::new(4.0, 1.0, 0.0)).length() < 1e-5);
+    }
+}

@@ -1,0 +1,636 @@
+//! Wavefront MTL materials: the colours and scalars a ray tracer shades with.
+//!
+//! Tolerant of what real exporters write (comments after values, tabs, CRLF,
+//! texture maps, stray statements: warnings), strict on numbers (a value that
+//! is not a finite number in range is an error naming the line). Texture maps
+//! are never read, so a missing texture file costs nothing but the one warning
+//! per keyword.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use glam::Vec3;
+
+use crate::error::{Error, Result};
+
+/// One `newmtl` block, fields as MTL names them (linear RGB).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Material {
+    pub name: String,
+    pub ka: Vec3,
+    pub kd: Vec3,
+    pub ks: Vec3,
+    pub ke: Vec3,
+    /// Transmission filter `Tf`.
+    pub tf: Vec3,
+    /// `Ns`, Phong exponent (>= 0).
+    pub ns: f32,
+    /// `Ni`, index of refraction (> 0).
+    pub ni: f32,
+    /// Dissolve `d` in [0, 1] (1 = opaque); `Tr t` sets d = 1 - t; `d` wins
+    /// when both are given.
+    pub dissolve: f32,
+    /// `illum` 0..=10.
+    pub illum: u32,
+    /// Whether the file gave `Tf` (glass uses Tf when given, else 1 - d).
+    pub has_tf: bool,
+}
+
+impl Material {
+    /// Values for fields a `newmtl` block leaves out: ka 0, kd 0.8, ks 0,
+    /// ke 0, tf 1, ns 1, ni 1, d 1, illum 2, has_tf false.
+    pub fn named(name: &str) -> Material {
+        Material {
+            name: name.into(),
+            ka: Vec3::ZERO,
+            kd: Vec3::splat(0.8),
+            ks: Vec3::ZERO,
+            ke: Vec3::ZERO,
+            tf: Vec3::ONE,
+            ns: 1.0,
+            ni: 1.0,
+            dissolve: 1.0,
+            illum: 2,
+            has_tf: false,
+        }
+    }
+
+    /// The material of faces with no `usemtl`, an unknown name or a missing
+    /// MTL file: named "default", ka = kd = 0.8 grey, ks 0, illum 1 (diffuse).
+    pub fn default_surface() -> Material {
+        Material {
+            ka: Vec3::splat(0.8),
+            illum: 1,
+            ..Material::named("default")
+        }
+    }
+}
+
+/// Reads an MTL file; errors name the file, the line and the problem.
+pub fn load_mtl(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<Material>> {
+    let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
+    parse_mtl(&String::from_utf8_lossy(&bytes), warnings).map_err(|e| e.in_file(path))
+}
+
+/// Parses MTL text into its materials, in file order (a name defined twice
+/// keeps its first position and its later block). Errors name the line
+/// (`line N`) and the problem; what is ignored goes to `warnings`.
+pub fn parse_mtl(text: &str, warnings: &mut Vec<String>) -> Result<Vec<Material>> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let mut materials: Vec<Material> = Vec::new();
+    let mut by_name: HashMap<String, usize> = HashMap::new();
+    let mut ignored = Ignored::default();
+    let mut block: Option<Block> = None;
+    let mut args: Vec<&str> = Vec::with_capacity(8);
+
+    for (line_index, raw) in text.lines().enumerate() {
+        let line_no = line_index + 1;
+        let at = || format!("line {line_no}");
+        let line = raw.split('#').next().unwrap_or("");
+        let mut tokens = line.split_ascii_whitespace();
+        let Some(keyword) = tokens.next() else {
+            continue;
+        };
+        args.clear();
+        args.extend(tokens);
+        if keyword == "newmtl" {
+            if args.is_empty() {
+                return Err(Error::input(at(), "newmtl without a name"));
+            }
+            if let Some(done) = block.take() {
+                done.finish(&mut materials, &mut by_name, warnings);
+            }
+            block = Some(Block::new(&args.join(" "), line_no));
+            continue;
+        }
+        if !is_property(keyword) {
+            let reason =
+                if keyword.starts_with("map_") || matches!(keyword, "bump" | "disp" | "decal" | "refl" | "norm") {
+                    "texture maps are not used"
+                } else {
+                    "unknown MTL statement"
+                };
+            ignored.note(keyword, line_no, reason);
+            continue;
+        }
+        let Some(b) = block.as_mut() else {
+            return Err(Error::input(at(), format!("{keyword} before any newmtl")));
+        };
+        let m = &mut b.material;
+        let problem = |p: String| Error::input(at(), format!("{keyword}: {p}"));
+        match keyword {
+            "Ka" | "Kd" | "Ks" | "Ke" | "Tf" => {
+                if args.first() == Some(&"spectral") {
+                    ignored.note(
+                        &format!("{keyword} spectral"),
+                        line_no,
+                        "spectral colours are not supported",
+                    );
+                    continue;
+                }
+                let c = colour(&args).map_err(problem)?;
+                match keyword {
+                    "Ka" => m.ka = c,
+                    "Kd" => m.kd = c,
+                    "Ks" => m.ks = c,
+                    "Ke" => m.ke = c,
+                    _ => {
+                        m.tf = c;
+                        m.has_tf = true;
+                    }
+                }
+            }
+            "Ns" => {
+                let v = scalar(&args).map_err(problem)?;
+                if v < 0.0 {
+                    return Err(problem(format!("{v} is negative (the Phong exponent must be >= 0)")));
+                }
+                m.ns = v;
+            }
+            "Ni" => {
+                let v = scalar(&args).map_err(problem)?;
+                if v < 0.0 {
+                    return Err(problem(format!("{v} is negative (an index of refraction is > 0)")));
+                }
+                if v == 0.0 {
+                    // Some exporters write `Ni 0` for "not set".
+                    warnings.push(format!(
+                        "material '{}': Ni 0 (line {line_no}) is not an index of refraction; 1 is used",
+                        m.name
+                    ));
+                } else {
+                    m.ni = v;
+                }
+            }
+            "d" | "Tr" => {
+                let v = scalar(&args).map_err(problem)?;
+                if !(0.0..=1.0).contains(&v) {
+                    return Err(problem(format!("{v} is outside [0, 1]")));
+                }
+                if keyword == "d" {
+                    m.dissolve = v;
+                    b.has_d = true;
+                } else {
+                    b.tr = Some((v, line_no));
+                }
+            }
+            _ => {
+                // illum
+                let [token] = args[..] else {
+                    return Err(problem(format!("takes 1 integer, got {}", args.len())));
+                };
+                m.illum = token
+                    .parse::<u32>()
+                    .ok()
+                    .filter(|i| *i <= 10)
+                    .ok_or_else(|| problem(format!("'{token}' is not an integer in 0..=10")))?;
+            }
+        }
+    }
+    if let Some(done) = block.take() {
+        done.finish(&mut materials, &mut by_name, warnings);
+    }
+    ignored.warn(warnings);
+    if materials.is_empty() {
+        warnings.push("no materials (the file has no newmtl)".into());
+    }
+    Ok(materials)
+}
+
+fn is_property(keyword: &str) -> bool {
+    matches!(
+        keyword,
+        "Ka" | "Kd" | "Ks" | "Ke" | "Tf" | "Ns" | "Ni" | "d" | "Tr" | "illum"
+    )
+}
+
+/// A `newmtl` block being read.
+struct Block {
+    material: Material,
+    line: usize,
+    has_d: bool,
+    /// `Tr` and its line.
+    tr: Option<(f32, usize)>,
+}
+
+impl Block {
+    fn new(name: &str, line: usize) -> Block {
+        Block {
+            material: Material::named(name),
+            line,
+            has_d: false,
+            tr: None,
+        }
+    }
+
+    fn finish(
+        mut self,
+        materials: &mut Vec<Material>,
+        by_name: &mut HashMap<String, usize>,
+        warnings: &mut Vec<String>,
+    ) {
+        let m = &mut self.material;
+        if let (false, Some((tr, tr_line))) = (self.has_d, self.tr) {
+            m.dissolve = 1.0 - tr;
+            if tr > 0.5 && m.illum < 4 {
+                warnings.push(format!(
+                    "material '{}': Tr {tr} (line {tr_line}) with illum {} treated as d = 1 - Tr = {}",
+                    m.name, m.illum, m.dissolve
+                ));
+            }
+        }
+        match by_name.get(&m.name) {
+            Some(&i) => {
+                warnings.push(format!(
+                    "material '{}' defined again (line {}): the later block wins",
+                    m.name, self.line
+                ));
+                materials[i] = self.material;
+            }
+            None => {
+                by_name.insert(m.name.clone(), materials.len());
+                materials.push(self.material);
+            }
+        }
+    }
+}
+
+/// A colour statement's arguments: 1 or 3 numbers (1 = grey), or `xyz`
+/// and 1 or 3 CIE XYZ numbers (converted to linear sRGB, D65).
+fn colour(args: &[&str]) -> std::result::Result<Vec3, String> {
+    let (xyz, numbers) = match args.first() {
+        Some(&"xyz") => (true, &args[1..]),
+        _ => (false, args),
+    };
+    if numbers.len() > 3 {
+        return Err(format!("more than 3 numbers ({})", numbers.len()));
+    }
+    let mut c = [0.0f32; 3];
+    for (slot, token) in c.iter_mut().zip(numbers) {
+        *slot = number(token)?;
+        if *slot < 0.0 {
+            return Err(format!("colour component {token} is negative"));
+        }
+    }
+    let c = match numbers.len() {
+        0 => return Err("missing number (need 1 or 3)".into()),
+        1 => Vec3::splat(c[0]),
+        2 => return Err("has 2 numbers (need 1 or 3)".into()),
+        _ => Vec3::from_array(c),
+    };
+    Ok(if xyz { xyz_to_linear_srgb(c) } else { c })
+}
+
+/// CIE XYZ to linear sRGB (D65 white, IEC 61966-2-1 matrix); colours
+/// outside the sRGB gamut are clipped to >= 0.
+fn xyz_to_linear_srgb(c: Vec3) -> Vec3 {
+    let r = 3.240_454_2 * c.x - 1.537_138_5 * c.y - 0.498_531_4 * c.z;
+    let g = -0.969_266 * c.x + 1.876_010_8 * c.y + 0.041_556 * c.z;
+    let b = 0.055_643_4 * c.x - 0.204_025_9 * c.y + 1.057_225_2 * c.z;
+    Vec3::new(r, g, b).max(Vec3::ZERO)
+}
+
+/// A statement's one number.
+fn scalar(args: &[&str]) -> std::result::Result<f32, String> {
+    match args {
+        [] => Err("missing number".into()),
+        [token] => number(token),
+        _ => Err(format!("takes 1 number, got {}", args.len())),
+    }
+}
+
+fn number(token: &str) -> std::result::Result<f32, String> {
+    let v: f32 = token.parse().map_err(|_| format!("'{token}' is not a number"))?;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("'{token}' is not a finite number"))
+    }
+}
+
+/// Statements skipped, one warning per keyword however often it appears:
+/// "ignoring `map_Kd` statements (line 14 and 2 more lines): texture maps
+/// are not used".
+#[derive(Default)]
+pub(super) struct Ignored {
+    /// Keyword, first line, count, reason; in order of first appearance.
+    entries: Vec<(String, usize, usize, &'static str)>,
+    index: HashMap<String, usize>,
+}
+
+impl Ignored {
+    pub(super) fn note(&mut self, keyword: &str, line: usize, reason: &'static str) {
+        match self.index.get(keyword) {
+            Some(&i) => self.entries[i].2 += 1,
+            None => {
+                self.index.insert(keyword.to_string(), self.entries.len());
+                self.entries.push((keyword.to_string(), line, 1, reason));
+            }
+        }
+    }
+
+    /// Appends one warning per keyword noted, in order of first appearance.
+    pub(super) fn warn(self, warnings: &mut Vec<String>) {
+        for (keyword, line, count, reason) in self.entries {
+            let more = match count - 1 {
+                0 => String::new(),
+                1 => " and 1 more line".into(),
+                n => format!(" and {n} more lines"),
+            };
+            warnings.push(format!("ignoring `{keyword}` statements (line {line}{more}): {reason}"));
+        }
+    }
+}
+
+/// Writes materials as MTL text that `parse_mtl` reads back to the same
+/// values (every field written, `Tf` only where it was given).
+pub fn write_mtl(materials: &[Material], header: &str) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    for line in header.lines() {
+        let _ = writeln!(s, "# {line}");
+    }
+    let rgb = |v: Vec3| format!("{} {} {}", v.x, v.y, v.z);
+    for m in materials {
+        let _ = writeln!(s, "\nnewmtl {}", m.name);
+        let _ = writeln!(
+            s,
+            "Ka {}\nKd {}\nKs {}\nKe {}",
+            rgb(m.ka),
+            rgb(m.kd),
+            rgb(m.ks),
+            rgb(m.ke)
+        );
+        if m.has_tf {
+            let _ = writeln!(s, "Tf {}", rgb(m.tf));
+        }
+        let _ = writeln!(s, "Ns {}\nNi {}\nd {}\nillum {}", m.ns, m.ni, m.dissolve, m.illum);
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const CORNELL: &str = include_str!("../../tests/data/mtl/cornell.mtl");
+
+    fn parse(text: &str) -> (Vec<Material>, Vec<String>) {
+        let mut warnings = Vec::new();
+        let m = parse_mtl(text, &mut warnings).unwrap_or_else(|e| panic!("{text:?}: {e}"));
+        (m, warnings)
+    }
+
+    fn error(text: &str) -> String {
+        parse_mtl(text, &mut Vec::new()).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn defaults() {
+        let m = Material::named("x");
+        assert_eq!(
+            (m.kd, m.ka, m.tf, m.ns, m.ni, m.dissolve, m.illum),
+            (Vec3::splat(0.8), Vec3::ZERO, Vec3::ONE, 1.0, 1.0, 1.0, 2)
+        );
+        assert!(!m.has_tf);
+        let d = Material::default_surface();
+        assert_eq!(
+            (d.name.as_str(), d.ka, d.kd, d.ks, d.illum),
+            ("default", Vec3::splat(0.8), Vec3::splat(0.8), Vec3::ZERO, 1)
+        );
+        // A block that gives nothing gets `named`'s values.
+        assert_eq!(parse("newmtl x\n").0, vec![Material::named("x")]);
+    }
+
+    #[test]
+    fn cornell_box_materials() {
+        let (m, warnings) = parse(CORNELL);
+        let names: Vec<&str> = m.iter().map(|m| m.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "leftWall",
+                "rightWall",
+                "floor",
+                "ceiling",
+                "backWall",
+                "shortBox",
+                "tallBox",
+                "light"
+            ]
+        );
+        assert_eq!(m[7].ke, Vec3::new(17.0, 12.0, 4.0));
+        assert_eq!(m[7].kd, Vec3::splat(0.78));
+        assert_eq!(m[1].kd, Vec3::new(0.14, 0.45, 0.091));
+        assert_eq!(m[1].ka, Vec3::new(0.14, 0.15, 0.091), "the comment after Ka is dropped");
+        assert_eq!(m[0].kd, Vec3::new(0.63, 0.065, 0.05));
+        assert_eq!((m[0].ns, m[0].ni, m[0].illum), (10.0, 1.5, 2));
+        assert_eq!((m[2].ni, m[2].ke, m[2].dissolve), (1.0, Vec3::ZERO, 1.0));
+        assert_eq!(
+            warnings,
+            ["ignoring `v` statements (line 70): unknown MTL statement"],
+            "the stray `v` line in shortBox"
+        );
+    }
+
+    #[test]
+    fn line_endings_and_tabs_do_not_matter() {
+        let lf = CORNELL.replace("\r\n", "\n");
+        let crlf = lf.replace('\n', "\r\n");
+        let tabs = lf.replace("  ", "\t").replace(' ', "\t \t");
+        let crlf_tabs = tabs.replace('\n', "\r\n");
+        let reference = parse(CORNELL);
+        assert_eq!(parse(&lf), reference);
+        assert_eq!(parse(&crlf), reference);
+        assert_eq!(parse(&tabs), reference);
+        assert_eq!(parse(&crlf_tabs), reference);
+        assert_eq!(
+            parse(&format!("\u{feff}{lf}")),
+            reference,
+            "a byte-order mark is skipped"
+        );
+    }
+
+    #[test]
+    fn errors_name_the_line_and_problem() {
+        let cases = [
+            ("newmtl a\nKd 1 abc 1\n", "line 2", "Kd: 'abc' is not a number"),
+            ("newmtl a\n\nKs\n", "line 3", "Ks: missing number"),
+            ("newmtl a\nKa xyz\n", "line 2", "Ka: missing number"),
+            ("newmtl a\nNs\n", "line 2", "Ns: missing number"),
+            ("newmtl a\nKe 1 inf 1\n", "line 2", "Ke: 'inf' is not a finite number"),
+            ("newmtl a\nNi NaN\n", "line 2", "Ni: 'NaN' is not a finite number"),
+            ("newmtl a\nd 1e40\n", "line 2", "d: '1e40' is not a finite number"),
+            ("newmtl a\nKd 1 2 3 4\n", "line 2", "Kd: more than 3 numbers"),
+            ("newmtl a\nKd 1 2\n", "line 2", "Kd: has 2 numbers (need 1 or 3)"),
+            ("newmtl a\nNs 1 2\n", "line 2", "Ns: takes 1 number, got 2"),
+            (
+                "newmtl a\nTf 1 -0.5 1\n",
+                "line 2",
+                "Tf: colour component -0.5 is negative",
+            ),
+            ("newmtl a\nKd xyz -1\n", "line 2", "Kd: colour component -1 is negative"),
+            ("newmtl a\nNs -1\n", "line 2", "Ns: -1 is negative"),
+            ("newmtl a\nNi -1\n", "line 2", "Ni: -1 is negative"),
+            ("newmtl a\nNi -1.5\n", "line 2", "Ni: -1.5 is negative"),
+            ("newmtl a\nd 1.5\n", "line 2", "d: 1.5 is outside [0, 1]"),
+            ("newmtl a\nd -0.1\n", "line 2", "d: -0.1 is outside [0, 1]"),
+            ("newmtl a\nTr 2\n", "line 2", "Tr: 2 is outside [0, 1]"),
+            (
+                "newmtl a\nillum 11\n",
+                "line 2",
+                "illum: '11' is not an integer in 0..=10",
+            ),
+            (
+                "newmtl a\nillum 2.0\n",
+                "line 2",
+                "illum: '2.0' is not an integer in 0..=10",
+            ),
+            (
+                "newmtl a\nillum -1\n",
+                "line 2",
+                "illum: '-1' is not an integer in 0..=10",
+            ),
+            ("newmtl a\nillum\n", "line 2", "illum: takes 1 integer, got 0"),
+            ("# header\nKd 1 1 1\nnewmtl a\n", "line 2", "Kd before any newmtl"),
+            ("newmtl a\nnewmtl # no name\n", "line 2", "newmtl without a name"),
+        ];
+        for (text, place, problem) in cases {
+            let e = error(text);
+            assert!(e.starts_with(&format!("{place}: {problem}")), "{text:?} gave {e}");
+        }
+        // Unknown statements before the first newmtl are only warnings.
+        let (m, w) = parse("map_Kd x.png\nnewmtl a\n");
+        assert_eq!((m.len(), w.len()), (1, 1));
+    }
+
+    #[test]
+    fn load_names_the_file() {
+        let dir = std::env::temp_dir().join(format!("penumbra-mtl-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("bad.mtl");
+        std::fs::write(&path, "newmtl a\nKd 0.5\nNs x\n").unwrap();
+        let e = load_mtl(&path, &mut Vec::new()).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            format!("{}: line 3: Ns: 'x' is not a number", path.display())
+        );
+        assert_eq!(e.exit_code(), 2);
+        let e = load_mtl(&dir.join("missing.mtl"), &mut Vec::new())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("missing.mtl") && e.contains("cannot read"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn one_warning_per_unknown_keyword() {
+        let text = "newmtl a\nmap_Kd a.png\nPr 0.5\nmap_Kd b.png\nbump n.png\nmap_Kd c.png\nKd spectral x.rfl\n\
+                    Ks spectral y.rfl 2\nKd 0.5\n";
+        let (m, w) = parse(text);
+        assert_eq!(m[0].kd, Vec3::splat(0.5));
+        assert_eq!(m[0].ks, Vec3::ZERO, "a spectral colour is ignored");
+        assert_eq!(
+            w,
+            [
+                "ignoring `map_Kd` statements (line 2 and 2 more lines): texture maps are not used",
+                "ignoring `Pr` statements (line 3): unknown MTL statement",
+                "ignoring `bump` statements (line 5): texture maps are not used",
+                "ignoring `Kd spectral` statements (line 7): spectral colours are not supported",
+                "ignoring `Ks spectral` statements (line 8): spectral colours are not supported",
+            ]
+        );
+        let (_, w) = parse("newmtl a\nkd 1 1 1\nnorm n.png\nnorm n.png\n");
+        assert_eq!(
+            w,
+            [
+                "ignoring `kd` statements (line 2): unknown MTL statement",
+                "ignoring `norm` statements (line 3 and 1 more line): texture maps are not used",
+            ],
+            "keywords are case-sensitive"
+        );
+    }
+
+    #[test]
+    fn dissolve_and_transmission() {
+        let (m, w) = parse(
+            "newmtl both\nTr 0.25\nd 0.5\nnewmtl tr\nTr 0.25\nnewmtl d_first\nd 0.9\nTr 0.3\n\
+             newmtl opaque_tr\nTr 1\nnewmtl glass\nTr 0.8\nillum 7\nTf 0.9 1 0.9\nnewmtl tf_grey\nTf 0.5\n",
+        );
+        let d: Vec<f32> = m.iter().map(|m| m.dissolve).collect();
+        assert_eq!(d, [0.5, 0.75, 0.9, 0.0, 1.0 - 0.8, 1.0]);
+        assert_eq!(
+            w,
+            ["material 'opaque_tr': Tr 1 (line 10) with illum 2 treated as d = 1 - Tr = 0"],
+            "Tr > 0.5 with illum < 4 warns; with illum 7 it does not"
+        );
+        assert_eq!((m[4].tf, m[4].has_tf, m[4].illum), (Vec3::new(0.9, 1.0, 0.9), true, 7));
+        assert_eq!((m[5].tf, m[5].has_tf), (Vec3::splat(0.5), true));
+        assert!(!m[0].has_tf);
+    }
+
+    #[test]
+    fn xyz_colours_become_linear_srgb() {
+        let (m, w) = parse("newmtl a\nKd xyz 0.9505 1.0 1.089\nKs xyz 0.5\nKe 2\n");
+        assert!(w.is_empty(), "{w:?}");
+        assert!((m[0].kd - Vec3::ONE).abs().max_element() < 1e-3, "{}", m[0].kd);
+        // One number means X = Y = Z.
+        let grey = xyz_to_linear_srgb(Vec3::splat(0.5));
+        assert_eq!(m[0].ks, grey);
+        assert!(
+            (grey - Vec3::new(0.6023, 0.4742, 0.4544)).abs().max_element() < 1e-3,
+            "{grey}"
+        );
+        assert_eq!(m[0].ke, Vec3::splat(2.0));
+        // Out of the sRGB gamut: clipped, never negative.
+        assert!(xyz_to_linear_srgb(Vec3::new(0.0, 1.0, 0.0)).min_element() >= 0.0);
+    }
+
+    #[test]
+    fn duplicates_and_empty_files() {
+        let (m, w) = parse("newmtl a\nKd 0.1\nnewmtl b\nnewmtl a\nKd 0.2\n");
+        assert_eq!(m.len(), 2);
+        assert_eq!((m[0].name.as_str(), m[0].kd), ("a", Vec3::splat(0.2)));
+        assert_eq!(w, ["material 'a' defined again (line 4): the later block wins"]);
+        for text in ["", "# only a comment\r\n\r\n", "map_Kd x.png\n"] {
+            let (m, w) = parse(text);
+            assert!(m.is_empty());
+            assert_eq!(
+                w.last().map(String::as_str),
+                Some("no materials (the file has no newmtl)"),
+                "{text:?}"
+            );
+        }
+        // A name with spaces is kept, joined by single spaces.
+        assert_eq!(parse("newmtl my \t mat\n").0[0].name, "my mat");
+    }
+
+    #[test]
+    fn written_materials_read_back_the_same() {
+        let glass = Material {
+            ks: Vec3::splat(0.1),
+            tf: Vec3::new(0.9, 0.95, 1.0),
+            has_tf: true,
+            ni: 1.5,
+            illum: 7,
+            ..Material::named("glass")
+        };
+        let light = Material {
+            ke: Vec3::new(17.0, 12.0, 4.0),
+            ..Material::named("light")
+        };
+        let text = write_mtl(&[glass.clone(), light.clone()], "test\ntwo lines");
+        let mut warnings = Vec::new();
+        assert_eq!(parse_mtl(&text, &mut warnings).unwrap(), vec![glass, light]);
+        assert!(warnings.is_empty(), "{warnings:?}");
+    }
+
+    #[test]
+    fn ni_zero_is_a_warning_and_means_one() {
+        let mut warnings = Vec::new();
+        let m = parse_mtl("newmtl a\nNi 0\nillum 7\n", &mut warnings).unwrap();
+        assert_eq!(m[0].ni, 1.0);
+        assert_eq!(warnings.len(), 1);
+        assert!(warnings[0].contains("Ni 0 (line 2)"), "{warnings:?}");
+    }
+}

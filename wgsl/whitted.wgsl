@@ -1,0 +1,628 @@
+// Kernel: Whitted ray tracing, one invocation per pixel; the GPU twin of
+// Whitted::whitted in src/raytrace/whitted.rs (with src/raytrace/optics.rs,
+// offset.rs, sphere.rs and ray_tree.rs's signature), written in the same
+// order of operations over the same data. src/raytrace/gpu.rs drives it.
+// Composed after sampling.wgsl and kdtree_traverse.wgsl.
+//
+// A pixel's samples are traced one after another; each sample's ray tree is
+// walked depth first with an explicit stack (WGSL has no recursion).
+//
+// records: the scene's surfaces (6 words4 each), lights (3) and spheres (2),
+//          one after another from params.lights_at / spheres_at; floats as
+//          their bits.
+// triangle_shading: 2 words4 per triangle: (surface, normal indices),
+//                   (object, face, -, -).
+// pixels: per pixel (radiance, signature, rays by kind).
+
+struct WhittedParams {
+    eye: vec3<f32>,
+    width: u32,
+    forward: vec3<f32>,
+    height: u32,
+    right: vec3<f32>,
+    spp: u32,
+    up: vec3<f32>,
+    seed: u32,
+    ambient: vec3<f32>,
+    max_depth: u32,
+    background: vec3<f32>,
+    flags: u32,
+    media: vec4<u32>,
+    media_len: u32,
+    light_count: u32,
+    sphere_count: u32,
+    transmissive: u32,
+    first_pixel: u32,
+    pixel_count: u32,
+    row_pitch: u32,
+    lights_at: u32,
+    spheres_at: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+struct PixelOut {
+    radiance: vec3<f32>,
+    signature: u32,
+    rays: vec4<u32>,
+}
+
+@group(1) @binding(0) var<uniform> params: WhittedParams;
+@group(1) @binding(1) var<storage, read> triangle_shading: array<vec4<u32>>;
+@group(1) @binding(2) var<storage, read> shading_normals: array<vec4<f32>>;
+@group(1) @binding(3) var<storage, read> records: array<vec4<u32>>;
+@group(1) @binding(4) var<storage, read_write> pixels: array<PixelOut>;
+
+const MAX_DEPTH: u32 = 16u;
+const STACK_SIZE: u32 = 17u;
+const MAX_MEDIA: u32 = 4u;
+const MAX_SHADOW_CROSSINGS: u32 = 16u;
+const FRESNEL: u32 = 1u;
+const LIT: u32 = 1u;
+const REFRACTS: u32 = 2u;
+const DIRECTIONAL: u32 = 1u;
+const NO_NORMAL: u32 = 0xffffffffu;
+const OFFSET_SCALE: f32 = 1.52587890625e-5; // 2^-16
+const MIN_POSITIVE: f32 = 1.17549435e-38;
+const FNV_OFFSET: u32 = 0x811c9dc5u;
+const FNV_PRIME: u32 = 0x01000193u;
+const KIND_PRIMARY: u32 = 0u;
+const KIND_REFLECTION: u32 = 1u;
+const KIND_REFRACTION: u32 = 2u;
+const CODE_FACES_AWAY: u32 = 0u;
+const CODE_VISIBLE: u32 = 1u;
+const CODE_BLOCKED: u32 = 2u;
+const CODE_FILTERED: u32 = 3u;
+
+struct Surface {
+    ka: vec3<f32>,
+    flags: u32,
+    kd: vec3<f32>,
+    ns: f32,
+    ks: vec3<f32>,
+    ni: f32,
+    kr: vec3<f32>,
+    kt: vec3<f32>,
+    ke: vec3<f32>,
+}
+
+fn load_surface(id: u32) -> Surface {
+    let b = id * 6u;
+    let r0 = records[b];
+    let r1 = records[b + 1u];
+    let r2 = records[b + 2u];
+    var s: Surface;
+    s.ka = bitcast<vec3<f32>>(r0.xyz);
+    s.flags = r0.w;
+    s.kd = bitcast<vec3<f32>>(r1.xyz);
+    s.ns = bitcast<f32>(r1.w);
+    s.ks = bitcast<vec3<f32>>(r2.xyz);
+    s.ni = bitcast<f32>(r2.w);
+    s.kr = bitcast<vec3<f32>>(records[b + 3u].xyz);
+    s.kt = bitcast<vec3<f32>>(records[b + 4u].xyz);
+    s.ke = bitcast<vec3<f32>>(records[b + 5u].xyz);
+    return s;
+}
+
+fn surface_ni(id: u32) -> f32 {
+    return bitcast<f32>(records[id * 6u + 2u].w);
+}
+
+struct Light {
+    position: vec3<f32>,
+    kind: u32,
+    intensity: vec3<f32>,
+    normal: vec3<f32>,
+}
+
+fn load_light(j: u32) -> Light {
+    let b = params.lights_at + j * 3u;
+    var l: Light;
+    l.position = bitcast<vec3<f32>>(records[b].xyz);
+    l.kind = records[b].w;
+    l.intensity = bitcast<vec3<f32>>(records[b + 1u].xyz);
+    l.normal = bitcast<vec3<f32>>(records[b + 2u].xyz);
+    return l;
+}
+
+fn sphere_center(k: u32) -> vec4<f32> {
+    return bitcast<vec4<f32>>(records[params.spheres_at + k * 2u]);
+}
+
+fn sphere_ids(k: u32) -> vec4<u32> {
+    return records[params.spheres_at + k * 2u + 1u];
+}
+
+// ---- optics.rs ----
+
+fn reflect_dir(d: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    return d - 2.0 * dot(d, n) * n;
+}
+
+// refract_dir: the refracted direction, or a zero vector under total
+// internal reflection.
+fn refract_dir(d: vec3<f32>, n: vec3<f32>, eta: f32) -> vec3<f32> {
+    if (eta == 1.0) {
+        return d;
+    }
+    let cos_i = -dot(d, n);
+    let sin2_t = eta * eta * max(1.0 - cos_i * cos_i, 0.0);
+    if (sin2_t >= 1.0) {
+        return vec3<f32>(0.0);
+    }
+    let cos_t = sqrt(1.0 - sin2_t);
+    return normalize(eta * d + (eta * cos_i - cos_t) * n);
+}
+
+fn schlick(cos_i: f32, n1: f32, n2: f32) -> f32 {
+    let q = (n1 - n2) / (n1 + n2);
+    let r0 = q * q;
+    var c = cos_i;
+    if (n1 > n2) {
+        let eta = n1 / n2;
+        let sin2_t = eta * eta * max(1.0 - cos_i * cos_i, 0.0);
+        if (sin2_t >= 1.0) {
+            return 1.0;
+        }
+        c = sqrt(1.0 - sin2_t);
+    }
+    let m = clamp(1.0 - c, 0.0, 1.0);
+    return r0 + (1.0 - r0) * m * m * m * m * m;
+}
+
+fn schlick_mirror(cos_i: f32, r0: vec3<f32>) -> vec3<f32> {
+    let m = clamp(1.0 - cos_i, 0.0, 1.0);
+    return r0 + (vec3<f32>(1.0) - r0) * (m * m * m * m * m);
+}
+
+// ---- offset.rs ----
+
+fn max_abs(v: vec3<f32>) -> f32 {
+    let a = abs(v);
+    return max(a.x, max(a.y, a.z));
+}
+
+fn offset_point(p: vec3<f32>, n: vec3<f32>, magnitude: f32) -> vec3<f32> {
+    let m = max(magnitude, max_abs(p));
+    return p + n * max(m * OFFSET_SCALE, MIN_POSITIVE);
+}
+
+// ---- sphere.rs ----
+
+// intersect_sphere: the nearest t in (0, t_max), or -1.
+fn intersect_sphere(center: vec3<f32>, radius: f32, o: vec3<f32>, d: vec3<f32>, t_max: f32) -> f32 {
+    let f = o - center;
+    let a = dot(d, d);
+    let h = -dot(f, d);
+    let l = f + (h / a) * d;
+    let disc = a * (radius - length(l)) * (radius + length(l));
+    if (disc < 0.0) {
+        return -1.0;
+    }
+    let q = h + select(-sqrt(disc), sqrt(disc), h >= 0.0);
+    let c = dot(f, f) - radius * radius;
+    var t0 = c / q;
+    var t1 = q / a;
+    if (t0 > t1) {
+        let tmp = t0;
+        t0 = t1;
+        t1 = tmp;
+    }
+    if (t0 > 0.0 && t0 < t_max) {
+        return t0;
+    }
+    if (t1 > 0.0 && t1 < t_max) {
+        return t1;
+    }
+    return -1.0;
+}
+
+// ---- ray_tree.rs ----
+
+fn fnv_word(h: u32, word: u32) -> u32 {
+    return (h ^ word) * FNV_PRIME;
+}
+
+// ---- whitted.rs ----
+
+struct Media {
+    ids: vec4<u32>,
+    len: u32,
+}
+
+fn media_push(m_in: Media, id: u32) -> Media {
+    var m = m_in;
+    if (m.len < MAX_MEDIA) {
+        m.ids[m.len] = id;
+        m.len = m.len + 1u;
+    }
+    return m;
+}
+
+fn media_remove(m_in: Media, id: u32) -> Media {
+    var m = m_in;
+    var k = m.len;
+    while (k > 0u) {
+        k = k - 1u;
+        if (m.ids[k] == id) {
+            for (var i = k; i + 1u < m.len; i = i + 1u) {
+                m.ids[i] = m.ids[i + 1u];
+            }
+            m.len = m.len - 1u;
+            return m;
+        }
+    }
+    return m;
+}
+
+fn media_ni(m: Media) -> f32 {
+    if (m.len == 0u) {
+        return 1.0;
+    }
+    return surface_ni(m.ids[m.len - 1u]);
+}
+
+struct PathRay {
+    origin: vec3<f32>,
+    depth: u32,
+    dir: vec3<f32>,
+    kind: u32,
+    weight: vec3<f32>,
+    media: Media,
+}
+
+// Closest hit (t, primitive); primitive = MISS_INDEX for none.
+struct Closest {
+    t: f32,
+    primitive: u32,
+}
+
+fn triangle_count() -> u32 {
+    return kd_scene.triangle_count;
+}
+
+fn closest(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Closest {
+    let tri = kd_traverse(o, d, t_max, false);
+    var best: Closest;
+    best.primitive = tri.triangle;
+    best.t = select(t_max, tri.t, tri.triangle != MISS_INDEX);
+    let n = triangle_count();
+    for (var k = 0u; k < params.sphere_count; k = k + 1u) {
+        let c = sphere_center(k);
+        let t = intersect_sphere(c.xyz, c.w, o, d, best.t);
+        if (t > 0.0) {
+            best.t = t;
+            best.primitive = n + k;
+        }
+    }
+    return best;
+}
+
+fn any_hit(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
+    if (kd_traverse(o, d, t_max, true).triangle != MISS_INDEX) {
+        return true;
+    }
+    for (var k = 0u; k < params.sphere_count; k = k + 1u) {
+        let c = sphere_center(k);
+        if (intersect_sphere(c.xyz, c.w, o, d, t_max) > 0.0) {
+            return true;
+        }
+    }
+    return false;
+}
+
+struct SurfaceHit {
+    point: vec3<f32>,
+    geometric: vec3<f32>,
+    shading: vec3<f32>,
+    surface: u32,
+    object: u32,
+    face: u32,
+    magnitude: f32,
+}
+
+fn hit_info(o: vec3<f32>, d: vec3<f32>, t: f32, primitive: u32) -> SurfaceHit {
+    var h: SurfaceHit;
+    let n_tri = triangle_count();
+    if (primitive >= n_tri) {
+        let k = primitive - n_tri;
+        let c = sphere_center(k);
+        let ids = sphere_ids(k);
+        let n = normalize(o + t * d - c.xyz);
+        h.point = c.xyz + c.w * n;
+        h.geometric = n;
+        h.shading = n;
+        h.surface = ids.x;
+        h.object = ids.y;
+        h.face = 0u;
+        h.magnitude = max_abs(c.xyz) + c.w;
+        return h;
+    }
+    let v0 = kd_vertex(primitive, 0u);
+    let v1 = kd_vertex(primitive, 1u);
+    let v2 = kd_vertex(primitive, 2u);
+    let e1 = v1 - v0;
+    let e2 = v2 - v0;
+    let vp = o + t * d - v0;
+    let d00 = dot(e1, e1);
+    let d01 = dot(e1, e2);
+    let d11 = dot(e2, e2);
+    let d20 = dot(vp, e1);
+    let d21 = dot(vp, e2);
+    let denom = d00 * d11 - d01 * d01;
+    var b1 = 0.0;
+    var b2 = 0.0;
+    if (denom > 0.0) {
+        b1 = clamp((d11 * d20 - d01 * d21) / denom, 0.0, 1.0);
+        b2 = clamp((d00 * d21 - d01 * d20) / denom, 0.0, 1.0 - b1);
+    }
+    let b0 = 1.0 - b1 - b2;
+    let scale = max(max_abs(e1), max_abs(e2));
+    let geometric = normalize(cross(e1 / scale, e2 / scale));
+    let info = triangle_shading[primitive * 2u];
+    let ids = triangle_shading[primitive * 2u + 1u];
+    var shading = geometric;
+    if (info.y != NO_NORMAL) {
+        let s = b0 * shading_normals[info.y].xyz + b1 * shading_normals[info.z].xyz + b2 * shading_normals[info.w].xyz;
+        if (dot(s, s) > 0.0) {
+            shading = normalize(s);
+            if (dot(shading, geometric) < 0.0) {
+                shading = -shading;
+            }
+        }
+    }
+    h.point = v0 + b1 * e1 + b2 * e2;
+    h.geometric = geometric;
+    h.shading = shading;
+    h.surface = info.x;
+    h.object = ids.x;
+    h.face = ids.y;
+    h.magnitude = max(max_abs(v0), max(max_abs(v1), max_abs(v2)));
+    return h;
+}
+
+// Shadow rays traced by the last light_term / transmittance call.
+var<private> shadow_rays: u32;
+
+// What reaches the end of the shadow ray o + t d, 0 < t < t_max: the
+// filter in xyz and the light's code in w.
+fn transmittance(o: vec3<f32>, d: vec3<f32>, t_max: f32, finite: bool) -> vec4<f32> {
+    if (params.transmissive == 0u) {
+        shadow_rays = shadow_rays + 1u;
+        if (any_hit(o, d, t_max)) {
+            return vec4<f32>(0.0, 0.0, 0.0, f32(CODE_BLOCKED));
+        }
+        return vec4<f32>(1.0, 1.0, 1.0, f32(CODE_VISIBLE));
+    }
+    let end = o + d * select(1.0, t_max, finite);
+    var origin = o;
+    var dir = d;
+    var filt = vec3<f32>(1.0);
+    var code = CODE_VISIBLE;
+    for (var k = 0u; k < MAX_SHADOW_CROSSINGS; k = k + 1u) {
+        shadow_rays = shadow_rays + 1u;
+        let c = closest(origin, dir, t_max);
+        if (c.primitive == MISS_INDEX) {
+            return vec4<f32>(filt, f32(code));
+        }
+        let hit = hit_info(origin, dir, c.t, c.primitive);
+        let surf = load_surface(hit.surface);
+        if (max(surf.kt.x, max(surf.kt.y, surf.kt.z)) <= 0.0) {
+            return vec4<f32>(0.0, 0.0, 0.0, f32(CODE_BLOCKED));
+        }
+        filt = filt * surf.kt;
+        code = CODE_FILTERED;
+        let through = select(-hit.geometric, hit.geometric, dot(dir, hit.geometric) > 0.0);
+        origin = offset_point(hit.point, through, hit.magnitude);
+        if (finite) {
+            dir = end - origin;
+        }
+    }
+    return vec4<f32>(0.0, 0.0, 0.0, f32(CODE_BLOCKED));
+}
+
+// Light j's radiance (xyz) and code (w) at the lifted point.
+fn light_term(j: u32, lifted: vec3<f32>, n_g: vec3<f32>, n_s: vec3<f32>, d: vec3<f32>, surf: Surface) -> vec4<f32> {
+    let light = load_light(j);
+    var l: vec3<f32>;
+    var dist2 = 1.0;
+    var start = lifted;
+    var dir: vec3<f32>;
+    var t_max = T_INFINITE;
+    let directional = light.kind == DIRECTIONAL;
+    if (directional) {
+        l = -light.position;
+        dir = l;
+    } else {
+        let to = light.position - lifted;
+        dist2 = dot(to, to);
+        l = to / sqrt(dist2);
+        start = light.position;
+        dir = -to;
+        t_max = 1.0;
+    }
+    let cos_p = dot(n_s, l);
+    if (dot(n_g, l) <= 0.0 || cos_p <= 0.0) {
+        return vec4<f32>(0.0, 0.0, 0.0, f32(CODE_FACES_AWAY));
+    }
+    var emitted = 1.0;
+    if (any(light.normal != vec3<f32>(0.0))) {
+        emitted = -dot(light.normal, l);
+        if (emitted <= 0.0) {
+            return vec4<f32>(0.0, 0.0, 0.0, f32(CODE_FACES_AWAY));
+        }
+    }
+    let seen = transmittance(start, dir, t_max, !directional);
+    if (u32(seen.w) == CODE_BLOCKED) {
+        return seen;
+    }
+    let e = light.intensity * (emitted / dist2);
+    let h = normalize(l - d);
+    let n_h = dot(n_s, h);
+    var spec = vec3<f32>(0.0);
+    if (n_h > 0.0) {
+        spec = surf.ks * pow(n_h, surf.ns);
+    }
+    return vec4<f32>(seen.xyz * e * (surf.kd * cos_p + spec), seen.w);
+}
+
+struct RayOut {
+    radiance: vec3<f32>,
+    signature: u32,
+    rays: vec4<u32>,
+}
+
+fn shade(o: vec3<f32>, d: vec3<f32>, media: Media) -> RayOut {
+    var stack: array<PathRay, STACK_SIZE>;
+    stack[0] = PathRay(o, 0u, d, KIND_PRIMARY, vec3<f32>(1.0), media);
+    var len = 1u;
+    var out: RayOut;
+    out.radiance = vec3<f32>(0.0);
+    out.signature = FNV_OFFSET;
+    out.rays = vec4<u32>(0u);
+    let fresnel = (params.flags & FRESNEL) != 0u;
+    while (len > 0u) {
+        len = len - 1u;
+        let ray = stack[len];
+        // Slots: primary 0, shadow 1, reflection 2, refraction 3.
+        out.rays[select(ray.kind + 1u, 0u, ray.kind == KIND_PRIMARY)] += 1u;
+        var sig = fnv_word(out.signature, ray.kind | (ray.depth << 2u));
+        let c = closest(ray.origin, ray.dir, T_INFINITE);
+        if (c.primitive == MISS_INDEX) {
+            out.radiance = out.radiance + ray.weight * params.background;
+            sig = fnv_word(fnv_word(fnv_word(sig, MISS_INDEX), MISS_INDEX), MISS_INDEX);
+            out.signature = fnv_word(sig, 0u);
+            continue;
+        }
+        let hit = hit_info(ray.origin, ray.dir, c.t, c.primitive);
+        sig = fnv_word(fnv_word(fnv_word(sig, hit.object), hit.face), hit.surface);
+        let surf = load_surface(hit.surface);
+        let front = dot(ray.dir, hit.geometric) < 0.0;
+        let n_g = select(-hit.geometric, hit.geometric, front);
+        var n_s = select(-hit.shading, hit.shading, front);
+        if (dot(n_s, ray.dir) >= 0.0) {
+            n_s = n_g;
+        }
+        let lifted = offset_point(hit.point, n_g, hit.magnitude);
+        var local = surf.ke;
+        if ((surf.flags & LIT) != 0u) {
+            local = local + surf.ka * params.ambient;
+            for (var j = 0u; j < params.light_count; j = j + 1u) {
+                shadow_rays = 0u;
+                let term = light_term(j, lifted, n_g, n_s, ray.dir, surf);
+                out.rays.y += shadow_rays;
+                sig = fnv_word(sig, (j << 2u) | u32(term.w));
+                local = local + term.xyz;
+            }
+        } else {
+            local = local + surf.kd;
+        }
+        out.radiance = out.radiance + ray.weight * local;
+
+        var reflected = false;
+        var refracted = false;
+        var tir = false;
+        if (ray.depth < params.max_depth) {
+            var kr = surf.kr;
+            var kt = surf.kt;
+            let cos_i = -dot(ray.dir, n_s);
+            let refracts = (surf.flags & REFRACTS) != 0u;
+            var t_dir = vec3<f32>(0.0);
+            var inner = ray.media;
+            var transmits = false;
+            if (refracts && max(kt.x, max(kt.y, kt.z)) > 0.0) {
+                var n1: f32;
+                var n2: f32;
+                if (front) {
+                    n1 = media_ni(ray.media);
+                    n2 = surf.ni;
+                    inner = media_push(ray.media, hit.surface);
+                } else {
+                    inner = media_remove(ray.media, hit.surface);
+                    n1 = surf.ni;
+                    n2 = media_ni(inner);
+                }
+                let eta = n1 / n2;
+                if (fresnel) {
+                    let f = schlick(cos_i, n1, n2);
+                    kr = vec3<f32>(f);
+                    kt = kt * (1.0 - f);
+                }
+                t_dir = refract_dir(ray.dir, n_s, eta);
+                if (any(t_dir != vec3<f32>(0.0)) && dot(t_dir, n_g) >= 0.0) {
+                    t_dir = refract_dir(ray.dir, n_g, eta);
+                }
+                if (all(t_dir == vec3<f32>(0.0))) {
+                    tir = true;
+                    kr = min(kr + kt, vec3<f32>(1.0));
+                    kt = vec3<f32>(0.0);
+                } else {
+                    transmits = true;
+                }
+            } else if (max(kt.x, max(kt.y, kt.z)) > 0.0) {
+                t_dir = ray.dir;
+                transmits = true;
+            }
+            if (!refracts && fresnel && max(kr.x, max(kr.y, kr.z)) > 0.0) {
+                kr = schlick_mirror(cos_i, kr);
+            }
+            if (max(kr.x, max(kr.y, kr.z)) > 0.0) {
+                var r = reflect_dir(ray.dir, n_s);
+                if (dot(r, n_g) <= 0.0) {
+                    r = reflect_dir(ray.dir, n_g);
+                }
+                stack[len] = PathRay(lifted, ray.depth + 1u, r, KIND_REFLECTION, ray.weight * kr, ray.media);
+                len = len + 1u;
+                reflected = true;
+            }
+            if (transmits && max(kt.x, max(kt.y, kt.z)) > 0.0) {
+                let origin = offset_point(hit.point, -n_g, hit.magnitude);
+                stack[len] = PathRay(origin, ray.depth + 1u, t_dir, KIND_REFRACTION, ray.weight * kt, inner);
+                len = len + 1u;
+                refracted = true;
+            }
+        }
+        out.signature = fnv_word(sig, u32(reflected) | (u32(refracted) << 1u) | (u32(tir) << 2u));
+    }
+    return out;
+}
+
+// pixel_ray: the direction of sample `sample` of pixel `pixel`.
+fn pixel_dir(pixel: u32, sample: u32) -> vec3<f32> {
+    let x = pixel % params.width;
+    let y = pixel / params.width;
+    var j = vec2<f32>(0.5, 0.5);
+    if (params.spp != 1u) {
+        j = sequence_sample(params.seed, pixel, sample);
+    }
+    let sx = 2.0 * (f32(x) + j.x) / f32(params.width) - 1.0;
+    let sy = 1.0 - 2.0 * (f32(y) + j.y) / f32(params.height);
+    return normalize(params.forward + sx * params.right + sy * params.up);
+}
+
+@compute @workgroup_size(64)
+fn whitted(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = gid.x + gid.y * params.row_pitch;
+    if (k >= params.pixel_count) {
+        return;
+    }
+    let pixel = params.first_pixel + k;
+    var media: Media;
+    media.ids = params.media;
+    media.len = params.media_len;
+    var sum = vec3<f32>(0.0);
+    var out: PixelOut;
+    out.signature = 0u;
+    out.rays = vec4<u32>(0u);
+    for (var s = 0u; s < params.spp; s = s + 1u) {
+        let r = shade(params.eye, pixel_dir(pixel, s), media);
+        sum = sum + r.radiance;
+        if (s == 0u) {
+            out.signature = r.signature;
+        }
+        out.rays = out.rays + r.rays;
+    }
+    out.radiance = sum / f32(params.spp);
+    pixels[k] = out;
+}
