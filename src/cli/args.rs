@@ -196,6 +196,10 @@ pub fn flag(name: &str) -> Option<&'static str> {
         "repeat" => "--repeat",
         "scene" => "--scene",
         "device" => "--device",
+        "max_depth" => "--max-depth",
+        "light_samples" => "--light-samples",
+        "pixel" => "--ray-tree",
+        "out" => "--out",
         _ => return None,
     })
 }

@@ -223,6 +223,7 @@ pub fn run(args: &RaytraceArgs) -> Result<Value> {
         "spp": settings.spp,
         "fresnel": settings.fresnel,
         "build_ms": renderer.build_ms,
+        "prepare_ms": renderer.prepare_ms,
         "triangles": scene.mesh.triangles.len(),
         "spheres": scene.spheres.len(),
         "lights": scene.lights.len(),

@@ -21,7 +21,7 @@ use crate::mlrta::tiles::{Group, Rect, block_rects, pixels, search_below, trace_
 use crate::mlrta::{MlrtaCounts, MlrtaParams, Prepared, trace_image};
 use crate::ray::{Hit, Ray};
 use crate::raytrace::lights::DIRECTIONAL;
-use crate::raytrace::whitted::{FirstHit, Media, PixelOut, Whitted, pixel_ray};
+use crate::raytrace::whitted::{Facing, FirstHit, Media, PixelOut, Whitted, pixel_ray};
 
 /// Side of the tiles whose shadow rays share an entry point per light.
 const SHADOW_TILE: u32 = 16;
@@ -109,19 +109,23 @@ fn shade_tile(
     let p = w.params;
     let ids: Vec<u32> = pixels(rect, p.width).collect();
     let lights = p.light_count as usize;
+    // Each pixel's primary hit (the packets' triangle or a nearer sphere).
+    let found: Vec<Option<Facing>> = ids
+        .iter()
+        .map(|&i| {
+            let r = &rays[i as usize];
+            let (t, primitive) = w.closest(r.o(), r.d(), f32::INFINITY, Some(hits[i as usize]))?;
+            Some(w.facing(r.o(), r.d(), t, primitive))
+        })
+        .collect();
     // Per pixel and light: whether triangles block its shadow ray (None:
     // left to the twin).
     let mut blocked = vec![None; ids.len() * lights];
     // Packets only where shadow rays stop at the first occluder.
     if p.transmissive == 0 {
-        let lifted: Vec<Option<_>> = ids
+        let lifted: Vec<Option<&Facing>> = found
             .iter()
-            .map(|&i| {
-                let r = &rays[i as usize];
-                let (t, primitive) = w.closest(r.o(), r.d(), f32::INFINITY, Some(hits[i as usize]))?;
-                let f = w.facing(r.o(), r.d(), t, primitive);
-                w.scene.surface(f.hit.surface).lit().then_some(f)
-            })
+            .map(|f| f.as_ref().filter(|f| w.scene.surface(f.hit.surface).lit()))
             .collect();
         for (j, light) in w.scene.lights[..lights].iter().enumerate() {
             if light.kind == DIRECTIONAL {
@@ -131,7 +135,7 @@ fn shade_tile(
             let target: Vec<Option<Vec3>> = lifted
                 .iter()
                 .map(|f| {
-                    let f = f.as_ref()?;
+                    let f = (*f)?;
                     w.light_geometry(light, f.lifted, f.n_g, f.n_s).map(|g| g.dir)
                 })
                 .collect();
@@ -184,7 +188,7 @@ fn shade_tile(
         .map(|(k, &i)| {
             let r = &rays[i as usize];
             let first = FirstHit {
-                hit: hits[i as usize],
+                facing: found[k],
                 blocked: &blocked[k * lights..(k + 1) * lights],
             };
             let out = w.shade(r.o(), r.d(), media, Some(&first), None);

@@ -16,6 +16,7 @@ use crate::device::{Device, GpuOutput, OnDevice, Timing};
 use crate::error::{Error, Result};
 use crate::kdtree::KdTree;
 use crate::kdtree::gpu::GpuKdTree;
+use crate::mlrta::prepared::PreparedTables;
 use crate::mlrta::runner::mrays_per_s;
 use crate::mlrta::{MlrtaParams, Prepared};
 use crate::progress::{Bars, Progress};
@@ -144,9 +145,13 @@ pub struct GpuWhitted {
 pub struct WhittedRenderer {
     scene: RenderScene,
     tree: KdTree,
+    /// The CPU packets' tables over `tree`, prepared on first use.
+    prepared: Option<PreparedTables>,
     gpu: OnDevice<GpuWhitted>,
     /// The kd-tree's build time.
     pub build_ms: f64,
+    /// Preparing the CPU packets' tables (occluders, closed objects) once.
+    pub prepare_ms: f64,
 }
 
 impl WhittedRenderer {
@@ -159,10 +164,20 @@ impl WhittedRenderer {
             pass.pass.prepare_scene(&ctx.device, &ctx.queue, &scene)?;
             Ok(GpuWhitted { tree, pass })
         })?;
+        // The CPU path's packets need the tree's occluders; prepared once
+        // here, not in the first image's time.
+        let (prepared, prepare_ms) = if gpu.state().is_none() {
+            let (p, stats) = Prepared::new(&tree, &scene.mesh);
+            (Some(p.into_tables()), stats.prepare_ms)
+        } else {
+            (None, 0.0)
+        };
         Ok(WhittedRenderer {
             build_ms: tree.stats.build_ms,
+            prepare_ms,
             scene,
             tree,
+            prepared,
             gpu,
         })
     }
@@ -258,7 +273,7 @@ impl WhittedRenderer {
         progress: &Progress,
     ) -> Result<Rendered> {
         let params = self.params(camera, width, height, settings)?;
-        let (scene, tree) = (&self.scene, &self.tree);
+        let (scene, tree, tables) = (&self.scene, &self.tree, &mut self.prepared);
         let twin = Whitted {
             scene,
             tree,
@@ -273,14 +288,19 @@ impl WhittedRenderer {
             },
             || {
                 if settings.packets {
-                    let (prepared, _) = Prepared::new(tree, &scene.mesh);
+                    let prepared = match tables.take() {
+                        Some(t) => Prepared::from_tables(tree, t),
+                        None => Prepared::new(tree, &scene.mesh).0,
+                    };
                     // Corner rays bound a tile's rays only through pixel
                     // centres; jittered edge pixels may leave that frustum.
                     let mlrta = MlrtaParams {
                         corner_frusta: settings.spp == 1,
                         ..MlrtaParams::default()
                     };
-                    Ok(render_packets(&twin, &prepared, &mlrta)?.0)
+                    let pixels = render_packets(&twin, &prepared, &mlrta);
+                    *tables = Some(prepared.into_tables());
+                    Ok(pixels?.0)
                 } else {
                     use rayon::prelude::*;
                     Ok((0..width * height)

@@ -129,12 +129,15 @@ mod tests {
     #[test]
     fn small_distant_spheres_are_hit_precisely() {
         // A sphere of radius 1e-3 at 1e4: the naive discriminant b^2 - c
-        // cancels 1e8 against 1e8; the distance form does not.
+        // cancels 1e8 against 1e8 (an ulp of 1e8 is 8, the answer 2e-7);
+        // the distance form sees the ray pass 9e-4 from the centre (a hit)
+        // or 1.1e-3 (a miss), and t is right to an ulp of 1e4.
         let c = Vec3::new(0.0, 0.0, -1e4);
-        let d = Vec3::new(0.9e-7, 0.0, -1.0).normalize();
-        let t = intersect_sphere(c, 1e-3, Vec3::ZERO, d, f32::INFINITY).expect("hit");
-        let p = t * d;
-        assert!(((p - c).length() - 1e-3).abs() < 2e-6, "{}", (p - c).length());
+        let hit = Vec3::new(0.9e-7, 0.0, -1.0).normalize();
+        let t = intersect_sphere(c, 1e-3, Vec3::ZERO, hit, f32::INFINITY).expect("hit");
+        assert!((t - (1e4 - 4.36e-4)).abs() < 2e-3, "{t}");
+        let miss = Vec3::new(1.1e-7, 0.0, -1.0).normalize();
+        assert_eq!(intersect_sphere(c, 1e-3, Vec3::ZERO, miss, f32::INFINITY), None);
     }
 
     #[test]

@@ -151,11 +151,11 @@ pub struct Whitted<'a> {
     pub params: &'a WhittedParams,
 }
 
-/// The primary ray's hits found elsewhere (MLRTA packets): its closest
-/// triangle, and per light whether triangles block the shadow ray (`None`:
-/// not traced there).
+/// The primary ray's hits found elsewhere (MLRTA packets): its closest hit
+/// as the ray sees it (`None`: a miss), and per light whether triangles
+/// block the shadow ray (`None`: not traced there).
 pub struct FirstHit<'a> {
-    pub hit: Hit,
+    pub facing: Option<Facing>,
     pub blocked: &'a [Option<bool>],
 }
 
@@ -290,19 +290,25 @@ impl Whitted<'_> {
                 t.nodes.len() as u32 - 1
             });
             let mut sig = fnv_word(out.signature, ray_word(ray.kind, ray.depth));
-            let Some(hit) = self.closest(ray.origin, ray.dir, f32::INFINITY, given.map(|g| g.hit)) else {
-                out.radiance += ray.weight * Vec3::from_array(p.background);
-                sig = fnv_word(fnv_word(fnv_word(sig, MISS), MISS), MISS);
-                out.signature = fnv_word(sig, children_word(false, false, false));
-                continue;
+            let found = match given {
+                Some(g) => g.facing,
+                None => self
+                    .closest(ray.origin, ray.dir, f32::INFINITY, None)
+                    .map(|(t, primitive)| self.facing(ray.origin, ray.dir, t, primitive)),
             };
-            let Facing {
+            let Some(Facing {
                 hit,
                 front,
                 n_g,
                 n_s,
                 lifted,
-            } = self.facing(ray.origin, ray.dir, hit.0, hit.1);
+            }) = found
+            else {
+                out.radiance += ray.weight * Vec3::from_array(p.background);
+                sig = fnv_word(fnv_word(fnv_word(sig, MISS), MISS), MISS);
+                out.signature = fnv_word(sig, children_word(false, false, false));
+                continue;
+            };
             sig = fnv_word(fnv_word(fnv_word(sig, hit.object), hit.face), hit.surface);
             let surf = self.scene.surface(hit.surface);
             let mut local = Vec3::from_array(surf.ke);

@@ -24,6 +24,9 @@ pub const NO_NORMAL: u32 = u32::MAX;
 /// The smoothing group of faces no `s` statement came before.
 pub const SMOOTH_DEFAULT: u32 = u32::MAX;
 
+/// Unknown `usemtl` names warned about one by one; the rest in one warning.
+const UNKNOWN_USEMTL_SHOWN: usize = 3;
+
 /// A triangle no `usemtl` statement (with a name) came before.
 const NO_USEMTL: u32 = u32::MAX;
 
@@ -442,17 +445,26 @@ fn with_materials(parsed: Parsed, mtl_dir: Option<&Path>) -> Result<ObjFile> {
             }
         }
     }
-    for (name, line) in &parsed.usemtl {
-        if !library.contains_key(name) {
-            let why = if mtl_dir.is_some() {
-                "no MTL file defines it"
-            } else {
-                "MTL files are not read"
-            };
-            warnings.push(format!(
-                "usemtl '{name}' (line {line}): {why}; faces use the default material"
-            ));
-        }
+    let unknown: Vec<&(String, usize)> = parsed.usemtl.iter().filter(|(n, _)| !library.contains_key(n)).collect();
+    let why = if mtl_dir.is_some() {
+        "no MTL file defines it"
+    } else {
+        "MTL files are not read"
+    };
+    // A missing MTL file leaves every name unknown: a few warnings, then one
+    // that counts the rest.
+    for (name, line) in unknown.iter().take(UNKNOWN_USEMTL_SHOWN) {
+        warnings.push(format!(
+            "usemtl '{name}' (line {line}): {why}; faces use the default material"
+        ));
+    }
+    if unknown.len() > UNKNOWN_USEMTL_SHOWN {
+        warnings.push(format!(
+            "{} more usemtl names that {why} (the first: '{}', line {}); their faces use the default material",
+            unknown.len() - UNKNOWN_USEMTL_SHOWN,
+            unknown[UNKNOWN_USEMTL_SHOWN].0,
+            unknown[UNKNOWN_USEMTL_SHOWN].1
+        ));
     }
 
     let mut materials = vec![Material::default_surface()];
@@ -1064,17 +1076,29 @@ mod tests {
         std::fs::remove_file(&mtl).unwrap();
         let f = load_obj_file(&path).unwrap();
         assert!(f.triangle_materials.iter().all(|&m| m == 0));
-        assert_eq!(f.warnings.len(), 1 + 8, "{:?}", f.warnings);
+        assert_eq!(f.warnings.len(), 1 + 3 + 1, "{:?}", f.warnings);
         assert_eq!(
             f.warnings[0],
             "mtllib 'CornellBox-Original.mtl' not found (line 12): faces use the default material"
         );
-        // The shared copy, where there is one.
-        let shared = Path::new("/work/shared/data/scenes/CornellBox-Original.obj");
-        if shared.exists() {
-            let f = load_obj_file(shared).unwrap();
+        // The shared copy, where the data set is given.
+        if let Some(data) = std::env::var_os("PENUMBRA_DATA") {
+            let shared = Path::new(&data).join("scenes/CornellBox-Original.obj");
+            let f = load_obj_file(&shared).unwrap();
             check_cornell(&f);
             assert_eq!(f.warnings.len(), 1, "{:?}", f.warnings);
         }
+    }
+
+    #[test]
+    fn many_unknown_material_names_are_counted_not_listed() {
+        let mut text = String::from(TRIANGLE);
+        for k in 0..10 {
+            text += &format!("usemtl m{k}\nf 1 2 3\n");
+        }
+        let f = obj(&text);
+        assert_eq!(f.warnings.len(), 4, "{:?}", f.warnings);
+        assert!(f.warnings[3].starts_with("7 more usemtl names"), "{:?}", f.warnings);
+        assert!(f.warnings[3].contains("'m3'"), "{:?}", f.warnings);
     }
 }
