@@ -24,69 +24,20 @@
 //!
 //! `benches/whitted_table.rs` splits the rates by kind of ray.
 
+mod common;
+
+use common::raytrace::{BenchScene, load_scenes};
 use std::hint::black_box;
-use std::path::Path;
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
-use glam::Vec3;
 use penumbra::device::Device;
 use penumbra::gpu::GpuContext;
 use penumbra::progress::{Bars, Progress};
-use penumbra::raytrace::scenes::shipped_scenes;
 use penumbra::raytrace::{LightingOptions, RenderScene, WhittedRenderer, WhittedSettings};
-use penumbra::scene::{Camera, Scene, load_obj_file, load_scene_shaded};
 
 /// Side of the images.
 const SIZE: u32 = 512;
-
-/// A scene to render and its camera.
-struct BenchScene {
-    name: String,
-    scene: Scene,
-    camera: Camera,
-}
-
-/// The shipped scenes, and the Cornell box of `PENUMBRA_DATA` if set.
-fn load_scenes() -> Vec<BenchScene> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/raytrace");
-    let mut scenes: Vec<BenchScene> = shipped_scenes()
-        .iter()
-        .map(|s| {
-            let path = dir.join(s.scene_file());
-            let scene = load_scene_shaded(&path).unwrap_or_else(|e| panic!("loading {}: {e}", path.display()));
-            let camera = scene
-                .camera
-                .unwrap_or_else(|| panic!("{} has no camera", path.display()));
-            BenchScene {
-                name: s.name.to_string(),
-                scene,
-                camera,
-            }
-        })
-        .collect();
-    match std::env::var_os("PENUMBRA_DATA") {
-        Some(data) => {
-            let path = Path::new(&data).join("scenes/CornellBox-Original.obj");
-            if path.is_file() {
-                let obj = load_obj_file(&path).unwrap_or_else(|e| panic!("loading {}: {e}", path.display()));
-                scenes.push(BenchScene {
-                    name: "CornellBox-Original".to_string(),
-                    scene: Scene::from_obj_file("CornellBox-Original", &path, obj),
-                    camera: Camera {
-                        eye: Vec3::new(0.0, 1.0, 3.5),
-                        target: Vec3::new(0.0, 1.0, 0.0),
-                        fov_degrees: 40.0,
-                    },
-                });
-            } else {
-                eprintln!("note: {} not found; skipping it", path.display());
-            }
-        }
-        None => eprintln!("note: PENUMBRA_DATA is not set; the shipped scenes only (no CornellBox-Original)"),
-    }
-    scenes
-}
 
 fn renderer(device: &Device, s: &BenchScene) -> WhittedRenderer {
     let scene = RenderScene::new(&s.scene, 0, &LightingOptions::default())

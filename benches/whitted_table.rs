@@ -17,16 +17,17 @@
 //! `WHITTED_TABLE_QUICK=1`: 128x128, one repeat, written to
 //! `target/whitted-speed-quick.md` instead (tests the script).
 
-use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+mod common;
 
-use glam::Vec3;
+use common::raytrace::{BenchScene, load_scenes};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
 use penumbra::device::{Device, Timing};
 use penumbra::gpu::GpuContext;
 use penumbra::progress::{Bars, Progress};
-use penumbra::raytrace::scenes::shipped_scenes;
 use penumbra::raytrace::{LightingOptions, RayCounts, RenderScene, WhittedRenderer, WhittedSettings};
-use penumbra::scene::{Camera, Scene, load_obj_file, load_scene_shaded};
+use penumbra::scene::Camera;
 use rayon::ThreadPool;
 
 /// Renders per measurement (the fastest is kept).
@@ -35,54 +36,6 @@ const REPEAT: usize = 5;
 const SIZE: u32 = 512;
 /// Max depth of the whole render (C).
 const FULL_DEPTH: u32 = 5;
-
-/// A scene to render and its camera.
-struct BenchScene {
-    name: String,
-    scene: Scene,
-    camera: Camera,
-}
-
-/// The shipped scenes, and the Cornell box of `PENUMBRA_DATA` if set.
-fn load_scenes() -> Vec<BenchScene> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/raytrace");
-    let mut scenes: Vec<BenchScene> = shipped_scenes()
-        .iter()
-        .map(|s| {
-            let path = dir.join(s.scene_file());
-            let scene = load_scene_shaded(&path).unwrap_or_else(|e| panic!("loading {}: {e}", path.display()));
-            let camera = scene
-                .camera
-                .unwrap_or_else(|| panic!("{} has no camera", path.display()));
-            BenchScene {
-                name: s.name.to_string(),
-                scene,
-                camera,
-            }
-        })
-        .collect();
-    match std::env::var_os("PENUMBRA_DATA") {
-        Some(data) => {
-            let path = Path::new(&data).join("scenes/CornellBox-Original.obj");
-            if path.is_file() {
-                let obj = load_obj_file(&path).unwrap_or_else(|e| panic!("loading {}: {e}", path.display()));
-                scenes.push(BenchScene {
-                    name: "CornellBox-Original".to_string(),
-                    scene: Scene::from_obj_file("CornellBox-Original", &path, obj),
-                    camera: Camera {
-                        eye: Vec3::new(0.0, 1.0, 3.5),
-                        target: Vec3::new(0.0, 1.0, 0.0),
-                        fov_degrees: 40.0,
-                    },
-                });
-            } else {
-                eprintln!("note: {} not found; skipping it", path.display());
-            }
-        }
-        None => eprintln!("note: PENUMBRA_DATA is not set; the shipped scenes only (no CornellBox-Original)"),
-    }
-    scenes
-}
 
 /// The scene's renderer on `device`, with its lights or without any.
 fn renderer(device: &Device, s: &BenchScene, lights: bool) -> penumbra::Result<WhittedRenderer> {

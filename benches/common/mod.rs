@@ -3,6 +3,8 @@
 //! bench uses every item.
 #![allow(dead_code)]
 
+pub mod raytrace;
+
 use std::path::{Path, PathBuf};
 
 use penumbra::gpu::{GpuContext, enumerate_adapters};

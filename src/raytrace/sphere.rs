@@ -89,20 +89,8 @@ pub fn tessellate(center: Vec3, radius: f32, rings: u32, segments: u32) -> (Vec<
     }
     normals.push(-Vec3::Y);
     let positions = normals.iter().map(|&n| center + radius * n).collect();
-    let ring = |i: u32, j: u32| 1 + (i - 1) * segments + j % segments;
-    let bottom = normals.len() as u32 - 1;
     let mut triangles = Vec::new();
-    for j in 0..segments {
-        triangles.push([0, ring(1, j), ring(1, j + 1)]);
-        triangles.push([bottom, ring(rings - 1, j + 1), ring(rings - 1, j)]);
-    }
-    for i in 1..rings - 1 {
-        for j in 0..segments {
-            let (a, b, c, d) = (ring(i, j), ring(i, j + 1), ring(i + 1, j + 1), ring(i + 1, j));
-            triangles.push([a, d, c]);
-            triangles.push([a, c, b]);
-        }
-    }
+    crate::scene::animated::sphere_grid(segments, rings, &mut triangles, 0);
     (positions, normals, triangles)
 }
 

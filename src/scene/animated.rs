@@ -268,7 +268,7 @@ pub fn character() -> Animation {
 
 /// Triangles of a lat-long sphere with poles (vertex 0 the top pole,
 /// `rings - 1` rings of `seg` vertices, then the bottom pole), outward.
-fn sphere_grid(seg: u32, rings: u32, tris: &mut Vec<[u32; 3]>, base: u32) {
+pub(crate) fn sphere_grid(seg: u32, rings: u32, tris: &mut Vec<[u32; 3]>, base: u32) {
     let ring = |k: u32, i: u32| base + 1 + (k - 1) * seg + i % seg;
     let bottom = base + 1 + (rings - 1) * seg;
     for i in 0..seg {
