@@ -15,6 +15,9 @@
 //! `assets/figures/ssao-error-vs-time-<model>.png`. Without a GPU it says
 //! so and stops. `SSAO_TABLE_QUICK=1` runs a small version (tests the script).
 
+mod common;
+
+use common::plot::{line, square, text};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -328,61 +331,4 @@ fn plot_rows(path: &Path, rows: &[Row]) {
         }
     }
     img.save(path).unwrap();
-}
-
-fn put(img: &mut image::RgbImage, x: i32, y: i32, c: [u8; 3]) {
-    if x >= 0 && y >= 0 && (x as u32) < img.width() && (y as u32) < img.height() {
-        img.put_pixel(x as u32, y as u32, image::Rgb(c));
-    }
-}
-
-fn line(img: &mut image::RgbImage, a: (i32, i32), b: (i32, i32), c: [u8; 3]) {
-    let n = (b.0 - a.0).abs().max((b.1 - a.1).abs()).max(1);
-    for i in 0..=n {
-        let t = i as f64 / n as f64;
-        let x = a.0 as f64 + t * (b.0 - a.0) as f64;
-        let y = a.1 as f64 + t * (b.1 - a.1) as f64;
-        put(img, x.round() as i32, y.round() as i32, c);
-    }
-}
-
-fn square(img: &mut image::RgbImage, x: i32, y: i32, r: i32, c: [u8; 3], filled: bool) {
-    for dy in -r..=r {
-        for dx in -r..=r {
-            if filled || dx.abs() == r || dy.abs() == r {
-                put(img, x + dx, y + dy, c);
-            }
-        }
-    }
-}
-
-/// Tick labels in a 3x5 pixel font (digits and '.'), drawn at scale 2.
-fn text(img: &mut image::RgbImage, x: i32, y: i32, s: &str, c: [u8; 3]) {
-    const GLYPHS: [(char, [u8; 5]); 11] = [
-        ('0', [7, 5, 5, 5, 7]),
-        ('1', [2, 6, 2, 2, 7]),
-        ('2', [7, 1, 7, 4, 7]),
-        ('3', [7, 1, 7, 1, 7]),
-        ('4', [5, 5, 7, 1, 1]),
-        ('5', [7, 4, 7, 1, 7]),
-        ('6', [7, 4, 7, 5, 7]),
-        ('7', [7, 1, 1, 1, 1]),
-        ('8', [7, 5, 7, 5, 7]),
-        ('9', [7, 5, 7, 1, 7]),
-        ('.', [0, 0, 0, 0, 2]),
-    ];
-    for (k, ch) in s.chars().enumerate() {
-        let Some((_, rows)) = GLYPHS.iter().find(|(g, _)| *g == ch) else {
-            continue;
-        };
-        for (ry, bits) in rows.iter().enumerate() {
-            for rx in 0..3 {
-                if bits & (4 >> rx) != 0 {
-                    for (sx, sy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                        put(img, x + 8 * k as i32 + 2 * rx + sx, y + 2 * ry as i32 + sy, c);
-                    }
-                }
-            }
-        }
-    }
 }

@@ -7,6 +7,7 @@
 
 pub mod aabb;
 pub mod ao;
+pub mod bounded;
 pub mod cli;
 pub mod color;
 pub mod device;

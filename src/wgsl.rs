@@ -43,6 +43,7 @@ pub const SSAO_FILTER: WgslFile = wgsl_file!("ssao_filter.wgsl");
 pub const SSAO_INDIRECT: WgslFile = wgsl_file!("ssao_indirect.wgsl");
 pub const SH_TRANSFER: WgslFile = wgsl_file!("sh_transfer.wgsl");
 pub const WHITTED: WgslFile = wgsl_file!("whitted.wgsl");
+pub const INTERPOLATE: WgslFile = wgsl_file!("interpolate.wgsl");
 
 /// Every file compiled in (the validation test checks this against `wgsl/`).
 pub const FILES: &[WgslFile] = &[
@@ -67,6 +68,7 @@ pub const FILES: &[WgslFile] = &[
     SSAO_INDIRECT,
     SH_TRANSFER,
     WHITTED,
+    INTERPOLATE,
 ];
 
 /// A shader module made of several files, in order.
@@ -89,6 +91,11 @@ pub const AO_RAYS_MODULE: Composition = Composition {
 pub const WHITTED_MODULE: Composition = Composition {
     name: "whitted",
     parts: &[SAMPLING, KDTREE_TRAVERSE, WHITTED],
+};
+
+pub const INTERPOLATE_MODULE: Composition = Composition {
+    name: "interpolate",
+    parts: &[INTERPOLATE],
 };
 
 pub const PACKET_TRAVERSE_MODULE: Composition = Composition {
@@ -158,6 +165,7 @@ pub const MODULES: &[Composition] = &[
     SSAO_INDIRECT_MODULE,
     SH_TRANSFER_MODULE,
     WHITTED_MODULE,
+    INTERPOLATE_MODULE,
 ];
 
 impl Composition {

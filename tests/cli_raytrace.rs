@@ -244,3 +244,46 @@ fn gen_assets_writes_the_committed_scenes() {
         );
     }
 }
+
+#[test]
+fn bounded_method_reports_paths_errors_and_checks_and_refuses_bad_knobs() {
+    let dir = TempDir::new("rt-bounded");
+    let err = dir.p("why.png");
+    let r = pen(
+        "raytrace --method bounded --width 160 --height 120 --scene {scene} --frames 3 --reference \
+         --check 4 --error-image {err} --epsilon 0.1 --split 4 --device cpu --json",
+        &[("scene", &scene("checker-spheres")), ("err", &err)],
+    );
+    let j = r.ok().json();
+    for key in [
+        "pixels",
+        "success_rate",
+        "cells",
+        "extremal_rays_traced",
+        "memory_peak_bytes",
+        "speedup",
+        "error",
+        "check",
+    ] {
+        assert!(j.get(key).is_some(), "missing {key} in {j}");
+    }
+    assert_eq!(j["error"]["violations"], 0, "{j}");
+    assert_eq!(j["check"]["violations"], 0, "{j}");
+    assert_eq!(j["per_frame"].as_array().map(|a| a.len()), Some(3));
+    let image = image::open(&err).unwrap();
+    assert_eq!((image.width(), image.height()), (160, 120));
+    let good = scene("checker-spheres");
+    for (args, phrases) in [
+        ("--epsilon -0.1", vec!["--epsilon"]),
+        ("--floor 0", vec!["--floor"]),
+        ("--memory-mb 0", vec!["--memory-mb"]),
+        ("--min-pixels 0", vec!["--min-pixels"]),
+        ("--spp 4", vec!["--spp", "one sample"]),
+    ] {
+        pen(
+            &format!("raytrace --method bounded --width 48 --height 36 --scene {good} {args} --device cpu --json"),
+            &[],
+        )
+        .bad_input(&phrases);
+    }
+}

@@ -13,6 +13,10 @@
 //!   of pixels, ray-tree signatures equal for >= 99.5%, rays of each kind
 //!   within 0.1%. (A ray that rounds onto another triangle at an edge
 //!   changes its pixel's tree; everything else is the same arithmetic.)
+//! * interpolate: radiance per channel within 1e-5 x the cell's largest
+//!   corner value for every pixel (the same products and sums; a GPU
+//!   compiler may fuse them); the bounded renderer interpolates the same
+//!   pixels on either device, within the same tolerance.
 
 mod common;
 
@@ -363,4 +367,84 @@ fn whitted_kernel_equals_cpu_on_every_shipped_scene_and_the_cornell_box() {
         };
         compare_whitted(&ctx, "CornellBox-Original", &scene, &camera);
     }
+}
+
+#[test]
+fn interpolate_kernel_equals_cpu_twin_across_batches() {
+    use penumbra::bounded::gpu::{InterpolatePass, JOBS_PER_BATCH};
+    use penumbra::bounded::interpolate::{PixelJob, interpolate_pixels};
+    use penumbra::gpu::batch::Batched;
+    let Some(ctx) = gpu() else { return };
+    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    let cells = 500;
+    // Radiances over six decades, as a scene's are.
+    let corners: Vec<[f32; 4]> = (0..cells * 16)
+        .map(|_| {
+            let scale = 10f32.powf(rng.f32() * 6.0 - 4.0);
+            [rng.f32() * scale, rng.f32() * scale, rng.f32() * scale, 0.0]
+        })
+        .collect();
+    let jobs: Vec<PixelJob> = (0..JOBS_PER_BATCH + 12_345)
+        .map(|i| PixelJob {
+            slot: (rng.f32() * cells as f32) as u32 % cells as u32,
+            pixel: i as u32,
+            local: [rng.f32(), rng.f32(), rng.f32(), rng.f32()],
+            ..Default::default()
+        })
+        .collect();
+    let cpu = interpolate_pixels(&corners, &jobs);
+    let mut pass = Batched::<InterpolatePass>::new(&ctx);
+    let (gpu_out, _) = pass.interpolate(&ctx, &corners, &jobs).unwrap();
+    assert_eq!(gpu_out.len(), cpu.len());
+    let mut worst = 0f32;
+    for ((a, b), job) in cpu.iter().zip(&gpu_out).zip(&jobs) {
+        let base = job.slot as usize * 16;
+        let scale = corners[base..base + 16]
+            .iter()
+            .flat_map(|c| c[..3].iter().copied())
+            .fold(0f32, f32::max);
+        for c in 0..3 {
+            worst = worst.max((a[c] - b[c]).abs() / scale);
+        }
+    }
+    println!(
+        "interpolate: {} pixels in 2 batches, worst difference {worst:.2e} of the cell's largest corner",
+        jobs.len()
+    );
+    assert!(worst <= 1e-5, "worst {worst}");
+}
+
+#[test]
+fn bounded_renderer_interpolates_alike_on_gpu_and_cpu() {
+    use penumbra::bounded::{BoundedRenderer, BoundedSettings, PixelPath};
+    use penumbra::device::Device;
+    use penumbra::progress::Bars;
+    use penumbra::raytrace::{LightingOptions, RenderScene, WhittedRenderer};
+    let Some(ctx) = gpu() else { return };
+    let scene = penumbra::scene::load_scene_shaded(&asset("raytrace").join("checker-spheres.json")).unwrap();
+    let camera = scene.camera.unwrap();
+    let render = |device: &Device| {
+        let rs = RenderScene::new(&scene, 0, &LightingOptions::default()).unwrap();
+        let w = WhittedRenderer::new(device, rs, Bars::Hidden).unwrap();
+        let mut b = BoundedRenderer::new(w, BoundedSettings::default()).unwrap();
+        // The second frame reprojects the first's cells.
+        [
+            b.render(&camera, 320, 240).unwrap(),
+            b.render(&camera, 320, 240).unwrap(),
+        ]
+    };
+    let (cpu, gpu_frames) = (render(&Device::cpu()), render(&Device::gpu(ctx)));
+    let (mut worst, mut interpolated) = (0f32, 0);
+    for (cpu, gpu_frame) in cpu.iter().zip(&gpu_frames) {
+        assert_eq!(cpu.paths, gpu_frame.paths);
+        for ((a, b), path) in cpu.radiance.iter().zip(&gpu_frame.radiance).zip(&cpu.paths) {
+            if matches!(path, PixelPath::Interpolated | PixelPath::Reprojected) {
+                interpolated += 1;
+                worst = worst.max(((*a - *b).abs() / a.abs().max(Vec3::splat(1e-3))).max_element());
+            }
+        }
+    }
+    println!("bounded: {interpolated} interpolated pixels, worst relative difference GPU-CPU {worst:.2e}");
+    assert!(interpolated > 500, "only {interpolated} pixels interpolated");
+    assert!(worst <= 1e-5, "worst {worst}");
 }

@@ -1,8 +1,10 @@
 //! What the benches share: the models (from `PENUMBRA_DATA`, or the
-//! procedural assets without it), their kd-trees and primary rays. Not every
-//! bench uses every item.
+//! procedural assets without it), their kd-trees and primary rays, the
+//! ray tracer's scenes (`raytrace`) and the plots' drawing primitives
+//! (`plot`). Not every bench uses every item.
 #![allow(dead_code)]
 
+pub mod plot;
 pub mod raytrace;
 
 use std::path::{Path, PathBuf};
@@ -111,4 +113,19 @@ pub fn gpu_image_size(ctx: &GpuContext) -> u32 {
         } else {
             GPU_IMAGE_HARDWARE
         })
+}
+
+/// The CPU's model name and logical cores, from `/proc/cpuinfo`.
+pub fn machine() -> String {
+    let info = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+    let model = info
+        .lines()
+        .find_map(|l| {
+            l.strip_prefix("model name")
+                .map(|v| v.trim_start_matches([' ', '\t', ':']))
+        })
+        .unwrap_or("unknown CPU")
+        .to_string();
+    let cores = info.lines().filter(|l| l.starts_with("processor")).count();
+    format!("{model}, {cores} logical cores")
 }

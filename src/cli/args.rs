@@ -200,6 +200,10 @@ pub fn flag(name: &str) -> Option<&'static str> {
         "light_samples" => "--light-samples",
         "pixel" => "--ray-tree",
         "out" => "--out",
+        "epsilon" => "--epsilon",
+        "floor" => "--floor",
+        "memory_mb" => "--memory-mb",
+        "min_pixels" => "--min-pixels",
         _ => return None,
     })
 }

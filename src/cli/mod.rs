@@ -17,6 +17,7 @@ mod info;
 mod io;
 mod prt;
 mod raytrace;
+mod raytrace_bounded;
 mod ssao;
 mod trace;
 mod trace_rays;

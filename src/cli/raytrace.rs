@@ -13,7 +13,7 @@ use crate::error::{Error, Result};
 use crate::progress::Bars;
 use crate::raytrace::image::{RadianceFormat, write_radiance};
 use crate::raytrace::{LightingOptions, RenderScene, WhittedRenderer, WhittedSettings};
-use crate::scene::{CameraPath, Scene, load_obj_file, load_scene_shaded};
+use crate::scene::{Camera, CameraPath, Scene, load_obj_file, load_scene_shaded};
 
 /// Which ray tracer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
@@ -21,6 +21,8 @@ use crate::scene::{CameraPath, Scene, load_obj_file, load_scene_shaded};
 pub enum Method {
     /// Exact Whitted ray tracing (section 3 of the bounded-error paper).
     Whitted,
+    /// Radiance interpolants within a relative error bound (--epsilon).
+    Bounded,
 }
 
 #[derive(clap::Args)]
@@ -64,7 +66,40 @@ pub struct RaytraceArgs {
     /// CPU path: primary and shadow rays as MLRTA packets (off: every ray alone).
     #[arg(long, value_enum, default_value_t = OnOff::On)]
     pub packets: OnOff,
-    /// Render this many frames along --path (or orbiting the camera without one).
+    /// bounded: the relative error bound epsilon (0 renders the Whitted image exactly).
+    #[arg(long, default_value_t = 0.05, allow_negative_numbers = true)]
+    pub epsilon: f32,
+    /// bounded: the radiance below which the bound is absolute (epsilon x floor).
+    #[arg(long, default_value_t = crate::bounded::runner::DEFAULT_FLOOR, allow_negative_numbers = true)]
+    pub floor: f32,
+    /// bounded: affine-arithmetic bound (a guarantee) or the paper's estimate at the cell's centre.
+    #[arg(long, value_enum, default_value_t = crate::bounded::BoundKind::Conservative)]
+    pub bound: crate::bounded::BoundKind,
+    /// bounded: split a failed cell 16 ways (the paper) or 4 ways along the coordinates it varies most in.
+    #[arg(long, default_value = "16", value_parser = ["16", "4"])]
+    pub split: String,
+    /// bounded: reproject the previous frame's cells (the fast path).
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    pub reproject: OnOff,
+    /// bounded: fill runs of reprojected pixels by screen-space interpolation (outside the guarantee).
+    #[arg(long, value_enum, default_value_t = OnOff::Off)]
+    pub span: OnOff,
+    /// bounded: memory cap of linetree cells and samples; least recently used cells are evicted.
+    #[arg(long, default_value_t = 1024.0, allow_negative_numbers = true)]
+    pub memory_mb: f64,
+    /// bounded: a failed cell is split only if at least this many pixels per child ask for it.
+    #[arg(long, default_value_t = 2, allow_negative_numbers = true)]
+    pub min_pixels: u32,
+    /// bounded: also render every frame exactly and report the error and the speed-up.
+    #[arg(long)]
+    pub reference: bool,
+    /// bounded: trace K random lines in every accepted cell a frame uses and count violations.
+    #[arg(long, allow_negative_numbers = true)]
+    pub check: Option<u32>,
+    /// bounded: image of why each pixel was traced (the paper's section 8.2 colours).
+    #[arg(long)]
+    pub error_image: Option<PathBuf>,
+    /// Render this many frames along --path (or the built-in walk from the camera without one).
     #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
     pub frames: u32,
     /// Camera path: one keyframe a line, "EX,EY,EZ TX,TY,TZ FOV".
@@ -125,7 +160,74 @@ fn load(args: &RaytraceArgs) -> Result<Scene> {
     }
 }
 
-pub fn run(args: &RaytraceArgs) -> Result<Value> {
+/// What both methods start from.
+pub(super) struct Setup<'a> {
+    pub device: crate::device::Device,
+    pub threads: usize,
+    pub settings: WhittedSettings,
+    pub base: Camera,
+    pub path: CameraPath,
+    pub out: Option<&'a Path>,
+    pub load_warnings: usize,
+}
+
+impl Setup<'_> {
+    /// The camera of frame `f`.
+    pub fn camera(&self, f: u32, frames: u32) -> Camera {
+        if frames == 1 {
+            self.base
+        } else {
+            self.path.at(f, frames)
+        }
+    }
+
+    /// Writes frame `f` where `--out` asks for every frame.
+    pub fn write_frame(&self, f: u32, w: u32, h: u32, radiance: &[glam::Vec3], exposure: f32) -> Result<()> {
+        if let Some(template) = self.out
+            && let Some(p) = frame_path(template, f)
+        {
+            write_radiance(&p, w, h, radiance, exposure)?;
+        }
+        Ok(())
+    }
+
+    /// Writes the last frame where `--out` names one file.
+    pub fn write_last(&self, w: u32, h: u32, radiance: &[glam::Vec3], exposure: f32) -> Result<()> {
+        if let Some(p) = self.out.filter(|p| frame_path(p, 0).is_none()) {
+            write_radiance(p, w, h, radiance, exposure)?;
+        }
+        Ok(())
+    }
+
+    /// The fields every report of the command has.
+    pub fn report(&self, args: &RaytraceArgs, renderer: &WhittedRenderer, camera: &Camera) -> Value {
+        let scene = renderer.scene();
+        let mut report = args.common.report(&self.device, self.threads);
+        let fields = json!({
+            "method": args.method,
+            "width": args.width,
+            "height": args.height,
+            "frames": args.frames,
+            "max_depth": self.settings.max_depth,
+            "spp": self.settings.spp,
+            "fresnel": self.settings.fresnel,
+            "build_ms": renderer.build_ms,
+            "prepare_ms": renderer.prepare_ms,
+            "triangles": scene.mesh.triangles.len(),
+            "spheres": scene.spheres.len(),
+            "lights": scene.lights.len(),
+            "emitters": scene.emitters,
+            "camera": camera,
+            "warnings": self.load_warnings + scene.warnings.len(),
+        });
+        if let (Value::Object(a), Value::Object(b)) = (&mut report, fields) {
+            a.extend(b);
+        }
+        report
+    }
+}
+
+fn setup(args: &RaytraceArgs) -> Result<(Setup<'_>, WhittedRenderer)> {
     let threads = args.common.init_threads()?;
     let settings = WhittedSettings {
         max_depth: args.max_depth,
@@ -168,22 +270,37 @@ pub fn run(args: &RaytraceArgs) -> Result<Value> {
         note(&format!("warning: {w}"));
     }
     let device = args.common.open_device()?;
-    let mut renderer = WhittedRenderer::new(&device, render_scene, Bars::Stderr)?;
+    let renderer = WhittedRenderer::new(&device, render_scene, Bars::Stderr)?;
     let base = args.camera.spec().resolve(scene.camera, &renderer.bounds())?;
-    let path = path.unwrap_or(CameraPath::Orbit(base));
+    let setup = Setup {
+        device,
+        threads,
+        settings,
+        base,
+        path: path.unwrap_or(CameraPath::Walk(base)),
+        out,
+        load_warnings,
+    };
+    Ok((setup, renderer))
+}
+
+pub fn run(args: &RaytraceArgs) -> Result<Value> {
+    let (setup, renderer) = setup(args)?;
+    match args.method {
+        Method::Whitted => whitted(args, setup, renderer),
+        Method::Bounded => super::raytrace_bounded::run(args, setup, renderer),
+    }
+}
+
+fn whitted(args: &RaytraceArgs, setup: Setup, mut renderer: WhittedRenderer) -> Result<Value> {
     let (w, h) = (args.width, args.height);
-    let bars = Bars::Stderr;
-    let progress = bars.bar(args.frames as u64 * w as u64 * h as u64, "ray tracing");
+    let progress = Bars::Stderr.bar(args.frames as u64 * w as u64 * h as u64, "ray tracing");
     let mut total = (0.0, crate::raytrace::RayCounts::default());
     let mut frame_ms = Vec::new();
     let mut last = None;
     for f in 0..args.frames {
-        let camera = if args.frames == 1 {
-            base
-        } else {
-            path.at(f, args.frames)
-        };
-        let image = renderer.render(&camera, w, h, &settings, &progress)?;
+        let camera = setup.camera(f, args.frames);
+        let image = renderer.render(&camera, w, h, &setup.settings, &progress)?;
         if !renderer.is_gpu() {
             progress.inc(w as u64 * h as u64);
         }
@@ -194,48 +311,22 @@ pub fn run(args: &RaytraceArgs) -> Result<Value> {
         total.1.reflection += r.reflection;
         total.1.refraction += r.refraction;
         frame_ms.push(image.stats.render_ms);
-        if let Some(template) = out
-            && let Some(p) = frame_path(template, f)
-        {
-            write_radiance(&p, w, h, &image.radiance(), args.exposure)?;
-        }
+        setup.write_frame(f, w, h, &image.radiance(), args.exposure)?;
         last = Some(image);
     }
     progress.finish();
     let last = last.ok_or_else(|| Error::internal("no frame rendered"))?;
-    if let Some(p) = out.filter(|p| frame_path(p, 0).is_none()) {
-        write_radiance(p, w, h, &last.radiance(), args.exposure)?;
-    }
-    let scene = renderer.scene();
-    let mut report = args.common.report(&device, threads);
-    let fields = json!({
-        "method": args.method,
-        "width": w,
-        "height": h,
-        "frames": args.frames,
-        "rays": total.1,
-        "render_ms": total.0,
-        "frame_ms": frame_ms,
-        "mrays_per_s": crate::mlrta::runner::mrays_per_s(total.1.total() as usize, total.0),
-        "timing": last.stats.timing,
-        "path": last.stats.path,
-        "max_depth": settings.max_depth,
-        "spp": settings.spp,
-        "fresnel": settings.fresnel,
-        "build_ms": renderer.build_ms,
-        "prepare_ms": renderer.prepare_ms,
-        "triangles": scene.mesh.triangles.len(),
-        "spheres": scene.spheres.len(),
-        "lights": scene.lights.len(),
-        "emitters": scene.emitters,
-        "camera": last.camera,
-        "warnings": load_warnings + scene.warnings.len(),
-    });
-    if let (Value::Object(a), Value::Object(b)) = (&mut report, fields) {
-        a.extend(b);
-    }
+    setup.write_last(w, h, &last.radiance(), args.exposure)?;
+    let mut report = setup.report(args, &renderer, &last.camera);
+    report["rays"] = json!(total.1);
+    report["render_ms"] = json!(total.0);
+    report["frame_ms"] = json!(frame_ms);
+    report["mrays_per_s"] = json!(crate::mlrta::runner::mrays_per_s(total.1.total() as usize, total.0));
+    report["timing"] = json!(last.stats.timing);
+    report["path"] = json!(last.stats.path);
     if let Some((x, y)) = args.ray_tree {
-        let (radiance, tree) = renderer.pixel_tree(&base, (w, h), &settings, (x, y, 0))?;
+        let (radiance, tree) = renderer.pixel_tree(&setup.base, (w, h), &setup.settings, (x, y, 0))?;
+        let scene = renderer.scene();
         report["ray_tree"] = json!({
             "pixel": [x, y],
             "radiance": radiance.to_array(),

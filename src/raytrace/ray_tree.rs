@@ -60,6 +60,8 @@ pub struct TreeHit {
     pub primitive: u32,
     pub t: f32,
     pub point: Vec3,
+    /// The ray meets the side the geometric normal points to (enters glass).
+    pub front: bool,
 }
 
 /// One ray of a tree.
@@ -77,6 +79,10 @@ pub struct RayNode {
     pub hit: Option<TreeHit>,
     /// Per light (the scene's order), at the hit; empty for a miss or an unlit surface.
     pub lights: Vec<LightCode>,
+    /// Per light, the primitive nearest the light that stops or filters its
+    /// shadow ray (`u32::MAX` where none does): the occluder of the paper's
+    /// ray trees.
+    pub occluders: Vec<u32>,
     pub reflected: bool,
     pub refracted: bool,
     /// Total internal reflection: the refracted ray does not exist.
@@ -139,7 +145,8 @@ impl RayTree {
                 a.kind == b.kind
                     && a.depth == b.depth
                     && a.parent == b.parent
-                    && a.hit.map(|h| (h.object, h.face, h.surface)) == b.hit.map(|h| (h.object, h.face, h.surface))
+                    && a.hit.map(|h| (h.object, h.face, h.surface, h.front))
+                        == b.hit.map(|h| (h.object, h.face, h.surface, h.front))
                     && a.lights == b.lights
                     && (a.reflected, a.refracted, a.tir) == (b.reflected, b.refracted, b.tir)
             })

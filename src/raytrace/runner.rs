@@ -186,6 +186,14 @@ impl WhittedRenderer {
         &self.scene
     }
 
+    /// The GPU images render on, if any.
+    pub fn context(&self) -> Option<&crate::gpu::GpuContext> {
+        match &self.gpu {
+            OnDevice::Gpu { ctx, .. } => Some(ctx),
+            OnDevice::Cpu => None,
+        }
+    }
+
     /// Whether images render on a GPU.
     pub fn is_gpu(&self) -> bool {
         self.gpu.state().is_some()

@@ -313,6 +313,7 @@ impl Whitted<'_> {
             let surf = self.scene.surface(hit.surface);
             let mut local = Vec3::from_array(surf.ke);
             let mut codes = Vec::new();
+            let mut occluders = Vec::new();
             if surf.lit() {
                 local += Vec3::from_array(surf.ka) * Vec3::from_array(p.ambient);
                 for j in 0..p.light_count {
@@ -323,6 +324,7 @@ impl Whitted<'_> {
                     sig = fnv_word(sig, light_word(j, code));
                     if tree.is_some() {
                         codes.push(code);
+                        occluders.push(self.occluder(light, lifted, n_g, n_s, code));
                     }
                     local += light_radiance;
                 }
@@ -413,8 +415,10 @@ impl Whitted<'_> {
                     primitive: hit.primitive,
                     t: hit.t,
                     point: hit.point,
+                    front,
                 });
                 node.lights = codes;
+                node.occluders = occluders;
                 (node.reflected, node.refracted, node.tir) = (reflected, refracted, tir);
             }
         }
@@ -572,6 +576,18 @@ impl Whitted<'_> {
         (emitted > 0.0).then_some(LightGeometry { emitted, ..g })
     }
 
+    /// The primitive nearest the light on a blocked or filtered shadow ray
+    /// (`u32::MAX` for another code): what a ray tree records as the
+    /// light's occluder.
+    fn occluder(&self, light: &LightSample, lifted: Vec3, n_g: Vec3, n_s: Vec3, code: LightCode) -> u32 {
+        if !matches!(code, LightCode::Blocked | LightCode::Filtered) {
+            return u32::MAX;
+        }
+        self.light_geometry(light, lifted, n_g, n_s)
+            .and_then(|g| self.closest(g.from, g.dir, g.t_max, None))
+            .map_or(u32::MAX, |(_, primitive)| primitive)
+    }
+
     /// Light `light`'s contribution at the lifted point `lifted` with
     /// normals facing the viewer, seen along `d`: its code and radiance.
     #[allow(clippy::too_many_arguments)]
@@ -667,6 +683,7 @@ fn node_of(ray: &PathRay) -> RayNode {
         weight: ray.weight,
         hit: None,
         lights: Vec::new(),
+        occluders: Vec::new(),
         reflected: false,
         refracted: false,
         tir: false,

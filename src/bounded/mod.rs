@@ -1,0 +1,20 @@
+//! Bounded-error interactive ray tracing (Bala, Dorsey and Teller, "Radiance
+//! Interpolants for Accelerated Bounded-Error Ray Tracing", ACM TOG 1999):
+//! the Whitted tracer's radiance interpolated over 4D line space within a
+//! user's error bound, with exact pixel assignment, lazy linetrees, an
+//! error predicate that is a guarantee (affine arithmetic through the ray
+//! tree), reprojection of the previous frame's cells, and a memory cap.
+
+pub mod affine;
+pub mod geometry;
+pub mod gpu;
+pub mod interpolate;
+pub mod linespace;
+pub mod linetree;
+pub mod measure;
+pub mod predicate;
+pub mod runner;
+pub mod shaft;
+
+pub use predicate::{BoundKind, Failure};
+pub use runner::{BoundedFrame, BoundedRenderer, BoundedSettings, FrameStats, PixelPath, SplitKind, TraceReason};

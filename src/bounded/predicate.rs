@@ -1,0 +1,787 @@
+//! The error predicate (the bounded-error paper, section 5): given the 16
+//! extremal rays of a linetree cell, traced with their ray trees, may the
+//! radiance of every ray of the cell be interpolated from them within
+//! epsilon?
+//!
+//! Radiance discontinuities (section 5.1), each a sub-test whose failure
+//! the caller reports:
+//! - `Topology`: the 16 ray trees must be isomorphic (same surfaces, light
+//!   codes, children, total internal reflections);
+//! - `Silhouette`: every ray of the cell must hit the surface the trees
+//!   name: a flat face's hits lie inside its polygon, a sphere's rays all
+//!   meet it (positive discriminant everywhere), a smooth triangle's hits
+//!   inside the triangle; no normal may be grazing;
+//! - `Blocker`: a shaft cull of every reflected and refracted segment of
+//!   the tree: no primitive the tree does not name may meet any of the
+//!   cell's segments;
+//! - `Shadow`: a shaft cull of every visible light's shadow segments, and
+//!   lights that turn towards or away from the surface inside the cell; a
+//!   blocked light must be proven blocked for every ray (its occluder, a
+//!   sphere or a convex face, crossed by every shadow segment), else its
+//!   contribution is unknown and counted whole in the bound;
+//! - `Tir`: total internal reflection must hold for all rays of the cell
+//!   or none of them, not only at the 16.
+//!
+//! Radiance non-linearity (section 5.2), `Nonlinear`: the whole Whitted
+//! shading of the tree (hit points, normals, Phong lobes, 1/d^2, Fresnel
+//! weights, reflected and refracted directions) is evaluated in affine
+//! arithmetic over the cell (`affine`). Its affine part is interpolated
+//! exactly by the 16 samples; the remainder `r` bounds the interpolation
+//! error by `2 r` per channel. The cell is accepted where
+//! `2 r + rounding <= epsilon * max(L_min, floor)` for every channel, with
+//! `L_min` the smallest radiance the form allows: then
+//! `|L_interp - L| <= epsilon * max(L, floor)` for every ray of the cell.
+//! `BoundKind::Paper` keeps the discontinuity tests and replaces this
+//! bound by the paper's kind of estimate (the interpolation error measured
+//! at the cell's centre, doubled): cheaper cells, no guarantee.
+
+use glam::{DVec3, Vec3};
+
+use crate::bounded::affine::{AVec3, Aff};
+use crate::bounded::geometry::{Polygon, SceneGeometry, Surface};
+use crate::bounded::linespace::{CellBox, FacePair};
+use crate::bounded::shaft::{End, Exclude, Shafts};
+use crate::raytrace::lights::DIRECTIONAL;
+use crate::raytrace::offset::OFFSET_SCALE;
+use crate::raytrace::ray_tree::{LightCode, RayKind, RayNode, RayTree};
+use crate::raytrace::surface::Surface as Shading;
+use crate::raytrace::whitted::{FRESNEL, Whitted};
+
+/// Why a cell may not be interpolated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Failure {
+    Topology,
+    Silhouette,
+    Blocker,
+    Shadow,
+    Tir,
+    Nonlinear,
+}
+
+impl Failure {
+    pub const ALL: [Failure; 6] = [
+        Failure::Topology,
+        Failure::Silhouette,
+        Failure::Blocker,
+        Failure::Shadow,
+        Failure::Tir,
+        Failure::Nonlinear,
+    ];
+}
+
+/// Which bound decides non-linearity.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BoundKind {
+    /// Affine arithmetic through the ray tree: a guarantee.
+    #[default]
+    Conservative,
+    /// The paper's kind of estimate: the interpolation error at the cell's
+    /// centre, doubled. Not a guarantee.
+    Paper,
+}
+
+/// The surface a cell's rays hit first, which a pixel's own hit must be.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum RootFace {
+    /// A flat face (index into `SceneGeometry::polygons`).
+    Polygon(u32),
+    /// A smoothly shaded triangle.
+    Triangle(u32),
+    /// A sphere (its primitive index).
+    Sphere(u32),
+}
+
+impl RootFace {
+    pub fn of(geometry: &SceneGeometry, scene: &crate::raytrace::RenderScene, primitive: u32) -> RootFace {
+        if geometry.is_sphere(primitive) {
+            return RootFace::Sphere(primitive);
+        }
+        match scene.triangles[primitive as usize].normals[0] {
+            crate::raytrace::scene::NO_NORMAL => RootFace::Polygon(geometry.triangle_polygon[primitive as usize]),
+            _ => RootFace::Triangle(primitive),
+        }
+    }
+}
+
+/// An accepted cell.
+#[derive(Debug, Clone)]
+pub struct Accepted {
+    /// The bound on the interpolation error, per channel.
+    pub bound: [f64; 3],
+    pub root: RootFace,
+    /// The box of the cell's first hits (the shaft of reprojection).
+    pub hits: (DVec3, DVec3),
+    /// Every ray of the cell hits the root surface (a flat face or a
+    /// sphere): its pixels may be assigned by reprojection.
+    pub reprojectable: bool,
+}
+
+/// A rejected cell, and which coordinates a 4-way split should halve.
+#[derive(Debug, Clone, Copy)]
+pub struct Rejected {
+    pub failure: Failure,
+    /// `0b0101` (a, c) or `0b1010` (b, d).
+    pub split: u8,
+}
+
+/// Radiance allowance for the f32 renderer's rounding, relative to the
+/// largest sample.
+pub const ROUNDING: f64 = 2e-5;
+
+/// What the predicate reads.
+pub struct Predicate<'a> {
+    pub w: &'a Whitted<'a>,
+    pub geometry: &'a SceneGeometry,
+    pub epsilon: f64,
+    pub floor: f64,
+    pub bound: BoundKind,
+}
+
+/// A family of rays of the cell arriving at a tree node.
+struct Family {
+    origin: AVec3,
+    /// Unit directions (the root's are normalised here).
+    dir: AVec3,
+    weight: [Aff; 3],
+    media: Vec<u32>,
+    /// The surface its rays leave (not an occluder of them).
+    leaves: Exclude,
+}
+
+/// A node's hit over the family.
+struct Hit {
+    q: AVec3,
+    t: Aff,
+    geometric: AVec3,
+    shading: AVec3,
+    magnitude: f64,
+    exclude: Exclude,
+}
+
+type Outcome<T> = Result<T, Failure>;
+
+fn consistent(a: &Aff, want_negative: bool) -> Outcome<()> {
+    match a.sign() {
+        Some(positive) if positive != want_negative => Ok(()),
+        _ => Err(Failure::Silhouette),
+    }
+}
+
+impl Predicate<'_> {
+    /// Judges a cell of `pair` from its corner samples' radiance and ray
+    /// trees (corner k: bit i of k is the high end of coordinate i), and,
+    /// for `BoundKind::Paper`, the radiance of the cell's centre ray.
+    pub fn judge(
+        &self,
+        pair: &FacePair,
+        cell: &CellBox,
+        radiance: &[Vec3; 16],
+        trees: [&RayTree; 16],
+        centre: Option<Vec3>,
+    ) -> Result<Accepted, Rejected> {
+        let default_split = if cell.depth[0] <= cell.depth[1] { 0b0101 } else { 0b1010 };
+        let reject = |failure| Rejected {
+            failure,
+            split: default_split,
+        };
+        let template = trees[0];
+        if template.nodes.is_empty() || template.nodes[0].hit.is_none() {
+            return Err(reject(Failure::Topology));
+        }
+        if trees[1..].iter().any(|t| !same_surfaces(template, t)) {
+            return Err(reject(Failure::Topology));
+        }
+        let (origin, dir) = cell.family(pair);
+        let walk = self.walk(template, origin, dir).map_err(reject)?;
+        let split = if walk.linear_ac >= walk.linear_bd {
+            0b0101
+        } else {
+            0b1010
+        };
+        let max_sample = radiance.iter().fold(Vec3::ZERO, |m, r| m.max(*r));
+        let mut bound = [0.0; 3];
+        let mut certain_fails = false;
+        let mut fails = false;
+        for c in 0..3 {
+            let allowance = ROUNDING * max_sample[c] as f64 + 1e-9;
+            let total = walk.certain[c].add(walk.uncertain[c]);
+            let (error, reference) = match (self.bound, centre) {
+                (BoundKind::Paper, Some(centre)) => {
+                    let interp = radiance.iter().map(|r| r[c] as f64).sum::<f64>() / 16.0;
+                    (2.0 * (centre[c] as f64 - interp).abs() + allowance, centre[c] as f64)
+                }
+                _ => (2.0 * total.r + allowance, total.lo()),
+            };
+            bound[c] = error;
+            let limit = self.epsilon * reference.max(self.floor);
+            // NaN fails: it is not at most the limit.
+            fails |= error.partial_cmp(&limit).is_none_or(|o| o.is_gt()) || !total.is_finite();
+            let certain_error = 2.0 * walk.certain[c].r + allowance;
+            let certain_limit = self.epsilon * walk.certain[c].lo().max(self.floor);
+            certain_fails |= certain_error.partial_cmp(&certain_limit).is_none_or(|o| o.is_gt());
+        }
+        if fails {
+            let failure = if certain_fails || self.bound == BoundKind::Paper {
+                Failure::Nonlinear
+            } else {
+                Failure::Shadow
+            };
+            return Err(Rejected { failure, split });
+        }
+        Ok(Accepted {
+            bound,
+            root: walk.root,
+            hits: walk.hits,
+            reprojectable: walk.reprojectable,
+        })
+    }
+
+    /// The affine radiance of the tree over the cell: certain terms and the
+    /// terms of lights whose visibility is unknown, per channel.
+    fn walk(&self, template: &RayTree, origin: AVec3, dir: AVec3) -> Outcome<Walk> {
+        let root_dir = dir.normalize().ok_or(Failure::Silhouette)?;
+        let mut pending: Vec<Option<Family>> = (0..template.nodes.len()).map(|_| None).collect();
+        pending[0] = Some(Family {
+            origin,
+            dir: root_dir,
+            weight: [Aff::constant(1.0); 3],
+            media: Vec::new(),
+            leaves: Exclude::None,
+        });
+        let mut out = Walk {
+            certain: [Aff::ZERO; 3],
+            uncertain: [Aff::ZERO; 3],
+            root: RootFace::Polygon(0),
+            hits: (DVec3::ZERO, DVec3::ZERO),
+            reprojectable: false,
+            linear_ac: 0.0,
+            linear_bd: 0.0,
+        };
+        for (i, node) in template.nodes.iter().enumerate() {
+            let fam = pending[i].take().ok_or(Failure::Topology)?;
+            let background = Vec3::from_array(self.w.params.background).as_dvec3();
+            let Some(tree_hit) = node.hit else {
+                // A miss: nothing may lie on any of its rays.
+                let shafts = self.shafts();
+                if !shafts.clear(&fam.origin, &fam.dir, End::Infinite, &[fam.leaves]) {
+                    return Err(Failure::Blocker);
+                }
+                for c in 0..3 {
+                    out.certain[c] = out.certain[c].add(fam.weight[c].scale(background[c]));
+                }
+                continue;
+            };
+            let surface = self.geometry.surface(self.w.scene, tree_hit.primitive);
+            let hit = self.hit(&fam, &surface, tree_hit.primitive, tree_hit.front)?;
+            if i == 0 {
+                out.root = RootFace::of(self.geometry, self.w.scene, tree_hit.primitive);
+                out.hits = hit.q.bounds();
+                out.reprojectable = true;
+            } else {
+                // The segment from the parent's surface to this hit.
+                let shafts = self.shafts();
+                if !shafts.clear(&fam.origin, &fam.dir, End::At(hit.t), &[fam.leaves, hit.exclude]) {
+                    return Err(Failure::Blocker);
+                }
+            }
+            let n_g = if tree_hit.front {
+                hit.geometric
+            } else {
+                hit.geometric.scale(-1.0)
+            };
+            let mut n_s = if tree_hit.front {
+                hit.shading
+            } else {
+                hit.shading.scale(-1.0)
+            };
+            // The renderer's fallback where the shading normal faces away.
+            match n_s.dot(fam.dir).sign() {
+                Some(false) => {}
+                Some(true) => n_s = n_g,
+                None => return Err(Failure::Silhouette),
+            }
+            let max_abs = hit
+                .q
+                .axes()
+                .iter()
+                .map(|a| a.lo().abs().max(a.hi().abs()))
+                .fold(0.0, f64::max);
+            let delta_hi = OFFSET_SCALE as f64 * hit.magnitude.max(max_abs);
+            let delta_lo = OFFSET_SCALE as f64 * hit.magnitude;
+            let delta = Aff::interval(delta_lo.min(delta_hi), delta_hi);
+            let lifted = hit.q.add(n_g.times(delta));
+            let shading = *self.w.scene.surface(tree_hit.surface);
+            let local = self.local(node, &shading, &fam, &hit, lifted, n_g, n_s, &mut out)?;
+            for (c, l) in local.iter().enumerate() {
+                out.certain[c] = out.certain[c].add(fam.weight[c].mul(*l));
+            }
+            let children = self.children(node, &shading, &fam, &hit, lifted, n_g, n_s, delta)?;
+            for (kind, child) in children {
+                let slot = template
+                    .nodes
+                    .iter()
+                    .enumerate()
+                    .skip(i + 1)
+                    .find(|(_, n)| n.parent == Some(i as u32) && n.kind == kind)
+                    .map(|(j, _)| j)
+                    .ok_or(Failure::Topology)?;
+                pending[slot] = Some(child);
+            }
+        }
+        for c in 0..3 {
+            let l = out.certain[c].add(out.uncertain[c]).l;
+            out.linear_ac += l[0].abs() + l[2].abs();
+            out.linear_bd += l[1].abs() + l[3].abs();
+        }
+        Ok(out)
+    }
+
+    fn shafts(&self) -> Shafts<'_> {
+        Shafts {
+            scene: self.w.scene,
+            tree: self.w.tree,
+            geometry: self.geometry,
+        }
+    }
+
+    /// Where the family meets `surface`, for all of its rays.
+    fn hit(&self, fam: &Family, surface: &Surface, primitive: u32, front: bool) -> Outcome<Hit> {
+        let magnitude = self.geometry.magnitude[primitive as usize];
+        match surface {
+            Surface::Flat(p) | Surface::Smooth { polygon: p, .. } => {
+                let (q, t) = plane_hit(fam, p, front)?;
+                for (m, v) in p.edges() {
+                    if q.add_const(-v).dot_const(m).lo() < 0.0 {
+                        return Err(Failure::Silhouette);
+                    }
+                }
+                let geometric = AVec3::constant(p.normal);
+                let (shading, exclude) = match surface {
+                    Surface::Smooth { normals, .. } => (smooth_normal(&q, p, normals)?, Exclude::Primitive(primitive)),
+                    _ => (geometric, Exclude::Plane(p.normal, p.w)),
+                };
+                Ok(Hit {
+                    q,
+                    t,
+                    geometric,
+                    shading,
+                    magnitude,
+                    exclude,
+                })
+            }
+            Surface::Sphere { center, radius } => {
+                let o = &fam.origin;
+                let d = &fam.dir;
+                let f = o.add_const(-*center);
+                let a = d.dot(*d);
+                let h = f.dot(*d).neg();
+                let inv_a = a.recip().ok_or(Failure::Silhouette)?;
+                let l = f.add(d.times(h.mul(inv_a)));
+                let disc = a.mul(l.dot(l).neg().add_const(radius * radius));
+                let s = disc.sqrt().ok_or(Failure::Silhouette)?;
+                let (near, far) = (h.sub(s).mul(inv_a), h.add(s).mul(inv_a));
+                let t = if front {
+                    consistent(&near, false)?;
+                    near
+                } else {
+                    // From inside: the near root behind, the far one ahead.
+                    consistent(&near, true)?;
+                    consistent(&far, false)?;
+                    far
+                };
+                let q = o.add(d.times(t));
+                let n = q.add_const(-*center).scale(1.0 / radius);
+                Ok(Hit {
+                    q,
+                    t,
+                    geometric: n,
+                    shading: n,
+                    magnitude,
+                    exclude: Exclude::Primitive(primitive),
+                })
+            }
+        }
+    }
+
+    /// The node's local radiance per channel (emission, ambient, lights).
+    #[allow(clippy::too_many_arguments)]
+    fn local(
+        &self,
+        node: &RayNode,
+        s: &Shading,
+        fam: &Family,
+        hit: &Hit,
+        lifted: AVec3,
+        n_g: AVec3,
+        n_s: AVec3,
+        out: &mut Walk,
+    ) -> Outcome<[Aff; 3]> {
+        let ke = Vec3::from_array(s.ke).as_dvec3();
+        let mut local = [0, 1, 2].map(|c| Aff::constant(ke[c]));
+        if !s.lit() {
+            let kd = Vec3::from_array(s.kd).as_dvec3();
+            return Ok([0, 1, 2].map(|c| local[c].add_const(kd[c])));
+        }
+        let ambient = Vec3::from_array(self.w.params.ambient).as_dvec3();
+        let (ka, kd, ks) = (
+            Vec3::from_array(s.ka).as_dvec3(),
+            Vec3::from_array(s.kd).as_dvec3(),
+            Vec3::from_array(s.ks).as_dvec3(),
+        );
+        for c in 0..3 {
+            local[c] = local[c].add_const(ka[c] * ambient[c]);
+        }
+        for (j, code) in node.lights.iter().enumerate() {
+            let light = &self.w.scene.lights[j];
+            let pos = Vec3::from_array(light.position).as_dvec3();
+            let directional = light.kind == DIRECTIONAL;
+            let (l, dist2, shadow_dir, end) = if directional {
+                let l = AVec3::constant(-pos);
+                (l, Aff::constant(1.0), l, End::Infinite)
+            } else {
+                let to = lifted.scale(-1.0).add_const(pos);
+                let dist2 = to.dot(to);
+                let inv_len = dist2.rsqrt().ok_or(Failure::Shadow)?;
+                (to.times(inv_len), dist2, to, End::At(Aff::constant(1.0)))
+            };
+            let cos = n_s.dot(l);
+            let ng_l = n_g.dot(l);
+            let normal = Vec3::from_array(light.normal).as_dvec3();
+            let emitted = if normal == DVec3::ZERO {
+                Aff::constant(1.0)
+            } else {
+                l.dot_const(normal).neg()
+            };
+            if *code == LightCode::FacesAway {
+                if ng_l.hi() <= 0.0 || cos.hi() <= 0.0 || emitted.hi() <= 0.0 {
+                    continue;
+                }
+                return Err(Failure::Shadow);
+            }
+            if ng_l.lo() <= 0.0 || cos.lo() <= 0.0 || emitted.lo() <= 0.0 {
+                return Err(Failure::Shadow);
+            }
+            let intensity = Vec3::from_array(light.intensity).as_dvec3();
+            let falloff = emitted.mul(dist2.recip().ok_or(Failure::Shadow)?);
+            let half = l.sub(fam.dir).normalize().ok_or(Failure::Silhouette)?;
+            let n_h = n_s.dot(half);
+            let lobe = if s.ns == 0.0 {
+                match n_h.sign() {
+                    Some(true) => Aff::constant(1.0),
+                    Some(false) => Aff::ZERO,
+                    None => return Err(Failure::Nonlinear),
+                }
+            } else {
+                n_h.relu().powf(s.ns as f64).ok_or(Failure::Nonlinear)?
+            };
+            let terms = [0, 1, 2].map(|c| falloff.scale(intensity[c]).mul(cos.scale(kd[c]).add(lobe.scale(ks[c]))));
+            let shafts = self.shafts();
+            // An emitter's sample lies just off its polygon, on the side its
+            // shadow rays run: what lies behind that plane cannot block them.
+            let behind = if normal == DVec3::ZERO {
+                Exclude::None
+            } else {
+                Exclude::Behind(normal, normal.dot(pos))
+            };
+            let exclude = [hit.exclude, behind];
+            let visibility = match code {
+                LightCode::Visible => {
+                    if !shafts.clear(&lifted, &shadow_dir, end, &exclude) {
+                        return Err(Failure::Shadow);
+                    }
+                    Some(1.0)
+                }
+                _ => self.proven_visibility(node.occluders.get(j).copied(), &lifted, &shadow_dir, end, &exclude),
+            };
+            match visibility {
+                Some(v) => {
+                    for c in 0..3 {
+                        local[c] = local[c].add(terms[c].scale(v));
+                    }
+                }
+                None => {
+                    // Blocked or filtered at the 16, unknown in between:
+                    // anything from none of it to all of it.
+                    for (c, term) in terms.iter().enumerate() {
+                        let unknown = term.mul(Aff::interval(0.0, 1.0));
+                        out.uncertain[c] = out.uncertain[c].add(fam.weight[c].mul(unknown));
+                    }
+                }
+            }
+        }
+        Ok(local)
+    }
+
+    /// The visibility of a light blocked or filtered at the 16 corners,
+    /// where every shadow segment of the cell provably passes through its
+    /// occluder: 0 for an opaque one, its transmission squared for a glass
+    /// sphere (crossed twice) with nothing else in the way.
+    fn proven_visibility(
+        &self,
+        occluder: Option<u32>,
+        o: &AVec3,
+        d: &AVec3,
+        end: End,
+        exclude: &[Exclude; 2],
+    ) -> Option<f64> {
+        let p = occluder.filter(|&p| p != u32::MAX)?;
+        let shading = self.w.scene.surface(self.surface_of(p));
+        let t_max = match end {
+            End::At(t) => t.lo(),
+            End::Infinite => f64::INFINITY,
+        };
+        match self.geometry.surface(self.w.scene, p) {
+            Surface::Sphere { center, radius } => {
+                let f = o.add_const(-center);
+                let dd = d.dot(*d);
+                let inv = dd.recip()?;
+                let fd = f.dot(*d);
+                let dist2 = f.dot(f).sub(fd.mul(fd).mul(inv));
+                let tc = fd.neg().mul(inv);
+                if !(dist2.hi() < radius * radius && tc.lo() > 0.0 && tc.hi() < t_max) {
+                    return None;
+                }
+                if !shading.transmits() {
+                    return Some(0.0);
+                }
+                // Through glass: twice its transmission, if nothing else is
+                // in the way (grey glass only: one factor for all channels).
+                let kt = Vec3::from_array(shading.kt);
+                if kt.x != kt.y || kt.y != kt.z {
+                    return None;
+                }
+                let clear = self
+                    .shafts()
+                    .clear(o, d, end, &[exclude[0], exclude[1], Exclude::Primitive(p)]);
+                clear.then_some((kt.x as f64).powi(2))
+            }
+            Surface::Flat(poly) | Surface::Smooth { polygon: poly, .. } => {
+                if shading.transmits() {
+                    return None;
+                }
+                let denom = d.dot_const(poly.normal);
+                let t = Aff::constant(poly.w).sub(o.dot_const(poly.normal)).mul(denom.recip()?);
+                if !(t.lo() > 0.0 && t.hi() < t_max) {
+                    return None;
+                }
+                let x = o.add(d.times(t));
+                poly.edges()
+                    .all(|(m, v)| x.add_const(-v).dot_const(m).lo() >= 0.0)
+                    .then_some(0.0)
+            }
+        }
+    }
+
+    fn surface_of(&self, primitive: u32) -> u32 {
+        let n = self.geometry.triangle_count() as u32;
+        if primitive >= n {
+            self.w.scene.spheres[(primitive - n) as usize].surface
+        } else {
+            self.w.scene.triangles[primitive as usize].surface
+        }
+    }
+
+    /// The node's reflected and refracted families, as the renderer makes
+    /// its rays (`Whitted::shade`).
+    #[allow(clippy::too_many_arguments)]
+    fn children(
+        &self,
+        node: &RayNode,
+        s: &Shading,
+        fam: &Family,
+        hit: &Hit,
+        lifted: AVec3,
+        n_g: AVec3,
+        n_s: AVec3,
+        delta: Aff,
+    ) -> Outcome<Vec<(RayKind, Family)>> {
+        let mut out = Vec::new();
+        if !(node.reflected || node.refracted || node.tir) {
+            return Ok(out);
+        }
+        let fresnel = self.w.params.flags & FRESNEL != 0;
+        let kr0 = Vec3::from_array(s.kr).as_dvec3();
+        let mut kr = [0, 1, 2].map(|c| Aff::constant(kr0[c]));
+        let mut kt = [0, 1, 2].map(|c| Aff::constant(s.kt[c] as f64));
+        let cos_i = fam.dir.dot(n_s).neg();
+        let d = fam.dir;
+        let mut transmitted: Option<(AVec3, Vec<u32>)> = None;
+        let transmits = s.kt.iter().any(|&k| k > 0.0);
+        let surface_id = node.hit.map_or(u32::MAX, |h| h.surface);
+        if s.refracts() && transmits {
+            let front = node.hit.is_some_and(|h| h.front);
+            let ni = |media: &[u32]| media.last().map_or(1.0, |&m| self.w.scene.surface(m).ni as f64);
+            let (n1, n2, inner) = if front {
+                let mut inner = fam.media.clone();
+                if inner.len() < crate::raytrace::whitted::MAX_MEDIA {
+                    inner.push(surface_id);
+                }
+                (ni(&fam.media), s.ni as f64, inner)
+            } else {
+                let mut inner = fam.media.clone();
+                if let Some(k) = inner.iter().rposition(|&m| m == surface_id) {
+                    inner.remove(k);
+                }
+                (s.ni as f64, ni(&inner), inner)
+            };
+            let eta = n1 / n2;
+            let sin2_t = cos_i.mul(cos_i).neg().add_const(1.0).relu().scale(eta * eta);
+            if fresnel {
+                // Under total internal reflection Schlick's reflectance is 1.
+                let f = if node.tir {
+                    Aff::constant(1.0)
+                } else {
+                    schlick(&cos_i, &sin2_t, n1, n2)?
+                };
+                kr = [f; 3];
+                kt = kt.map(|k| k.mul(f.neg().add_const(1.0)));
+            }
+            if node.tir {
+                if sin2_t.lo() < 1.0 {
+                    return Err(Failure::Tir);
+                }
+                kr = [0, 1, 2].map(|c| kr[c].add(kt[c]).min_one());
+            } else {
+                if sin2_t.hi() >= 1.0 {
+                    return Err(Failure::Tir);
+                }
+                let t_dir = if eta == 1.0 {
+                    d
+                } else {
+                    let cos_t = sin2_t.neg().add_const(1.0).sqrt().ok_or(Failure::Tir)?;
+                    d.scale(eta)
+                        .add(n_s.times(cos_i.scale(eta).sub(cos_t)))
+                        .normalize()
+                        .ok_or(Failure::Silhouette)?
+                };
+                consistent(&t_dir.dot(n_g), true)?;
+                transmitted = Some((t_dir, inner));
+            }
+        } else if transmits {
+            transmitted = Some((d, fam.media.clone()));
+        }
+        if !s.refracts() && fresnel && kr0.max_element() > 0.0 {
+            let m = cos_i
+                .neg()
+                .add_const(1.0)
+                .relu()
+                .min_one()
+                .powf(5.0)
+                .ok_or(Failure::Nonlinear)?;
+            kr = [0, 1, 2].map(|c| m.scale(1.0 - kr0[c]).add_const(kr0[c]));
+        }
+        let leaves = hit.exclude;
+        if node.reflected {
+            let r = d.sub(n_s.times(d.dot(n_s).scale(2.0)));
+            consistent(&r.dot(n_g), false)?;
+            out.push((
+                RayKind::Reflection,
+                Family {
+                    origin: lifted,
+                    dir: r,
+                    weight: [0, 1, 2].map(|c| fam.weight[c].mul(kr[c])),
+                    media: fam.media.clone(),
+                    leaves,
+                },
+            ));
+        }
+        if node.refracted {
+            let (t_dir, inner) = transmitted.ok_or(Failure::Topology)?;
+            out.push((
+                RayKind::Refraction,
+                Family {
+                    origin: hit.q.sub(n_g.times(delta)),
+                    dir: t_dir,
+                    weight: [0, 1, 2].map(|c| fam.weight[c].mul(kt[c])),
+                    media: inner,
+                    leaves,
+                },
+            ));
+        }
+        Ok(out)
+    }
+}
+
+/// What the walk over a tree computes.
+struct Walk {
+    certain: [Aff; 3],
+    uncertain: [Aff; 3],
+    root: RootFace,
+    hits: (DVec3, DVec3),
+    reprojectable: bool,
+    /// The radiance's linear variation along (a, c) and along (b, d): a
+    /// 4-way split halves the pair it varies more along.
+    linear_ac: f64,
+    linear_bd: f64,
+}
+
+/// Two trees with the same topology and, node by node, the same
+/// primitive where the surface is a smooth triangle or a flat face's
+/// polygon (a polygon split into non-coplanar triangles has one id but
+/// several planes).
+fn same_surfaces(a: &RayTree, b: &RayTree) -> bool {
+    a.same_topology(b)
+        && a.nodes.iter().zip(&b.nodes).all(|(x, y)| match (x.hit, y.hit) {
+            (Some(p), Some(q)) => p.face != crate::raytrace::scene::SMOOTH_FACE || p.primitive == q.primitive,
+            _ => true,
+        })
+}
+
+/// Where the family meets the plane of `p` (from the side `front` says).
+fn plane_hit(fam: &Family, p: &Polygon, front: bool) -> Outcome<(AVec3, Aff)> {
+    let denom = fam.dir.dot_const(p.normal);
+    consistent(&denom, front)?;
+    let inv = denom.recip().ok_or(Failure::Silhouette)?;
+    let t = Aff::constant(p.w).sub(fam.origin.dot_const(p.normal)).mul(inv);
+    if t.lo() <= 0.0 {
+        return Err(Failure::Silhouette);
+    }
+    Ok((fam.origin.add(fam.dir.times(t)), t))
+}
+
+/// The interpolated shading normal of a smooth triangle at `q`, as the
+/// renderer computes it (barycentric blend, normalised, turned to the
+/// triangle's side).
+fn smooth_normal(q: &AVec3, p: &Polygon, normals: &[DVec3; 3]) -> Outcome<AVec3> {
+    let [v0, v1, v2] = [p.vertices[0], p.vertices[1], p.vertices[2]];
+    let (e1, e2) = (v1 - v0, v2 - v0);
+    let (d00, d01, d11) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let denom = d00 * d11 - d01 * d01;
+    let rel = q.add_const(-v0);
+    let b1 = rel.dot_const((e1 * d11 - e2 * d01) / denom);
+    let b2 = rel.dot_const((e2 * d00 - e1 * d01) / denom);
+    let b0 = b1.add(b2).neg().add_const(1.0);
+    let blend = AVec3::constant(normals[0])
+        .times(b0)
+        .add(AVec3::constant(normals[1]).times(b1))
+        .add(AVec3::constant(normals[2]).times(b2));
+    let n = blend.normalize().ok_or(Failure::Silhouette)?;
+    match n.dot_const(p.normal).sign() {
+        Some(true) => Ok(n),
+        Some(false) => Ok(n.scale(-1.0)),
+        None => Err(Failure::Silhouette),
+    }
+}
+
+/// Schlick's reflectance over the family (`optics::schlick`).
+fn schlick(cos_i: &Aff, sin2_t: &Aff, n1: f64, n2: f64) -> Outcome<Aff> {
+    let r0 = ((n1 - n2) / (n1 + n2)).powi(2);
+    let cos = if n1 > n2 {
+        if sin2_t.hi() >= 1.0 {
+            return Err(Failure::Tir);
+        }
+        sin2_t.neg().add_const(1.0).sqrt().ok_or(Failure::Tir)?
+    } else {
+        *cos_i
+    };
+    let m = cos
+        .neg()
+        .add_const(1.0)
+        .relu()
+        .min_one()
+        .powf(5.0)
+        .ok_or(Failure::Nonlinear)?;
+    Ok(m.scale(1.0 - r0).add_const(r0))
+}

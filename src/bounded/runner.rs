@@ -1,0 +1,912 @@
+//! A frame of bounded-error ray tracing (the paper's Figure 1 and section
+//! 8.3), over a `WhittedRenderer`:
+//!
+//! 1. **Fast path** (section 6.1): the accepted cells the previous frame
+//!    used are reprojected to the new eye. A cell whose whole shaft from the
+//!    eye to its hits is clear (one shaft cull per cell) claims the pixels
+//!    whose eye lines fall inside it; a pixel two cells claim is left to the
+//!    next path. Claimed pixels are interpolated without tracing anything.
+//! 2. **Pixel assignment** for the rest: the primary ray through the
+//!    kd-tree (exact: which surface a pixel sees never comes from an
+//!    interpolant), then the leaf of that object's linetree for the ray's
+//!    line. An accepted leaf whose rays hit the same face interpolates the
+//!    pixel; an unbuilt leaf is built (its missing extremal rays traced,
+//!    the predicate run) and, if rejected and covering enough pixels
+//!    (section 7's cost model), split and its pixels walked down again.
+//! 3. **Slow path**: what is left is traced by the Whitted tracer.
+//!
+//! Builds run in rounds over all the cells the frame asks for, so the
+//! extremal rays and the predicates of a round run in parallel.
+
+use std::time::Instant;
+
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::bounded::affine::{AVec3, Aff};
+use crate::bounded::geometry::SceneGeometry;
+use crate::bounded::gpu::InterpolatePass;
+use crate::bounded::interpolate::{PixelJob, interpolate_pixels};
+use crate::bounded::linespace::{FacePair, LineCoords, pair_index};
+use crate::bounded::linetree::{CellState, HashMap, Interpolant, Linetrees, Sample, corner_ray};
+use crate::bounded::predicate::{BoundKind, Failure, Predicate, RootFace};
+use crate::bounded::shaft::{End, Exclude, Shafts};
+use crate::device::elapsed_ms;
+use crate::error::{Error, Result};
+use crate::gpu::GpuContext;
+use crate::gpu::batch::Batched;
+use crate::progress::Progress;
+use crate::raytrace::ray_tree::RayTree;
+use crate::raytrace::whitted::{FirstHit, Media, Whitted, WhittedParams, pixel_ray};
+use crate::raytrace::{WhittedRenderer, WhittedSettings};
+use crate::scene::Camera;
+
+/// How a failed cell is split.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub enum SplitKind {
+    /// All four coordinates halved: 16 children (the paper).
+    #[default]
+    Sixteen,
+    /// One pair of coordinates, (a, c) or (b, d), halved, the one the
+    /// predicate blames: 4 children (the paper's section 8.6).
+    Four,
+}
+
+/// The knobs of the bounded-error renderer.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BoundedSettings {
+    /// The relative error bound: an interpolated pixel is within
+    /// `epsilon * max(L, floor)` of the exact radiance `L`, per channel.
+    pub epsilon: f32,
+    /// The radiance below which the bound is absolute (`epsilon * floor`).
+    pub floor: f32,
+    pub bound: BoundKind,
+    pub split: SplitKind,
+    /// Reproject the previous frame's cells (the fast path).
+    pub reproject: bool,
+    /// Fill spans of reprojected pixels of one cell by screen-space
+    /// interpolation (section 6.2; outside the guarantee).
+    pub span: bool,
+    /// Memory cap of linetree cells and samples, in MiB.
+    pub memory_mb: f64,
+    /// A rejected cell is split only if at least this many pixels per child
+    /// asked for it (section 7's cost model).
+    pub min_pixels: u32,
+    pub whitted: WhittedSettings,
+}
+
+/// `floor`'s default: one step of an 8-bit image of white 1.
+pub const DEFAULT_FLOOR: f32 = 1.0 / 255.0;
+
+impl Default for BoundedSettings {
+    fn default() -> Self {
+        BoundedSettings {
+            epsilon: 0.05,
+            floor: DEFAULT_FLOOR,
+            bound: BoundKind::Conservative,
+            split: SplitKind::Sixteen,
+            reproject: true,
+            span: false,
+            memory_mb: 1024.0,
+            min_pixels: 2,
+            whitted: WhittedSettings::default(),
+        }
+    }
+}
+
+impl BoundedSettings {
+    pub fn validate(&self) -> Result<()> {
+        self.whitted.validate()?;
+        if self.whitted.spp != 1 {
+            return Err(Error::param(
+                "spp",
+                "bounded-error rendering takes one sample per pixel (the guarantee is per ray)",
+            ));
+        }
+        if !(self.epsilon >= 0.0 && self.epsilon.is_finite()) {
+            return Err(Error::param(
+                "epsilon",
+                format!("must be >= 0 and finite, got {}", self.epsilon),
+            ));
+        }
+        if !(self.floor > 0.0 && self.floor.is_finite()) {
+            return Err(Error::param("floor", format!("must be positive, got {}", self.floor)));
+        }
+        if !(self.memory_mb > 0.0 && self.memory_mb.is_finite()) {
+            return Err(Error::param(
+                "memory_mb",
+                format!("must be positive, got {}", self.memory_mb),
+            ));
+        }
+        if self.min_pixels == 0 {
+            return Err(Error::param("min_pixels", "must be at least 1"));
+        }
+        Ok(())
+    }
+}
+
+/// Why a pixel was traced.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TraceReason {
+    /// Its cell was rejected by this sub-test.
+    Failure(Failure),
+    /// The pixel's line misses its face pair's faces (no line
+    /// coordinates).
+    Eye,
+    /// Its ray hit another face of the object than the cell's rays.
+    Mismatch,
+    /// Epsilon 0, or the eye inside glass: the frame is the Whitted
+    /// renderer's own.
+    Exact,
+}
+
+/// How a pixel got its radiance.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PixelPath {
+    Reprojected,
+    SpanFilled,
+    Interpolated,
+    /// Its ray left the scene: the background, exactly.
+    Background,
+    Traced(TraceReason),
+}
+
+/// Pixels by path.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct PathCounts {
+    pub reprojected: u64,
+    pub span_filled: u64,
+    pub interpolated: u64,
+    pub background: u64,
+    pub traced: u64,
+    /// Traced pixels by the reason.
+    pub traced_by: std::collections::BTreeMap<String, u64>,
+}
+
+/// What one frame did and cost.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct FrameStats {
+    pub pixels: PathCounts,
+    /// Share of pixels interpolated (fast path, span-filled or built) among
+    /// those that hit a surface.
+    pub success_rate: f64,
+    pub cells: usize,
+    pub leaves: usize,
+    pub valid_cells: usize,
+    pub cells_built: usize,
+    pub cells_split: usize,
+    pub cells_reprojected: usize,
+    /// Cells reprojection tried and dropped: the eye was not before their
+    /// front face, their shaft from the eye was not clear, or no pixel's
+    /// line fell in them any more.
+    pub reproject_dropped: [usize; 3],
+    /// Extremal rays asked for (16 per built cell) and traced (the rest
+    /// were shared with built cells).
+    pub extremal_rays_requested: u64,
+    pub extremal_rays_traced: u64,
+    pub rays_traced_slow_path: u64,
+    pub memory_bytes: usize,
+    pub memory_peak_bytes: usize,
+    pub evicted_cells: usize,
+    pub frame_ms: f64,
+    pub reproject_ms: f64,
+    pub assign_ms: f64,
+    pub build_ms: f64,
+    pub trace_ms: f64,
+    pub interpolate_ms: f64,
+}
+
+/// A rendered frame.
+pub struct BoundedFrame {
+    pub width: u32,
+    pub height: u32,
+    pub camera: Camera,
+    pub radiance: Vec<Vec3>,
+    pub paths: Vec<PixelPath>,
+    /// The linetree cell (index into `Linetrees::cells`) each interpolated
+    /// or reprojected pixel took its radiance from, `u32::MAX` elsewhere.
+    pub cells: Vec<u32>,
+    pub stats: FrameStats,
+}
+
+/// A pixel's interpolation: its cell and coordinates in it.
+#[derive(Debug, Clone, Copy)]
+struct Assigned {
+    cell: u32,
+    local: [f32; 4],
+}
+
+/// The bounded-error renderer of one scene, kept across frames.
+pub struct BoundedRenderer {
+    pub whitted: WhittedRenderer,
+    geometry: SceneGeometry,
+    pub trees: Linetrees,
+    pub settings: BoundedSettings,
+    frame: u32,
+    /// The accepted cells the last frame used (what reprojection tries).
+    last_used: Vec<u32>,
+    /// The interpolation pass where the Whitted renderer is on a GPU.
+    gpu: Option<(GpuContext, Batched<InterpolatePass>)>,
+}
+
+/// A pixel's primary hit (distance, primitive) where it has one.
+type PrimaryHit = Option<(f32, u32)>;
+
+/// A pixel on its way down a linetree: pixel, tree (then leaf cell), its
+/// line, the surface it sees and its primary hit.
+type PixelLeaf = (u32, u32, LineCoords, RootFace, (f32, u32));
+
+/// What assignment found for a pixel that reprojection did not claim.
+#[derive(Debug, Clone, Copy)]
+enum Found {
+    Background,
+    Traced(TraceReason, Option<(f32, u32)>),
+    Leaf {
+        tree: u32,
+        coords: LineCoords,
+        face: RootFace,
+        hit: (f32, u32),
+    },
+}
+
+impl BoundedRenderer {
+    pub fn new(whitted: WhittedRenderer, settings: BoundedSettings) -> Result<BoundedRenderer> {
+        settings.validate()?;
+        let geometry = SceneGeometry::new(whitted.scene(), whitted.tree());
+        let gpu = whitted.context().map(|ctx| (ctx.clone(), Batched::new(ctx)));
+        Ok(BoundedRenderer {
+            whitted,
+            geometry,
+            trees: Linetrees::default(),
+            settings,
+            frame: 0,
+            last_used: Vec::new(),
+            gpu,
+        })
+    }
+
+    /// Renders the next frame from `camera`.
+    pub fn render(&mut self, camera: &Camera, width: u32, height: u32) -> Result<BoundedFrame> {
+        let start = Instant::now();
+        self.frame += 1;
+        let params = self.whitted.params(camera, width, height, &self.settings.whitted)?;
+        let n = width as usize * height as usize;
+        let mut stats = FrameStats::default();
+        let mut paths = vec![PixelPath::Background; n];
+        let mut assigned: Vec<Option<Assigned>> = vec![None; n];
+        // Pixels left to trace, with their primary hit where known.
+        let mut slow: Vec<(u32, Option<(f32, u32)>)> = Vec::new();
+        let exact = self.settings.epsilon == 0.0 || params.media_len > 0;
+        if exact {
+            // The Whitted renderer itself (packets or its kernel): the image
+            // `--method whitted` makes, bit for bit.
+            let t = Instant::now();
+            let out = self
+                .whitted
+                .render(camera, width, height, &self.settings.whitted, &Progress::hidden())?;
+            stats.trace_ms = elapsed_ms(t);
+            stats.rays_traced_slow_path = out.stats.rays.total();
+            paths.fill(PixelPath::Traced(TraceReason::Exact));
+            count_paths(&paths, &mut stats);
+            stats.frame_ms = elapsed_ms(start);
+            self.last_used.clear();
+            return Ok(BoundedFrame {
+                width,
+                height,
+                camera: *camera,
+                radiance: out.radiance(),
+                paths,
+                cells: vec![u32::MAX; n],
+                stats,
+            });
+        }
+
+        // 1. Fast path.
+        let t0 = Instant::now();
+        let mut claimed = vec![u32::MAX; n];
+        if self.settings.reproject && !exact {
+            (stats.cells_reprojected, stats.reproject_dropped) = self.reproject(&params, camera.eye, &mut claimed);
+        }
+        for (i, &c) in claimed.iter().enumerate() {
+            if c < CONFLICT {
+                paths[i] = PixelPath::Reprojected;
+            }
+        }
+        stats.reproject_ms = elapsed_ms(t0);
+
+        // 2. Pixel assignment.
+        let t1 = Instant::now();
+        let todo: Vec<u32> = (0..n as u32).filter(|&i| claimed[i as usize] >= CONFLICT).collect();
+        let found = self.assign(&params, &todo, exact);
+        let mut leaves: Vec<PixelLeaf> = Vec::new();
+        for (&i, f) in todo.iter().zip(&found) {
+            match *f {
+                Found::Background => paths[i as usize] = PixelPath::Background,
+                Found::Traced(why, hit) => {
+                    paths[i as usize] = PixelPath::Traced(why);
+                    slow.push((i, hit));
+                }
+                Found::Leaf {
+                    tree,
+                    coords,
+                    face,
+                    hit,
+                } => leaves.push((i, tree, coords, face, hit)),
+            }
+        }
+        stats.assign_ms = elapsed_ms(t1);
+
+        // Rounds of builds until every pixel has an accepted leaf or a
+        // rejected one that stays.
+        let t2 = Instant::now();
+        let mut round: Vec<PixelLeaf> = leaves
+            .par_iter()
+            .map(|&(i, tree, coords, face, hit)| (i, self.trees.leaf(tree, &coords), coords, face, hit))
+            .collect();
+        while !round.is_empty() {
+            round.par_sort_unstable_by_key(|r| (r.1, r.0));
+            let groups: Vec<(u32, std::ops::Range<usize>)> = group_by_cell(&round);
+            let to_build: Vec<u32> = groups
+                .iter()
+                .filter(|(c, _)| matches!(self.trees.cells[*c as usize].state, CellState::Unbuilt))
+                .map(|(c, _)| *c)
+                .collect();
+            self.build(&params, &to_build, &mut stats);
+            let mut next = Vec::new();
+            for (cell, range) in groups {
+                let pixels = &round[range];
+                self.trees.cells[cell as usize].used = self.frame;
+                let tree = self.trees.cells[cell as usize].tree;
+                let pair = self.trees.trees[tree as usize].pair;
+                match &self.trees.cells[cell as usize].state {
+                    CellState::Valid(interp) => {
+                        let root = interp.accepted.root;
+                        let c = self.trees.cells[cell as usize].cell;
+                        for &(i, _, coords, face, hit) in pixels {
+                            if face == root {
+                                paths[i as usize] = PixelPath::Interpolated;
+                                assigned[i as usize] = Some(Assigned {
+                                    cell,
+                                    local: c.local(&pair, &coords),
+                                });
+                            } else {
+                                paths[i as usize] = PixelPath::Traced(TraceReason::Mismatch);
+                                slow.push((i, Some(hit)));
+                            }
+                        }
+                    }
+                    CellState::Failed { failure, split, .. } => {
+                        let (failure, split) = (*failure, *split);
+                        let axes = match self.settings.split {
+                            SplitKind::Sixteen => 0b1111,
+                            SplitKind::Four => split,
+                        };
+                        let c = self.trees.cells[cell as usize].cell;
+                        let children = 1usize << (axes as u32).count_ones();
+                        let can = (0..4).filter(|a| axes >> a & 1 == 1).all(|a| c.splittable(a));
+                        if can && pixels.len() >= self.settings.min_pixels as usize * children {
+                            self.trees.split(cell, axes);
+                            stats.cells_split += 1;
+                            for &(i, _, coords, face, hit) in pixels {
+                                next.push((i, self.trees.leaf(tree, &coords), coords, face, hit));
+                            }
+                        } else {
+                            if let CellState::Failed { pixels: p, .. } = &mut self.trees.cells[cell as usize].state {
+                                *p = (*p).max(pixels.len() as u32);
+                            }
+                            for &(i, _, _, _, hit) in pixels {
+                                paths[i as usize] = PixelPath::Traced(TraceReason::Failure(failure));
+                                slow.push((i, Some(hit)));
+                            }
+                        }
+                    }
+                    CellState::Unbuilt | CellState::Split { .. } => {
+                        return Err(Error::internal("a linetree leaf was neither built nor split"));
+                    }
+                }
+            }
+            round = next;
+        }
+        stats.build_ms = elapsed_ms(t2);
+
+        // 3. Slow path, and 4. interpolation.
+        let t3 = Instant::now();
+        let mut radiance = vec![Vec3::from_array(params.background); n];
+        let twin = self.whitted.twin(&params);
+        let media = Media::from_ids(&params.media[..params.media_len as usize]);
+        let traced: Vec<(u32, Vec3, u32)> = slow
+            .par_iter()
+            .with_min_len(64)
+            .map(|&(i, hit)| {
+                let (o, d) = pixel_ray(&params, i, 0);
+                let first = hit.map(|(t, p)| twin.facing(o, d, t, p));
+                let blocked = vec![None; params.light_count as usize];
+                let given = FirstHit {
+                    facing: first,
+                    blocked: &blocked,
+                };
+                let out = twin.shade(o, d, media, hit.map(|_| &given), None);
+                (i, out.radiance, out.rays.iter().sum::<u32>())
+            })
+            .collect();
+        for (i, r, rays) in traced {
+            radiance[i as usize] = r;
+            stats.rays_traced_slow_path += rays as u64;
+        }
+        stats.trace_ms = elapsed_ms(t3);
+        let t4 = Instant::now();
+        let pixel_cells = self.interpolate_all(&params, &claimed, &assigned, &mut radiance)?;
+        if self.settings.span {
+            span_fill(width, &claimed, &mut radiance, &mut paths);
+        }
+        stats.interpolate_ms = elapsed_ms(t4);
+
+        // Bookkeeping: what reprojection tries next, memory.
+        let mut used: Vec<u32> = assigned.iter().flatten().map(|a| a.cell).collect();
+        used.extend(claimed.iter().copied().filter(|&c| c < CONFLICT));
+        used.par_sort_unstable();
+        used.dedup();
+        for &c in &used {
+            self.trees.cells[c as usize].used = self.frame;
+        }
+        self.last_used = used;
+        self.trees.release_split();
+        let cap = (self.settings.memory_mb * 1024.0 * 1024.0) as usize;
+        stats.evicted_cells = self.trees.evict(cap, self.frame);
+        self.last_used
+            .retain(|&c| matches!(self.trees.cells[c as usize].state, CellState::Valid(_)));
+        let (cells, leaves, valid) = self.trees.counts();
+        stats.cells = cells;
+        stats.leaves = leaves;
+        stats.valid_cells = valid;
+        stats.memory_bytes = self.trees.bytes();
+        stats.memory_peak_bytes = self.trees.peak_bytes;
+        count_paths(&paths, &mut stats);
+        stats.frame_ms = elapsed_ms(start);
+        Ok(BoundedFrame {
+            width,
+            height,
+            camera: *camera,
+            radiance,
+            paths,
+            cells: pixel_cells,
+            stats,
+        })
+    }
+
+    /// Which leaf each pixel's line falls in (or why it has none).
+    fn assign(&mut self, params: &WhittedParams, todo: &[u32], exact: bool) -> Vec<Found> {
+        let twin = self.whitted.twin(params);
+        let eye = Vec3::from_array(params.eye).as_dvec3();
+        let first: Vec<(u32, Vec3, PrimaryHit)> = todo
+            .par_iter()
+            .with_min_len(256)
+            .map(|&i| {
+                let (o, d) = pixel_ray(params, i, 0);
+                (i, d, twin.closest(o, d, f32::INFINITY, None))
+            })
+            .collect();
+        // Make the trees the hits need, then find leaves in parallel.
+        let scene = self.whitted.scene();
+        let geometry = &self.geometry;
+        let mut keys: Vec<(RootFace, usize)> = first
+            .iter()
+            .filter_map(|(_, d, h)| h.map(|(_, p)| (RootFace::of(geometry, scene, p), pair_index(*d))))
+            .collect();
+        keys.sort_unstable();
+        keys.dedup();
+        for (surface, pair) in keys {
+            let bounds = self.geometry.bounds(surface);
+            self.trees.tree(surface, pair, || FacePair::new(&bounds, pair));
+        }
+        let (trees, geometry) = (&self.trees, &self.geometry);
+        first
+            .par_iter()
+            .with_min_len(256)
+            .map(|&(_, d, hit)| {
+                let Some((t, p)) = hit else {
+                    return Found::Background;
+                };
+                if exact {
+                    return Found::Traced(TraceReason::Exact, hit);
+                }
+                let face = RootFace::of(geometry, scene, p);
+                let tree = trees.find(face, pair_index(d)).expect("made above");
+                let pair = &trees.trees[tree as usize].pair;
+                let dir = d.as_dvec3();
+                // The eye may be between the faces: the line is what counts.
+                let Some(coords) = pair.coords(eye, dir) else {
+                    return Found::Traced(TraceReason::Eye, hit);
+                };
+                Found::Leaf {
+                    tree,
+                    coords,
+                    face,
+                    hit: (t, p),
+                }
+            })
+            .collect()
+    }
+
+    /// Traces the missing extremal rays of `cells` and judges them.
+    fn build(&mut self, params: &WhittedParams, cells: &[u32], stats: &mut FrameStats) {
+        if cells.is_empty() {
+            return;
+        }
+        let twin = self.whitted.twin(params);
+        // The missing extremal rays, each once.
+        let mut missing: Vec<(u128, u32, usize)> = Vec::new();
+        for &c in cells {
+            let keys = self.trees.corner_keys(c);
+            stats.extremal_rays_requested += 16;
+            for (k, key) in keys.iter().enumerate() {
+                if self.trees.sample(*key).is_none() {
+                    missing.push((*key, c, k));
+                }
+            }
+        }
+        missing.sort_unstable_by_key(|m| m.0);
+        missing.dedup_by_key(|m| m.0);
+        stats.extremal_rays_traced += missing.len() as u64;
+        let (trees, geometry) = (&self.trees, &self.geometry);
+        let traced: Vec<(u128, Sample)> = missing
+            .par_iter()
+            .map(|&(key, c, k)| {
+                let cell = &trees.cells[c as usize];
+                let tree = &trees.trees[cell.tree as usize];
+                let (o, d) = corner_ray(&tree.pair, &cell.cell, k);
+                (key, trace_sample(&twin, geometry, tree.surface, o, d))
+            })
+            .collect();
+        for (key, s) in traced {
+            self.trees.insert_sample(key, s);
+        }
+        let predicate = Predicate {
+            w: &twin,
+            geometry: &self.geometry,
+            epsilon: self.settings.epsilon as f64,
+            floor: self.settings.floor as f64,
+            bound: self.settings.bound,
+        };
+        let trees = &self.trees;
+        let verdicts: Vec<(u32, CellState)> = cells
+            .par_iter()
+            .map(|&c| {
+                let cell = &trees.cells[c as usize];
+                let (pair, root) = (
+                    trees.trees[cell.tree as usize].pair,
+                    trees.trees[cell.tree as usize].surface,
+                );
+                let keys = trees.corner_keys(c);
+                let samples: [&Sample; 16] = keys.map(|k| trees.sample(k).expect("traced above"));
+                let radiance = samples.map(|s| s.radiance);
+                let centre = (predicate.bound == BoundKind::Paper).then(|| {
+                    let mid = [0, 1, 2, 3].map(|i| {
+                        let (lo, hi) = cell.cell.range(&pair, i);
+                        0.5 * (lo + hi)
+                    });
+                    let (o, d) = pair.ray(mid);
+                    trace_sample(&twin, &self.geometry, root, o, d.normalize()).radiance
+                });
+                let state = match predicate.judge(&pair, &cell.cell, &radiance, samples.map(|s| &s.tree), centre) {
+                    Ok(accepted) => CellState::Valid(Box::new(Interpolant { radiance, accepted })),
+                    Err(r) => CellState::Failed {
+                        failure: r.failure,
+                        split: r.split,
+                        pixels: 0,
+                    },
+                };
+                (c, state)
+            })
+            .collect();
+        stats.cells_built += verdicts.len();
+        for (c, state) in verdicts {
+            self.trees.settle(c, state);
+        }
+    }
+
+    /// Claims pixels for the cells of the last frame whose shafts from the
+    /// eye are clear; `claimed[pixel]` becomes the cell, or `CONFLICT`.
+    fn reproject(&self, params: &WhittedParams, eye: Vec3, claimed: &mut [u32]) -> (usize, [usize; 3]) {
+        let scene = self.whitted.scene();
+        let shafts = Shafts {
+            scene,
+            tree: self.whitted.tree(),
+            geometry: &self.geometry,
+        };
+        let eye_d = eye.as_dvec3();
+        // Per cell: its pixels, or why it has none (0 eye, 1 shaft, 2 empty).
+        let per_cell: Vec<(Vec<u32>, usize)> = self
+            .last_used
+            .par_iter()
+            .map(|&c| {
+                let cell = &self.trees.cells[c as usize];
+                let CellState::Valid(interp) = &cell.state else {
+                    return (Vec::new(), 0);
+                };
+                let pair = &self.trees.trees[cell.tree as usize].pair;
+                if !interp.accepted.reprojectable {
+                    return (Vec::new(), 0);
+                }
+                // One shaft cull: from the eye to the box of the cell's hits.
+                let (lo, hi) = interp.accepted.hits;
+                let d = AVec3::boxed(lo - eye_d, hi - eye_d);
+                // The predicate proved every ray of the cell lands inside the
+                // root's polygon, so everything in its plane may be skipped.
+                let plane = |p: u32| {
+                    let poly = &self.geometry.polygons[p as usize];
+                    Exclude::Plane(poly.normal, poly.w)
+                };
+                let exclude = match interp.accepted.root {
+                    RootFace::Polygon(p) => plane(p),
+                    RootFace::Triangle(t) => plane(self.geometry.triangle_polygon[t as usize]),
+                    RootFace::Sphere(t) => Exclude::Primitive(t),
+                };
+                if !shafts.clear(&AVec3::constant(eye_d), &d, End::At(Aff::constant(1.0)), &[exclude]) {
+                    return (Vec::new(), 1);
+                }
+                (pixels_in_cell(params, pair, &cell.cell, interp.accepted.hits, eye_d), 2)
+            })
+            .collect();
+        let mut count = 0;
+        let mut dropped = [0; 3];
+        for ((pixels, why), &c) in per_cell.iter().zip(&self.last_used) {
+            if pixels.is_empty() {
+                dropped[*why] += 1;
+            } else {
+                count += 1;
+            }
+            for &p in pixels {
+                let slot = &mut claimed[p as usize];
+                *slot = if *slot == u32::MAX { c } else { CONFLICT };
+            }
+        }
+        (count, dropped)
+    }
+
+    /// Interpolates every pixel that has a cell: its position in the cell
+    /// here (f64 line coordinates), the interpolation itself on the device
+    /// (`interpolate.wgsl`) or by its CPU twin, over one table of the
+    /// cells' corners.
+    fn interpolate_all(
+        &mut self,
+        params: &WhittedParams,
+        claimed: &[u32],
+        assigned: &[Option<Assigned>],
+        out: &mut [Vec3],
+    ) -> Result<Vec<u32>> {
+        let eye = Vec3::from_array(params.eye).as_dvec3();
+        let found: Vec<(u32, Assigned)> = (0..out.len())
+            .into_par_iter()
+            .with_min_len(256)
+            .filter_map(|i| {
+                let a = match (claimed[i], assigned[i]) {
+                    (_, Some(a)) => a,
+                    (c, None) if c < CONFLICT => {
+                        let cell = &self.trees.cells[c as usize];
+                        let pair = &self.trees.trees[cell.tree as usize].pair;
+                        let (_, d) = pixel_ray(params, i as u32, 0);
+                        let coords = pair.coords(eye, d.as_dvec3())?;
+                        Assigned {
+                            cell: c,
+                            local: cell.cell.local(pair, &coords),
+                        }
+                    }
+                    _ => return None,
+                };
+                matches!(self.trees.cells[a.cell as usize].state, CellState::Valid(_)).then_some((i as u32, a))
+            })
+            .collect();
+        // One slot per cell, in order of first use.
+        let mut slot_of: HashMap<u32, u32> = HashMap::default();
+        let mut corners: Vec<[f32; 4]> = Vec::new();
+        let jobs: Vec<PixelJob> = found
+            .iter()
+            .map(|&(pixel, a)| {
+                let slot = *slot_of.entry(a.cell).or_insert_with(|| {
+                    let CellState::Valid(interp) = &self.trees.cells[a.cell as usize].state else {
+                        unreachable!("filtered above")
+                    };
+                    corners.extend(interp.radiance.iter().map(|r| r.extend(0.0).to_array()));
+                    (corners.len() / 16 - 1) as u32
+                });
+                PixelJob {
+                    slot,
+                    pixel,
+                    local: a.local,
+                    ..Default::default()
+                }
+            })
+            .collect();
+        let radiance = match &mut self.gpu {
+            Some((ctx, pass)) => pass.interpolate(ctx, &corners, &jobs)?.0,
+            None => interpolate_pixels(&corners, &jobs),
+        };
+        let mut cells = vec![u32::MAX; out.len()];
+        for ((job, r), (_, a)) in jobs.iter().zip(radiance).zip(&found) {
+            out[job.pixel as usize] = Vec3::from_slice(&r[..3]);
+            cells[job.pixel as usize] = a.cell;
+        }
+        Ok(cells)
+    }
+
+    /// The exact radiance leaving tree `tree`'s surface along its line `c`,
+    /// and the primitive it was shaded on (`None`: the line misses the
+    /// surface), for `--check`.
+    pub fn trace_line(&self, params: &WhittedParams, tree: u32, c: &LineCoords) -> (Vec3, Option<u32>) {
+        let tree = &self.trees.trees[tree as usize];
+        let (o, d) = tree.pair.ray(*c);
+        let s = trace_sample(
+            &self.whitted.twin(params),
+            &self.geometry,
+            tree.surface,
+            o,
+            d.normalize(),
+        );
+        let first = s.tree.nodes.first().and_then(|n| n.hit).map(|h| h.primitive);
+        (s.radiance, first)
+    }
+
+    pub fn geometry(&self) -> &SceneGeometry {
+        &self.geometry
+    }
+
+    /// The accepted cells the last frame used.
+    pub fn used_cells(&self) -> &[u32] {
+        &self.last_used
+    }
+}
+
+/// `claimed` of a pixel two reprojected cells claim.
+const CONFLICT: u32 = u32::MAX - 1;
+
+/// Runs of equal cells in a sorted round.
+fn group_by_cell(round: &[PixelLeaf]) -> Vec<(u32, std::ops::Range<usize>)> {
+    let mut groups = Vec::new();
+    let mut start = 0;
+    for i in 1..=round.len() {
+        if i == round.len() || round[i].1 != round[start].1 {
+            groups.push((round[start].1, start..i));
+            start = i;
+        }
+    }
+    groups
+}
+
+/// An extremal ray's sample: from the front face, in air.
+/// The radiance leaving a linetree's root surface along the line `o + t d`
+/// and its ray tree: the line's first hit is put on the root (what lies
+/// between the front face and the root is no part of the interpolant:
+/// pixel assignment is exact, and reprojection culls the eye's own shaft).
+fn trace_sample(twin: &Whitted, geometry: &SceneGeometry, root: RootFace, o: DVec3, d: DVec3) -> Sample {
+    let (o32, d32) = (o.as_vec3(), d.as_vec3());
+    let facing = geometry
+        .root_hit(root, o, d)
+        .map(|(t, primitive)| twin.facing(o32, d32, t as f32, primitive));
+    let blocked = vec![None; twin.params.light_count as usize];
+    let given = FirstHit {
+        facing,
+        blocked: &blocked,
+    };
+    let mut tree = RayTree::default();
+    let out = twin.shade(o32, d32, Media::default(), Some(&given), Some(&mut tree));
+    Sample::new(out.radiance, tree)
+}
+
+/// The pixels whose eye lines lie in the cell, oriented as its lines: the
+/// box of its faces' corners projected (or, with the eye between the faces,
+/// of its hits, where every such pixel's ray lands), each pixel then tested.
+fn pixels_in_cell(
+    params: &WhittedParams,
+    pair: &FacePair,
+    cell: &crate::bounded::linespace::CellBox,
+    (hits_lo, hits_hi): (DVec3, DVec3),
+    eye: DVec3,
+) -> Vec<u32> {
+    let forward = Vec3::from_array(params.forward).as_dvec3();
+    let right = Vec3::from_array(params.right).as_dvec3();
+    let up = Vec3::from_array(params.up).as_dvec3();
+    let (w, h) = (params.width as f64, params.height as f64);
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    let before = pair.before_front(eye);
+    for k in 0..8usize {
+        let p = if !before {
+            DVec3::select(glam::BVec3::new(k & 1 == 1, k & 2 == 2, k & 4 == 4), hits_hi, hits_lo)
+        } else if k < 4 {
+            // The front face's four corners (a, b), then the back face's (c, d).
+            let c = cell.corner(pair, k);
+            pair.point(c[0], c[1], true)
+        } else {
+            let c = cell.corner(pair, (k - 4) << 2);
+            pair.point(c[2], c[3], false)
+        };
+        let v = p - eye;
+        let z = v.dot(forward);
+        if z <= 0.0 {
+            return Vec::new();
+        }
+        // Image coordinates of the direction (inverse of pixel_ray).
+        let sx = v.dot(right) / right.length_squared() / z;
+        let sy = v.dot(up) / up.length_squared() / z;
+        let (x, y) = ((sx + 1.0) * 0.5 * w, (1.0 - sy) * 0.5 * h);
+        lo = [lo[0].min(x), lo[1].min(y)];
+        hi = [hi[0].max(x), hi[1].max(y)];
+    }
+    let x0 = (lo[0].floor().max(0.0)) as u32;
+    let y0 = (lo[1].floor().max(0.0)) as u32;
+    let x1 = (hi[0].ceil().min(w)) as u32;
+    let y1 = (hi[1].ceil().min(h)) as u32;
+    let mut out = Vec::new();
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let i = y * params.width + x;
+            let (_, d) = pixel_ray(params, i, 0);
+            let oriented = (d[pair.axis] > 0.0) == pair.positive;
+            if oriented && pair.coords(eye, d.as_dvec3()).is_some_and(|c| cell.contains(pair, &c)) {
+                out.push(i);
+            }
+        }
+    }
+    out
+}
+
+/// Section 6.2: along each row, a run of reprojected pixels of one cell
+/// is filled by screen-space interpolation between its ends.
+fn span_fill(width: u32, claimed: &[u32], radiance: &mut [Vec3], paths: &mut [PixelPath]) {
+    for (y, row) in claimed.chunks(width as usize).enumerate() {
+        let base = y * width as usize;
+        let mut x = 0;
+        while x < row.len() {
+            let c = row[x];
+            let mut end = x;
+            while end + 1 < row.len() && row[end + 1] == c {
+                end += 1;
+            }
+            if c < CONFLICT && end >= x + 2 {
+                let (a, b) = (radiance[base + x], radiance[base + end]);
+                for k in x + 1..end {
+                    let s = (k - x) as f32 / (end - x) as f32;
+                    radiance[base + k] = a.lerp(b, s);
+                    paths[base + k] = PixelPath::SpanFilled;
+                }
+            }
+            x = end + 1;
+        }
+    }
+}
+
+fn count_paths(paths: &[PixelPath], stats: &mut FrameStats) {
+    let p = &mut stats.pixels;
+    for path in paths {
+        match path {
+            PixelPath::Reprojected => p.reprojected += 1,
+            PixelPath::SpanFilled => p.span_filled += 1,
+            PixelPath::Interpolated => p.interpolated += 1,
+            PixelPath::Background => p.background += 1,
+            PixelPath::Traced(why) => {
+                p.traced += 1;
+                let name = match why {
+                    TraceReason::Failure(f) => serde_json::to_value(f)
+                        .ok()
+                        .and_then(|v| v.as_str().map(str::to_string))
+                        .unwrap_or_default(),
+                    TraceReason::Eye => "eye".into(),
+                    TraceReason::Mismatch => "face_mismatch".into(),
+                    TraceReason::Exact => "epsilon_zero".into(),
+                };
+                *p.traced_by.entry(name).or_default() += 1;
+            }
+        }
+    }
+    let surfaces = (paths.len() as u64).saturating_sub(p.background);
+    let interpolated = p.reprojected + p.span_filled + p.interpolated;
+    stats.success_rate = if surfaces > 0 {
+        interpolated as f64 / surfaces as f64
+    } else {
+        0.0
+    };
+}
