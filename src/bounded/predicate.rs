@@ -151,6 +151,16 @@ struct Family {
 }
 
 /// A node's hit over the family.
+/// A family's hit as its shading sees it: the surface's material, where
+/// the lines meet it, the point lifted off it and the normals towards them.
+struct AtHit<'a> {
+    s: &'a Shading,
+    hit: &'a Hit,
+    lifted: AVec3,
+    n_g: AVec3,
+    n_s: AVec3,
+}
+
 struct Hit {
     q: AVec3,
     t: Aff,
@@ -313,11 +323,18 @@ impl Predicate<'_> {
             let delta = Aff::interval(delta_lo.min(delta_hi), delta_hi);
             let lifted = hit.q.add(n_g.times(delta));
             let shading = *self.w.scene.surface(tree_hit.surface);
-            let local = self.local(node, &shading, &fam, &hit, lifted, n_g, n_s, &mut out)?;
+            let at = AtHit {
+                s: &shading,
+                hit: &hit,
+                lifted,
+                n_g,
+                n_s,
+            };
+            let local = self.local(node, &fam, &at, &mut out)?;
             for (c, l) in local.iter().enumerate() {
                 out.certain[c] = out.certain[c].add(fam.weight[c].mul(*l));
             }
-            let children = self.children(node, &shading, &fam, &hit, lifted, n_g, n_s, delta)?;
+            let children = self.children(node, &fam, &at, delta)?;
             for (kind, child) in children {
                 let slot = template
                     .nodes
@@ -406,18 +423,14 @@ impl Predicate<'_> {
     }
 
     /// The node's local radiance per channel (emission, ambient, lights).
-    #[allow(clippy::too_many_arguments)]
-    fn local(
-        &self,
-        node: &RayNode,
-        s: &Shading,
-        fam: &Family,
-        hit: &Hit,
-        lifted: AVec3,
-        n_g: AVec3,
-        n_s: AVec3,
-        out: &mut Walk,
-    ) -> Outcome<[Aff; 3]> {
+    fn local(&self, node: &RayNode, fam: &Family, at: &AtHit, out: &mut Walk) -> Outcome<[Aff; 3]> {
+        let &AtHit {
+            s,
+            hit,
+            lifted,
+            n_g,
+            n_s,
+        } = at;
         let ke = Vec3::from_array(s.ke).as_dvec3();
         let mut local = [0, 1, 2].map(|c| Aff::constant(ke[c]));
         if !s.lit() {
@@ -585,18 +598,14 @@ impl Predicate<'_> {
 
     /// The node's reflected and refracted families, as the renderer makes
     /// its rays (`Whitted::shade`).
-    #[allow(clippy::too_many_arguments)]
-    fn children(
-        &self,
-        node: &RayNode,
-        s: &Shading,
-        fam: &Family,
-        hit: &Hit,
-        lifted: AVec3,
-        n_g: AVec3,
-        n_s: AVec3,
-        delta: Aff,
-    ) -> Outcome<Vec<(RayKind, Family)>> {
+    fn children(&self, node: &RayNode, fam: &Family, at: &AtHit, delta: Aff) -> Outcome<Vec<(RayKind, Family)>> {
+        let &AtHit {
+            s,
+            hit,
+            lifted,
+            n_g,
+            n_s,
+        } = at;
         let mut out = Vec::new();
         if !(node.reflected || node.refracted || node.tir) {
             return Ok(out);
