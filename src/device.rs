@@ -10,6 +10,7 @@
 use std::time::Instant;
 
 use crate::error::{Error, Result};
+use crate::gpu::AdapterKinds;
 use crate::gpu::GpuContext;
 
 pub use crate::gpu::{AdapterSummary, enumerate_adapters};
@@ -18,10 +19,11 @@ pub use crate::gpu::{AdapterSummary, enumerate_adapters};
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum DeviceChoice {
-    /// A GPU adapter if there is one (lavapipe counts), else the CPU.
+    /// A hardware GPU adapter if there is one, else the CPU (a software
+    /// adapter such as lavapipe is slower than the CPU path on the same cores).
     #[default]
     Auto,
-    /// A GPU adapter; an error if there is none.
+    /// The best GPU adapter, software ones included; an error if there is none.
     Gpu,
     /// The CPU reference path.
     Cpu,
@@ -70,7 +72,7 @@ impl Device {
         match choice {
             DeviceChoice::Cpu => Ok(Device::cpu()),
             DeviceChoice::Gpu => GpuContext::headless().map(Device::gpu),
-            DeviceChoice::Auto => Ok(match GpuContext::headless() {
+            DeviceChoice::Auto => Ok(match GpuContext::headless_on(AdapterKinds::Hardware) {
                 Ok(ctx) => Device {
                     automatic: true,
                     ..Device::gpu(ctx)
@@ -98,9 +100,9 @@ impl Device {
         if self.is_gpu() { "gpu" } else { "cpu" }
     }
 
-    /// The adapter's name, or `None` on the CPU.
-    pub fn adapter(&self) -> Option<&str> {
-        self.gpu.as_ref().map(|ctx| ctx.name.as_str())
+    /// The adapter's name and backend, "name (backend)", or `None` on the CPU.
+    pub fn adapter(&self) -> Option<String> {
+        self.gpu.as_ref().map(GpuContext::label)
     }
 
     /// Whether the device was chosen automatically.

@@ -55,7 +55,7 @@ pub fn write_rays(path: &Path, rays: &[Ray]) -> Result<()> {
             bytes.extend_from_slice(&c.to_le_bytes());
         }
     }
-    std::fs::write(path, bytes).map_err(|e| Error::write(path, e))
+    crate::output::write_bytes(path, &bytes)
 }
 
 /// Writes N records of (f32 t, u32 triangle), little-endian; a miss is
@@ -71,5 +71,5 @@ pub fn write_hits(path: &Path, hits: &[Hit]) -> Result<()> {
         bytes.extend_from_slice(&t.to_le_bytes());
         bytes.extend_from_slice(&tri.to_le_bytes());
     }
-    std::fs::write(path, bytes).map_err(|e| Error::write(path, e))
+    crate::output::write_bytes(path, &bytes)
 }

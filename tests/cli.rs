@@ -816,9 +816,10 @@ fn trace_png(d: &TempDir, mesh: &str, png: &str, rest: &str) -> (Value, Vec<u8>)
 fn trace_modes_give_identical_images() {
     let d = TempDir::new("trace_modes");
     for mesh in ["sphere-on-plane.obj", "closed-box.obj", "cube-with-hole.obj"] {
-        let size = "--width 72 --height 40 --tile 32 --min-tile 4 --shadows";
-        let (on, on_png) = trace_png(&d, mesh, "on.png", &format!("{size} --mlrta on"));
-        let (off, off_png) = trace_png(&d, mesh, "off.png", &format!("{size} --mlrta off"));
+        let size = "--width 72 --height 40 --shadows";
+        let tiles = "--tile 32 --min-tile 4";
+        let (on, on_png) = trace_png(&d, mesh, "on.png", &format!("{size} {tiles} --mlrta on"));
+        let (off, off_png) = trace_png(&d, mesh, "off.png", &format!("{size} {tiles} --mlrta off"));
         let (single, single_png) = trace_png(&d, mesh, "single.png", &format!("{size} --single-ray"));
         assert_eq!((on["mlrta"].as_str(), off["mlrta"].as_str()), (Some("on"), Some("off")));
         assert_eq!(single["mlrta"], "single-ray");

@@ -14,6 +14,7 @@ pub mod linetree;
 pub mod measure;
 pub mod predicate;
 pub mod runner;
+pub mod sequence;
 pub mod shaft;
 
 pub use predicate::{BoundKind, Failure};

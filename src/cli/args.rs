@@ -54,13 +54,24 @@ impl Common {
     }
 }
 
+/// The most `--threads` per available core.
+pub const MAX_THREADS_PER_CORE: usize = 8;
+
 /// Sets up the global rayon pool with `threads` threads (default: all
 /// cores); returns the thread count.
 pub fn init_thread_pool(threads: Option<usize>) -> Result<usize> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    // Oversubscribing a little can help a benchmark; thousands of threads
+    // only cost minutes of start-up and memory.
+    let most = MAX_THREADS_PER_CORE * cores;
     let threads = match threads {
         Some(0) => return Err(Error::param("--threads", "must be at least 1")),
+        Some(n) if n > most => {
+            let problem = format!("is {n}; at most {most} ({MAX_THREADS_PER_CORE} per core, {cores} cores here)");
+            return Err(Error::param("--threads", problem));
+        }
         Some(n) => n,
-        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        None => cores,
     };
     // The global pool can be built once per process; the CLI does so once.
     match rayon::ThreadPoolBuilder::new().num_threads(threads).build_global() {

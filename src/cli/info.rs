@@ -12,17 +12,25 @@ pub struct InfoArgs {
     pub json: bool,
 }
 
+/// `selected` is what `--device gpu` uses, `auto` what `--device auto`
+/// uses ("cpu" when there is no hardware adapter).
 pub fn run(_args: &InfoArgs) -> Result<Value> {
-    let selected = match Device::open(DeviceChoice::Gpu) {
-        Ok(device) => json!(device.adapter()),
+    let (selected, backend) = match Device::open(DeviceChoice::Gpu) {
+        Ok(device) => {
+            let ctx = device.context();
+            (json!(ctx.map(|c| &c.name)), json!(ctx.map(|c| &c.backend)))
+        }
         Err(e) => {
             eprintln!("penumbra: {}", e.with_names(super::args::flag));
-            Value::Null
+            (Value::Null, Value::Null)
         }
     };
+    let auto = Device::open(DeviceChoice::Auto)?;
     Ok(json!({
         "version": env!("CARGO_PKG_VERSION"),
         "adapters": enumerate_adapters(),
         "selected": selected,
+        "selected_backend": backend,
+        "auto": auto.adapter().unwrap_or_else(|| "cpu".into()),
     }))
 }

@@ -10,11 +10,12 @@ use crate::error::{Error, Result};
 
 /// `index,ao` lines, no header.
 pub fn write_vertex_csv(path: &Path, ao: &[f32]) -> Result<()> {
-    let mut out = std::io::BufWriter::new(std::fs::File::create(path).map_err(|e| Error::write(path, e))?);
-    for (i, a) in ao.iter().enumerate() {
-        writeln!(out, "{i},{a}").map_err(|e| Error::write(path, e))?;
-    }
-    out.flush().map_err(|e| Error::write(path, e))
+    crate::output::write_with(path, |out| {
+        for (i, a) in ao.iter().enumerate() {
+            writeln!(out, "{i},{a}").map_err(|e| e.to_string())?;
+        }
+        Ok(())
+    })
 }
 
 /// A grey image with alpha: `values` in [0, 1] stored linearly (no sRGB
@@ -27,7 +28,7 @@ pub fn write_grey_png(path: &Path, width: u32, height: u32, values: &[Option<f32
             None => image::LumaA([0, 0]),
         };
     }
-    img.save(path).map_err(|e| Error::write(path, e))
+    crate::output::write_image(path, &img, image::ImageFormat::Png)
 }
 
 /// An RGB image, 8 bits per channel.
@@ -36,7 +37,7 @@ pub fn write_rgb_png(path: &Path, width: u32, height: u32, pixels: &[[u8; 3]]) -
     for (p, v) in img.pixels_mut().zip(pixels) {
         *p = image::Rgb(*v);
     }
-    img.save(path).map_err(|e| Error::write(path, e))
+    crate::output::write_image(path, &img, image::ImageFormat::Png)
 }
 
 /// A runner's note on stderr, parameters named by their flags.

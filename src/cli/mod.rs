@@ -11,8 +11,10 @@
 //! maps them to this command line's options.
 
 mod ao;
+mod applies;
 mod args;
 mod field;
+mod files;
 mod info;
 mod io;
 mod prt;
@@ -24,7 +26,7 @@ mod trace_rays;
 
 use std::ffi::OsString;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use serde_json::Value;
 
 use crate::error::{Error, Result};
@@ -76,14 +78,23 @@ struct GenAssetsArgs {
 
 /// Runs the command line; returns the process exit code.
 pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
-    let cli = match Cli::try_parse_from(args) {
-        Ok(cli) => cli,
+    let parsed = Cli::command()
+        .try_get_matches_from(args)
+        .and_then(|m| Cli::from_arg_matches(&m).map(|cli| (cli, m)));
+    let (cli, matches) = match parsed {
+        Ok(parsed) => parsed,
         Err(e) => {
             let _ = e.print();
             return e.exit_code();
         }
     };
-    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| dispatch(cli.command)));
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        let sub = matches.subcommand().map(|(_, m)| m);
+        if let Some(sub) = sub {
+            applies::refuse_unused(&cli.command, sub)?;
+        }
+        dispatch(cli.command)
+    }));
     match outcome {
         Ok(Ok(())) => 0,
         Ok(Err(e)) => {
@@ -103,6 +114,7 @@ pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
 }
 
 fn dispatch(command: Command) -> Result<()> {
+    files::refuse_overwrites(&files::of(&command))?;
     match command {
         Command::Info(a) => emit(a.json, info::run(&a)?),
         Command::TraceRays(a) => emit(a.common.json, trace_rays::run(&a)?),
@@ -122,18 +134,27 @@ fn dispatch(command: Command) -> Result<()> {
 }
 
 /// Prints the result: the JSON object alone with `--json`, else its fields.
+/// A closed stdout (`penumbra ... | head -c 10`) ends the run quietly.
 fn emit(json: bool, value: Value) -> Result<()> {
+    use std::io::Write;
+    let mut text = String::new();
     if json {
-        println!("{value}");
+        text = format!("{value}\n");
     } else if let Value::Object(map) = &value {
         for (k, v) in map {
             match v {
-                Value::String(s) => println!("{k}: {s}"),
-                _ => println!("{k}: {v}"),
+                Value::String(s) => text += &format!("{k}: {s}\n"),
+                _ => text += &format!("{k}: {v}\n"),
             }
         }
     }
-    Ok(())
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(Error::internal(format!("cannot write to stdout: {e}")))
+        }
+        _ => Ok(()),
+    }
 }
 
 impl From<rayon::ThreadPoolBuildError> for Error {

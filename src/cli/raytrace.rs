@@ -132,7 +132,7 @@ fn parse_pixel(s: &str) -> std::result::Result<(u32, u32), String> {
 
 /// The output file of frame `frame`: the template with `{}` or `{:0N}`
 /// replaced by the frame number, if it holds one.
-fn frame_path(template: &Path, frame: u32) -> Option<PathBuf> {
+pub(super) fn frame_path(template: &Path, frame: u32) -> Option<PathBuf> {
     let text = template.to_string_lossy();
     let open = text.find('{')?;
     let close = open + text[open..].find('}')?;
@@ -295,33 +295,17 @@ pub fn run(args: &RaytraceArgs) -> Result<Value> {
 fn whitted(args: &RaytraceArgs, setup: Setup, mut renderer: WhittedRenderer) -> Result<Value> {
     let (w, h) = (args.width, args.height);
     let progress = Bars::Stderr.bar(args.frames as u64 * w as u64 * h as u64, "ray tracing");
-    let mut total = (0.0, crate::raytrace::RayCounts::default());
-    let mut frame_ms = Vec::new();
-    let mut last = None;
-    for f in 0..args.frames {
-        let camera = setup.camera(f, args.frames);
-        let image = renderer.render(&camera, w, h, &setup.settings, &progress)?;
-        if !renderer.is_gpu() {
-            progress.inc(w as u64 * h as u64);
-        }
-        total.0 += image.stats.render_ms;
-        let r = image.stats.rays;
-        total.1.primary += r.primary;
-        total.1.shadow += r.shadow;
-        total.1.reflection += r.reflection;
-        total.1.refraction += r.refraction;
-        frame_ms.push(image.stats.render_ms);
-        setup.write_frame(f, w, h, &image.radiance(), args.exposure)?;
-        last = Some(image);
-    }
+    let (sequence, last) = renderer.render_sequence(
+        args.frames,
+        |f| setup.camera(f, args.frames),
+        (w, h),
+        &setup.settings,
+        &progress,
+        |f, image| setup.write_frame(f, w, h, &image.radiance(), args.exposure),
+    )?;
     progress.finish();
-    let last = last.ok_or_else(|| Error::internal("no frame rendered"))?;
     setup.write_last(w, h, &last.radiance(), args.exposure)?;
-    let mut report = setup.report(args, &renderer, &last.camera);
-    report["rays"] = json!(total.1);
-    report["render_ms"] = json!(total.0);
-    report["frame_ms"] = json!(frame_ms);
-    report["mrays_per_s"] = json!(crate::mlrta::runner::mrays_per_s(total.1.total() as usize, total.0));
+    let mut report = super::io::merged(setup.report(args, &renderer, &last.camera), &sequence)?;
     report["timing"] = json!(last.stats.timing);
     report["path"] = json!(last.stats.path);
     if let Some((x, y)) = args.ray_tree {

@@ -80,8 +80,19 @@ pub fn to_bytes(field: &DisplacementField) -> Vec<u8> {
     out
 }
 
+/// Writes `field` to `path`, only if `read` would load it back (a field of
+/// a degenerate mesh, say with a non-finite radius, is refused here rather
+/// than on its next load).
 pub fn write(path: &Path, field: &DisplacementField) -> Result<()> {
-    std::fs::write(path, to_bytes(field)).map_err(|e| Error::write(path, e))
+    let bytes = to_bytes(field);
+    if let Err(e) = from_bytes(&bytes) {
+        return Err(Error::file(
+            path,
+            "",
+            format!("not written: the field would not load back ({e})"),
+        ));
+    }
+    crate::output::write_bytes(path, &bytes)
 }
 
 pub fn read(path: &Path) -> Result<DisplacementField> {

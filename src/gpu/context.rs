@@ -43,6 +43,9 @@ pub struct GpuContext {
     pub queue: wgpu::Queue,
     /// Adapter name for reports ("host device" when adopted).
     pub name: String,
+    /// The adapter's backend ("vulkan", "gl", ...; "host" when adopted):
+    /// lavapipe shows up as two adapters of one name, Vulkan and GL.
+    pub backend: String,
     /// Whether compute passes can carry timestamp queries.
     pub timestamps: bool,
     pub(crate) kernels: Arc<crate::gpu::kernels::KernelCache>,
@@ -102,7 +105,26 @@ fn rank(info: &wgpu::AdapterInfo) -> (u8, u8) {
     (backend, kind)
 }
 
-fn pick_adapter() -> Result<wgpu::Adapter> {
+/// Which adapters a choice may use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AdapterKinds {
+    /// Any adapter, software ones (lavapipe, llvmpipe GL) included.
+    Any,
+    /// Hardware (discrete, integrated, virtual) adapters only: on the same
+    /// cores a software adapter is slower than the CPU path.
+    Hardware,
+}
+
+fn is_software(info: &wgpu::AdapterInfo) -> bool {
+    matches!(info.device_type, wgpu::DeviceType::Cpu | wgpu::DeviceType::Other)
+}
+
+/// "name (backend)", as reports name an adapter.
+fn label(info: &wgpu::AdapterInfo) -> String {
+    format!("{} ({})", info.name, format!("{:?}", info.backend).to_lowercase())
+}
+
+fn pick_adapter(kinds: AdapterKinds) -> Result<wgpu::Adapter> {
     let mut adapters = Vec::new();
     for backends in backend_sets() {
         adapters = pollster::block_on(instance(backends).enumerate_adapters(backends));
@@ -128,6 +150,15 @@ fn pick_adapter() -> Result<wgpu::Adapter> {
         )));
     }
     adapters.sort_by_key(|a| rank(&a.get_info()));
+    if kinds == AdapterKinds::Hardware && !adapters.is_empty() && adapters.iter().all(|a| is_software(&a.get_info())) {
+        let names: Vec<String> = adapters.iter().map(|a| label(&a.get_info())).collect();
+        return Err(Error::Device(format!(
+            "only software adapters ({}), which are slower than the CPU path on the same cores; \
+             `device` gpu uses them",
+            names.join(", ")
+        )));
+    }
+    adapters.retain(|a| kinds == AdapterKinds::Any || !is_software(&a.get_info()));
     adapters.into_iter().next().ok_or_else(|| {
         Error::Device(
             "no GPU adapter found (on Debian, `apt-get install mesa-vulkan-drivers` provides \
@@ -138,9 +169,15 @@ fn pick_adapter() -> Result<wgpu::Adapter> {
 }
 
 impl GpuContext {
-    /// Creates a headless device on the preferred adapter.
+    /// Creates a headless device on the preferred adapter, software ones
+    /// included.
     pub fn headless() -> Result<GpuContext> {
-        let adapter = pick_adapter()?;
+        Self::headless_on(AdapterKinds::Any)
+    }
+
+    /// Creates a headless device on the preferred adapter of `kinds`.
+    pub fn headless_on(kinds: AdapterKinds) -> Result<GpuContext> {
+        let adapter = pick_adapter(kinds)?;
         let info = adapter.get_info();
         let features = adapter.features() & wgpu::Features::TIMESTAMP_QUERY;
         // Ask for everything the adapter allows: lavapipe's 128 MiB storage
@@ -155,24 +192,31 @@ impl GpuContext {
             trace: wgpu::Trace::Off,
         }))
         .map_err(|e| Error::Device(format!("cannot create a device on {}: {e}", info.name)))?;
-        Ok(Self::adopt(device, queue, info.name.clone()))
+        let backend = format!("{:?}", info.backend).to_lowercase();
+        Ok(Self::adopt(device, queue, info.name.clone(), backend))
     }
 
     /// Adopts a host engine's device and queue. Passes are built for this
     /// device and record into the host's encoders.
     pub fn from_host(device: &wgpu::Device, queue: &wgpu::Queue) -> GpuContext {
-        Self::adopt(device.clone(), queue.clone(), "host device".into())
+        Self::adopt(device.clone(), queue.clone(), "host device".into(), "host".into())
     }
 
-    fn adopt(device: wgpu::Device, queue: wgpu::Queue, name: String) -> GpuContext {
+    fn adopt(device: wgpu::Device, queue: wgpu::Queue, name: String, backend: String) -> GpuContext {
         let timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         GpuContext {
             device,
             queue,
             name,
+            backend,
             timestamps,
             kernels: Arc::new(Default::default()),
         }
+    }
+
+    /// "name (backend)", as reports name the adapter.
+    pub fn label(&self) -> String {
+        format!("{} ({})", self.name, self.backend)
     }
 
     pub fn limits(&self) -> wgpu::Limits {

@@ -17,7 +17,7 @@ pub mod kernels;
 pub mod layout;
 pub mod timer;
 
-pub use context::{AdapterSummary, GpuContext, enumerate_adapters};
+pub use context::{AdapterKinds, AdapterSummary, GpuContext, enumerate_adapters};
 
 /// Workgroup size of every 1D kernel in `wgsl/`.
 pub const WORKGROUP_SIZE: u32 = 64;

@@ -5,7 +5,6 @@
 //! radiance times an exposure, clamped to [0, 1], sRGB-encoded). The format
 //! follows the extension; another extension is refused before rendering.
 
-use std::io::Write;
 use std::path::Path;
 
 use glam::Vec3;
@@ -52,17 +51,15 @@ pub fn write_radiance(path: &Path, width: u32, height: u32, radiance: &[Vec3], e
             for (p, l) in img.pixels_mut().zip(radiance) {
                 *p = image::Rgb((*l * exposure).to_array().map(srgb8));
             }
-            img.save(path).map_err(|e| Error::write(path, e))
+            crate::output::write_image(path, &img, image::ImageFormat::Png)
         }
         RadianceFormat::Exr => {
             let data: Vec<f32> = radiance.iter().flat_map(|l| l.to_array()).collect();
             let img = image::Rgb32FImage::from_raw(width, height, data)
                 .ok_or_else(|| Error::internal("radiance image of the wrong size"))?;
-            img.save(path).map_err(|e| Error::write(path, e))
+            crate::output::write_image(path, &img, image::ImageFormat::OpenExr)
         }
         RadianceFormat::Pfm => {
-            let file = std::fs::File::create(path).map_err(|e| Error::write(path, e))?;
-            let mut out = std::io::BufWriter::new(file);
             let mut bytes = format!("PF\n{width} {height}\n-1.0\n").into_bytes();
             for row in radiance.chunks(width as usize).rev() {
                 for l in row {
@@ -71,9 +68,7 @@ pub fn write_radiance(path: &Path, width: u32, height: u32, radiance: &[Vec3], e
                     }
                 }
             }
-            out.write_all(&bytes)
-                .and_then(|_| out.flush())
-                .map_err(|e| Error::write(path, e))
+            crate::output::write_bytes(path, &bytes)
         }
     }
 }

@@ -14,6 +14,7 @@ pub mod ray_tree;
 pub mod runner;
 pub mod scene;
 pub mod scenes;
+pub mod sequence;
 pub mod sphere;
 pub mod surface;
 pub mod whitted;

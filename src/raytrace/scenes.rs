@@ -482,7 +482,7 @@ pub fn write_scenes(dir: &Path) -> Result<Vec<PathBuf>> {
     for scene in shipped_scenes() {
         for (name, text) in scene.files {
             let path = dir.join(name);
-            std::fs::write(&path, text).map_err(|e| Error::write(&path, e))?;
+            crate::output::write_bytes(&path, text.as_bytes())?;
             written.push(path);
         }
     }

@@ -31,6 +31,7 @@ impl CameraPath {
 
     /// Parses keyframes; errors name the line.
     pub fn parse(text: &str) -> Result<CameraPath> {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let mut keys = Vec::new();
         for (i, raw) in text.lines().enumerate() {
             let line = raw.split('#').next().unwrap_or("").trim();

@@ -21,6 +21,32 @@ pub struct EnvironmentMap {
     pub texels: Vec<[f32; 3]>,
 }
 
+/// Largest side of a probe: far beyond any published light probe, and
+/// what a 2D texture of most devices can hold.
+pub const MAX_PROBE_SIDE: u32 = 16384;
+
+/// Radiance RLE stores a run of up to 127 equal bytes in 2 bytes, per
+/// channel: a file of `len` bytes decodes to at most about 64 x `len`
+/// pixels. A header promising more (or nothing) is refused before any
+/// pixel is allocated.
+fn check_promised_size((width, height): (u32, u32), len: usize) -> std::result::Result<(), String> {
+    if width == 0 || height == 0 {
+        return Err(format!("declares {width}x{height} pixels; a probe needs at least one"));
+    }
+    if width > MAX_PROBE_SIDE || height > MAX_PROBE_SIDE {
+        return Err(format!(
+            "declares {width}x{height} pixels; penumbra reads probes up to {MAX_PROBE_SIDE} pixels a side"
+        ));
+    }
+    let pixels = width as u64 * height as u64;
+    if pixels > 64 * len as u64 + 4096 {
+        return Err(format!(
+            "declares {width}x{height} pixels, more than a {len}-byte file can hold"
+        ));
+    }
+    Ok(())
+}
+
 impl EnvironmentMap {
     /// Loads and checks an .hdr file: readable RGBE, 2:1 aspect, finite and
     /// non-negative texels.
@@ -28,6 +54,8 @@ impl EnvironmentMap {
         let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
         let decoder = image::codecs::hdr::HdrDecoder::new(std::io::Cursor::new(&bytes))
             .map_err(|e| Error::file(path, "header", format!("not a Radiance HDR file: {e}")))?;
+        check_promised_size(image::ImageDecoder::dimensions(&decoder), bytes.len())
+            .map_err(|problem| Error::file(path, "header", problem))?;
         let image = image::DynamicImage::from_decoder(decoder)
             .map_err(|e| Error::file(path, "pixels", format!("cannot decode: {e}")))?
             .into_rgb32f();

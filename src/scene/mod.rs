@@ -34,7 +34,7 @@ pub use obj::{
     DEFAULT_CREASE_DEGREES, NO_NORMAL, ObjFile, SMOOTH_DEFAULT, load_obj, load_obj_file, parse_obj, parse_obj_file,
     write_obj,
 };
-pub use scene_file::{load_scene, load_scene_shaded};
+pub use scene_file::{load_scene, load_scene_shaded, referenced_files};
 pub use shading::{MeshShading, SceneSphere};
 pub use transform::{Motion, Transform};
 

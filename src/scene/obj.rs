@@ -139,6 +139,8 @@ struct Parsed {
 /// `g` (and only the vertex index of a face corner), so `parse_obj` accepts
 /// and rejects exactly what it always has.
 fn parse(text: &str, extended: bool) -> Result<Parsed> {
+    // A UTF-8 byte-order mark is not part of the first statement.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut positions: Vec<Vec3> = Vec::new();
     // Positive indices may refer to vertices defined later in the file; they
     // are checked once all vertices are known, against the face's line.
@@ -181,7 +183,7 @@ fn parse(text: &str, extended: bool) -> Result<Parsed> {
                 for token in tokens {
                     let mut parts = token.split('/');
                     let index_text = parts.next().unwrap_or("");
-                    let index: i64 = index_text.parse().map_err(|_| {
+                    let index = parse_index(index_text).ok_or_else(|| {
                         Error::input(
                             at(),
                             format!("face vertex '{token}' does not start with an integer index"),
@@ -190,12 +192,21 @@ fn parse(text: &str, extended: bool) -> Result<Parsed> {
                     let resolved = match index {
                         0 => return Err(Error::input(at(), "face vertex index 0 (OBJ indices start at 1)")),
                         i if i > 0 => i - 1,
-                        i => positions.len() as i64 + i,
+                        i => positions.len() as i128 + i,
                     };
-                    if resolved < 0 || resolved >= u32::MAX as i64 {
+                    if resolved < 0 {
                         return Err(Error::input(
                             at(),
                             format!("face vertex index {index} refers before the first vertex"),
+                        ));
+                    }
+                    if resolved >= u32::MAX as i128 {
+                        return Err(Error::input(
+                            at(),
+                            format!(
+                                "face vertex index {index} is out of range (at most {} vertices)",
+                                u32::MAX - 1
+                            ),
                         ));
                     }
                     face.push(resolved as u32);
@@ -375,10 +386,25 @@ fn point<'a>(
     Ok(Vec3::from_array(c))
 }
 
+/// An OBJ index: an integer, clamped to +-1e30 where it has more digits
+/// than any count (so that it is reported as out of range, not as text).
+fn parse_index(text: &str) -> Option<i128> {
+    let digits = text.strip_prefix(['-', '+']).unwrap_or(text);
+    if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    let huge = if text.starts_with('-') {
+        -1e30 as i128
+    } else {
+        1e30 as i128
+    };
+    Some(text.parse::<i128>().unwrap_or(huge))
+}
+
 /// The `vn` index of face corner `token` (`text`, its third part), 0-based;
 /// negative indices count back from the `count` normals read so far.
 fn normal_index(text: &str, token: &str, count: usize, at: &dyn Fn() -> String) -> Result<u32> {
-    let index: i64 = text.parse().map_err(|_| {
+    let index = parse_index(text).ok_or_else(|| {
         Error::input(
             at(),
             format!("face vertex '{token}' has normal index '{text}', which is not an integer"),
@@ -387,7 +413,7 @@ fn normal_index(text: &str, token: &str, count: usize, at: &dyn Fn() -> String) 
     let resolved = match index {
         0 => return Err(Error::input(at(), "face normal index 0 (OBJ indices start at 1)")),
         i if i > 0 => i - 1,
-        i => count as i64 + i,
+        i => count as i128 + i,
     };
     if resolved < 0 {
         return Err(Error::input(
@@ -395,7 +421,7 @@ fn normal_index(text: &str, token: &str, count: usize, at: &dyn Fn() -> String) 
             format!("face normal index {index} refers before the first normal"),
         ));
     }
-    if resolved >= NO_NORMAL as i64 {
+    if resolved >= NO_NORMAL as i128 {
         return Err(Error::input(at(), format!("face normal index {index} is out of range")));
     }
     Ok(resolved as u32)

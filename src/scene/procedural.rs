@@ -374,7 +374,7 @@ pub fn write_assets(dir: &Path) -> Result<Vec<PathBuf>> {
         .iter()
         .map(|scene| {
             let path = dir.join(format!("{}.obj", scene.name));
-            std::fs::write(&path, write_obj(&scene.mesh, &asset_header(scene))).map_err(|e| Error::write(&path, e))?;
+            crate::output::write_bytes(&path, write_obj(&scene.mesh, &asset_header(scene)).as_bytes())?;
             Ok(path)
         })
         .collect()

@@ -207,6 +207,24 @@ fn finite(scene: &Path, field: &str, v: &[f32]) -> Result<()> {
     }
 }
 
+/// The files a scene file names (meshes, fields, the environment), resolved
+/// as the loader resolves them; empty where the file does not parse (the
+/// loader reports that). Outputs must never overwrite these.
+pub fn referenced_files(path: &Path) -> Vec<PathBuf> {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        return Vec::new();
+    };
+    let Ok(file) = serde_json::from_str::<SceneFile>(&text) else {
+        return Vec::new();
+    };
+    let named = file.meshes.values().chain(file.fields.values());
+    let environment = file.environment.iter().map(|e| &e.map);
+    named
+        .chain(environment)
+        .filter_map(|text| resolve(path, "", text).ok())
+        .collect()
+}
+
 /// Reads a scene file for methods that cast rays: geometry only.
 pub fn load_scene(path: &Path) -> Result<Scene> {
     load(path, false)
@@ -220,7 +238,8 @@ pub fn load_scene_shaded(path: &Path) -> Result<Scene> {
 
 fn load(path: &Path, shaded: bool) -> Result<Scene> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::read(path, e))?;
-    let file: SceneFile = serde_json::from_str(&text)
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let file: SceneFile = serde_json::from_str(text)
         .map_err(|e| Error::file(path, format!("line {} column {}", e.line(), e.column()), e.to_string()))?;
 
     let mut meshes = Vec::new();

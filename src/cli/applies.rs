@@ -1,0 +1,173 @@
+//! Options the chosen method or mode does not use are refused (exit 2,
+//! naming the option and what it needs), never silently ignored: a user
+//! who types `--bits 8` with `ao --method raycast` believes it did
+//! something. An option counts as given only when it was on the command
+//! line (clap's `ValueSource`), so defaults never trip the check.
+
+use clap::ArgMatches;
+use clap::parser::ValueSource;
+
+use super::Command;
+use super::args::OnOff;
+use crate::error::{Error, Result};
+
+/// Options (clap ids, the field names) that apply only where `holds`.
+struct Rule {
+    holds: bool,
+    options: &'static [&'static str],
+    needs: &'static str,
+}
+
+fn rule(holds: bool, options: &'static [&'static str], needs: &'static str) -> Rule {
+    Rule { holds, options, needs }
+}
+
+const CAMERA_AND_SIZE: &[&str] = &["width", "height", "eye", "target", "fov"];
+
+fn rules(command: &Command) -> Vec<Rule> {
+    use super::ao::Method as AoMethod;
+    use super::raytrace::Method as RtMethod;
+    use crate::mlrta::aa::AaMode;
+    use crate::prt::runner::Shadows;
+    use crate::prt::transfer::BrdfKind;
+    use crate::ssao::Estimator;
+    use crate::ssao::measure::MeasureKind;
+    match command {
+        Command::Ao(a) => vec![
+            rule(
+                a.method == AoMethod::Field,
+                &[
+                    "field",
+                    "positions",
+                    "res",
+                    "bits",
+                    "directions",
+                    "positional",
+                    "frames",
+                    "reference",
+                ],
+                "--method field",
+            ),
+            rule(a.image.is_some(), CAMERA_AND_SIZE, "--image"),
+        ],
+        Command::Raytrace(a) => vec![
+            rule(
+                a.method == RtMethod::Bounded,
+                &[
+                    "epsilon",
+                    "floor",
+                    "bound",
+                    "split",
+                    "reproject",
+                    "span",
+                    "memory_mb",
+                    "min_pixels",
+                    "reference",
+                    "check",
+                    "error_image",
+                ],
+                "--method bounded",
+            ),
+            rule(a.method == RtMethod::Whitted, &["ray_tree"], "--method whitted"),
+            rule(a.frames > 1, &["path"], "--frames above 1"),
+        ],
+        Command::Trace(a) => vec![
+            rule(
+                !a.single_ray,
+                &["tile", "min_tile", "split_factor", "tiles_image"],
+                "packets (without --single-ray)",
+            ),
+            rule(
+                a.aa != AaMode::None,
+                &["aa_samples", "aa_reference", "aa_image"],
+                "--aa adaptive or uniform",
+            ),
+        ],
+        Command::Ssao(a) => vec![
+            rule(a.measure == MeasureKind::Exp, &["sigma"], "--measure exp"),
+            rule(a.estimator == Estimator::Raymarch, &["steps"], "--estimator raymarch"),
+            rule(a.filter == OnOff::On, &["filter_depth"], "--filter on"),
+            rule(a.image.is_some(), &["ambient"], "--image"),
+        ],
+        Command::Prt(a) => vec![
+            rule(a.brdf == BrdfKind::Phong, &["shininess", "specular"], "--brdf phong"),
+            rule(a.pvs == OnOff::On, &["pvs_frames", "pvs_span"], "--pvs on"),
+            rule(
+                a.check || a.shadows == Shadows::Raytraced,
+                &["check_rays"],
+                "--check or --shadows raytraced",
+            ),
+            rule(a.check, &["check_frames"], "--check"),
+            rule(a.hierarchy == OnOff::On, &["near", "ring", "coarse"], "--hierarchy on"),
+            rule(a.animated.is_some(), &["start", "dt"], "--animated"),
+            rule(
+                a.out.is_some() || a.out_frames.is_some(),
+                &["width", "height", "eye", "target", "fov", "exposure", "albedo"],
+                "--out or --out-frames",
+            ),
+        ],
+        Command::Info(_) | Command::TraceRays(_) | Command::Field(_) | Command::GenAssets(_) => Vec::new(),
+    }
+}
+
+fn given(matches: &ArgMatches, id: &str) -> bool {
+    matches.value_source(id) == Some(ValueSource::CommandLine)
+}
+
+/// The long spelling of clap id `id`.
+fn spelling(id: &str) -> String {
+    format!("--{}", id.replace('_', "-"))
+}
+
+/// Refuses a given option that `command` does not use; `matches` are the
+/// subcommand's.
+pub fn refuse_unused(command: &Command, matches: &ArgMatches) -> Result<()> {
+    for r in rules(command).iter().filter(|r| !r.holds) {
+        if let Some(id) = r.options.iter().find(|id| given(matches, id)) {
+            let option = spelling(id);
+            let problem = format!("does not apply here: it is used only with {}", r.needs);
+            return Err(Error::param(option, problem));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::{CommandFactory, Parser};
+
+    use super::*;
+
+    /// Every id a rule names is an option of its subcommand (a misspelt id
+    /// would never be given, so its rule could never fire).
+    #[test]
+    fn every_rule_names_a_real_option() {
+        let cli = super::super::Cli::command();
+        let parse = |line: &str| {
+            super::super::Cli::try_parse_from(line.split_whitespace())
+                .unwrap()
+                .command
+        };
+        let commands = [
+            ("ao", parse("p ao --mesh m --method raycast --rays 1")),
+            (
+                "raytrace",
+                parse("p raytrace --method whitted --mesh m --width 1 --height 1"),
+            ),
+            ("trace", parse("p trace --mesh m --width 1 --height 1 --mlrta off")),
+            (
+                "ssao",
+                parse("p ssao --mesh m --estimator sphere --spp 1 --radius 1 --width 1 --height 1"),
+            ),
+            ("prt", parse("p prt --mesh m --env e")),
+        ];
+        for (name, command) in &commands {
+            let sub = cli.find_subcommand(name).unwrap();
+            for r in rules(command) {
+                for id in r.options {
+                    assert!(sub.get_arguments().any(|a| a.get_id() == *id), "{name}: no option {id}");
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,108 @@
+//! Writing output files so that no reader ever sees half of one: every
+//! output is written to a hidden temporary file in the same folder and
+//! renamed over the target only once it is complete (a rename within a
+//! folder is atomic on POSIX file systems). A failed or interrupted run
+//! leaves the old file (or none), never a truncated one that looks valid.
+
+use std::io::{BufWriter, Seek, Write};
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+
+/// The temporary sibling `path` is written to first.
+fn temporary(path: &Path) -> PathBuf {
+    let name = path.file_name().map(|n| n.to_string_lossy()).unwrap_or_default();
+    let hidden = format!(".{name}.penumbra-{}.tmp", std::process::id());
+    path.with_file_name(hidden)
+}
+
+/// Writes `path` through `fill`, which writes the whole file into the
+/// writer it is given (seekable, as image encoders need).
+pub fn write_with<F>(path: &Path, fill: F) -> Result<()>
+where
+    F: FnOnce(&mut BufWriter<std::fs::File>) -> std::result::Result<(), String>,
+{
+    if path.file_name().is_none() || path.is_dir() {
+        return Err(Error::file(path, "", "is a folder, not a file name"));
+    }
+    let tmp = temporary(path);
+    let written = (|| {
+        let file = std::fs::File::create(&tmp).map_err(|e| e.to_string())?;
+        let mut out = BufWriter::new(file);
+        fill(&mut out)?;
+        let file = out.into_inner().map_err(|e| e.error().to_string())?;
+        file.sync_all().map_err(|e| e.to_string())
+    })();
+    let renamed = written.and_then(|()| std::fs::rename(&tmp, path).map_err(|e| e.to_string()));
+    renamed.map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        Error::write(path, e)
+    })
+}
+
+/// Writes `bytes` to `path`.
+pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_with(path, |out| out.write_all(bytes).map_err(|e| e.to_string()))
+}
+
+/// Writes an image in the format `format` (encoders need to seek).
+pub fn write_image<W>(path: &Path, image: &W, format: image::ImageFormat) -> Result<()>
+where
+    W: ImageWrite,
+{
+    write_with(path, |out| image.encode(out, format))
+}
+
+/// An image the `image` crate can encode.
+pub trait ImageWrite {
+    fn encode<O: Write + Seek>(&self, out: &mut O, format: image::ImageFormat) -> std::result::Result<(), String>;
+}
+
+impl<P, C> ImageWrite for image::ImageBuffer<P, C>
+where
+    P: image::PixelWithColorType,
+    [P::Subpixel]: image::EncodableLayout,
+    C: std::ops::Deref<Target = [P::Subpixel]>,
+{
+    fn encode<O: Write + Seek>(&self, out: &mut O, format: image::ImageFormat) -> std::result::Result<(), String> {
+        self.write_to(out, format).map_err(|e| e.to_string())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn folder(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("penumbra-output-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    #[test]
+    fn a_failed_write_keeps_the_old_file_and_leaves_no_temporary() {
+        let dir = folder("failed");
+        let path = dir.join("out.bin");
+        std::fs::write(&path, b"old").unwrap();
+        let e = write_with(&path, |out| {
+            out.write_all(b"half").map_err(|e| e.to_string())?;
+            Err("interrupted".into())
+        })
+        .unwrap_err();
+        assert!(e.to_string().contains("interrupted"), "{e}");
+        assert_eq!(std::fs::read(&path).unwrap(), b"old");
+        let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+        assert_eq!(left.len(), 1, "only the old file is left");
+    }
+
+    #[test]
+    fn a_write_replaces_the_file_whole() {
+        let dir = folder("whole");
+        let path = dir.join("out.bin");
+        std::fs::write(&path, b"old contents").unwrap();
+        write_bytes(&path, b"new").unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"new");
+        assert!(write_bytes(&dir, b"x").is_err(), "a folder is not an output file");
+    }
+}
