@@ -59,13 +59,23 @@ impl Aabb {
         0.5 * (self.min + self.max)
     }
 
+    /// The diagonal's length, summed in f64: in f32 the squares underflow
+    /// for boxes of 1e-19 (and overflow for 1e19), making the length of a
+    /// tiny box inexact and scale-dependent.
     pub fn diagonal(&self) -> f32 {
-        self.extent().length()
+        self.extent().as_dvec3().length() as f32
     }
 
     /// Surface area; a flat (2D) box has the area of both of its faces.
     pub fn surface_area(&self) -> f32 {
         let e = self.extent().max(Vec3::ZERO);
+        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+    }
+
+    /// Surface area of the box scaled by `k` (a power of two, so that the
+    /// SAH of a tiny or huge scene neither underflows nor overflows).
+    pub fn surface_area_in(&self, k: f32) -> f32 {
+        let e = self.extent().max(Vec3::ZERO) * k;
         2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
     }
 

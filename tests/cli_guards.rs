@@ -306,3 +306,48 @@ fn headers_marks_and_indices_are_read_for_what_they_are() {
     );
     threads.bad_input(&["--threads", "at most"]);
 }
+
+/// Every GPU command on each backend wgpu offers here runs or exits 2
+/// naming what the adapter refused (llvmpipe GL cannot render to the
+/// G-buffer's Rgba32Float), never a panic; an unknown `WGPU_BACKEND` is
+/// named as such.
+#[test]
+fn every_backend_runs_or_names_what_it_lacks() {
+    let d = TempDir::new("guard_backends");
+    let mesh = copy_mesh(&d);
+    let unknown = common::cli::run_env(
+        &common::cli::cmd(
+            "ao --mesh {mesh} --method raycast --rays 4 --per-vertex {csv} --device gpu",
+            &[("mesh", &mesh), ("csv", &d.p("a.csv"))],
+        ),
+        &[("WGPU_BACKEND", Some("vulcan"))],
+    );
+    unknown.bad_input(&["WGPU_BACKEND", "vulcan", "not a backend"]);
+    for backend in ["vulkan", "gl"] {
+        let env = [("WGPU_BACKEND", Some(backend))];
+        let info = common::cli::run_env(&["info".into(), "--json".into()], &env).json();
+        if !info["selected"].is_string() {
+            println!("{backend}: no adapter, skipped");
+            continue;
+        }
+        let vars = [
+            ("mesh", mesh.as_str()),
+            ("out", &d.p("out.png")),
+            ("csv", &d.p("a.csv")),
+        ];
+        for line in [
+            "ao --mesh {mesh} --method raycast --rays 4 --per-vertex {csv}",
+            "trace --mesh {mesh} --width 16 --height 16",
+            "ssao --mesh {mesh} --estimator sphere --spp 4 --radius 0.5 --width 16 --height 16 --out {out}",
+            "raytrace --method whitted --mesh {mesh} --width 16 --height 16 --out {out}",
+        ] {
+            let r = common::cli::run_env(&common::cli::cmd(&format!("{line} --device gpu"), &vars), &env);
+            println!("{backend}: {line}: exit {}", r.code);
+            match r.code {
+                0 => {}
+                2 => assert!(r.stderr.contains("refused the work"), "{}", r.describe()),
+                _ => panic!("{backend}: {}", r.describe()),
+            }
+        }
+    }
+}

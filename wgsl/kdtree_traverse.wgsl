@@ -15,6 +15,12 @@ struct KdScene {
     node_count: u32,
     bounds_max: vec3<f32>,
     triangle_count: u32,
+    // KdTree::frame_scale (a power of two) and its inverse: the frame of
+    // the intersection test (ShearedRay::in_frame).
+    frame_scale: f32,
+    inv_frame_scale: f32,
+    pad0: u32,
+    pad1: u32,
 }
 
 @group(0) @binding(0) var<storage, read> kd_nodes: array<vec2<u32>>;
@@ -116,11 +122,15 @@ fn kd_vertex(tri: u32, v: u32) -> vec3<f32> {
     return vec3<f32>(kd_triangles[i], kd_triangles[i + 1u], kd_triangles[i + 2u]);
 }
 
-// ShearedRay::intersect: t in (0, t_max) or -1.
+// ShearedRay::intersect: t in (0, t_max) or -1. In the frame of
+// kd_scene.frame_scale: (v - o) * scale equals the CPU's v * scale - o * scale
+// exactly (a power of two), so t_scaled can neither overflow nor underflow
+// at extreme scene sizes and the hits stay the CPU's.
 fn intersect_triangle(r: ShearedRay, tri: u32, t_max: f32) -> f32 {
-    let a = kd_vertex(tri, 0u) - r.org;
-    let b = kd_vertex(tri, 1u) - r.org;
-    let c = kd_vertex(tri, 2u) - r.org;
+    let k = kd_scene.frame_scale;
+    let a = (kd_vertex(tri, 0u) - r.org) * k;
+    let b = (kd_vertex(tri, 1u) - r.org) * k;
+    let c = (kd_vertex(tri, 2u) - r.org) * k;
     let a2 = vec2<f32>(a[r.kx] - r.s.x * a[r.kz], a[r.ky] - r.s.y * a[r.kz]);
     let b2 = vec2<f32>(b[r.kx] - r.s.x * b[r.kz], b[r.ky] - r.s.y * b[r.kz]);
     let c2 = vec2<f32>(c[r.kx] - r.s.x * c[r.kz], c[r.ky] - r.s.y * c[r.kz]);
@@ -139,8 +149,8 @@ fn intersect_triangle(r: ShearedRay, tri: u32, t_max: f32) -> f32 {
         return -1.0;
     }
     let t = t_scaled / det;
-    if (t > 0.0 && t < t_max) {
-        return t;
+    if (t > 0.0 && t < t_max * k) {
+        return t * kd_scene.inv_frame_scale;
     }
     return -1.0;
 }

@@ -29,7 +29,7 @@ pub fn hit_points(mesh: &Mesh, rays: &[Ray], hits: &[Hit], offset: f32) -> Vec<A
         .filter(|(_, (_, h))| h.is_hit())
         .map(|(pixel, (ray, hit))| {
             let p = ray.o() + hit.t * ray.d();
-            let mut n = mesh.face_normal(hit.triangle as usize).normalize_or_zero();
+            let mut n = mesh.unit_face_normal(hit.triangle as usize);
             if n.dot(ray.d()) > 0.0 {
                 n = -n;
             }

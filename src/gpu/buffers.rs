@@ -77,9 +77,9 @@ pub fn read_back<T: bytemuck::Pod>(device: &wgpu::Device, buffer: &wgpu::Buffer,
     slice.map_async(wgpu::MapMode::Read, move |r| {
         let _ = tx.send(r);
     });
-    device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| Error::internal(format!("waiting for the GPU failed: {e}")))?;
+    let waited = device.poll(wgpu::PollType::wait_indefinitely());
+    super::context::take_device_error()?;
+    waited.map_err(|e| Error::internal(format!("waiting for the GPU failed: {e}")))?;
     rx.recv()
         .map_err(|_| Error::internal("buffer mapping was dropped"))?
         .map_err(|e| Error::internal(format!("cannot map a readback buffer: {e}")))?;

@@ -61,10 +61,32 @@ impl std::fmt::Debug for GpuContext {
 /// native APIs first and GL only if they have no adapter (probing GL on a
 /// headless machine costs time and prints EGL warnings, and lavapipe's GL
 /// adapter lacks what the Vulkan one has).
-fn backend_sets() -> Vec<wgpu::Backends> {
-    match wgpu::Backends::from_env() {
+fn backend_sets() -> Result<Vec<wgpu::Backends>> {
+    check_backend_env()?;
+    Ok(match wgpu::Backends::from_env() {
         Some(b) => vec![b],
         None => vec![wgpu::Backends::all() - wgpu::Backends::GL, wgpu::Backends::GL],
+    })
+}
+
+/// The names `WGPU_BACKEND` may list (wgpu's `Backends::from_comma_list`,
+/// which skips unknown ones silently: "no adapter" would then blame the
+/// machine instead of the spelling).
+const BACKEND_NAMES: [&str; 10] = [
+    "vulkan", "vk", "dx12", "d3d12", "metal", "mtl", "opengl", "gles", "gl", "webgpu",
+];
+
+fn check_backend_env() -> Result<()> {
+    let Ok(value) = std::env::var("WGPU_BACKEND") else {
+        return Ok(());
+    };
+    let lower = value.to_lowercase();
+    match lower.split(',').map(str::trim).find(|b| !BACKEND_NAMES.contains(b)) {
+        Some(unknown) => Err(Error::Device(format!(
+            "WGPU_BACKEND={value:?}: {unknown:?} is not a backend wgpu knows (one or more of vulkan, gl, metal, dx12, \
+             separated by commas)"
+        ))),
+        None => Ok(()),
     }
 }
 
@@ -126,7 +148,7 @@ fn label(info: &wgpu::AdapterInfo) -> String {
 
 fn pick_adapter(kinds: AdapterKinds) -> Result<wgpu::Adapter> {
     let mut adapters = Vec::new();
-    for backends in backend_sets() {
+    for backends in backend_sets()? {
         adapters = pollster::block_on(instance(backends).enumerate_adapters(backends));
         if let Ok(wanted) = std::env::var("WGPU_ADAPTER_NAME") {
             let wanted = wanted.to_lowercase();
@@ -168,6 +190,41 @@ fn pick_adapter(kinds: AdapterKinds) -> Result<wgpu::Adapter> {
     })
 }
 
+/// The first error wgpu reported on a device penumbra created itself
+/// (`headless`): without a handler wgpu panics on a validation error, e.g.
+/// a texture usage llvmpipe's GL backend does not allow. Checked wherever
+/// penumbra waits for the GPU (`take_device_error`), so such a run ends
+/// with exit 2 naming what the adapter refused, never a panic. Host devices
+/// keep their own handler.
+static FIRST_DEVICE_ERROR: std::sync::Mutex<Option<String>> = std::sync::Mutex::new(None);
+
+fn install_error_handler(device: &wgpu::Device, adapter: String) {
+    device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+        let mut first = FIRST_DEVICE_ERROR.lock().unwrap_or_else(|p| p.into_inner());
+        if first.is_none() {
+            // wgpu's message: a title, then "Caused by:" and the details.
+            let text = e.to_string();
+            let detail: Vec<&str> = text
+                .lines()
+                .map(str::trim)
+                .filter(|l| !l.is_empty() && *l != "Caused by:")
+                .collect();
+            *first = Some(format!("{adapter} refused the work: {}", detail.join(": ")));
+        }
+    }));
+}
+
+/// The error wgpu reported since the last call, as a device error (exit 2).
+pub fn take_device_error() -> Result<()> {
+    let mut first = FIRST_DEVICE_ERROR.lock().unwrap_or_else(|p| p.into_inner());
+    match first.take() {
+        Some(e) => Err(Error::Device(format!(
+            "{e} (a capability this adapter lacks; `device` cpu runs the CPU path)"
+        ))),
+        None => Ok(()),
+    }
+}
+
 impl GpuContext {
     /// Creates a headless device on the preferred adapter, software ones
     /// included.
@@ -193,6 +250,7 @@ impl GpuContext {
         }))
         .map_err(|e| Error::Device(format!("cannot create a device on {}: {e}", info.name)))?;
         let backend = format!("{:?}", info.backend).to_lowercase();
+        install_error_handler(&device, format!("{} ({backend})", info.name));
         Ok(Self::adopt(device, queue, info.name.clone(), backend))
     }
 
@@ -225,8 +283,9 @@ impl GpuContext {
 
     /// Waits for all submitted work.
     pub fn wait(&self) -> Result<()> {
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
+        let waited = self.device.poll(wgpu::PollType::wait_indefinitely());
+        take_device_error()?;
+        waited
             .map(|_| ())
             .map_err(|e| Error::internal(format!("waiting for the GPU failed: {e}")))
     }

@@ -70,9 +70,16 @@ impl ClippedPolygon {
 
     /// Area of the (planar, convex) polygon.
     pub fn area(&self) -> f32 {
+        self.area_in(1.0)
+    }
+
+    /// Area of the polygon scaled by `k` (a power of two: exact), so that
+    /// the cross products neither underflow nor overflow at extreme sizes.
+    pub fn area_in(&self, k: f32) -> f32 {
         let mut sum = Vec3::ZERO;
+        let v0 = self.vertices[0] * k;
         for i in 1..self.len.saturating_sub(1) {
-            sum += (self.vertices[i] - self.vertices[0]).cross(self.vertices[i + 1] - self.vertices[0]);
+            sum += (self.vertices[i] * k - v0).cross(self.vertices[i + 1] * k - v0);
         }
         0.5 * sum.length()
     }

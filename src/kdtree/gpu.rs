@@ -30,6 +30,9 @@ struct KdSceneUniform {
     node_count: u32,
     bounds_max: [f32; 3],
     triangle_count: u32,
+    frame_scale: f32,
+    inv_frame_scale: f32,
+    pad: [u32; 2],
 }
 
 /// Layout of bind group 0 of every kernel that traverses the tree. Layouts
@@ -76,6 +79,9 @@ impl GpuKdTree {
                 node_count: tree.nodes.len() as u32,
                 bounds_max: tree.bounds.max.to_array(),
                 triangle_count: tree.triangles.len() as u32,
+                frame_scale: tree.frame_scale,
+                inv_frame_scale: 1.0 / tree.frame_scale,
+                pad: [0; 2],
             },
         );
         let bind_group = bind_group(

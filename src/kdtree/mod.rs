@@ -33,7 +33,7 @@ use crate::scene::Mesh;
 /// 36 bytes each, in the mesh's triangle order) are the GPU layout, uploaded
 /// as they are. The CPU traversal reads `leaf_vertices` instead of going
 /// through `triangles`: the same vertices copied in leaf order (36 bytes per
-/// leaf reference), which saves a dependent load per intersection test
+/// leaf reference) and multiplied by `frame_scale`, which saves a dependent load per intersection test
 /// (+4% on primary rays of the bunny, +30% on kitchen, +25% on random rays).
 /// The GPU keeps the compact indirection so large meshes stay within its
 /// storage-binding limits; both read identical vertex values.
@@ -45,6 +45,9 @@ pub struct KdTree {
     pub leaf_vertices: Vec<[Vec3; 3]>,
     /// Root cell: the bounds of all triangles.
     pub bounds: Aabb,
+    /// The power of two `leaf_vertices` are multiplied by (the
+    /// intersection test's frame, see `watertight::ShearedRay`).
+    pub frame_scale: f32,
     pub stats: BuildStats,
 }
 
@@ -97,7 +100,11 @@ impl KdTree {
                 ),
             ));
         }
-        let leaf_vertices = leaf_triangles.iter().map(|&t| triangles[t as usize]).collect();
+        let frame_scale = watertight::frame_scale((bounds.max - bounds.min).max_element());
+        let leaf_vertices = leaf_triangles
+            .iter()
+            .map(|&t| triangles[t as usize].map(|v| v * frame_scale))
+            .collect();
         stats.build_ms = elapsed_ms(start);
         Ok(KdTree {
             nodes,
@@ -105,6 +112,7 @@ impl KdTree {
             triangles,
             leaf_vertices,
             bounds,
+            frame_scale,
             stats,
         })
     }

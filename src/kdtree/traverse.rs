@@ -97,7 +97,7 @@ impl KdTree {
         };
         let mut t_min = t0 * (1.0 - TRAVERSAL_SLACK);
         let mut t_cell_max = t1 * (1.0 + TRAVERSAL_SLACK);
-        let ray = ShearedRay::new(origin, dir);
+        let ray = ShearedRay::in_frame(origin, dir, self.frame_scale);
         // Per-axis ray data in 4-element arrays, indexed by `word1 & 3`
         // (the compiler sees that is below 4: no bounds checks, and no match
         // as glam's run-time indexing has). Which child comes first when the

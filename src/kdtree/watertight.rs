@@ -19,8 +19,17 @@
 use glam::Vec3;
 
 /// Per-ray constants of the shear transform (section 3 of the paper).
+///
+/// The test runs in a frame scaled by a power of two (`scale`, the tree's
+/// `frame_scale`): `origin` and the vertices it is given are multiplied by
+/// it, so `t_scaled`, a cubic in the coordinates, neither overflows for
+/// scenes of size 1e13 and up nor underflows for scenes of 1e-13 and down.
+/// Scaling by a power of two is exact, so every intermediate is the
+/// unscaled one times a power of two and the hits are bit for bit those of
+/// the unscaled test wherever that one neither overflowed nor underflowed.
 #[derive(Debug, Clone, Copy)]
 pub struct ShearedRay {
+    /// The ray's origin times `scale`.
     pub origin: Vec3,
     /// Axis of the largest |direction| component, and the two others in an
     /// order that keeps the triangle winding (swapped when d[kz] < 0).
@@ -30,6 +39,19 @@ pub struct ShearedRay {
     pub sx: f32,
     pub sy: f32,
     pub sz: f32,
+    /// The frame's power of two, and its inverse.
+    pub scale: f32,
+    pub inv_scale: f32,
+}
+
+/// The power of two that brings a scene whose largest extent is `extent`
+/// to a size in [0.5, 1): exact to apply, kept within the normal range.
+pub fn frame_scale(extent: f32) -> f32 {
+    if !(extent.is_finite() && extent > 0.0) {
+        return 1.0;
+    }
+    let exponent = (extent as f64).log2().ceil().clamp(-120.0, 120.0) as i32;
+    2f32.powi(-exponent)
 }
 
 /// The shear's axes for a direction: `kz` the axis of the largest |component|,
@@ -50,23 +72,33 @@ pub fn shear_axes(dir: Vec3) -> [usize; 3] {
 }
 
 impl ShearedRay {
+    /// A ray tested against unscaled vertices.
     #[inline]
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
+        Self::in_frame(origin, dir, 1.0)
+    }
+
+    /// A ray tested against vertices multiplied by `scale` (a power of two).
+    #[inline]
+    pub fn in_frame(origin: Vec3, dir: Vec3, scale: f32) -> Self {
         let [kx, ky, kz] = shear_axes(dir);
         let dir = dir.to_array();
         ShearedRay {
-            origin,
+            origin: origin * scale,
             kx,
             ky,
             kz,
             sx: dir[kx] / dir[kz],
             sy: dir[ky] / dir[kz],
             sz: 1.0 / dir[kz],
+            scale,
+            inv_scale: 1.0 / scale,
         }
     }
 
     /// Hit distance `t` in units of the ray direction if the ray hits the
-    /// triangle at `0 < t < t_max`, else `None`. Both faces are hit.
+    /// triangle (vertices in the ray's frame) at `0 < t < t_max`, else
+    /// `None`. Both faces are hit.
     #[inline(always)]
     pub fn intersect(&self, v0: Vec3, v1: Vec3, v2: Vec3, t_max: f32) -> Option<f32> {
         let (kx, ky, kz) = (self.kx, self.ky, self.kz);
@@ -100,8 +132,9 @@ impl ShearedRay {
         if (det > 0.0 && t_scaled <= 0.0) || (det < 0.0 && t_scaled >= 0.0) {
             return None;
         }
+        // In the frame, t is `scale` times the world's (exactly).
         let t = t_scaled / det;
-        (t > 0.0 && t < t_max).then_some(t)
+        (t > 0.0 && t < t_max * self.scale).then_some(t * self.inv_scale)
     }
 }
 

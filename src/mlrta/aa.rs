@@ -64,7 +64,15 @@ pub fn validate_samples(n: u32) -> Result<()> {
 
 /// The rectangles that get extra rays: final tiles and blocks of diverging
 /// tiles whose footprint may contain an edge (see the module documentation).
-pub fn complex_units(p: &Prepared, camera: &Camera, width: u32, height: u32, tiles: &[TileReport]) -> Vec<Rect> {
+/// The final tiles (or diverging tiles' 4x4 blocks) whose footprint shows
+/// complex geometry, and how many footprints were searched.
+pub fn complex_units(
+    p: &Prepared,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    tiles: &[TileReport],
+) -> (Vec<Rect>, usize) {
     let origin_inside = p.inside_object(camera.eye);
     let units: Vec<Rect> = tiles
         .iter()
@@ -77,10 +85,12 @@ pub fn complex_units(p: &Prepared, camera: &Camera, width: u32, height: u32, til
             blocks
         })
         .collect();
-    units
+    let searched = units.len();
+    let complex = units
         .into_par_iter()
         .filter(|&r| !footprint_is_simple(p, camera, width, height, r, origin_inside))
-        .collect()
+        .collect();
+    (complex, searched)
 }
 
 fn footprint_is_simple(
@@ -136,7 +146,12 @@ pub struct AaResult {
     pub image: Vec<f32>,
     /// Rays per pixel.
     pub spp: Vec<u32>,
+    /// Every ray traced: the one-ray pass (adaptive), the footprint
+    /// searches (one per tile or block, counted as a ray each) and the
+    /// extra samples.
     pub rays: u64,
+    /// Tiles and blocks whose footprint was searched for an edge.
+    pub footprint_searches: u64,
     /// Final tiles and diverging tiles' blocks that got extra rays.
     pub complex_units: usize,
     /// Final tiles of the one-ray pass.
@@ -152,13 +167,25 @@ pub struct Reference {
     pub uniform: Option<AaResult>,
 }
 
+/// The shaded value of a pixel sample: |cos| between the ray and the hit
+/// triangle, times stripes across the scene. The stripes vary within a
+/// plane, so an edge between coplanar triangles costs nothing while a
+/// missed silhouette or a change of plane shows in the edge error (with
+/// |cos| alone a skipped pixel inside a plane could never be wrong).
 fn shade(p: &Prepared, r: &Ray, h: &Hit) -> f32 {
     if !h.is_hit() {
         return 0.0;
     }
     let [a, b, c] = p.tree.triangles[h.triangle as usize];
-    (b - a).cross(c - a).normalize_or_zero().dot(r.d().normalize()).abs()
+    let cos = (b - a).cross(c - a).normalize_or_zero().dot(r.d().normalize()).abs();
+    let bounds = p.tree.bounds;
+    let period = (bounds.max - bounds.min).length() / STRIPES;
+    let x = (r.o() + r.d() * h.t - bounds.min).dot(glam::Vec3::ONE) / period;
+    cos * (0.8 + 0.2 * (std::f32::consts::TAU * x).sin())
 }
+
+/// Stripes across the bounding box's diagonal in the shading of `shade`.
+const STRIPES: f32 = 24.0;
 
 fn offsets(samples: u32) -> Vec<(f32, f32)> {
     let k = (samples as f64).sqrt() as u32;
@@ -183,21 +210,37 @@ pub fn render(
     validate_samples(samples)?;
     let start = Instant::now();
     let n = width as usize * height as usize;
-    let centre = camera.primary_rays(width, height);
-    let base = trace_image(p, &centre, width, height, params, None)?;
-    let mut image: Vec<f32> = centre.iter().zip(&base.hits).map(|(r, h)| shade(p, r, h)).collect();
-    let mut spp = vec![1u32; n];
-    let complex: Vec<Rect> = match mode {
-        AaMode::None => Vec::new(),
-        AaMode::Uniform => vec![Rect {
-            x: 0,
-            y: 0,
-            w: width,
-            h: height,
-        }],
-        AaMode::Adaptive => complex_units(p, camera, width, height, tiles),
+    // Uniform supersampling needs no centre ray; adaptive needs the
+    // one-ray pass that found the tiles (traced by the caller), then one
+    // footprint search per tile or block, then `samples` rays in each
+    // complex pixel. Every one of them is counted.
+    let mut image = vec![0.0f32; n];
+    let mut spp = vec![0u32; n];
+    let (complex, searched) = match mode {
+        AaMode::None | AaMode::Adaptive => {
+            let centre = camera.primary_rays(width, height);
+            let base = trace_image(p, &centre, width, height, params, None)?;
+            for (i, (r, h)) in centre.iter().zip(&base.hits).enumerate() {
+                image[i] = shade(p, r, h);
+                spp[i] = 1;
+            }
+            if mode == AaMode::Adaptive {
+                complex_units(p, camera, width, height, tiles)
+            } else {
+                (Vec::new(), 0)
+            }
+        }
+        AaMode::Uniform => (
+            vec![Rect {
+                x: 0,
+                y: 0,
+                w: width,
+                h: height,
+            }],
+            0,
+        ),
     };
-    let mut rays = n as u64;
+    let mut rays = spp.iter().map(|&s| s as u64).sum::<u64>() + searched as u64;
     if !complex.is_empty() {
         let mut mask = vec![false; n];
         for r in &complex {
@@ -217,9 +260,8 @@ pub fn render(
         }
         for i in (0..n).filter(|&i| mask[i]) {
             image[i] = sum[i] / samples as f32;
-            spp[i] = samples;
-            // The centre ray was only needed to find the tiles.
-            rays += samples as u64 - 1;
+            spp[i] += samples;
+            rays += samples as u64;
         }
     }
     Ok(AaResult {
@@ -228,6 +270,7 @@ pub fn render(
         image,
         spp,
         rays,
+        footprint_searches: searched as u64,
         complex_units: if mode == AaMode::Adaptive { complex.len() } else { 0 },
         tiles: tiles.len(),
         ms: elapsed_ms(start),
@@ -270,6 +313,7 @@ impl AaResult {
             "mode": self.mode,
             "samples": self.samples,
             "rays": self.rays,
+            "footprint_searches": self.footprint_searches,
             "rays_uniform": uniform_rays,
             "saved_vs_uniform": 1.0 - self.rays as f64 / uniform_rays as f64,
             "tiles": self.tiles,

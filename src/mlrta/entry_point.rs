@@ -174,7 +174,9 @@ pub fn entry_point(
     let mut covered = false;
     // The corner rays, for covering triangles (shortening the group does
     // not move them).
-    let corners = f.corner_directions().map(|d| ShearedRay::new(f.origin, d));
+    let corners = f
+        .corner_directions()
+        .map(|d| ShearedRay::in_frame(f.origin, d, p.tree.frame_scale));
     let mut at_potential_leaf = |i: u32, f: &mut Frustum| {
         if let Some(t) = covering_distance(p, f, &corners, i) {
             f.t_max = t;

@@ -149,18 +149,21 @@ impl Packet {
         })
     }
 
-    /// Lane `r` as a single `ShearedRay`.
+    /// Lane `r` as a single `ShearedRay` in the frame of `scale` (the
+    /// tree's `frame_scale`).
     #[inline]
-    fn sheared(&self, r: usize) -> ShearedRay {
+    fn sheared(&self, r: usize, scale: f32) -> ShearedRay {
         let [kx, ky, kz] = self.k[r];
         ShearedRay {
-            origin: self.frustum.origin,
+            origin: self.frustum.origin * scale,
             kx,
             ky,
             kz,
             sx: self.sx[r],
             sy: self.sy[r],
             sz: self.sz[r],
+            scale,
+            inv_scale: 1.0 / scale,
         }
     }
 
@@ -191,9 +194,18 @@ impl Packet {
     /// that the lanes run side by side. Updates the lanes' closest hits and
     /// returns the lanes that hit.
     #[inline]
-    fn test_common(&self, tri: [Vec3; 3], active: &[bool; PACKET], best_t: &mut [f32; PACKET]) -> [bool; PACKET] {
+    fn test_common(
+        &self,
+        tri: [Vec3; 3],
+        active: &[bool; PACKET],
+        best_t: &mut [f32; PACKET],
+        scale: f32,
+    ) -> [bool; PACKET] {
         let c = self;
-        let o = self.frustum.origin;
+        // In the frame of `scale`, as `ShearedRay::intersect`: t comes out
+        // `scale` times the world's, exactly.
+        let o = self.frustum.origin * scale;
+        let inv_scale = 1.0 / scale;
         let [kx, ky, kz] = self.k[0];
         let a = (tri[0] - o).to_array();
         let b = (tri[1] - o).to_array();
@@ -214,8 +226,8 @@ impl Packet {
             let t_scaled = u * (c.sz[r] * a[kz]) + vv * (c.sz[r] * b[kz]) + w * (c.sz[r] * v[kz]);
             let wrong_side = (det > 0.0 && t_scaled <= 0.0) | (det < 0.0 && t_scaled >= 0.0);
             let t = t_scaled / det;
-            let h = active[r] & !outside & (det != 0.0) & !wrong_side & (t > 0.0) & (t < best_t[r]);
-            best_t[r] = if h { t } else { best_t[r] };
+            let h = active[r] & !outside & (det != 0.0) & !wrong_side & (t > 0.0) & (t < best_t[r] * scale);
+            best_t[r] = if h { t * inv_scale } else { best_t[r] };
             hit[r] = h;
         }
         hit
@@ -330,7 +342,7 @@ pub fn trace_packet(
                         // running all sixteen side by side.
                         match packet.common_axes && m > 4 {
                             true => {
-                                let hit = packet.test_common(*verts, &active, &mut best_t);
+                                let hit = packet.test_common(*verts, &active, &mut best_t, tree.frame_scale);
                                 for r in 0..n {
                                     if hit[r] {
                                         best_tri[r] = tri;
@@ -347,7 +359,9 @@ pub fn trace_packet(
                                     if !active[r] {
                                         continue;
                                     }
-                                    if let Some(t) = packet.sheared(r).intersect(v0, v1, v2, best_t[r]) {
+                                    if let Some(t) =
+                                        packet.sheared(r, tree.frame_scale).intersect(v0, v1, v2, best_t[r])
+                                    {
                                         best_t[r] = t;
                                         best_tri[r] = tri;
                                         if any_hit {

@@ -418,7 +418,7 @@ impl TracedImage {
             .enumerate()
             .map(|(i, (r, h))| {
                 h.is_hit().then(|| {
-                    let n = mesh.face_normal(h.triangle as usize).normalize_or_zero();
+                    let n = mesh.unit_face_normal(h.triangle as usize);
                     let lit = n.dot(r.d().normalize()).abs();
                     if shadowed.is_some_and(|s| s[i]) {
                         0.25 * lit

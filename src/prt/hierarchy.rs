@@ -34,6 +34,7 @@ use glam::Vec3;
 
 use super::Csr;
 use crate::error::{Error, Result};
+use crate::scene::used_bounds;
 
 /// Which fine triangles are drawn near a vertex.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
@@ -118,6 +119,14 @@ impl Hierarchy {
         if s.coarse_triangles == Some(0) {
             return Err(Error::param("coarse_triangles", "must be at least 1"));
         }
+        // The simplifier's quadrics are quartic in the coordinates and the
+        // clusters' distances quadratic: in f32 they underflow for models
+        // of 1e-18 and overflow near 1e10. Work on the rest pose brought to
+        // unit size by a power of two (exact; what is built is topology).
+        let extent = used_bounds(rest, triangles);
+        let k = crate::kdtree::watertight::frame_scale((extent.max - extent.min).max_element());
+        let unit_rest: Vec<Vec3> = rest.iter().map(|p| *p * k).collect();
+        let rest = unit_rest.as_slice();
         let nv = rest.len();
         let vertex_triangles = Csr::from_lists(
             nv,

@@ -54,8 +54,13 @@ pub fn render(
 }
 
 /// Barycentric coordinates of p (on the plane of abc).
+/// The edges are brought near unit length by a power of two first (exact):
+/// `denom` is quartic in them and would underflow for triangles of 1e-10
+/// and below, or overflow for ones of 1e10 and above.
 pub fn barycentric(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
     let (v0, v1, v2) = (b - a, c - a, p - a);
+    let k = crate::kdtree::watertight::frame_scale(v0.abs().max_element().max(v1.abs().max_element()));
+    let (v0, v1, v2) = (v0 * k, v1 * k, v2 * k);
     let (d00, d01, d11) = (v0.dot(v0), v0.dot(v1), v1.dot(v1));
     let (d20, d21) = (v2.dot(v0), v2.dot(v1));
     let denom = d00 * d11 - d01 * d01;

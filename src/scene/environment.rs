@@ -56,7 +56,15 @@ impl EnvironmentMap {
             .map_err(|e| Error::file(path, "header", format!("not a Radiance HDR file: {e}")))?;
         check_promised_size(image::ImageDecoder::dimensions(&decoder), bytes.len())
             .map_err(|problem| Error::file(path, "header", problem))?;
-        let image = image::DynamicImage::from_decoder(decoder)
+        // A panic of the decoder is malformed pixel data too: image 0.25's
+        // old-style RLE reader overflows its run-length multiplier on eight
+        // run markers in a row (image-rs/image#2714; in builds with overflow
+        // checks).
+        let decoded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            image::DynamicImage::from_decoder(decoder)
+        }))
+        .map_err(|_| Error::file(path, "pixels", "cannot decode: malformed run lengths"))?;
+        let image = decoded
             .map_err(|e| Error::file(path, "pixels", format!("cannot decode: {e}")))?
             .into_rgb32f();
         let (width, height) = image.dimensions();

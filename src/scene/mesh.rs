@@ -70,6 +70,7 @@ impl Mesh {
                 }
             }
         }
+        check_extent(&self.positions)?;
         let nv = self.positions.len() as u32;
         for (t, tri) in self.triangles.iter().enumerate() {
             if let Some(&bad) = tri.iter().find(|&&v| v >= nv) {
@@ -107,6 +108,12 @@ impl Mesh {
     pub fn face_normal(&self, t: usize) -> Vec3 {
         let [a, b, c] = self.triangle(t);
         (b - a).cross(c - a)
+    }
+
+    /// Triangle `t`'s unit normal (zero if degenerate), exact in direction at
+    /// any scene size: see `unit_normal`.
+    pub fn unit_face_normal(&self, t: usize) -> Vec3 {
+        unit_normal(self.triangle(t))
     }
 
     /// Vertex normals as the contract defines them (see `vertex_normals`).
@@ -179,6 +186,53 @@ pub fn vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]], out: &mut Vec<
         sums.into_iter()
             .map(|s| s.try_normalize().map_or(Vec3::ZERO, |n| n.as_vec3())),
     );
+}
+
+/// The largest extent of a scene f32 arithmetic handles at full accuracy:
+/// squared lengths (of the diagonal, of distances across the scene) stay
+/// finite up to about 1.8e19, and normal (not subnormal) down to about
+/// 1.1e-19. Inside, every method gives the same answer at every scale
+/// (`tests/scale.rs`); outside, a mesh is refused rather than answered wrongly.
+pub const MAX_EXTENT: f32 = 9.223_372e18; // 2^63
+pub const MIN_EXTENT: f32 = 5.421_011e-20; // 2^-64
+
+/// Refuses vertices whose bounding box is too large or too small for f32.
+fn check_extent(positions: &[Vec3]) -> Result<()> {
+    let (min, max) = positions
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        });
+    let extent = (max.as_dvec3() - min.as_dvec3()).max_element();
+    let outside = extent > MAX_EXTENT as f64 || (extent > 0.0 && extent < MIN_EXTENT as f64);
+    if outside {
+        let show = |v: Vec3| format!("({:.3e}, {:.3e}, {:.3e})", v.x, v.y, v.z);
+        let (min, max) = (show(min), show(max));
+        return Err(Error::input(
+            "mesh",
+            format!(
+                "extent {extent:.3e} (bounds {min} to {max}) is outside {MIN_EXTENT:.1e} to {MAX_EXTENT:.1e}, \
+                 the sizes f32 arithmetic handles (squared lengths would overflow or underflow); \
+                 rescale the model"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The unit normal of a triangle, zero if it is degenerate. Its edges are
+/// first multiplied by a power of two that brings them near 1 (exact), so
+/// the cross product neither overflows (edges of 1e19 and up: its squared
+/// length is past f32's range) nor underflows (edges of 1e-19 and down)
+/// and the direction is the same at every scale.
+pub fn unit_normal([a, b, c]: [Vec3; 3]) -> Vec3 {
+    let (e1, e2) = (b - a, c - a);
+    let largest = e1.abs().max_element().max(e2.abs().max_element());
+    if !(largest > 0.0 && largest.is_finite()) {
+        return Vec3::ZERO;
+    }
+    let k = crate::kdtree::watertight::frame_scale(largest);
+    (e1 * k).cross(e2 * k).normalize_or_zero()
 }
 
 #[cfg(test)]

@@ -153,11 +153,13 @@ pub fn parse_mtl(text: &str, warnings: &mut Vec<String>) -> Result<Vec<Material>
                     return Err(problem(format!("{v} is negative (an index of refraction is > 0)")));
                 }
                 if v == 0.0 {
-                    // Some exporters write `Ni 0` for "not set".
-                    warnings.push(format!(
-                        "material '{}': Ni 0 (line {line_no}) is not an index of refraction; 1 is used",
-                        m.name
-                    ));
+                    // Some exporters write `Ni 0` for "not set". One
+                    // warning per material (when it ends), not per line:
+                    // each names the material.
+                    match &mut b.ni_zero {
+                        Some((_, more)) => *more += 1,
+                        None => b.ni_zero = Some((line_no, 0)),
+                    }
                 } else {
                     m.ni = v;
                 }
@@ -211,6 +213,8 @@ struct Block {
     has_d: bool,
     /// `Tr` and its line.
     tr: Option<(f32, usize)>,
+    /// The first `Ni 0` line and how many more came.
+    ni_zero: Option<(usize, usize)>,
 }
 
 impl Block {
@@ -220,6 +224,7 @@ impl Block {
             line,
             has_d: false,
             tr: None,
+            ni_zero: None,
         }
     }
 
@@ -230,6 +235,17 @@ impl Block {
         warnings: &mut Vec<String>,
     ) {
         let m = &mut self.material;
+        if let Some((line, more)) = self.ni_zero {
+            let more = match more {
+                0 => String::new(),
+                1 => " and 1 more line".into(),
+                n => format!(" and {n} more lines"),
+            };
+            warnings.push(format!(
+                "material '{}': Ni 0 (line {line}{more}) is not an index of refraction; {} is used",
+                m.name, m.ni
+            ));
+        }
         if let (false, Some((tr, tr_line))) = (self.has_d, self.tr) {
             m.dissolve = 1.0 - tr;
             if tr > 0.5 && m.illum < 4 {
@@ -278,16 +294,26 @@ fn colour(args: &[&str]) -> std::result::Result<Vec3, String> {
         2 => return Err("has 2 numbers (need 1 or 3)".into()),
         _ => Vec3::from_array(c),
     };
-    Ok(if xyz { xyz_to_linear_srgb(c) } else { c })
+    if !xyz {
+        return Ok(c);
+    }
+    xyz_to_linear_srgb(c).ok_or_else(|| {
+        format!(
+            "xyz {} is too large to convert to RGB (a component overflows)",
+            numbers.join(" ")
+        )
+    })
 }
 
 /// CIE XYZ to linear sRGB (D65 white, IEC 61966-2-1 matrix); colours
-/// outside the sRGB gamut are clipped to >= 0.
-fn xyz_to_linear_srgb(c: Vec3) -> Vec3 {
+/// outside the sRGB gamut are clipped to >= 0. None where a component
+/// overflows f32 (XYZ components near f32's largest).
+fn xyz_to_linear_srgb(c: Vec3) -> Option<Vec3> {
     let r = 3.240_454_2 * c.x - 1.537_138_5 * c.y - 0.498_531_4 * c.z;
     let g = -0.969_266 * c.x + 1.876_010_8 * c.y + 0.041_556 * c.z;
     let b = 0.055_643_4 * c.x - 0.204_025_9 * c.y + 1.057_225_2 * c.z;
-    Vec3::new(r, g, b).max(Vec3::ZERO)
+    let rgb = Vec3::new(r, g, b);
+    rgb.is_finite().then(|| rgb.max(Vec3::ZERO))
 }
 
 /// A statement's one number.
@@ -575,7 +601,7 @@ mod tests {
         assert!(w.is_empty(), "{w:?}");
         assert!((m[0].kd - Vec3::ONE).abs().max_element() < 1e-3, "{}", m[0].kd);
         // One number means X = Y = Z.
-        let grey = xyz_to_linear_srgb(Vec3::splat(0.5));
+        let grey = xyz_to_linear_srgb(Vec3::splat(0.5)).unwrap();
         assert_eq!(m[0].ks, grey);
         assert!(
             (grey - Vec3::new(0.6023, 0.4742, 0.4544)).abs().max_element() < 1e-3,
@@ -583,7 +609,17 @@ mod tests {
         );
         assert_eq!(m[0].ke, Vec3::splat(2.0));
         // Out of the sRGB gamut: clipped, never negative.
-        assert!(xyz_to_linear_srgb(Vec3::new(0.0, 1.0, 0.0)).min_element() >= 0.0);
+        assert!(xyz_to_linear_srgb(Vec3::new(0.0, 1.0, 0.0)).unwrap().min_element() >= 0.0);
+        // Components near f32's largest overflow in the conversion: an
+        // error naming the line, not an infinite colour.
+        let mut w = Vec::new();
+        let e = parse_mtl("newmtl a\nKa xyz 0 2e38 0\n", &mut w)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "line 2: Ka: xyz 0 2e38 0 is too large to convert to RGB (a component overflows)"
+        );
     }
 
     #[test]
@@ -632,5 +668,15 @@ mod tests {
         assert_eq!(m[0].ni, 1.0);
         assert_eq!(warnings.len(), 1);
         assert!(warnings[0].contains("Ni 0 (line 2)"), "{warnings:?}");
+        // One warning per material however many lines say it.
+        let mut warnings = Vec::new();
+        parse_mtl("newmtl a\nNi 0\nNi 0\nNi 0\nnewmtl b\nNi 0\n", &mut warnings).unwrap();
+        assert_eq!(
+            warnings,
+            [
+                "material 'a': Ni 0 (line 2 and 2 more lines) is not an index of refraction; 1 is used",
+                "material 'b': Ni 0 (line 6) is not an index of refraction; 1 is used"
+            ]
+        );
     }
 }

@@ -199,6 +199,15 @@ fn resolve(scene: &Path, field: &str, text: &str) -> Result<PathBuf> {
     Ok(base.join(text))
 }
 
+/// An error in a file the scene names, said as the scene's: "scene.json:
+/// meshes.a: x.obj: line 3: ..." (exit code kept).
+fn named_by(scene: &Path, field: &str, e: Error) -> Error {
+    match e {
+        Error::BadInput { .. } => Error::file(scene, field, e.to_string()),
+        other => other,
+    }
+}
+
 fn finite(scene: &Path, field: &str, v: &[f32]) -> Result<()> {
     if v.iter().all(|c| c.is_finite()) {
         Ok(())
@@ -250,13 +259,14 @@ fn load(path: &Path, shaded: bool) -> Result<Scene> {
         let resolved = resolve(path, &field, mesh_path)?;
         index_of.insert(name.clone(), meshes.len());
         if shaded {
-            let obj = load_obj_file(&resolved)?;
+            let obj = load_obj_file(&resolved).map_err(|e| named_by(path, &field, e))?;
             warnings.extend(obj.warnings.iter().map(|w| format!("{}: {w}", resolved.display())));
             let mut mesh = SceneMesh::new(name, &resolved, obj.mesh.clone());
             mesh.shading = Some(MeshShading::from_obj(&obj));
             meshes.push(mesh);
         } else {
-            meshes.push(SceneMesh::new(name, &resolved, load_obj(&resolved)?));
+            let mesh = load_obj(&resolved).map_err(|e| named_by(path, &field, e))?;
+            meshes.push(SceneMesh::new(name, &resolved, mesh));
         }
     }
     let materials = file

@@ -256,7 +256,7 @@ pub fn gbuffer(tree: &KdTree, mesh: &Mesh, camera: &Camera, lights: &[Light], wi
             }
             let t = h.triangle as usize;
             let p = r.o() + h.t * r.d();
-            let n = mesh.face_normal(t).normalize_or_zero();
+            let n = mesh.unit_face_normal(t);
             let (g, s) = texel(camera, &lights, p, n, albedos[t]);
             // A hit exactly at the eye has no depth: keep it background.
             if g[3] > 0.0 { (g, s) } else { ([0.0; 4], [0.0; 4]) }

@@ -55,7 +55,7 @@ impl SceneVertices {
         let albedos = triangle_albedos(mesh);
         let mut vertices = Vec::with_capacity(mesh.triangles.len() * 3);
         for (t, &albedo) in albedos.iter().enumerate() {
-            let n = mesh.face_normal(t).normalize_or_zero().to_array();
+            let n = mesh.unit_face_normal(t).to_array();
             for p in mesh.triangle(t) {
                 vertices.push(GBufferVertex {
                     position: p.to_array(),
