@@ -99,7 +99,25 @@ pub enum LeafReason {
     Cost,
     SmallCell,
     DepthLimit,
+    /// The tree's references reached `MAX_REFERENCES_PER_TRIANGLE`.
+    ReferenceBudget,
 }
+
+/// Leaf references a subtree may hold per triangle of the root. Well-behaved
+/// meshes use 2-6 (bunny 5.0); 50,000 overlapping tetrahedra used 368,
+/// i.e. 73.6M references, 3.1 GB and 43 s. The budget is shared out down
+/// the tree in proportion to the children's triangle counts, so a subtree
+/// that duplicates a lot runs out where it duplicates (its cells become
+/// leaves) while the rest of the tree is built as usual: memory and time
+/// stay bounded, and only traversal through the overlap gets slower.
+pub const MAX_REFERENCES_PER_TRIANGLE: usize = 16;
+
+/// Below this many references per triangle in the whole tree the budget is
+/// not enforced at all, so well-behaved meshes (bunny 5.0, kitchen 2.6)
+/// get exactly the tree they always had; above `HARD_REFERENCES_PER_TRIANGLE`
+/// every cell still to be built becomes a leaf.
+const SOFT_REFERENCES_PER_TRIANGLE: usize = 8;
+const HARD_REFERENCES_PER_TRIANGLE: usize = 32;
 
 /// The flat arrays being built, with their statistics. Subtrees built in
 /// parallel get their own `Output` and are appended with their indices moved.
@@ -119,6 +137,7 @@ impl Output {
             _ if prims.is_empty() => s.empty_leaves += 1,
             LeafReason::SmallCell => s.small_cell_leaves += 1,
             LeafReason::DepthLimit => s.depth_limited_leaves += 1,
+            LeafReason::ReferenceBudget => s.budget_leaves += 1,
             LeafReason::Empty | LeafReason::Cost => {}
         }
         s.max_triangles_per_leaf = s.max_triangles_per_leaf.max(prims.len());
@@ -160,6 +179,7 @@ impl Output {
         s.empty_leaves += t.empty_leaves;
         s.small_cell_leaves += t.small_cell_leaves;
         s.depth_limited_leaves += t.depth_limited_leaves;
+        s.budget_leaves += t.budget_leaves;
         s.max_triangles_per_leaf = s.max_triangles_per_leaf.max(t.max_triangles_per_leaf);
         s.empty_cuts += t.empty_cuts;
         s.covered_plane_splits += t.covered_plane_splits;
@@ -205,6 +225,11 @@ pub(super) struct Builder<'a> {
     triangles: &'a [[Vec3; 3]],
     params: &'a KdTreeParams,
     max_depth: usize,
+    /// Leaf references made so far in the whole tree (triangles plus the
+    /// duplicates splits made), and the soft and hard limits on them.
+    references: std::sync::atomic::AtomicUsize,
+    soft_references: usize,
+    hard_references: usize,
     /// The power of two areas are measured in (`watertight::frame_scale`):
     /// in world units the areas of cells of a 1e-19 scene underflow and the
     /// SAH degenerates (469 nodes for the bunny instead of 426,541).
@@ -221,6 +246,9 @@ impl<'a> Builder<'a> {
             triangles,
             params,
             max_depth: params.depth_limit(triangles.len()),
+            references: std::sync::atomic::AtomicUsize::new(triangles.len()),
+            soft_references: triangles.len().saturating_mul(SOFT_REFERENCES_PER_TRIANGLE),
+            hard_references: triangles.len().saturating_mul(HARD_REFERENCES_PER_TRIANGLE),
             frame: super::watertight::frame_scale((bounds.max - bounds.min).max_element()),
             scene_area: bounds.surface_area_in(super::watertight::frame_scale((bounds.max - bounds.min).max_element())),
         }
@@ -237,16 +265,26 @@ impl<'a> Builder<'a> {
             })
             .collect();
         let mut out = Output::default();
-        self.build_cell(prims, bounds, 0, &mut out);
+        let budget = prims.len().saturating_mul(MAX_REFERENCES_PER_TRIANGLE);
+        self.build_cell(prims, bounds, (0, budget), &mut out);
         out
     }
 
-    fn build_cell(&self, prims: Vec<Prim>, cell: Aabb, depth: usize, out: &mut Output) {
+    /// `at`: the cell's depth and the leaf references its subtree may hold.
+    fn build_cell(&self, prims: Vec<Prim>, cell: Aabb, at: (usize, usize), out: &mut Output) {
+        let (depth, budget) = at;
         if prims.is_empty() {
             return out.push_leaf(&prims, LeafReason::Empty, depth);
         }
         if depth >= self.max_depth {
             return out.push_leaf(&prims, LeafReason::DepthLimit, depth);
+        }
+        let made = self.references.load(std::sync::atomic::Ordering::Relaxed);
+        // A cell whose share would leave a split's children less than their
+        // own triangles, once the tree as a whole duplicates a lot.
+        let spent = prims.len() * 2 > budget && made > self.soft_references;
+        if spent || made > self.hard_references {
+            return out.push_leaf(&prims, LeafReason::ReferenceBudget, depth);
         }
         if cell.surface_area_in(self.frame) < self.params.min_cell_area * self.scene_area {
             return out.push_leaf(&prims, LeafReason::SmallCell, depth);
@@ -257,38 +295,55 @@ impl<'a> Builder<'a> {
             .or_else(|| self.best_sah_split(&prims, &cell));
         let leaf_cost = self.params.intersection_cost * prims.len() as f32;
         match split.filter(|s| s.kind != SplitKind::Sah || s.cost < leaf_cost) {
-            Some(split) => self.split_cell(prims, cell, depth, split, out),
+            Some(split) => self.split_cell(prims, cell, at, split, out),
             // Unreachable in practice (2^30 triangles in one cell): split at
             // the middle rather than overflow the leaf's count field.
             None if prims.len() as u32 > MAX_LEAF_TRIANGLES => {
                 let split = self.midpoint_split(&cell, cell.extent().max_position());
-                self.split_cell(prims, cell, depth, split, out)
+                self.split_cell(prims, cell, at, split, out)
             }
             None => out.push_leaf(&prims, LeafReason::Cost, depth),
         }
     }
 
-    fn split_cell(&self, prims: Vec<Prim>, cell: Aabb, depth: usize, split: Split, out: &mut Output) {
+    fn split_cell(
+        &self,
+        prims: Vec<Prim>,
+        cell: Aabb,
+        (depth, budget): (usize, usize),
+        split: Split,
+        out: &mut Output,
+    ) {
         let n = prims.len();
         let (below, below_cell, above, above_cell) = self.partition(prims, &cell, &split);
+        let duplicated = (below.len() + above.len()).saturating_sub(n);
+        self.references
+            .fetch_add(duplicated, std::sync::atomic::Ordering::Relaxed);
+        // The budget follows the references: a child gets its share of them.
+        let total = (below.len() + above.len()).max(1);
+        let below_budget = (budget as u128 * below.len() as u128 / total as u128) as usize;
+        let (below_at, above_at) = ((depth + 1, below_budget), (depth + 1, budget - below_budget));
         out.count_split(split.kind, depth);
         let index = out.nodes.len();
         out.nodes.push(KdNode::leaf(0, 0)); // replaced below
         if n > PARALLEL_BELOW {
-            let build = |prims, cell| {
+            let build = |prims, cell, at| {
                 let mut sub = Output::default();
-                self.build_cell(prims, cell, depth + 1, &mut sub);
+                self.build_cell(prims, cell, at, &mut sub);
                 sub
             };
-            let (b, a) = rayon::join(|| build(below, below_cell), || build(above, above_cell));
+            let (b, a) = rayon::join(
+                || build(below, below_cell, below_at),
+                || build(above, above_cell, above_at),
+            );
             out.append(b);
             let above_index = out.nodes.len() as u32;
             out.append(a);
             out.nodes[index] = KdNode::interior(split.axis, split.pos, above_index);
         } else {
-            self.build_cell(below, below_cell, depth + 1, out);
+            self.build_cell(below, below_cell, below_at, out);
             let above_index = out.nodes.len() as u32;
-            self.build_cell(above, above_cell, depth + 1, out);
+            self.build_cell(above, above_cell, above_at, out);
             out.nodes[index] = KdNode::interior(split.axis, split.pos, above_index);
         }
     }
@@ -589,6 +644,9 @@ pub struct BuildStats {
     pub covered_plane_splits: usize,
     pub small_cell_leaves: usize,
     pub depth_limited_leaves: usize,
+    /// Leaves made because the reference budget was spent (overlapping
+    /// geometry; see `MAX_REFERENCES_PER_TRIANGLE`).
+    pub budget_leaves: usize,
     pub build_ms: f64,
 }
 

@@ -401,3 +401,30 @@ fn bad_input_is_rejected() {
     };
     assert!(KdTree::from_triangles(vec![[Vec3::ZERO, Vec3::X, Vec3::Y]], &bad).is_err());
 }
+
+/// Heavily overlapping geometry (20,000 large triangles in a box twice
+/// their size, as thousands of overlapping instances make) keeps the tree
+/// within its reference budget and still answers exactly; a mesh that
+/// duplicates little is untouched by the budget.
+#[test]
+fn overlapping_geometry_stays_within_the_reference_budget() {
+    let mut rng = Rng(77);
+    let tris = random_soup(&mut rng, 20_000, 1.0);
+    let tree = KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap();
+    let s = &tree.stats;
+    println!(
+        "{} triangles: {} references ({:.1} per triangle), {} budget leaves, {:.0} ms",
+        s.triangles,
+        s.leaf_references,
+        s.leaf_references as f64 / s.triangles as f64,
+        s.budget_leaves,
+        s.build_ms
+    );
+    assert!(s.budget_leaves > 0, "the budget must have been reached here");
+    // The hard limit, plus what the cells being split when it was reached add.
+    assert!(s.leaf_references <= 2 * build::MAX_REFERENCES_PER_TRIANGLE * 2 * tris.len());
+    assert_matches_brute_force(&tree, &rays_at(&mut rng, 300, 1.5));
+    let sparse = random_soup(&mut rng, 20_000, 0.01);
+    let tree = KdTree::from_triangles(sparse, &KdTreeParams::default()).unwrap();
+    assert_eq!(tree.stats.budget_leaves, 0);
+}
