@@ -326,17 +326,7 @@ fn main() {
             .filter_map(|name| all.iter().position(|s| s.name == *name).map(|i| all.swap_remove(i)))
             .collect()
     };
-    let pools: Vec<(usize, ThreadPool)> = mode
-        .threads
-        .iter()
-        .map(|&n| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
-                .build()
-                .expect("a rayon pool");
-            (n, pool)
-        })
-        .collect();
+    let pools: Vec<(usize, ThreadPool)> = mode.threads.iter().map(|&n| (n, common::thread_pool(n))).collect();
     let cpu = Device::cpu();
     let mut rows = Vec::new();
     for s in &scenes {

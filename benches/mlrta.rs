@@ -79,10 +79,7 @@ fn single_rays(m: &Model, rays: &[Ray]) -> Vec<Hit> {
 }
 
 fn bench_cpu(c: &mut Criterion, models: &[Model], threads: usize) {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .expect("a rayon pool");
+    let pool = common::thread_pool(threads);
     let name = if threads == 1 {
         "mlrta_cpu_1thread".to_string()
     } else {

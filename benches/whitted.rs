@@ -61,10 +61,7 @@ struct Prepared<'a> {
 }
 
 fn bench_cpu(c: &mut Criterion, prepared: &mut [Prepared<'_>], threads: usize) {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .expect("a rayon pool");
+    let pool = common::thread_pool(threads);
     let name = if threads == 1 {
         "whitted_cpu_1thread".to_string()
     } else {

@@ -147,16 +147,7 @@ fn main() {
     let size = if quick { 128 } else { SIZE };
     let repeat = if quick { 1 } else { REPEAT };
     let scenes = load_scenes();
-    let pools: Vec<(usize, ThreadPool)> = [1, 2]
-        .into_iter()
-        .map(|n| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
-                .build()
-                .expect("a rayon pool");
-            (n, pool)
-        })
-        .collect();
+    let pools: Vec<(usize, ThreadPool)> = [1, 2].into_iter().map(|n| (n, common::thread_pool(n))).collect();
     let mut cpu_configs = Vec::new();
     for (threads, pool) in &pools {
         for packets in [false, true] {

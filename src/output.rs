@@ -3,6 +3,8 @@
 //! renamed over the target only once it is complete (a rename within a
 //! folder is atomic on POSIX file systems). A failed or interrupted run
 //! leaves the old file (or none), never a truncated one that looks valid.
+//! Before any of that, `refuse_overwrites` keeps outputs off inputs, and
+//! `frame_path` names the files of an animation.
 
 use std::io::{BufWriter, Seek, Write};
 use std::path::{Path, PathBuf};
@@ -67,6 +69,64 @@ where
     fn encode<O: Write + Seek>(&self, out: &mut O, format: image::ImageFormat) -> std::result::Result<(), String> {
         self.write_to(out, format).map_err(|e| e.to_string())
     }
+}
+
+/// The output file of frame `frame`: the template with `{}` or `{:0N}`
+/// replaced by the frame number, if it holds one.
+pub fn frame_path(template: &Path, frame: u32) -> Option<PathBuf> {
+    let text = template.to_string_lossy();
+    let open = text.find('{')?;
+    let close = open + text[open..].find('}')?;
+    let spec = &text[open + 1..close];
+    let number = match spec.strip_prefix(":0").map(str::parse::<usize>) {
+        Some(Ok(width)) => format!("{frame:0width$}"),
+        _ if spec.is_empty() => frame.to_string(),
+        _ => return None,
+    };
+    Some(PathBuf::from(format!(
+        "{}{number}{}",
+        &text[..open],
+        &text[close + 1..]
+    )))
+}
+
+/// The identity of an existing file (device and inode, links followed).
+#[cfg(unix)]
+fn identity(path: &Path) -> Option<(u64, u64)> {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata(path).ok().map(|m| (m.dev(), m.ino()))
+}
+
+/// The identity of an existing file (its canonical path, hashed).
+#[cfg(not(unix))]
+fn identity(path: &Path) -> Option<(u64, u64)> {
+    use std::hash::{Hash, Hasher};
+    let canonical = std::fs::canonicalize(path).ok()?;
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    canonical.hash(&mut h);
+    Some((0, h.finish()))
+}
+
+/// Refuses (an error naming the output's name) any output that is one of
+/// the inputs, under any spelling: `./`, `..`, symbolic and hard links.
+/// Paths that do not exist yet cannot be inputs.
+pub fn refuse_overwrites(inputs: &[(&str, PathBuf)], outputs: &[(&str, PathBuf)]) -> Result<()> {
+    let inputs: Vec<_> = inputs
+        .iter()
+        .filter_map(|(option, p)| identity(p).map(|id| (id, option, p)))
+        .collect();
+    for (option, out) in outputs {
+        let Some(id) = identity(out) else { continue };
+        if let Some((_, input, p)) = inputs.iter().find(|(i, _, _)| *i == id) {
+            let problem = format!(
+                "{} is the input {input} {}; penumbra never overwrites an input, choose another output",
+                out.display(),
+                p.display()
+            );
+            return Err(Error::param(*option, problem));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

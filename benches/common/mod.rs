@@ -115,6 +115,15 @@ pub fn gpu_image_size(ctx: &GpuContext) -> u32 {
         })
 }
 
+/// A rayon pool of `threads` threads (benches time 1 and 2 threads apart
+/// from the global pool).
+pub fn thread_pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a rayon pool")
+}
+
 /// The CPU's model name and logical cores, from `/proc/cpuinfo`.
 pub fn machine() -> String {
     let info = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();

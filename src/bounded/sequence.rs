@@ -25,19 +25,29 @@ pub struct Measures {
     pub seed: u32,
 }
 
+/// What `Measures` asked for, of one frame or summed over a sequence
+/// (absent fields were not asked for).
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Measured {
+    /// The exact renders' time, and theirs over the bounded renders'.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_ms: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub speedup: Option<f64>,
+    /// Over a sequence: the worst frame (`mean_rel`: mean of the frames' means).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<ErrorStats>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub check: Option<CheckStats>,
+}
+
 /// One frame's statistics and measures.
 #[derive(Debug, Clone, Serialize)]
 pub struct FrameReport {
     #[serde(flatten)]
     pub stats: FrameStats,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub reference_ms: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub speedup: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub error: Option<ErrorStats>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub check: Option<CheckStats>,
+    #[serde(flatten)]
+    pub measured: Measured,
 }
 
 /// Rays by kind over the sequence.
@@ -65,15 +75,8 @@ pub struct SequenceReport {
     pub valid_cells: usize,
     pub rays: SequenceRays,
     pub mrays_per_s: f64,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub reference_ms: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub speedup: Option<f64>,
-    /// Worst over the frames (`mean_rel`: mean of the frames' means).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub error: Option<ErrorStats>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub check: Option<CheckStats>,
+    #[serde(flatten)]
+    pub measured: Measured,
     pub per_frame: Vec<FrameReport>,
     #[serde(skip)]
     surfaces: u64,
@@ -114,24 +117,22 @@ impl BoundedRenderer {
     fn measure(&mut self, frame: &BoundedFrame, measures: Measures, f: u32) -> Result<FrameReport> {
         let mut entry = FrameReport {
             stats: frame.stats.clone(),
-            reference_ms: None,
-            speedup: None,
-            error: None,
-            check: None,
+            measured: Measured::default(),
         };
+        let m = &mut entry.measured;
         let settings = &self.settings;
         let (w, h) = (frame.width, frame.height);
         if measures.reference {
             let exact = self
                 .whitted
                 .render(&frame.camera, w, h, &settings.whitted, &Progress::hidden())?;
-            entry.reference_ms = Some(exact.stats.render_ms);
-            entry.speedup = Some(exact.stats.render_ms / frame.stats.frame_ms);
-            entry.error = Some(compare(frame, &exact.radiance(), settings.epsilon, settings.floor));
+            m.reference_ms = Some(exact.stats.render_ms);
+            m.speedup = Some(exact.stats.render_ms / frame.stats.frame_ms);
+            m.error = Some(compare(frame, &exact.radiance(), settings.epsilon, settings.floor));
         }
         if let Some(k) = measures.check_lines {
             let params = self.whitted.params(&frame.camera, w, h, &settings.whitted)?;
-            entry.check = Some(self.check(&params, k, measures.seed ^ f));
+            m.check = Some(self.check(&params, k, measures.seed ^ f));
         }
         Ok(entry)
     }
@@ -160,19 +161,19 @@ impl SequenceReport {
         self.extremal_rays_requested += s.extremal_rays_requested;
         self.extremal_rays_traced += s.extremal_rays_traced;
         self.rays.slow_path += s.rays_traced_slow_path;
-        if let (Some(ms), Some(e)) = (entry.reference_ms, &entry.error) {
+        if let (Some(ms), Some(e)) = (entry.measured.reference_ms, &entry.measured.error) {
             self.add_reference(ms, e);
         }
-        if let Some(c) = &entry.check {
+        if let Some(c) = &entry.measured.check {
             self.add_check(c);
         }
         self.per_frame.push(entry.clone());
     }
 
     fn add_reference(&mut self, ms: f64, e: &ErrorStats) {
-        let frames = self.per_frame.iter().filter(|f| f.error.is_some()).count() as f64;
-        *self.reference_ms.get_or_insert(0.0) += ms;
-        let t = self.error.get_or_insert_with(ErrorStats::default);
+        let frames = self.per_frame.iter().filter(|f| f.measured.error.is_some()).count() as f64;
+        *self.measured.reference_ms.get_or_insert(0.0) += ms;
+        let t = self.measured.error.get_or_insert_with(ErrorStats::default);
         t.max_rel = t.max_rel.max(e.max_rel);
         t.mean_rel = (t.mean_rel * frames + e.mean_rel) / (frames + 1.0);
         t.violations += e.violations;
@@ -181,7 +182,7 @@ impl SequenceReport {
     }
 
     fn add_check(&mut self, c: &CheckStats) {
-        let t = self.check.get_or_insert_with(CheckStats::default);
+        let t = self.measured.check.get_or_insert_with(CheckStats::default);
         t.cells += c.cells;
         t.lines += c.lines;
         t.skipped += c.skipped;
@@ -200,9 +201,9 @@ impl SequenceReport {
         (self.cells, self.leaves, self.valid_cells) = renderer.trees.counts();
         self.mrays_per_s =
             crate::mlrta::runner::mrays_per_s((self.rays.slow_path + self.rays.extremal) as usize, self.render_ms);
-        self.speedup = self.reference_ms.map(|r| r / self.render_ms);
-        if checked && self.check.is_none() {
-            self.check = Some(CheckStats::default());
+        self.measured.speedup = self.measured.reference_ms.map(|r| r / self.render_ms);
+        if checked && self.measured.check.is_none() {
+            self.measured.check = Some(CheckStats::default());
         }
     }
 }

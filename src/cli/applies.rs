@@ -23,91 +23,95 @@ fn rule(holds: bool, options: &'static [&'static str], needs: &'static str) -> R
 }
 
 const CAMERA_AND_SIZE: &[&str] = &["width", "height", "eye", "target", "fov"];
+const FIELD_ONLY: &[&str] = &[
+    "field",
+    "positions",
+    "res",
+    "bits",
+    "directions",
+    "positional",
+    "frames",
+    "reference",
+];
+const BOUNDED_ONLY: &[&str] = &[
+    "epsilon",
+    "floor",
+    "bound",
+    "split",
+    "reproject",
+    "span",
+    "memory_mb",
+    "min_pixels",
+    "reference",
+    "check",
+    "error_image",
+];
+const PRT_IMAGE: &[&str] = &["width", "height", "eye", "target", "fov", "exposure", "albedo"];
 
 fn rules(command: &Command) -> Vec<Rule> {
-    use super::ao::Method as AoMethod;
-    use super::raytrace::Method as RtMethod;
-    use crate::mlrta::aa::AaMode;
-    use crate::prt::runner::Shadows;
-    use crate::prt::transfer::BrdfKind;
-    use crate::ssao::Estimator;
-    use crate::ssao::measure::MeasureKind;
     match command {
-        Command::Ao(a) => vec![
-            rule(
-                a.method == AoMethod::Field,
-                &[
-                    "field",
-                    "positions",
-                    "res",
-                    "bits",
-                    "directions",
-                    "positional",
-                    "frames",
-                    "reference",
-                ],
-                "--method field",
-            ),
-            rule(a.image.is_some(), CAMERA_AND_SIZE, "--image"),
-        ],
-        Command::Raytrace(a) => vec![
-            rule(
-                a.method == RtMethod::Bounded,
-                &[
-                    "epsilon",
-                    "floor",
-                    "bound",
-                    "split",
-                    "reproject",
-                    "span",
-                    "memory_mb",
-                    "min_pixels",
-                    "reference",
-                    "check",
-                    "error_image",
-                ],
-                "--method bounded",
-            ),
-            rule(a.method == RtMethod::Whitted, &["ray_tree"], "--method whitted"),
-            rule(a.frames > 1, &["path"], "--frames above 1"),
-        ],
-        Command::Trace(a) => vec![
-            rule(
-                !a.single_ray,
-                &["tile", "min_tile", "split_factor", "tiles_image"],
-                "packets (without --single-ray)",
-            ),
-            rule(
-                a.aa != AaMode::None,
-                &["aa_samples", "aa_reference", "aa_image"],
-                "--aa adaptive or uniform",
-            ),
-        ],
-        Command::Ssao(a) => vec![
-            rule(a.measure == MeasureKind::Exp, &["sigma"], "--measure exp"),
-            rule(a.estimator == Estimator::Raymarch, &["steps"], "--estimator raymarch"),
-            rule(a.filter == OnOff::On, &["filter_depth"], "--filter on"),
-            rule(a.image.is_some(), &["ambient"], "--image"),
-        ],
-        Command::Prt(a) => vec![
-            rule(a.brdf == BrdfKind::Phong, &["shininess", "specular"], "--brdf phong"),
-            rule(a.pvs == OnOff::On, &["pvs_frames", "pvs_span"], "--pvs on"),
-            rule(
-                a.check || a.shadows == Shadows::Raytraced,
-                &["check_rays"],
-                "--check or --shadows raytraced",
-            ),
-            rule(a.check, &["check_frames"], "--check"),
-            rule(a.hierarchy == OnOff::On, &["near", "ring", "coarse"], "--hierarchy on"),
-            rule(a.animated.is_some(), &["start", "dt"], "--animated"),
-            rule(
-                a.out.is_some() || a.out_frames.is_some(),
-                &["width", "height", "eye", "target", "fov", "exposure", "albedo"],
-                "--out or --out-frames",
-            ),
-        ],
+        Command::Ao(a) => ao_rules(a),
+        Command::Raytrace(a) => raytrace_rules(a),
+        Command::Trace(a) => trace_rules(a),
+        Command::Ssao(a) => ssao_rules(a),
+        Command::Prt(a) => prt_rules(a),
         Command::Info(_) | Command::TraceRays(_) | Command::Field(_) | Command::GenAssets(_) => Vec::new(),
     }
+}
+
+fn ao_rules(a: &super::ao::AoArgs) -> Vec<Rule> {
+    vec![
+        rule(a.method == super::ao::Method::Field, FIELD_ONLY, "--method field"),
+        rule(a.image.is_some(), CAMERA_AND_SIZE, "--image"),
+    ]
+}
+
+fn raytrace_rules(a: &super::raytrace::RaytraceArgs) -> Vec<Rule> {
+    use super::raytrace::Method;
+    vec![
+        rule(a.method == Method::Bounded, BOUNDED_ONLY, "--method bounded"),
+        rule(a.method == Method::Whitted, &["ray_tree"], "--method whitted"),
+        rule(a.frames > 1, &["path"], "--frames above 1"),
+    ]
+}
+
+fn trace_rules(a: &super::trace::TraceArgs) -> Vec<Rule> {
+    let tiles = &["tile", "min_tile", "split_factor", "tiles_image"];
+    let aa = &["aa_samples", "aa_reference", "aa_image"];
+    vec![
+        rule(!a.single_ray, tiles, "packets (without --single-ray)"),
+        rule(a.aa != crate::mlrta::aa::AaMode::None, aa, "--aa adaptive or uniform"),
+    ]
+}
+
+fn ssao_rules(a: &super::ssao::SsaoArgs) -> Vec<Rule> {
+    use crate::ssao::Estimator;
+    use crate::ssao::measure::MeasureKind;
+    vec![
+        rule(a.measure == MeasureKind::Exp, &["sigma"], "--measure exp"),
+        rule(a.estimator == Estimator::Raymarch, &["steps"], "--estimator raymarch"),
+        rule(a.filter == OnOff::On, &["filter_depth"], "--filter on"),
+        rule(a.image.is_some(), &["ambient"], "--image"),
+    ]
+}
+
+fn prt_rules(a: &super::prt::PrtArgs) -> Vec<Rule> {
+    use crate::prt::runner::Shadows;
+    use crate::prt::transfer::BrdfKind;
+    let raytraced = a.check || a.shadows == Shadows::Raytraced;
+    vec![
+        rule(a.brdf == BrdfKind::Phong, &["shininess", "specular"], "--brdf phong"),
+        rule(a.pvs == OnOff::On, &["pvs_frames", "pvs_span"], "--pvs on"),
+        rule(raytraced, &["check_rays"], "--check or --shadows raytraced"),
+        rule(a.check, &["check_frames"], "--check"),
+        rule(a.hierarchy == OnOff::On, &["near", "ring", "coarse"], "--hierarchy on"),
+        rule(a.animated.is_some(), &["start", "dt"], "--animated"),
+        rule(
+            a.out.is_some() || a.out_frames.is_some(),
+            PRT_IMAGE,
+            "--out or --out-frames",
+        ),
+    ]
 }
 
 fn given(matches: &ArgMatches, id: &str) -> bool {

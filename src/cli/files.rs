@@ -1,12 +1,12 @@
 //! Inputs and outputs of each subcommand, checked before any work: an
 //! output that is an input (the same file through another spelling, `./`,
 //! `..`, a symbolic or a hard link) is refused, so no run destroys what it
-//! reads. Outputs are then written atomically (`crate::output`).
+//! reads (`crate::output::refuse_overwrites` compares them). Outputs are
+//! then written atomically (`crate::output`).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use super::Command;
-use crate::error::{Error, Result};
 
 /// A subcommand's files, each with the option that names it.
 #[derive(Default)]
@@ -36,44 +36,6 @@ impl Files {
             self.outputs.push((option, p.clone()));
         }
     }
-}
-
-/// The identity of an existing file (device and inode, links followed).
-#[cfg(unix)]
-fn identity(path: &Path) -> Option<(u64, u64)> {
-    use std::os::unix::fs::MetadataExt;
-    std::fs::metadata(path).ok().map(|m| (m.dev(), m.ino()))
-}
-
-/// The identity of an existing file (its canonical path, hashed).
-#[cfg(not(unix))]
-fn identity(path: &Path) -> Option<(u64, u64)> {
-    use std::hash::{Hash, Hasher};
-    let canonical = std::fs::canonicalize(path).ok()?;
-    let mut h = std::collections::hash_map::DefaultHasher::new();
-    canonical.hash(&mut h);
-    Some((0, h.finish()))
-}
-
-/// Refuses any output that is one of the inputs.
-pub fn refuse_overwrites(files: &Files) -> Result<()> {
-    let inputs: Vec<_> = files
-        .inputs
-        .iter()
-        .filter_map(|(option, p)| identity(p).map(|id| (id, option, p)))
-        .collect();
-    for (option, out) in &files.outputs {
-        let Some(id) = identity(out) else { continue };
-        if let Some((_, input, p)) = inputs.iter().find(|(i, _, _)| *i == id) {
-            let problem = format!(
-                "{} is the input {input} {}; penumbra never overwrites an input, choose another output",
-                out.display(),
-                p.display()
-            );
-            return Err(Error::param(*option, problem));
-        }
-    }
-    Ok(())
 }
 
 /// What `command` reads and writes.
@@ -136,7 +98,7 @@ pub fn of(command: &Command) -> Files {
             f.output("--error-image", &a.error_image);
             if let Some(out) = &a.out {
                 let frames = a.frames.min(100_000);
-                let each = (0..frames).filter_map(|i| super::raytrace::frame_path(out, i));
+                let each = (0..frames).filter_map(|i| crate::output::frame_path(out, i));
                 let all: Vec<PathBuf> = each.collect();
                 if all.is_empty() {
                     f.output("--out", &a.out);

@@ -114,7 +114,8 @@ pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
 }
 
 fn dispatch(command: Command) -> Result<()> {
-    files::refuse_overwrites(&files::of(&command))?;
+    let files = files::of(&command);
+    crate::output::refuse_overwrites(&files.inputs, &files.outputs)?;
     match command {
         Command::Info(a) => emit(a.json, info::run(&a)?),
         Command::TraceRays(a) => emit(a.common.json, trace_rays::run(&a)?),

@@ -130,25 +130,6 @@ fn parse_pixel(s: &str) -> std::result::Result<(u32, u32), String> {
     }
 }
 
-/// The output file of frame `frame`: the template with `{}` or `{:0N}`
-/// replaced by the frame number, if it holds one.
-pub(super) fn frame_path(template: &Path, frame: u32) -> Option<PathBuf> {
-    let text = template.to_string_lossy();
-    let open = text.find('{')?;
-    let close = open + text[open..].find('}')?;
-    let spec = &text[open + 1..close];
-    let number = match spec.strip_prefix(":0").map(str::parse::<usize>) {
-        Some(Ok(width)) => format!("{frame:0width$}"),
-        _ if spec.is_empty() => frame.to_string(),
-        _ => return None,
-    };
-    Some(PathBuf::from(format!(
-        "{}{number}{}",
-        &text[..open],
-        &text[close + 1..]
-    )))
-}
-
 fn load(args: &RaytraceArgs) -> Result<Scene> {
     match (&args.mesh, &args.scene) {
         (Some(m), None) => Ok(Scene::from_obj_file(&stem(m), m, load_obj_file(m)?)),
@@ -184,7 +165,7 @@ impl Setup<'_> {
     /// Writes frame `f` where `--out` asks for every frame.
     pub fn write_frame(&self, f: u32, w: u32, h: u32, radiance: &[glam::Vec3], exposure: f32) -> Result<()> {
         if let Some(template) = self.out
-            && let Some(p) = frame_path(template, f)
+            && let Some(p) = crate::output::frame_path(template, f)
         {
             write_radiance(&p, w, h, radiance, exposure)?;
         }
@@ -193,7 +174,7 @@ impl Setup<'_> {
 
     /// Writes the last frame where `--out` names one file.
     pub fn write_last(&self, w: u32, h: u32, radiance: &[glam::Vec3], exposure: f32) -> Result<()> {
-        if let Some(p) = self.out.filter(|p| frame_path(p, 0).is_none()) {
+        if let Some(p) = self.out.filter(|p| crate::output::frame_path(p, 0).is_none()) {
             write_radiance(p, w, h, radiance, exposure)?;
         }
         Ok(())

@@ -241,7 +241,8 @@ pub(super) struct Builder<'a> {
 const PARALLEL_BELOW: usize = 2048;
 
 impl<'a> Builder<'a> {
-    pub fn new(triangles: &'a [[Vec3; 3]], params: &'a KdTreeParams, bounds: &Aabb) -> Self {
+    /// `frame`: the tree's `frame_scale`, in which areas are measured.
+    pub fn new(triangles: &'a [[Vec3; 3]], params: &'a KdTreeParams, bounds: &Aabb, frame: f32) -> Self {
         Builder {
             triangles,
             params,
@@ -249,8 +250,8 @@ impl<'a> Builder<'a> {
             references: std::sync::atomic::AtomicUsize::new(triangles.len()),
             soft_references: triangles.len().saturating_mul(SOFT_REFERENCES_PER_TRIANGLE),
             hard_references: triangles.len().saturating_mul(HARD_REFERENCES_PER_TRIANGLE),
-            frame: super::watertight::frame_scale((bounds.max - bounds.min).max_element()),
-            scene_area: bounds.surface_area_in(super::watertight::frame_scale((bounds.max - bounds.min).max_element())),
+            frame,
+            scene_area: bounds.surface_area_in(frame),
         }
     }
 

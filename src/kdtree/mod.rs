@@ -80,7 +80,8 @@ impl KdTree {
         }
         let start = Instant::now();
         let bounds = triangles.iter().flatten().fold(Aabb::EMPTY, |b, &p| b.grow(p));
-        let builder = build::Builder::new(&triangles, params, &bounds);
+        let frame_scale = watertight::frame_scale((bounds.max - bounds.min).max_element());
+        let builder = build::Builder::new(&triangles, params, &bounds, frame_scale);
         let mut out = builder.build(bounds);
         build::finish_stats(&mut out);
         let build::Output {
@@ -100,7 +101,6 @@ impl KdTree {
                 ),
             ));
         }
-        let frame_scale = watertight::frame_scale((bounds.max - bounds.min).max_element());
         let leaf_vertices = leaf_triangles
             .iter()
             .map(|&t| triangles[t as usize].map(|v| v * frame_scale))

@@ -46,12 +46,16 @@ pub struct ShearedRay {
 
 /// The power of two that brings a scene whose largest extent is `extent`
 /// to a size in [0.5, 1): exact to apply, kept within the normal range.
+/// Read off the float's exponent bits (no logarithm): it runs per triangle
+/// in unit normals, barycentrics and clipped areas.
+#[inline]
 pub fn frame_scale(extent: f32) -> f32 {
     if !(extent.is_finite() && extent > 0.0) {
         return 1.0;
     }
-    let exponent = (extent as f64).log2().ceil().clamp(-120.0, 120.0) as i32;
-    2f32.powi(-exponent)
+    // extent is in [2^(e-1), 2^e) for e = biased exponent - 126.
+    let e = (((extent.to_bits() >> 23) & 0xff) as i32 - 126).clamp(-120, 120);
+    f32::from_bits(((127 - e) as u32) << 23)
 }
 
 /// The shear's axes for a direction: `kz` the axis of the largest |component|,
@@ -151,6 +155,17 @@ mod tests {
         Vec3::new(1.0, 0.0, 0.0),
         Vec3::new(0.0, 1.0, 0.0),
     ];
+
+    #[test]
+    fn frame_scale_brings_extents_to_half_or_more_below_one() {
+        for extent in [1e-19f32, 3e-7, 0.5, 1.0, 1.5, 7.0, 1024.0, 3e18] {
+            let k = frame_scale(extent);
+            assert_eq!(k, 2f32.powi(k.log2() as i32), "{extent}: a power of two");
+            assert!((0.5..1.0).contains(&(extent * k)), "{extent}: {k}");
+        }
+        assert_eq!(frame_scale(0.0), 1.0);
+        assert_eq!(frame_scale(f32::INFINITY), 1.0);
+    }
 
     #[test]
     fn hits_both_faces_with_t_in_direction_units() {

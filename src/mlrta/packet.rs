@@ -149,21 +149,20 @@ impl Packet {
         })
     }
 
-    /// Lane `r` as a single `ShearedRay` in the frame of `scale` (the
-    /// tree's `frame_scale`).
+    /// Lane `r` as a single `ShearedRay` in `frame`.
     #[inline]
-    fn sheared(&self, r: usize, scale: f32) -> ShearedRay {
+    fn sheared(&self, r: usize, frame: &Frame) -> ShearedRay {
         let [kx, ky, kz] = self.k[r];
         ShearedRay {
-            origin: self.frustum.origin * scale,
+            origin: frame.origin,
             kx,
             ky,
             kz,
             sx: self.sx[r],
             sy: self.sy[r],
             sz: self.sz[r],
-            scale,
-            inv_scale: 1.0 / scale,
+            scale: frame.scale,
+            inv_scale: frame.inv_scale,
         }
     }
 
@@ -199,13 +198,12 @@ impl Packet {
         tri: [Vec3; 3],
         active: &[bool; PACKET],
         best_t: &mut [f32; PACKET],
-        scale: f32,
+        frame: &Frame,
     ) -> [bool; PACKET] {
         let c = self;
-        // In the frame of `scale`, as `ShearedRay::intersect`: t comes out
+        // In the tree's frame, as `ShearedRay::intersect`: t comes out
         // `scale` times the world's, exactly.
-        let o = self.frustum.origin * scale;
-        let inv_scale = 1.0 / scale;
+        let (o, scale, inv_scale) = (frame.origin, frame.scale, frame.inv_scale);
         let [kx, ky, kz] = self.k[0];
         let a = (tri[0] - o).to_array();
         let b = (tri[1] - o).to_array();
@@ -234,6 +232,14 @@ impl Packet {
     }
 }
 
+/// The packet's origin in the tree's intersection frame (`KdTree::frame_scale`),
+/// made once per packet rather than per triangle test.
+struct Frame {
+    origin: Vec3,
+    scale: f32,
+    inv_scale: f32,
+}
+
 /// Traces the packet from `entry` (closest hits, or any hit with `any_hit`).
 /// Returns one hit per ray (`Hit::MISS` where nothing was hit in the entry
 /// point's subtree).
@@ -251,6 +257,11 @@ pub fn trace_packet(
     let n = packet.len;
     let origin = f.origin;
     let tree = p.tree;
+    let frame = Frame {
+        origin: origin * tree.frame_scale,
+        scale: tree.frame_scale,
+        inv_scale: 1.0 / tree.frame_scale,
+    };
     let mut best_t = [f.t_max; PACKET];
     let mut best_tri = [Hit::MISS_INDEX; PACKET];
     let mut hits = [Hit::MISS; PACKET];
@@ -342,7 +353,7 @@ pub fn trace_packet(
                         // running all sixteen side by side.
                         match packet.common_axes && m > 4 {
                             true => {
-                                let hit = packet.test_common(*verts, &active, &mut best_t, tree.frame_scale);
+                                let hit = packet.test_common(*verts, &active, &mut best_t, &frame);
                                 for r in 0..n {
                                     if hit[r] {
                                         best_tri[r] = tri;
@@ -359,9 +370,7 @@ pub fn trace_packet(
                                     if !active[r] {
                                         continue;
                                     }
-                                    if let Some(t) =
-                                        packet.sheared(r, tree.frame_scale).intersect(v0, v1, v2, best_t[r])
-                                    {
+                                    if let Some(t) = packet.sheared(r, &frame).intersect(v0, v1, v2, best_t[r]) {
                                         best_t[r] = t;
                                         best_tri[r] = tri;
                                         if any_hit {

@@ -198,11 +198,7 @@ pub const MIN_EXTENT: f32 = 5.421_011e-20; // 2^-64
 
 /// Refuses vertices whose bounding box is too large or too small for f32.
 fn check_extent(positions: &[Vec3]) -> Result<()> {
-    let (min, max) = positions
-        .iter()
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| {
-            (lo.min(p), hi.max(p))
-        });
+    let Aabb { min, max } = Aabb::from_points(positions);
     let extent = (max.as_dvec3() - min.as_dvec3()).max_element();
     let outside = extent > MAX_EXTENT as f64 || (extent > 0.0 && extent < MIN_EXTENT as f64);
     if outside {
