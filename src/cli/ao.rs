@@ -86,21 +86,27 @@ pub struct AoArgs {
 /// The scene the options describe: `--mesh` alone is caster and receiver;
 /// with `--receiver` the mesh only casts and the receiver only receives.
 fn scene_of(args: &AoArgs) -> Result<Scene> {
-    let mut scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
-    if let Some(receiver) = &args.receiver {
-        scene.instances[0].role = Role::Caster;
-        scene
-            .meshes
-            .push(SceneMesh::new("receiver", receiver, load_obj(receiver)?));
-        scene.instances.push(Instance {
-            name: "receiver".into(),
-            mesh: 1,
-            role: Role::Receiver,
-            transform: Transform::default(),
-            motion: None,
-            material: None,
-        });
+    let scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
+    match &args.receiver {
+        Some(receiver) => with_receiver(scene, receiver),
+        None => Ok(scene),
     }
+}
+
+/// The one-mesh `scene` made a caster onto the mesh at `receiver`.
+pub(super) fn with_receiver(mut scene: Scene, receiver: &Path) -> Result<Scene> {
+    scene.instances[0].role = Role::Caster;
+    scene
+        .meshes
+        .push(SceneMesh::new("receiver", receiver, load_obj(receiver)?));
+    scene.instances.push(Instance {
+        name: "receiver".into(),
+        mesh: 1,
+        role: Role::Receiver,
+        transform: Transform::default(),
+        motion: None,
+        material: None,
+    });
     Ok(scene)
 }
 

@@ -55,6 +55,7 @@ fn rules(command: &Command) -> Vec<Rule> {
         Command::Trace(a) => trace_rules(a),
         Command::Ssao(a) => ssao_rules(a),
         Command::Prt(a) => prt_rules(a),
+        Command::Sweep(a) => sweep_rules(a),
         Command::Info(_) | Command::TraceRays(_) | Command::Field(_) | Command::GenAssets(_) => Vec::new(),
     }
 }
@@ -114,6 +115,30 @@ fn prt_rules(a: &super::prt::PrtArgs) -> Vec<Rule> {
     ]
 }
 
+fn sweep_rules(a: &super::sweep::SweepArgs) -> Vec<Rule> {
+    use super::sweep::Method::*;
+    let m = a.method;
+    vec![
+        rule(m == Field, &["receiver"], "sweep field"),
+        rule(matches!(m, Field | Ssao), &["radius"], "sweep field or ssao"),
+        rule(
+            matches!(m, Field | Ssao | Prt),
+            &["truth_rays"],
+            "sweep field, ssao or prt",
+        ),
+        rule(
+            matches!(m, Ssao | Trace | Bounded),
+            &["width", "height"],
+            "sweep ssao, trace or bounded",
+        ),
+        rule(
+            m != Field,
+            &["eye", "target", "fov"],
+            "sweep ssao, prt, trace or bounded",
+        ),
+    ]
+}
+
 fn given(matches: &ArgMatches, id: &str) -> bool {
     matches.value_source(id) == Some(ValueSource::CommandLine)
 }
@@ -164,6 +189,7 @@ mod tests {
                 parse("p ssao --mesh m --estimator sphere --spp 1 --radius 1 --width 1 --height 1"),
             ),
             ("prt", parse("p prt --mesh m --env e")),
+            ("sweep", parse("p sweep field --mesh m --out d")),
         ];
         for (name, command) in &commands {
             let sub = cli.find_subcommand(name).unwrap();

@@ -178,6 +178,7 @@ pub fn flag(name: &str) -> Option<&'static str> {
         "radius" => "--radius",
         "positions" => "--positions",
         "res" => "--res",
+        "bits" => "--bits",
         "frames" => "--frames",
         "animation" => "--animated",
         "eye/target" => "--eye/--target",

@@ -8,7 +8,7 @@ use serde_json::{Value, json};
 
 use super::args::{check_output, init_thread_pool};
 use crate::error::{Error, Result};
-use crate::field::{DirectionMapping, DisplacementField, FieldParams, OctahedralGrid, Storage, file};
+use crate::field::{DirectionMapping, DisplacementField, FieldParams, file};
 use crate::progress::Bars;
 use crate::scene::load_obj;
 
@@ -47,24 +47,7 @@ pub struct FieldOptions {
 
 impl FieldOptions {
     pub fn params(&self) -> Result<FieldParams> {
-        if self.positions < 1 {
-            let problem = format!("must be at least 1, got {}", self.positions);
-            return Err(Error::param("--positions", problem));
-        }
-        let storage = u32::try_from(self.bits)
-            .ok()
-            .and_then(Storage::from_bits)
-            .ok_or_else(|| Error::param("--bits", format!("must be 32, 8 or 1, got {}", self.bits)))?;
-        let res = u32::try_from(self.res)
-            .map_err(|_| Error::param("--res", format!("must be between 2 and 512, got {}", self.res)))?;
-        let params = FieldParams {
-            grid: OctahedralGrid::with_count(self.positions.min(u32::MAX as i64) as u32),
-            res,
-            storage,
-            directions: self.directions,
-        };
-        params.validate()?;
-        Ok(params)
+        FieldParams::new(self.positions, self.res, self.bits, self.directions)
     }
 }
 

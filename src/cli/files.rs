@@ -85,6 +85,12 @@ pub fn of(command: &Command) -> Files {
                 }
             }
         }
+        Command::Sweep(a) => {
+            f.input("--mesh", &a.mesh);
+            f.input("--receiver", &a.receiver);
+            f.scene(&a.scene);
+            a.outputs().into_iter().for_each(|p| f.output("--out", &Some(p)));
+        }
         Command::Field(a) => {
             if let super::field::FieldCommand::Build(b) = &a.command {
                 f.input("--mesh", &Some(b.mesh.clone()));

@@ -21,6 +21,7 @@ mod prt;
 mod raytrace;
 mod raytrace_bounded;
 mod ssao;
+mod sweep;
 mod trace;
 mod trace_rays;
 
@@ -62,6 +63,8 @@ enum Command {
     Ssao(ssao::SsaoArgs),
     /// Whitted ray tracing of OBJ/MTL materials or a scene file (PNG, EXR or PFM).
     Raytrace(raytrace::RaytraceArgs),
+    /// Time and error of every setting of a grid of a method's knobs on your scene.
+    Sweep(sweep::SweepArgs),
     /// Write the procedural scenes (corner, closed box, well, ...) as OBJ files, and the ray tracer's scenes (OBJ, MTL, scene files) into OUT/raytrace.
     GenAssets(GenAssetsArgs),
 }
@@ -125,6 +128,7 @@ fn dispatch(command: Command) -> Result<()> {
         Command::Field(a) => emit(field::json_flag(&a), field::run(&a)?),
         Command::Ssao(a) => emit(a.common.json, ssao::run(&a)?),
         Command::Raytrace(a) => emit(a.common.json, raytrace::run(&a)?),
+        Command::Sweep(a) => emit(a.common.json, sweep::run(&a)?),
         Command::GenAssets(a) => {
             let mut written = crate::scene::procedural::write_assets(&a.out)?;
             written.extend(crate::raytrace::scenes::write_scenes(&a.out.join("raytrace"))?);

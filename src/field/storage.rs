@@ -56,6 +56,32 @@ pub const MAX_RES: u32 = 512;
 pub const MAX_GRID_SIDE: u32 = 128;
 
 impl FieldParams {
+    /// The parameters as users give them: a number of positional samples
+    /// (the octahedral grid takes the nearest square), the map side, bits
+    /// per direction (32, 8 or 1) and the direction mapping; checked.
+    pub fn new(positions: i64, res: i64, bits: i64, directions: DirectionMapping) -> Result<FieldParams> {
+        if positions < 1 {
+            return Err(Error::param(
+                "positions",
+                format!("must be at least 1, got {positions}"),
+            ));
+        }
+        let storage = u32::try_from(bits)
+            .ok()
+            .and_then(Storage::from_bits)
+            .ok_or_else(|| Error::param("bits", format!("must be 32, 8 or 1, got {bits}")))?;
+        let res = u32::try_from(res)
+            .map_err(|_| Error::param("res", format!("must be between 2 and {MAX_RES}, got {res}")))?;
+        let params = FieldParams {
+            grid: OctahedralGrid::with_count(positions.min(u32::MAX as i64) as u32),
+            res,
+            storage,
+            directions,
+        };
+        params.validate()?;
+        Ok(params)
+    }
+
     pub fn validate(&self) -> Result<()> {
         if self.grid.side == 0 || self.grid.side > MAX_GRID_SIDE {
             return Err(Error::param(
