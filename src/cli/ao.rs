@@ -14,9 +14,11 @@ use crate::ao::AoSettings;
 use crate::ao::runner::{AoRequest, PixelAo, VertexAo, mean, raycast};
 use crate::error::{Error, Result};
 use crate::field::Positional;
+use crate::field::budget as field_budget;
 use crate::field::runner::{FieldAo, MAX_FRAMES};
 use crate::progress::Bars;
 use crate::scene::{Instance, Role, Scene, SceneMesh, Transform, View, load_obj};
+use crate::sweep::budget::{Choice, cached};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Method {
@@ -77,6 +79,11 @@ pub struct AoArgs {
     /// and report the field's error (per vertex and per ray).
     #[arg(long)]
     pub reference: bool,
+    /// --method field: the cheapest --positions/--res/--bits whose AO error
+    /// against ray casting, estimated on 1024 vertices, is within this at
+    /// 95% confidence (cached per scene).
+    #[arg(long, allow_negative_numbers = true, conflicts_with_all = ["field", "positions", "res", "bits"])]
+    pub max_error: Option<f64>,
     #[command(flatten)]
     pub camera: CameraArgs,
     #[command(flatten)]
@@ -225,9 +232,15 @@ fn field(args: &AoArgs, settings: AoSettings, threads: usize) -> Result<Value> {
     if let Some(file) = &args.field {
         scene.fields.insert(0, file.clone());
     }
-    let mut fields = FieldAo::new(&scene, &params, args.positional, Bars::Stderr)?;
     let device = args.common.open_device()?;
-    fields.upload(&device)?;
+    let (mut fields, choice) = match args.max_error {
+        Some(e) => field_choice(args, &device, &scene, &request, e)?,
+        None => {
+            let mut fields = FieldAo::new(&scene, &params, args.positional, Bars::Stderr)?;
+            fields.upload(&device)?;
+            (fields, None)
+        }
+    };
     let run = fields.run(&request, args.frames as u32, args.reference)?;
     let frame_ms = &run.frame_ao_ms;
     let last_ms = frame_ms.last().copied().unwrap_or(0.0);
@@ -253,6 +266,7 @@ fn field(args: &AoArgs, settings: AoSettings, threads: usize) -> Result<Value> {
         "points": run.points,
         "mrays_per_s": run.points as f64 * settings.rays_per_point as f64 / (last_ms.max(1e-9) * 1e3),
         "reference": run.reference,
+        "max_error": choice,
     });
     if let (Some(csv), Some(v)) = (csv, &run.vertices) {
         report["per_vertex"] = vertex_report(csv, v)?;
@@ -261,8 +275,48 @@ fn field(args: &AoArgs, settings: AoSettings, threads: usize) -> Result<Value> {
     if let (Some(png), Some(image)) = (png, &run.image) {
         report["image"] = image_report(png, image)?;
     }
-    if run.reference.is_none() {
-        report.as_object_mut().map(|o| o.remove("reference"));
+    for absent in ["reference", "max_error"] {
+        if report[absent].is_null() {
+            report.as_object_mut().map(|o| o.remove(absent));
+        }
     }
     super::io::merged(report, args.common.report(&device, threads))
+}
+
+/// `--max-error`: the fields of the cached or checked choice.
+fn field_choice<'s>(
+    args: &AoArgs,
+    device: &crate::device::Device,
+    scene: &'s Scene,
+    request: &AoRequest,
+    max_error: f64,
+) -> Result<(FieldAo<'s>, Option<Choice>)> {
+    if !scene.fields.is_empty() {
+        let problem = "does not apply: the scene names its field files, whose parameters are fixed";
+        return Err(Error::param("--max-error", problem));
+    }
+    let (directions, positional) = (args.field_options.directions, args.positional);
+    let files: Vec<&Path> = [&args.mesh, &args.receiver, &args.scene]
+        .into_iter()
+        .flatten()
+        .map(PathBuf::as_path)
+        .collect();
+    let options = format!(
+        "{max_error}|{directions:?}|{positional:?}|{:?}|{}",
+        request.settings,
+        device.kind()
+    );
+    let mut checked = None;
+    let choice = cached("field", &options, &files, || {
+        let (choice, fields) =
+            field_budget::choose(device, scene, request, directions, positional, max_error, Bars::Stderr)?;
+        checked = Some(fields);
+        Ok(choice)
+    })?;
+    super::io::note_choice(&choice);
+    let fields = match checked {
+        Some(f) => f,
+        None => field_budget::fields_of(scene, &choice.chosen, directions, positional, device)?,
+    };
+    Ok((fields, Some(choice)))
 }

@@ -90,7 +90,11 @@ fn ssao_rules(a: &super::ssao::SsaoArgs) -> Vec<Rule> {
     use crate::ssao::measure::MeasureKind;
     vec![
         rule(a.measure == MeasureKind::Exp, &["sigma"], "--measure exp"),
-        rule(a.estimator == Estimator::Raymarch, &["steps"], "--estimator raymarch"),
+        rule(
+            matches!(a.estimator, None | Some(Estimator::Raymarch)),
+            &["steps"],
+            "--estimator raymarch",
+        ),
         rule(a.filter == OnOff::On, &["filter_depth"], "--filter on"),
         rule(a.image.is_some(), &["ambient"], "--image"),
     ]

@@ -216,6 +216,7 @@ pub fn flag(name: &str) -> Option<&'static str> {
         "floor" => "--floor",
         "memory_mb" => "--memory-mb",
         "min_pixels" => "--min-pixels",
+        "max_error" => "--max-error",
         _ => return None,
     })
 }

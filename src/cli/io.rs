@@ -41,6 +41,25 @@ pub fn write_rgb_png(path: &Path, width: u32, height: u32, pixels: &[[u8; 3]]) -
 }
 
 /// A runner's note on stderr, parameters named by their flags.
+/// Says on stderr what `--max-error` chose, and warns when no setting met it.
+pub fn note_choice(c: &crate::sweep::budget::Choice) {
+    let how = if c.cached { "cached" } else { "checked" };
+    note(&format!(
+        "--max-error {}: {} (error {:.4}, at most {:.4} at 95% confidence; {how}, {:.0} ms)",
+        c.max_error,
+        c.chosen.label(),
+        c.estimate,
+        c.upper,
+        c.check_ms
+    ));
+    if !c.met {
+        note(&format!(
+            "warning: no setting tried is within --max-error {}; using the most accurate one",
+            c.max_error
+        ));
+    }
+}
+
 pub fn note(text: &str) {
     eprintln!("penumbra: {}", crate::error::rename_quoted(text, super::args::flag));
 }

@@ -12,8 +12,10 @@ use crate::color::srgb8;
 use crate::error::{Error, Result};
 use crate::progress::Bars;
 use crate::scene::View;
+use crate::ssao::budget::{Free, choose as choose_knobs};
 use crate::ssao::runner::{SsaoRequest, run as run_ssao};
 use crate::ssao::{Estimator, Measure, MeasureKind, ShadeSettings, SsaoSettings};
+use crate::sweep::budget::{Choice, cached};
 
 #[derive(clap::Args)]
 pub struct SsaoArgs {
@@ -23,12 +25,16 @@ pub struct SsaoArgs {
     /// A scene file instead of --mesh (its camera and lights are the defaults).
     #[arg(long, conflicts_with = "mesh")]
     pub scene: Option<PathBuf>,
-    /// The estimator of the paper.
-    #[arg(long, value_enum)]
-    pub estimator: Estimator,
-    /// Samples (depth-buffer tests) per pixel.
+    /// The estimator of the paper (with --max-error: fixed, else chosen).
+    #[arg(long, value_enum, required_unless_present = "max_error")]
+    pub estimator: Option<Estimator>,
+    /// Samples (depth-buffer tests) per pixel (with --max-error: fixed, else chosen).
+    #[arg(long, allow_negative_numbers = true, required_unless_present = "max_error")]
+    pub spp: Option<u32>,
+    /// The fastest estimator and spp whose RMSE against the ray-traced truth,
+    /// estimated on 2048 pixels, is within this at 95% confidence (cached per scene).
     #[arg(long, allow_negative_numbers = true)]
-    pub spp: u32,
+    pub max_error: Option<f64>,
     /// Neighbourhood radius R (scene units).
     #[arg(long, allow_negative_numbers = true)]
     pub radius: f32,
@@ -93,8 +99,8 @@ pub struct SsaoArgs {
 
 fn request(a: &SsaoArgs) -> Result<SsaoRequest> {
     let settings = SsaoSettings {
-        estimator: a.estimator,
-        spp: a.spp,
+        estimator: a.estimator.unwrap_or(Estimator::Importance),
+        spp: a.spp.unwrap_or(16),
         radius: a.radius,
         measure: Measure::new(a.measure, a.sigma, a.radius)?,
         steps: a.steps,
@@ -140,6 +146,10 @@ pub fn run(args: &SsaoArgs) -> Result<Value> {
     let bounds = scene.world_mesh(|_| true).bounds();
     request.view.camera = request.view.camera.resolve(scene.camera, &bounds)?.into();
     let device = args.common.open_device()?;
+    let choice = match args.max_error {
+        Some(e) => Some(choose(args, &device, &scene, &mut request, e)?),
+        None => None,
+    };
     let ssao = run_ssao(&device, &scene, &request, Bars::Stderr)?;
     let (w, h) = (args.width, args.height);
     if let Some(p) = outputs[0] {
@@ -149,5 +159,30 @@ pub fn run(args: &SsaoArgs) -> Result<Value> {
         let pixels: Vec<[u8; 3]> = image.iter().map(|c| [c[0], c[1], c[2]].map(srgb8)).collect();
         write_rgb_png(p, w, h, &pixels)?;
     }
-    super::io::merged(args.common.report(&device, threads), &ssao.report)
+    let report = super::io::merged(args.common.report(&device, threads), &ssao.report)?;
+    super::io::merged(report, serde_json::json!({ "max_error": choice }))
+}
+
+/// `--max-error`: the choice, from the cache or checked (and cached).
+fn choose(
+    args: &SsaoArgs,
+    device: &crate::device::Device,
+    scene: &crate::scene::Scene,
+    request: &mut SsaoRequest,
+    max_error: f64,
+) -> Result<Choice> {
+    let free = Free {
+        estimator: args.estimator.is_none(),
+        spp: args.spp.is_none(),
+    };
+    let files: Vec<&std::path::Path> = args.mesh.iter().chain(&args.scene).map(PathBuf::as_path).collect();
+    let options = format!("{max_error}|{free:?}|{:?}|{}", request, device.kind());
+    let choice = cached("ssao", &options, &files, || {
+        choose_knobs(device, scene, request, args.measure, free, max_error, Bars::Stderr)
+    })?;
+    super::io::note_choice(&choice);
+    let k = &choice.chosen;
+    request.settings.estimator = k.get_enum("estimator")?.unwrap_or(request.settings.estimator);
+    request.settings.spp = k.get("spp")?.unwrap_or(request.settings.spp);
+    Ok(choice)
 }

@@ -20,6 +20,7 @@
 //!   any device (`ao --method field`).
 
 pub mod ao;
+pub mod budget;
 pub mod build;
 pub mod directions;
 pub mod file;

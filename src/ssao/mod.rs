@@ -15,6 +15,7 @@
 //! Accessibility, as in the contract: O = (1/pi) int_Omega mu(D(w)) cos+ dw,
 //! 1 = open, 0 = occluded, with the fuzzy measure mu of `measure`.
 
+pub mod budget;
 pub mod estimators;
 pub mod filter;
 pub mod gbuffer;

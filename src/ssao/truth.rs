@@ -87,26 +87,91 @@ pub fn raytraced(
     rays: u32,
     seed: u32,
 ) -> Estimate {
-    let sc = view.constants();
-    let offset = ORIGIN_OFFSET * tree.bounds.diagonal();
-    halves(gb, rays, seed, |x, y, seq, n| {
-        let (p, normal) = world_point(camera, &sc, gb, x, y);
+    let traced = Traced::new(tree, camera, view, gb, measure, radius);
+    halves(gb, rays, seed, |x, y, seq, n| traced.at(x, y, seq, n))
+}
+
+/// `raytraced`'s values at the pixels `pixels` only (indices y * width + x):
+/// the same rays, so the same values as the full image has there (the
+/// sample `ssao --max-error` estimates the full error from).
+#[allow(clippy::too_many_arguments)]
+pub fn raytraced_at(
+    tree: &KdTree,
+    camera: &Camera,
+    view: &ScreenView,
+    gb: &GBuffer,
+    measure: Measure,
+    radius: f32,
+    rays: u32,
+    seed: u32,
+    pixels: &[u32],
+) -> Vec<f32> {
+    let traced = Traced::new(tree, camera, view, gb, measure, radius);
+    let half = (rays / 2).max(1);
+    let seqs = [SampleSequence::new(seed), SampleSequence::new(seed ^ 0x6a09_e667)];
+    let w = gb.width;
+    pixels
+        .par_iter()
+        .map(|&i| {
+            if !gb.is_surface(i as usize) {
+                return 1.0;
+            }
+            let (x, y) = (i % w, i / w);
+            0.5 * (traced.at(x, y, &seqs[0], half) + traced.at(x, y, &seqs[1], half))
+        })
+        .collect()
+}
+
+/// Ray-traced AO at one G-buffer point.
+struct Traced<'a> {
+    tree: &'a KdTree,
+    camera: &'a Camera,
+    sc: super::gbuffer::ScreenConstants,
+    gb: &'a GBuffer,
+    measure: Measure,
+    radius: f32,
+    offset: f32,
+}
+
+impl<'a> Traced<'a> {
+    fn new(
+        tree: &'a KdTree,
+        camera: &'a Camera,
+        view: &ScreenView,
+        gb: &'a GBuffer,
+        measure: Measure,
+        radius: f32,
+    ) -> Self {
+        Traced {
+            tree,
+            camera,
+            sc: view.constants(),
+            gb,
+            measure,
+            radius,
+            offset: ORIGIN_OFFSET * tree.bounds.diagonal(),
+        }
+    }
+
+    /// The mean of mu over `n` cosine-distributed rays of `seq` at (x, y).
+    fn at(&self, x: u32, y: u32, seq: &SampleSequence, n: u32) -> f32 {
+        let (p, normal) = world_point(self.camera, &self.sc, self.gb, x, y);
         if normal == Vec3::ZERO {
             return 1.0;
         }
         let frame = Frame::from_normal(normal);
-        let origin = p + offset * normal;
-        let stream = y * gb.width + x;
+        let origin = p + self.offset * normal;
+        let stream = y * self.gb.width + x;
         let mut sum = 0.0f64;
         for j in 0..n {
             let [u, v] = seq.sample(stream, j);
             let d = frame.to_world(cosine_hemisphere(u, v));
-            let hit = tree.closest_hit(origin, d, radius);
+            let hit = self.tree.closest_hit(origin, d, self.radius);
             let dist = if hit.is_hit() { hit.t } else { f32::INFINITY };
-            sum += measure.mu(dist, radius) as f64;
+            sum += self.measure.mu(dist, self.radius) as f64;
         }
         (sum / n as f64) as f32
-    })
+    }
 }
 
 /// Dense quadrature of equation (1) over the depth buffer with `samples`

@@ -17,7 +17,7 @@ pub struct Knob {
 }
 
 /// One setting: a value for every knob the grid varies or fixes.
-#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(transparent)]
 pub struct Setting(pub BTreeMap<String, String>);
 

@@ -10,6 +10,7 @@
 //! never the command line.
 
 pub mod bounded;
+pub mod budget;
 pub mod field;
 pub mod grid;
 pub mod plot;
