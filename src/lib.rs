@@ -16,6 +16,7 @@ pub mod field;
 pub mod gpu;
 pub mod kdtree;
 pub mod mlrta;
+pub mod options;
 pub mod output;
 pub mod progress;
 pub mod prt;

@@ -12,6 +12,7 @@ pub mod interpolate;
 pub mod linespace;
 pub mod linetree;
 pub mod measure;
+pub mod options;
 pub mod predicate;
 pub mod runner;
 pub mod sequence;

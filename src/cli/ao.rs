@@ -8,13 +8,13 @@ use clap::ValueEnum;
 use serde_json::{Value, json};
 
 use super::args::{CameraArgs, Common, check_outputs, load_input};
-use super::field::FieldOptions;
 use super::io::{write_grey_png, write_vertex_csv};
 use crate::ao::AoSettings;
 use crate::ao::runner::{AoRequest, PixelAo, VertexAo, mean, raycast};
 use crate::error::{Error, Result};
 use crate::field::Positional;
 use crate::field::budget as field_budget;
+use crate::field::options::FieldOptions;
 use crate::field::runner::{FieldAo, MAX_FRAMES};
 use crate::progress::Bars;
 use crate::scene::{Instance, Role, Scene, SceneMesh, Transform, View, load_obj};

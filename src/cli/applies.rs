@@ -80,8 +80,12 @@ fn trace_rules(a: &super::trace::TraceArgs) -> Vec<Rule> {
     let tiles = &["tile", "min_tile", "split_factor", "tiles_image"];
     let aa = &["aa_samples", "aa_reference", "aa_image"];
     vec![
-        rule(!a.single_ray, tiles, "packets (without --single-ray)"),
-        rule(a.aa != crate::mlrta::aa::AaMode::None, aa, "--aa adaptive or uniform"),
+        rule(!a.knobs.single_ray, tiles, "packets (without --single-ray)"),
+        rule(
+            a.knobs.aa != crate::mlrta::aa::AaMode::None,
+            aa,
+            "--aa adaptive or uniform",
+        ),
     ]
 }
 
@@ -89,13 +93,13 @@ fn ssao_rules(a: &super::ssao::SsaoArgs) -> Vec<Rule> {
     use crate::ssao::Estimator;
     use crate::ssao::measure::MeasureKind;
     vec![
-        rule(a.measure == MeasureKind::Exp, &["sigma"], "--measure exp"),
+        rule(a.knobs.measure == MeasureKind::Exp, &["sigma"], "--measure exp"),
         rule(
-            matches!(a.estimator, None | Some(Estimator::Raymarch)),
+            matches!(a.knobs.estimator, None | Some(Estimator::Raymarch)),
             &["steps"],
             "--estimator raymarch",
         ),
-        rule(a.filter == OnOff::On, &["filter_depth"], "--filter on"),
+        rule(a.knobs.filter == OnOff::On, &["filter_depth"], "--filter on"),
         rule(a.image.is_some(), &["ambient"], "--image"),
     ]
 }

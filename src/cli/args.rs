@@ -3,13 +3,12 @@
 
 use std::path::{Path, PathBuf};
 
-use clap::{Args, ValueEnum};
-use glam::Vec3;
+use clap::Args;
 use serde_json::{Value, json};
 
 use crate::device::{Device, DeviceChoice};
 use crate::error::{Error, Result};
-use crate::scene::{CameraSpec, Scene, load_obj, load_scene};
+use crate::scene::{Scene, load_obj, load_scene};
 
 /// The default `--seed`: outputs repeat bit for bit on one device.
 pub const DEFAULT_SEED: u32 = 0x5eed;
@@ -82,44 +81,7 @@ pub fn init_thread_pool(threads: Option<usize>) -> Result<usize> {
     Ok(threads)
 }
 
-/// On or off, however a flag is spelled.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum OnOff {
-    On,
-    Off,
-}
-
-impl OnOff {
-    pub fn on(self) -> bool {
-        self == OnOff::On
-    }
-}
-
-/// `--eye/--target/--fov`; omitted ones come from the scene's camera, else
-/// the default camera.
-#[derive(Args, Clone, Debug, Default)]
-pub struct CameraArgs {
-    /// Camera position, "X,Y,Z".
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub eye: Option<Vec3>,
-    /// Point looked at, "X,Y,Z".
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub target: Option<Vec3>,
-    /// Vertical field of view in degrees.
-    #[arg(long, allow_negative_numbers = true)]
-    pub fov: Option<f32>,
-}
-
-impl CameraArgs {
-    pub fn spec(&self) -> CameraSpec {
-        CameraSpec {
-            eye: self.eye,
-            target: self.target,
-            fov_degrees: self.fov,
-        }
-    }
-}
-
+pub use crate::options::{CameraOptions as CameraArgs, OnOff, positive};
 pub(crate) use crate::scene::parse_vec3;
 
 /// `--mesh FILE` or `--scene FILE` as a scene.
@@ -161,14 +123,6 @@ pub fn check_output<'a>(path: &'a Path, option: &str) -> Result<&'a Path> {
         ));
     }
     Ok(path)
-}
-
-/// A count option that must be positive.
-pub fn positive(name: &str, v: i64) -> Result<usize> {
-    if v <= 0 {
-        return Err(Error::param(name, format!("must be positive, got {v}")));
-    }
-    usize::try_from(v).map_err(|_| Error::param(name, "is too large"))
 }
 
 /// The command line's option for a library parameter name.

@@ -4,15 +4,16 @@
 
 use std::path::{Path, PathBuf};
 
-use glam::Vec3;
 use serde_json::{Value, json};
 
-use super::args::{CameraArgs, Common, OnOff, check_output, parse_vec3, stem};
+use super::args::{CameraArgs, Common, check_output, stem};
 use super::io::note;
+use crate::bounded::options::BoundedOptions;
 use crate::error::{Error, Result};
 use crate::progress::Bars;
 use crate::raytrace::image::{RadianceFormat, write_radiance};
-use crate::raytrace::{LightingOptions, RenderScene, WhittedRenderer, WhittedSettings};
+use crate::raytrace::options::WhittedOptions;
+use crate::raytrace::{RenderScene, WhittedRenderer, WhittedSettings};
 use crate::scene::{Camera, CameraPath, Scene, load_obj_file, load_scene_shaded};
 
 /// Which ray tracer.
@@ -41,55 +42,13 @@ pub struct RaytraceArgs {
     /// Image height in pixels.
     #[arg(long, allow_negative_numbers = true)]
     pub height: u32,
-    /// Deepest reflection/refraction (0: primary and shadow rays only).
-    #[arg(long, default_value_t = 5, allow_negative_numbers = true)]
-    pub max_depth: u32,
-    /// Samples per pixel: 1 through the pixel centre, more jittered (anti-aliasing).
-    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
-    pub spp: u32,
-    /// Fresnel-weighted (Schlick) reflection and transmission instead of
-    /// the materials' constant coefficients.
-    #[arg(long, value_enum, default_value_t = OnOff::Off)]
-    pub fresnel: OnOff,
-    /// Point lights per emissive polygon (1: at its centroid; more soften shadows).
-    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
-    pub light_samples: u32,
-    /// Ambient light "R,G,B" (over the scene file's; default 0.05 grey).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub ambient: Option<Vec3>,
-    /// Radiance "R,G,B" of rays that leave the scene (over the scene file's; default black).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub background: Option<Vec3>,
+    #[command(flatten)]
+    pub whitted: WhittedOptions,
     /// PNG only: radiance is multiplied by this before clamping to [0, 1].
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub exposure: f32,
-    /// CPU path: primary and shadow rays as MLRTA packets (off: every ray alone).
-    #[arg(long, value_enum, default_value_t = OnOff::On)]
-    pub packets: OnOff,
-    /// bounded: the relative error bound epsilon (0 renders the Whitted image exactly).
-    #[arg(long, default_value_t = 0.05, allow_negative_numbers = true)]
-    pub epsilon: f32,
-    /// bounded: the radiance below which the bound is absolute (epsilon x floor).
-    #[arg(long, default_value_t = crate::bounded::runner::DEFAULT_FLOOR, allow_negative_numbers = true)]
-    pub floor: f32,
-    /// bounded: affine-arithmetic bound (a guarantee) or the paper's estimate at the cell's centre.
-    #[arg(long, value_enum, default_value_t = crate::bounded::BoundKind::Conservative)]
-    pub bound: crate::bounded::BoundKind,
-    /// bounded: split a failed cell 16 ways (the paper) or 4 ways along the coordinates it varies most in.
-    #[arg(long, default_value = "16", value_parser = ["16", "4"])]
-    pub split: String,
-    /// bounded: reproject the previous frame's cells (the fast path).
-    #[arg(long, value_enum, default_value_t = OnOff::On)]
-    pub reproject: OnOff,
-    /// bounded: fill runs of reprojected pixels by screen-space interpolation (outside the guarantee).
-    #[arg(long, value_enum, default_value_t = OnOff::Off)]
-    pub span: OnOff,
-    /// bounded: memory cap of linetree cells and samples; least recently used cells are evicted.
-    #[arg(long, default_value_t = 1024.0, allow_negative_numbers = true)]
-    pub memory_mb: f64,
-    /// bounded: a failed cell is split only if at least this many pixels per child ask for it.
-    #[arg(long, default_value_t = 2, allow_negative_numbers = true)]
-    pub min_pixels: u32,
+    #[command(flatten)]
+    pub bounded: BoundedOptions,
     /// bounded: also render every frame exactly and report the error and the speed-up.
     #[arg(long)]
     pub reference: bool,
@@ -210,14 +169,7 @@ impl Setup<'_> {
 
 fn setup(args: &RaytraceArgs) -> Result<(Setup<'_>, WhittedRenderer)> {
     let threads = args.common.init_threads()?;
-    let settings = WhittedSettings {
-        max_depth: args.max_depth,
-        spp: args.spp,
-        seed: args.common.seed,
-        fresnel: args.fresnel.on(),
-        packets: args.packets.on(),
-    };
-    settings.validate()?;
+    let settings = args.whitted.settings(args.common.seed)?;
     crate::scene::check_image_size(args.width, args.height)?;
     if args.frames == 0 {
         return Err(Error::param("--frames", "must be at least 1"));
@@ -241,12 +193,7 @@ fn setup(args: &RaytraceArgs) -> Result<(Setup<'_>, WhittedRenderer)> {
     for w in &scene.warnings {
         note(&format!("warning: {w}"));
     }
-    let options = LightingOptions {
-        light_samples: args.light_samples,
-        ambient: args.ambient,
-        background: args.background,
-    };
-    let render_scene = RenderScene::new(&scene, 0, &options)?;
+    let render_scene = RenderScene::new(&scene, 0, &args.whitted.lighting())?;
     for w in &render_scene.warnings {
         note(&format!("warning: {w}"));
     }

@@ -9,32 +9,16 @@ use super::io::write_rgb_png;
 use super::raytrace::{RaytraceArgs, Setup};
 use crate::bounded::measure::path_colour;
 use crate::bounded::sequence::Measures;
-use crate::bounded::{BoundedRenderer, BoundedSettings, SplitKind};
+use crate::bounded::{BoundedRenderer, BoundedSettings};
 use crate::error::{Error, Result};
 use crate::progress::Bars;
 use crate::raytrace::WhittedRenderer;
 
 fn settings(args: &RaytraceArgs, setup: &Setup) -> Result<BoundedSettings> {
-    let s = BoundedSettings {
-        epsilon: args.epsilon,
-        floor: args.floor,
-        bound: args.bound,
-        split: if args.split == "4" {
-            SplitKind::Four
-        } else {
-            SplitKind::Sixteen
-        },
-        reproject: args.reproject.on(),
-        span: args.span.on(),
-        memory_mb: args.memory_mb,
-        min_pixels: args.min_pixels,
-        whitted: setup.settings,
-    };
-    s.validate()?;
     if args.check == Some(0) {
         return Err(Error::param("--check", "must be at least 1 line per cell"));
     }
-    Ok(s)
+    args.bounded.settings(setup.settings)
 }
 
 pub(super) fn run(args: &RaytraceArgs, setup: Setup, whitted: WhittedRenderer) -> Result<Value> {

@@ -6,15 +6,16 @@ use std::path::PathBuf;
 
 use serde_json::Value;
 
-use super::args::{CameraArgs, Common, OnOff, check_outputs, load_input};
+use super::args::{CameraArgs, Common, check_outputs, load_input};
 use super::io::{write_grey_png, write_rgb_png};
 use crate::color::srgb8;
 use crate::error::{Error, Result};
 use crate::progress::Bars;
 use crate::scene::View;
-use crate::ssao::budget::{Free, choose as choose_knobs};
+use crate::ssao::ShadeSettings;
+use crate::ssao::budget::choose as choose_knobs;
+use crate::ssao::options::SsaoOptions;
 use crate::ssao::runner::{SsaoRequest, run as run_ssao};
-use crate::ssao::{Estimator, Measure, MeasureKind, ShadeSettings, SsaoSettings};
 use crate::sweep::budget::{Choice, cached};
 
 #[derive(clap::Args)]
@@ -25,19 +26,8 @@ pub struct SsaoArgs {
     /// A scene file instead of --mesh (its camera and lights are the defaults).
     #[arg(long, conflicts_with = "mesh")]
     pub scene: Option<PathBuf>,
-    /// The estimator of the paper (with --max-error: fixed, else chosen).
-    #[arg(long, value_enum, required_unless_present = "max_error")]
-    pub estimator: Option<Estimator>,
-    /// Samples (depth-buffer tests) per pixel (with --max-error: fixed, else chosen).
-    #[arg(long, allow_negative_numbers = true, required_unless_present = "max_error")]
-    pub spp: Option<u32>,
-    /// The fastest estimator and spp whose RMSE against the ray-traced truth,
-    /// estimated on 2048 pixels, is within this at 95% confidence (cached per scene).
-    #[arg(long, allow_negative_numbers = true)]
-    pub max_error: Option<f64>,
-    /// Neighbourhood radius R (scene units).
-    #[arg(long, allow_negative_numbers = true)]
-    pub radius: f32,
+    #[command(flatten)]
+    pub knobs: SsaoOptions,
     /// Image width in pixels.
     #[arg(long, default_value_t = 800, allow_negative_numbers = true)]
     pub width: u32,
@@ -54,31 +44,6 @@ pub struct SsaoArgs {
     /// Compute the indirect light and image even without --image (timed).
     #[arg(long)]
     pub indirect: bool,
-    /// Fuzzy measure mu(r).
-    #[arg(long, value_enum, default_value_t = MeasureKind::Poly4)]
-    pub measure: MeasureKind,
-    /// Extinction sigma of --measure exp, inverse scene units [default: 3 / R].
-    #[arg(long, allow_negative_numbers = true)]
-    pub sigma: Option<f32>,
-    /// Steps per ray of raymarch (rays = spp / steps).
-    #[arg(long, default_value_t = 4, allow_negative_numbers = true)]
-    pub steps: u32,
-    /// Interleaved sampling over 4x4 pixel patterns.
-    #[arg(long, value_enum, default_value_t = OnOff::On)]
-    pub interleave: OnOff,
-    /// Depth-aware 4x4 low-pass filter.
-    #[arg(long, value_enum, default_value_t = OnOff::On)]
-    pub filter: OnOff,
-    /// The filter's depth limit (scene units) [default: R / 2].
-    #[arg(long, allow_negative_numbers = true)]
-    pub filter_depth: Option<f32>,
-    /// Depth bias of the visibility test, in pixel footprints.
-    #[arg(long, default_value_t = crate::ssao::DEFAULT_BIAS_PX, allow_negative_numbers = true)]
-    pub bias: f32,
-    /// Scale each pixel's sample weights so an unoccluded point gets exactly 1
-    /// (off: the paper's formulas as written).
-    #[arg(long, value_enum, default_value_t = OnOff::On)]
-    pub calibrate: OnOff,
     /// Ambient radiance La of the shaded image.
     #[arg(long, default_value_t = 0.5, allow_negative_numbers = true)]
     pub ambient: f32,
@@ -98,19 +63,7 @@ pub struct SsaoArgs {
 }
 
 fn request(a: &SsaoArgs) -> Result<SsaoRequest> {
-    let settings = SsaoSettings {
-        estimator: a.estimator.unwrap_or(Estimator::Importance),
-        spp: a.spp.unwrap_or(16),
-        radius: a.radius,
-        measure: Measure::new(a.measure, a.sigma, a.radius)?,
-        steps: a.steps,
-        interleave: a.interleave.on(),
-        filter: a.filter.on(),
-        filter_depth: a.filter_depth,
-        bias_px: a.bias,
-        calibrate: a.calibrate.on(),
-        seed: a.common.seed,
-    };
+    let settings = a.knobs.settings(a.common.seed)?;
     let shade = ShadeSettings { ambient: a.ambient };
     let request = SsaoRequest {
         settings,
@@ -124,7 +77,6 @@ fn request(a: &SsaoArgs) -> Result<SsaoRequest> {
         reference_spp: a.reference_spp,
         repeat: a.repeat,
     };
-    settings.validate()?;
     crate::scene::check_image_size(a.width, a.height)?;
     shade.validate()?;
     request.validate()?;
@@ -146,7 +98,7 @@ pub fn run(args: &SsaoArgs) -> Result<Value> {
     let bounds = scene.world_mesh(|_| true).bounds();
     request.view.camera = request.view.camera.resolve(scene.camera, &bounds)?.into();
     let device = args.common.open_device()?;
-    let choice = match args.max_error {
+    let choice = match args.knobs.max_error {
         Some(e) => Some(choose(args, &device, &scene, &mut request, e)?),
         None => None,
     };
@@ -171,14 +123,19 @@ fn choose(
     request: &mut SsaoRequest,
     max_error: f64,
 ) -> Result<Choice> {
-    let free = Free {
-        estimator: args.estimator.is_none(),
-        spp: args.spp.is_none(),
-    };
+    let free = args.knobs.free();
     let files: Vec<&std::path::Path> = args.mesh.iter().chain(&args.scene).map(PathBuf::as_path).collect();
     let options = format!("{max_error}|{free:?}|{:?}|{}", request, device.kind());
     let choice = cached("ssao", &options, &files, || {
-        choose_knobs(device, scene, request, args.measure, free, max_error, Bars::Stderr)
+        choose_knobs(
+            device,
+            scene,
+            request,
+            args.knobs.measure,
+            free,
+            max_error,
+            Bars::Stderr,
+        )
     })?;
     super::io::note_choice(&choice);
     let k = &choice.chosen;

@@ -3,16 +3,13 @@
 
 use std::path::PathBuf;
 
-use glam::Vec3;
 use serde_json::Value;
 
-use super::args::{CameraArgs, Common, OnOff, check_outputs, load_input, parse_vec3};
+use super::args::{CameraArgs, Common, check_outputs, load_input};
 use super::io::{write_grey_png, write_rgb_png};
 use crate::error::Result;
-use crate::mlrta::MlrtaParams;
-use crate::mlrta::aa::AaMode;
-use crate::mlrta::runner::{AaRequest, ShadowLight, TraceRequest, trace_view};
-use crate::mlrta::tiles::DEFAULT_MIN_TILE;
+use crate::mlrta::options::TraceOptions;
+use crate::mlrta::runner::trace_view;
 use crate::progress::Bars;
 use crate::ray_file::write_rays;
 use crate::scene::View;
@@ -31,39 +28,8 @@ pub struct TraceArgs {
     /// Image height in pixels.
     #[arg(long, allow_negative_numbers = true)]
     pub height: u32,
-    /// Multi-level ray tracing: entry-point search with tile splitting
-    /// (off: every 4x4 packet from the root, the paper's "no MLRT" rows).
-    #[arg(long, value_enum, default_value_t = OnOff::On)]
-    pub mlrta: OnOff,
-    /// Trace rays one by one instead of in packets (the foundation's path).
-    #[arg(long, conflicts_with = "mlrta")]
-    pub single_ray: bool,
-    /// Initial tile side in pixels (the paper's ITS).
-    #[arg(long, default_value_t = 128, allow_negative_numbers = true)]
-    pub tile: u32,
-    /// Tiles no larger than this are not split (MTS) [default: 32, or --tile
-    /// if smaller]. 8 traverses fewer cells; 32 is faster on the CPU.
-    #[arg(long, allow_negative_numbers = true)]
-    pub min_tile: Option<u32>,
-    /// Pieces a tile is split into (SF): 4, 16, 64...
-    #[arg(long, default_value_t = 16, allow_negative_numbers = true)]
-    pub split_factor: u32,
-    /// Point light "X,Y,Z": adds a shadow ray per hit (Table 3's statistics).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub light: Option<Vec3>,
-    /// Shadow rays to the default light (above the scene) when --light is not given.
-    #[arg(long)]
-    pub shadows: bool,
-    /// Anti-aliasing: extra rays in tiles whose entry point shows complex geometry.
-    #[arg(long, value_enum, default_value_t = AaMode::None)]
-    pub aa: AaMode,
-    /// Rays per pixel where anti-aliasing applies (a square: 4, 16).
-    #[arg(long, default_value_t = 4, allow_negative_numbers = true)]
-    pub aa_samples: u32,
-    /// Measure the anti-aliased image's error on edge pixels against 16 rays
-    /// per pixel everywhere, and the rays uniform supersampling would use.
-    #[arg(long)]
-    pub aa_reference: bool,
+    #[command(flatten)]
+    pub knobs: TraceOptions,
     /// Image: |cos| between the ray and the hit triangle (shadowed hits at
     /// a quarter), grey PNG.
     #[arg(long)]
@@ -87,29 +53,8 @@ pub struct TraceArgs {
 
 pub fn run(args: &TraceArgs) -> Result<Value> {
     let threads = args.common.init_threads()?;
-    let mut request = TraceRequest {
-        view: View::new(args.camera.spec(), args.width, args.height)?,
-        single_ray: args.single_ray,
-        params: MlrtaParams {
-            entry_points: args.mlrta.on(),
-            initial_tile: args.tile,
-            min_tile: args.min_tile.unwrap_or(DEFAULT_MIN_TILE.min(args.tile)),
-            split_factor: args.split_factor,
-            // The rays are the camera's.
-            corner_frusta: true,
-        },
-        light: match (args.light, args.shadows) {
-            (Some(p), _) => ShadowLight::At(p),
-            (None, true) => ShadowLight::AboveScene,
-            (None, false) => ShadowLight::None,
-        },
-        aa: AaRequest {
-            mode: args.aa,
-            samples: args.aa_samples,
-            reference: args.aa_reference,
-        },
-    };
-    request.validate()?;
+    let view = View::new(args.camera.spec(), args.width, args.height)?;
+    let mut request = args.knobs.request(view)?;
     let [out, tiles, aa, dump] = check_outputs(&[
         (&args.out, "--out"),
         (&args.tiles_image, "--tiles-image"),
@@ -127,7 +72,7 @@ pub fn run(args: &TraceArgs) -> Result<Value> {
     if let Some(path) = dump {
         write_rays(path, &image.rays)?;
     }
-    if let Some(path) = tiles.filter(|_| !args.single_ray) {
+    if let Some(path) = tiles.filter(|_| !args.knobs.single_ray) {
         write_rgb_png(path, w, h, &image.tile_map())?;
     }
     if let (Some(path), Some(rays)) = (aa, image.aa_rays()) {

@@ -26,6 +26,7 @@ pub mod directions;
 pub mod file;
 pub mod gpu;
 pub mod lookup;
+pub mod options;
 pub mod positions;
 pub mod runner;
 pub mod storage;

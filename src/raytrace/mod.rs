@@ -9,6 +9,7 @@ pub mod image;
 pub mod lights;
 pub mod offset;
 pub mod optics;
+pub mod options;
 pub mod packets;
 pub mod ray_tree;
 pub mod runner;

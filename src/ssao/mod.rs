@@ -23,6 +23,7 @@ pub mod gpu;
 pub mod indirect;
 pub mod interleave;
 pub mod measure;
+pub mod options;
 pub mod runner;
 pub mod truth;
 

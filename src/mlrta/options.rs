@@ -1,0 +1,79 @@
+//! MLRTA tracing's knobs as command-line options (see `crate::options`).
+
+use clap::Args;
+use glam::Vec3;
+
+use super::MlrtaParams;
+use super::aa::AaMode;
+use super::runner::{AaRequest, ShadowLight, TraceRequest};
+use super::tiles::DEFAULT_MIN_TILE;
+use crate::error::Result;
+use crate::options::OnOff;
+use crate::scene::{View, parse_vec3};
+
+#[derive(Args, Clone, Debug)]
+pub struct TraceOptions {
+    /// Multi-level ray tracing: entry-point search with tile splitting
+    /// (off: every 4x4 packet from the root, the paper's "no MLRT" rows).
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    pub mlrta: OnOff,
+    /// Trace rays one by one instead of in packets (the foundation's path).
+    #[arg(long, conflicts_with = "mlrta")]
+    pub single_ray: bool,
+    /// Initial tile side in pixels (the paper's ITS).
+    #[arg(long, default_value_t = 128, allow_negative_numbers = true)]
+    pub tile: u32,
+    /// Tiles no larger than this are not split (MTS) [default: 32, or --tile
+    /// if smaller]. 8 traverses fewer cells; 32 is faster on the CPU.
+    #[arg(long, allow_negative_numbers = true)]
+    pub min_tile: Option<u32>,
+    /// Pieces a tile is split into (SF): 4, 16, 64...
+    #[arg(long, default_value_t = 16, allow_negative_numbers = true)]
+    pub split_factor: u32,
+    /// Point light "X,Y,Z": adds a shadow ray per hit (Table 3's statistics).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub light: Option<Vec3>,
+    /// Shadow rays to the default light (above the scene) when --light is not given.
+    #[arg(long)]
+    pub shadows: bool,
+    /// Anti-aliasing: extra rays in tiles whose entry point shows complex geometry.
+    #[arg(long, value_enum, default_value_t = AaMode::None)]
+    pub aa: AaMode,
+    /// Rays per pixel where anti-aliasing applies (a square: 4, 16).
+    #[arg(long, default_value_t = 4, allow_negative_numbers = true)]
+    pub aa_samples: u32,
+    /// Measure the anti-aliased image's error on edge pixels against 16 rays
+    /// per pixel everywhere, and the rays uniform supersampling would use.
+    #[arg(long)]
+    pub aa_reference: bool,
+}
+
+impl TraceOptions {
+    /// The checked request for `view`.
+    pub fn request(&self, view: View) -> Result<TraceRequest> {
+        let request = TraceRequest {
+            view,
+            single_ray: self.single_ray,
+            params: MlrtaParams {
+                entry_points: self.mlrta.on(),
+                initial_tile: self.tile,
+                min_tile: self.min_tile.unwrap_or(DEFAULT_MIN_TILE.min(self.tile)),
+                split_factor: self.split_factor,
+                // The rays are the camera's.
+                corner_frusta: true,
+            },
+            light: match (self.light, self.shadows) {
+                (Some(p), _) => ShadowLight::At(p),
+                (None, true) => ShadowLight::AboveScene,
+                (None, false) => ShadowLight::None,
+            },
+            aa: AaRequest {
+                mode: self.aa,
+                samples: self.aa_samples,
+                reference: self.aa_reference,
+            },
+        };
+        request.validate()?;
+        Ok(request)
+    }
+}
