@@ -16,7 +16,7 @@ use crate::error::{Error, Result};
 use crate::field::Positional;
 use crate::field::runner::{FieldAo, MAX_FRAMES};
 use crate::progress::Bars;
-use crate::scene::{Instance, Role, Scene, SceneMesh, Transform, View, load_obj};
+use crate::scene::{Instance, Role, Scene, SceneMesh, Transform, View, load_mesh};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Method {
@@ -91,7 +91,7 @@ fn scene_of(args: &AoArgs) -> Result<Scene> {
         scene.instances[0].role = Role::Caster;
         scene
             .meshes
-            .push(SceneMesh::new("receiver", receiver, load_obj(receiver)?));
+            .push(SceneMesh::new("receiver", receiver, load_mesh(receiver)?));
         scene.instances.push(Instance {
             name: "receiver".into(),
             mesh: 1,

@@ -10,7 +10,7 @@ use super::args::{check_output, init_thread_pool};
 use crate::error::{Error, Result};
 use crate::field::{DirectionMapping, DisplacementField, FieldParams, OctahedralGrid, Storage, file};
 use crate::progress::Bars;
-use crate::scene::load_obj;
+use crate::scene::load_mesh;
 
 #[derive(clap::Args)]
 pub struct FieldArgs {
@@ -113,7 +113,7 @@ fn build(args: &BuildArgs) -> Result<Value> {
     let threads = init_thread_pool(args.threads)?;
     let params = args.field.params()?;
     let out = check_output(&args.out, "-o")?;
-    let mesh = load_obj(&args.mesh)?;
+    let mesh = load_mesh(&args.mesh)?;
     let progress = Bars::Stderr.bar(params.maps() as u64, "building displacement maps");
     let (field, stats) = DisplacementField::build(&mesh, &params, &args.mesh.display().to_string(), &progress)?;
     progress.finish();
