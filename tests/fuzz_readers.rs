@@ -4,20 +4,24 @@
 //! and the `ObjFile::shading_normals` a shaded scene computes), MTL
 //! (`parse_mtl`, `load_mtl`), scene JSON (`load_scene`, `load_scene_shaded`),
 //! `.dfield` (`field::file::from_bytes`, `read`), HDR probes
-//! (`EnvironmentMap::load`), ray files (`read_rays`) and camera paths
-//! (`CameraPath::parse`, `load`).
+//! (`EnvironmentMap::load`), ray files (`read_rays`), camera paths
+//! (`CameraPath::parse`, `load`), PLY (`parse_ply`, `load_ply`, and
+//! `load_mesh`, `load_mesh_file` of a `.ply`) and GLB (`load_gltf`, and
+//! `load_mesh`, `load_mesh_file` of a `.glb`).
 //!
 //! Inputs come from two kinds of strategy per reader. Mutations of seeds:
 //! the shipped assets (`assets/`, `tests/data/mtl/`), small files built here
 //! (fields from `DisplacementField::build`, probes from image's `HdrEncoder`
-//! and by hand in old-style RLE, ray records) and "heavy" files, each at the
+//! and by hand in old-style RLE, ray records, PLY and GLB files from
+//! `tests/mesh_formats/write.rs`) and "heavy" files, each at the
 //! worst cost in memory per input byte of one statement (a 30,000-corner
 //! polygon, thousands of unknown keywords, materials, warnings, instances,
 //! the densest RLE the HDR reader admits); edits are byte flips, insertions
 //! (random bytes and format tokens), deletions, truncation, duplicated,
 //! swapped and deleted lines, 32-bit words overwritten (binary formats) and
 //! number tokens replaced by extremes (1e39, -0, nan, inf, 4294967297,
-//! -99999999999, hundreds of digits...). And structured generators of
+//! -99999999999, hundreds of digits...); a GLB's JSON chunk is also edited
+//! as text and rewrapped with its chunk lengths right. And structured generators of
 //! statements, headers and records, each file with a "wildness" (0, 1%, 5%
 //! or 30% of its values malformed or extreme) so that both the Ok paths and
 //! every check get exercised. Case counts are fixed and each test has its
@@ -42,10 +46,12 @@
 //! 3. Errors are bad input with a non-empty source and problem. The file
 //!    forms name the file: the path read (`load_obj`, `load_mtl`,
 //!    `field::file::read`, `read_rays`, `EnvironmentMap::load`,
-//!    `CameraPath::load`), or the file at fault by its absolute path
+//!    `CameraPath::load`, `load_ply`, `load_gltf`, `load_mesh`), or the file at fault by its absolute path
 //!    (`load_obj_file`: the OBJ or an MTL file; scenes: the scene, or an OBJ,
 //!    MTL or probe it names). File and text forms agree (`load_obj` =
-//!    `parse_obj`, `load_mtl` = `parse_mtl`, `read` = `from_bytes`).
+//!    `parse_obj`, `load_mtl` = `parse_mtl`, `read` = `from_bytes`,
+//!    `load_ply` = `load_mesh(_file)` of a `.ply` = `parse_ply`,
+//!    `load_mesh(_file)` of a `.glb` = `load_gltf`).
 //! 4. Allocation is bounded: a counting global allocator keeps, per thread,
 //!    the bytes allocated and their peak (a `realloc` counts old and new
 //!    block), and the peak while one reader runs must stay below
@@ -62,6 +68,8 @@
 //!    | HDR | 1536 | 1 MiB | 1549 | the reader admits 64 pixels a byte, 12 bytes a pixel, twice (image, texels) |
 //!    | rays | 3 | 64 KiB | 2.0 | the file read, and 24 bytes a ray |
 //!    | camera path | 16 | 64 KiB | 6.6 | 28 bytes a key for a 14-byte line, Vecs doubling |
+//!    | PLY | 64 | 1 MiB | 44.6 | a binary polygon of uchar indices: a triangle (12 bytes) and its face (4) per index byte, Vecs doubling |
+//!    | GLB | 128 | 1 MiB | 71.6 | a strip of u8 indices: a triangle a byte, with its corner normals, smoothing, material and face (36 bytes), Vecs doubling |
 //!
 //!    ("Worst measured": peak bytes per input byte over inputs of 4 KiB or
 //!    more, printed by each test; HDR's includes its constant.) A single
@@ -71,7 +79,8 @@
 //! A failing case is shrunk, saved to
 //! `target/tmp/fuzz-failures/<reader>/<hash>`, and reported with a preview.
 //! Once the reader is fixed, the file goes to `tests/regressions/<reader>/`
-//! (reader: `obj`, `mtl`, `scene`, `dfield`, `hdr`, `rays`, `camera_path`):
+//! (reader: `obj`, `mtl`, `scene`, `dfield`, `hdr`, `rays`, `camera_path`,
+//! `ply`, `glb`):
 //! `regressions_replay` runs every file there through the same checks.
 //!
 //! The harness is in `fuzz_readers/`: `allocation.rs` (the counting
@@ -85,6 +94,8 @@ mod allocation;
 mod camera_path;
 #[path = "fuzz_readers/dfield.rs"]
 mod dfield;
+#[path = "fuzz_readers/glb.rs"]
+mod glb;
 #[path = "fuzz_readers/harness.rs"]
 mod harness;
 #[path = "fuzz_readers/hdr.rs"]
@@ -95,22 +106,28 @@ mod inputs;
 mod mtl;
 #[path = "fuzz_readers/obj.rs"]
 mod obj;
+#[path = "fuzz_readers/ply.rs"]
+mod ply;
 #[path = "fuzz_readers/rays.rs"]
 mod rays;
 #[path = "fuzz_readers/scene.rs"]
 mod scene;
+#[path = "mesh_formats/write.rs"]
+mod write;
 
 use penumbra::field::file;
 use penumbra::ray_file::read_rays;
-use penumbra::scene::{CameraPath, EnvironmentMap, load_scene_shaded, parse_mtl, parse_obj_file};
+use penumbra::scene::{CameraPath, EnvironmentMap, load_gltf, load_scene_shaded, parse_mtl, parse_obj_file, parse_ply};
 
 use camera_path::CAMERA_PATH;
 use dfield::DFIELD;
+use glb::GLB;
 use harness::{assert_seeds_accepted, fuzz, replay_regressions};
 use hdr::HDR;
 use inputs::{binary_edit, mutated, text_edit};
 use mtl::MTL;
 use obj::OBJ;
+use ply::PLY;
 use rays::RAYS;
 use scene::SCENE;
 
@@ -199,6 +216,36 @@ fn camera_path_structured() {
     fuzz("camera_path_structured", &CAMERA_PATH, 768, camera_path::text());
 }
 
+#[test]
+fn ply_mutated_text() {
+    fuzz("ply_mutated_text", &PLY, 512, mutated(ply::seeds(true), text_edit(), 6));
+}
+
+#[test]
+fn ply_mutated_binary() {
+    fuzz(
+        "ply_mutated_binary",
+        &PLY,
+        512,
+        mutated(ply::seeds(false), binary_edit(), 4),
+    );
+}
+
+#[test]
+fn ply_structured() {
+    fuzz("ply_structured", &PLY, 768, ply::structured());
+}
+
+#[test]
+fn glb_mutated_bytes() {
+    fuzz("glb_mutated_bytes", &GLB, 512, glb::mutated_bytes());
+}
+
+#[test]
+fn glb_mutated_json() {
+    fuzz("glb_mutated_json", &GLB, 768, glb::mutated_json());
+}
+
 /// The seeds are inputs the readers accept (so mutations start from valid
 /// files), and they pass every check unmutated.
 #[test]
@@ -212,6 +259,11 @@ fn seeds_are_accepted() {
         CameraPath::parse(&lossy(b)).is_ok()
     });
     assert_seeds_accepted(&DFIELD, dfield::seeds(), |_, b| file::from_bytes(b).is_ok());
+    let ply_seeds = [ply::seeds(true), ply::seeds(false)].concat();
+    assert_seeds_accepted(&PLY, ply_seeds, |_, b| parse_ply(b).is_ok());
+    assert_seeds_accepted(&GLB, glb::seeds(), |dir, b| {
+        std::fs::write(dir.join("seed.glb"), b).is_ok() && load_gltf(&dir.join("seed.glb")).is_ok()
+    });
     assert_seeds_accepted(&RAYS, rays::seeds().split_off(1), |dir, b| {
         std::fs::write(dir.join("seed.f32"), b).is_ok() && read_rays(&dir.join("seed.f32")).is_ok()
     });
@@ -241,5 +293,5 @@ fn seeds_are_accepted() {
 /// checks; the folders are named after readers.
 #[test]
 fn regressions_replay() {
-    replay_regressions(&[&OBJ, &MTL, &SCENE, &DFIELD, &HDR, &RAYS, &CAMERA_PATH]);
+    replay_regressions(&[&OBJ, &MTL, &SCENE, &DFIELD, &HDR, &RAYS, &CAMERA_PATH, &PLY, &GLB]);
 }

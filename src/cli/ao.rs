@@ -17,7 +17,7 @@ use crate::field::budget as field_budget;
 use crate::field::options::FieldOptions;
 use crate::field::runner::{FieldAo, MAX_FRAMES};
 use crate::progress::Bars;
-use crate::scene::{Instance, Role, Scene, SceneMesh, Transform, View, load_obj};
+use crate::scene::{Instance, Role, Scene, SceneMesh, Transform, View, load_mesh};
 use crate::sweep::budget::{Choice, cached};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -105,7 +105,7 @@ pub(super) fn with_receiver(mut scene: Scene, receiver: &Path) -> Result<Scene> 
     scene.instances[0].role = Role::Caster;
     scene
         .meshes
-        .push(SceneMesh::new("receiver", receiver, load_obj(receiver)?));
+        .push(SceneMesh::new("receiver", receiver, load_mesh(receiver)?));
     scene.instances.push(Instance {
         name: "receiver".into(),
         mesh: 1,

@@ -8,7 +8,7 @@ use serde_json::{Value, json};
 
 use crate::device::{Device, DeviceChoice};
 use crate::error::{Error, Result};
-use crate::scene::{Scene, load_obj, load_scene};
+use crate::scene::{Scene, load_mesh, load_scene};
 
 /// The default `--seed`: outputs repeat bit for bit on one device.
 pub const DEFAULT_SEED: u32 = 0x5eed;
@@ -87,7 +87,7 @@ pub(crate) use crate::scene::parse_vec3;
 /// `--mesh FILE` or `--scene FILE` as a scene.
 pub fn load_input(mesh: Option<&Path>, scene: Option<&Path>) -> Result<Scene> {
     match (mesh, scene) {
-        (Some(m), None) => Ok(Scene::from_mesh(&stem(m), m, load_obj(m)?)),
+        (Some(m), None) => Ok(Scene::from_mesh(&stem(m), m, load_mesh(m)?)),
         (None, Some(s)) => load_scene(s),
         (Some(_), Some(_)) => Err(Error::param("--mesh/--scene", "give one of them, not both")),
         (None, None) => Err(Error::param(

@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::field::options::FieldOptions;
 use crate::field::{DisplacementField, file};
 use crate::progress::Bars;
-use crate::scene::load_obj;
+use crate::scene::load_mesh;
 
 #[derive(clap::Args)]
 pub struct FieldArgs {
@@ -29,7 +29,7 @@ pub enum FieldCommand {
 
 #[derive(clap::Args)]
 pub struct BuildArgs {
-    /// The object (Wavefront OBJ), in its own coordinates.
+    /// The object (OBJ, PLY or glTF), in its own coordinates.
     #[arg(long)]
     pub mesh: PathBuf,
     #[command(flatten)]
@@ -72,7 +72,7 @@ fn build(args: &BuildArgs) -> Result<Value> {
     let threads = init_thread_pool(args.threads)?;
     let params = args.field.params()?;
     let out = check_output(&args.out, "-o")?;
-    let mesh = load_obj(&args.mesh)?;
+    let mesh = load_mesh(&args.mesh)?;
     let progress = Bars::Stderr.bar(params.maps() as u64, "building displacement maps");
     let (field, stats) = DisplacementField::build(&mesh, &params, &args.mesh.display().to_string(), &progress)?;
     progress.finish();

@@ -17,11 +17,11 @@ use crate::prt::render::{auto_exposure, render};
 use crate::prt::runner::{Playback, PrtRunner, PvsSampling, RayTraced, Shadows, animate};
 use crate::prt::transfer::{Brdf, BrdfKind, Integration};
 use crate::scene::animated::AnimatedScene;
-use crate::scene::{EnvironmentMap, Scene, View, load_obj, used_bounds};
+use crate::scene::{EnvironmentMap, Scene, View, load_mesh, used_bounds};
 
 #[derive(clap::Args)]
 pub struct PrtArgs {
-    /// Wavefront OBJ mesh (static: the transfer is still recomputed every frame).
+    /// Mesh: OBJ, PLY or glTF (static: the transfer is still recomputed every frame).
     #[arg(long, required_unless_present = "animated")]
     pub mesh: Option<PathBuf>,
     /// A built-in animation instead of --mesh: cloth or character.
@@ -213,7 +213,7 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     // Inputs: the probe first (a bad file fails before any work).
     let env = EnvironmentMap::load(&args.env)?;
     let scene = match (&args.mesh, &args.animated) {
-        (Some(path), None) => Scene::from_mesh(&stem(path), path, load_obj(path)?),
+        (Some(path), None) => Scene::from_mesh(&stem(path), path, load_mesh(path)?),
         (None, Some(name)) => Scene::from_animation(AnimatedScene::parse(name)?.build()),
         _ => return Err(Error::param("--mesh", "give --mesh FILE or --animated cloth|character")),
     };

@@ -14,7 +14,7 @@ use crate::progress::Bars;
 use crate::raytrace::image::{RadianceFormat, write_radiance};
 use crate::raytrace::options::WhittedOptions;
 use crate::raytrace::{RenderScene, WhittedRenderer, WhittedSettings};
-use crate::scene::{Camera, CameraPath, Scene, load_obj_file, load_scene_shaded};
+use crate::scene::{Camera, CameraPath, Scene, load_mesh_file, load_scene_shaded};
 
 /// Which ray tracer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
@@ -30,7 +30,7 @@ pub enum Method {
 pub struct RaytraceArgs {
     #[arg(long, value_enum)]
     pub method: Method,
-    /// Wavefront OBJ with its MTL materials (emissive Ke faces light it).
+    /// Mesh with its materials: OBJ + MTL (emissive Ke faces light it), glTF, or PLY.
     #[arg(long)]
     pub mesh: Option<PathBuf>,
     /// A scene file instead of --mesh (meshes, materials, spheres, lights, camera).
@@ -91,7 +91,7 @@ fn parse_pixel(s: &str) -> std::result::Result<(u32, u32), String> {
 
 fn load(args: &RaytraceArgs) -> Result<Scene> {
     match (&args.mesh, &args.scene) {
-        (Some(m), None) => Ok(Scene::from_obj_file(&stem(m), m, load_obj_file(m)?)),
+        (Some(m), None) => Ok(Scene::from_obj_file(&stem(m), m, load_mesh_file(m)?)),
         (None, Some(s)) => load_scene_shaded(s),
         _ => Err(Error::param(
             "--mesh",

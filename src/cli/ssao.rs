@@ -20,7 +20,7 @@ use crate::sweep::budget::{Choice, cached};
 
 #[derive(clap::Args)]
 pub struct SsaoArgs {
-    /// Wavefront OBJ mesh.
+    /// Mesh: OBJ, PLY (ASCII or binary) or glTF 2.0 (.gltf/.glb).
     #[arg(long)]
     pub mesh: Option<PathBuf>,
     /// A scene file instead of --mesh (its camera and lights are the defaults).

@@ -12,7 +12,7 @@ use crate::error::{Error, Result};
 use crate::progress::Bars;
 use crate::prt::runner::RayTraced;
 use crate::raytrace::{LightingOptions, RenderScene, WhittedRenderer, WhittedSettings};
-use crate::scene::{Scene, View, load_obj, load_obj_file, load_scene_shaded};
+use crate::scene::{Scene, View, load_mesh, load_mesh_file, load_scene_shaded};
 use crate::sweep::{self, Grid, SweepMethod};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -34,7 +34,7 @@ pub struct SweepArgs {
     /// The method whose knobs are swept.
     #[arg(value_enum)]
     pub method: Method,
-    /// The mesh (OBJ).
+    /// Mesh: OBJ, PLY or glTF.
     #[arg(long)]
     pub mesh: Option<PathBuf>,
     /// A scene file instead of --mesh.
@@ -120,7 +120,7 @@ pub fn run(args: &SweepArgs) -> Result<Value> {
                 .mesh
                 .as_ref()
                 .ok_or_else(|| Error::param("--mesh", "sweep prt needs --mesh"))?;
-            let mesh = load_obj(path)?;
+            let mesh = load_mesh(path)?;
             let eye = view.camera.resolve(None, &mesh.bounds())?.eye;
             let reference = RayTraced {
                 rays: rays.unwrap_or(1024),
@@ -174,7 +174,7 @@ fn field_scene(args: &SweepArgs) -> Result<Scene> {
 /// bounded: the OBJ with its materials, or a scene file.
 fn shaded_scene(args: &SweepArgs) -> Result<Scene> {
     match (&args.mesh, &args.scene) {
-        (Some(m), None) => Ok(Scene::from_obj_file(&stem(m), m, load_obj_file(m)?)),
+        (Some(m), None) => Ok(Scene::from_obj_file(&stem(m), m, load_mesh_file(m)?)),
         (None, Some(s)) => load_scene_shaded(s),
         _ => Err(Error::param(
             "--mesh",

@@ -16,7 +16,7 @@ use crate::scene::View;
 
 #[derive(clap::Args)]
 pub struct TraceArgs {
-    /// Wavefront OBJ mesh.
+    /// Mesh: OBJ, PLY (ASCII or binary) or glTF 2.0 (.gltf/.glb).
     #[arg(long)]
     pub mesh: Option<PathBuf>,
     /// A scene file instead of --mesh (its camera is the default).

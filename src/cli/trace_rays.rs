@@ -9,12 +9,12 @@ use crate::error::Result;
 use crate::mlrta::runner::mrays_per_s;
 use crate::progress::Bars;
 use crate::ray_file::{read_rays, write_hits};
-use crate::scene::load_obj;
+use crate::scene::load_mesh;
 use crate::tracer::Tracer;
 
 #[derive(clap::Args)]
 pub struct TraceRaysArgs {
-    /// Wavefront OBJ mesh.
+    /// Mesh: OBJ, PLY (ASCII or binary) or glTF 2.0 (.gltf/.glb).
     #[arg(long)]
     pub mesh: PathBuf,
     /// Rays: 6 little-endian f32 per ray (origin, direction).
@@ -30,7 +30,7 @@ pub struct TraceRaysArgs {
 pub fn run(args: &TraceRaysArgs) -> Result<Value> {
     let threads = args.common.init_threads()?;
     let out = check_output(&args.out, "--out")?;
-    let mesh = load_obj(&args.mesh)?;
+    let mesh = load_mesh(&args.mesh)?;
     let rays = read_rays(&args.rays)?;
     let device = args.common.open_device()?;
     let mut tracer = Tracer::build(&device, &mesh, Bars::Stderr, "trace-rays")?;

@@ -1,6 +1,7 @@
-//! Scenes: the one geometry model of every method. Meshes (from OBJ files,
-//! or deforming: a closed-form animation), instances of them with rigid
-//! transforms, motions and roles, a camera, lights and an environment map.
+//! Scenes: the one geometry model of every method. Meshes (from OBJ, PLY or
+//! glTF files, `load_mesh`; or deforming: a closed-form animation),
+//! instances of them with rigid transforms, motions and roles, a camera,
+//! lights and an environment map.
 //! Features ask a scene only for what its roles require: occluders are built
 //! from casters, sample points are taken from receivers. Rigid motion moves
 //! instances per animation frame (`world_mesh_at`); a deforming mesh moves
@@ -12,9 +13,12 @@ pub mod animated;
 mod camera;
 mod camera_path;
 pub mod environment;
+mod gltf;
 mod mesh;
+mod mesh_file;
 pub mod mtl;
 mod obj;
+mod ply;
 pub mod procedural;
 mod scene_file;
 mod shading;
@@ -28,12 +32,15 @@ use serde::Deserialize;
 pub use camera::{Camera, CameraSpec, MAX_PIXELS, View, check_image_size, parse_vec3};
 pub use camera_path::CameraPath;
 pub use environment::EnvironmentMap;
+pub use gltf::load_gltf;
 pub use mesh::{Mesh, MeshObject, ORIGIN_OFFSET, used_bounds, vertex_normals};
+pub use mesh_file::{MeshFormat, load_mesh, load_mesh_file};
 pub use mtl::{Material, load_mtl, parse_mtl, write_mtl};
 pub use obj::{
     DEFAULT_CREASE_DEGREES, NO_NORMAL, ObjFile, SMOOTH_DEFAULT, load_obj, load_obj_file, parse_obj, parse_obj_file,
     write_obj,
 };
+pub use ply::{load_ply, parse_ply};
 pub use scene_file::{load_scene, load_scene_shaded, referenced_files};
 pub use shading::{MeshShading, SceneSphere};
 pub use transform::{Motion, Transform};
@@ -223,8 +230,8 @@ impl Scene {
         }
     }
 
-    /// A scene of one OBJ file read for rendering: its materials and
-    /// shading normals kept, its warnings the scene's.
+    /// A scene of one mesh file (OBJ, PLY, glTF) read for rendering: its
+    /// materials and shading normals kept, its warnings the scene's.
     pub fn from_obj_file(name: &str, path: &Path, obj: ObjFile) -> Scene {
         let mut mesh = SceneMesh::new(name, path, obj.mesh.clone());
         mesh.shading = Some(MeshShading::from_obj(&obj));

@@ -62,7 +62,8 @@ const UNSUPPORTED: [&str; 27] = [
     "csh",
 ];
 
-/// An OBJ file with what shading needs: per-face materials and normals.
+/// A mesh file with what shading needs: per-face materials and normals.
+/// OBJ's, and PLY's and glTF's read into the same shape (`load_mesh_file`).
 #[derive(Debug, Clone)]
 pub struct ObjFile {
     /// Geometry, numbered exactly as `parse_obj` numbers it (same Mesh).
@@ -85,6 +86,9 @@ pub struct ObjFile {
     /// statement came before the face, 0 after `s off` / `s 0`, else the
     /// group number.
     pub smoothing: Vec<u32>,
+    /// Per-vertex linear RGB colours, where the file gives them (PLY's
+    /// `red green blue`); OBJ files have none.
+    pub vertex_colors: Option<Vec<Vec3>>,
     /// What was ignored or replaced by a default: missing MTL files, unknown
     /// `usemtl` names, MTL warnings (prefixed with the MTL file's path),
     /// statements not read (one warning per keyword).
@@ -94,7 +98,27 @@ pub struct ObjFile {
 /// Reads an OBJ file: all objects merged, faces fan-triangulated in file order.
 pub fn load_obj(path: &Path) -> Result<Mesh> {
     let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
-    parse_obj(&String::from_utf8_lossy(&bytes)).map_err(|e| e.in_file(path))
+    obj_from_bytes(path, &bytes)
+}
+
+/// `load_obj` of a file already read (`bytes`, from `path`).
+pub(super) fn obj_from_bytes(path: &Path, bytes: &[u8]) -> Result<Mesh> {
+    parse_obj(&String::from_utf8_lossy(bytes)).map_err(|e| e.in_file(path))
+}
+
+/// Whether `bytes` look like OBJ text: their first statement (past a
+/// byte-order mark, blank lines and `#` comments) is one OBJ knows. Used to
+/// tell an OBJ file without a known extension from a file of another format.
+pub(super) fn looks_like_obj(bytes: &[u8]) -> bool {
+    const STATEMENTS: [&str; 12] = ["v", "vt", "vn", "vp", "f", "l", "p", "o", "g", "s", "usemtl", "mtllib"];
+    let head = &bytes[..bytes.len().min(64 * 1024)];
+    let text = String::from_utf8_lossy(head);
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    text.lines()
+        .map(|line| line.split('#').next().unwrap_or("").trim())
+        .find(|line| !line.is_empty())
+        .and_then(|line| line.split_ascii_whitespace().next())
+        .is_some_and(|keyword| STATEMENTS.contains(&keyword) || UNSUPPORTED.contains(&keyword))
 }
 
 /// Parses OBJ text. Errors name the line (`line N`) and the problem.
@@ -106,7 +130,12 @@ pub fn parse_obj(text: &str) -> Result<Mesh> {
 /// folder). Errors in the OBJ name it; errors in an MTL file name that file.
 pub fn load_obj_file(path: &Path) -> Result<ObjFile> {
     let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
-    let parsed = parse(&String::from_utf8_lossy(&bytes), true).map_err(|e| e.in_file(path))?;
+    obj_file_from_bytes(path, &bytes)
+}
+
+/// `load_obj_file` of a file already read (`bytes`, from `path`).
+pub(super) fn obj_file_from_bytes(path: &Path, bytes: &[u8]) -> Result<ObjFile> {
+    let parsed = parse(&String::from_utf8_lossy(bytes), true).map_err(|e| e.in_file(path))?;
     with_materials(parsed, Some(path.parent().unwrap_or(Path::new("."))))
 }
 
@@ -520,6 +549,7 @@ fn with_materials(parsed: Parsed, mtl_dir: Option<&Path>) -> Result<ObjFile> {
         normals: parsed.normals,
         corner_normals: parsed.corner_normals,
         smoothing: parsed.smoothing,
+        vertex_colors: None,
         warnings,
     })
 }

@@ -35,8 +35,10 @@
 //! "instances": [ { "mesh": "box", "material": "mirror" } ]
 //! ```
 //!
-//! Methods that only cast rays ignore materials and spheres. Meshes are
-//! read with their MTL files only for rendering (`load_scene_shaded`).
+//! Meshes may be OBJ, PLY or glTF files (`load_mesh`, which tells them
+//! apart). Methods that only cast rays ignore materials and spheres. Meshes
+//! are read with their materials (an OBJ's MTL files, a glTF's) only for
+//! rendering (`load_scene_shaded`).
 //!
 //! Paths are relative to the scene file; a leading `$PENUMBRA_DATA` is the
 //! shared data folder named by that environment variable. Unknown fields are
@@ -49,8 +51,8 @@ use glam::{Quat, Vec3};
 use serde::Deserialize;
 
 use super::{
-    Camera, Instance, Light, Material, MeshShading, Motion, Role, Scene, SceneMesh, SceneSphere, Transform, load_obj,
-    load_obj_file,
+    Camera, Instance, Light, Material, MeshShading, Motion, Role, Scene, SceneMesh, SceneSphere, Transform, load_mesh,
+    load_mesh_file,
 };
 use crate::error::{Error, Result};
 use crate::scene::environment::EnvironmentMap;
@@ -259,13 +261,13 @@ fn load(path: &Path, shaded: bool) -> Result<Scene> {
         let resolved = resolve(path, &field, mesh_path)?;
         index_of.insert(name.clone(), meshes.len());
         if shaded {
-            let obj = load_obj_file(&resolved).map_err(|e| named_by(path, &field, e))?;
+            let obj = load_mesh_file(&resolved).map_err(|e| named_by(path, &field, e))?;
             warnings.extend(obj.warnings.iter().map(|w| format!("{}: {w}", resolved.display())));
             let mut mesh = SceneMesh::new(name, &resolved, obj.mesh.clone());
             mesh.shading = Some(MeshShading::from_obj(&obj));
             meshes.push(mesh);
         } else {
-            let mesh = load_obj(&resolved).map_err(|e| named_by(path, &field, e))?;
+            let mesh = load_mesh(&resolved).map_err(|e| named_by(path, &field, e))?;
             meshes.push(SceneMesh::new(name, &resolved, mesh));
         }
     }

@@ -111,7 +111,7 @@ pub fn mesh_ok(mesh: &Mesh) -> Result<(), String> {
 }
 
 /// `obj`, read from `len` bytes, and its shading normals.
-fn obj_file_ok(obj: &ObjFile, len: usize) -> Result<(), String> {
+pub fn obj_file_ok(obj: &ObjFile, len: usize) -> Result<(), String> {
     mesh_ok(&obj.mesh)?;
     let n = obj.mesh.triangles.len();
     let lens = [

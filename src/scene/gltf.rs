@@ -1,0 +1,347 @@
+//! glTF 2.0 meshes (`.gltf` with external or `data:` buffers, and `.glb`),
+//! as one mesh in world space.
+//!
+//! The `gltf` crate (without its default features: no image decoding, no
+//! `import`) parses and validates the JSON into its document model (every
+//! index in range, every enum known); the containers (`container`) and the
+//! accessors (`accessor`) are read here, so that every bound is checked and
+//! every problem named.
+//!
+//! Geometry: the default scene's node trees (every scene's, in order, when
+//! there is no default; every mesh once, untransformed, when there are no
+//! scenes), depth first, a node's own mesh before its children. Each node's
+//! world transform is the product of the local ones in f64, applied to
+//! positions in f64 and rounded to f32 once; normals take its cofactor
+//! matrix (the inverse transpose up to scale, defined for singular ones
+//! too). A mirroring transform (negative determinant) swaps two corners of
+//! its triangles, which keeps them front-facing by the contract's
+//! `cross(v1 - v0, v2 - v0)`, as glTF's winding rule asks. Primitives are
+//! concatenated in that order: vertex order is each primitive's POSITION
+//! accessor order, and triangles follow its indices (or 0, 1, 2... without
+//! them). TRIANGLES, TRIANGLE_STRIP and TRIANGLE_FAN primitives are read;
+//! points and lines are skipped with a warning. One object per node (or
+//! mesh) that contributes triangles, named after the node, else its mesh.
+//!
+//! Shading: NORMAL attributes become per-corner normals; a primitive
+//! without them is flat, as glTF says. `pbrMetallicRoughness.
+//! baseColorFactor` is a material's diffuse colour, `emissiveFactor` (times
+//! `KHR_materials_emissive_strength`) its emission; textures, metalness,
+//! roughness and transparency are not used (a warning says so). Skins and
+//! morph targets are not applied: the rest pose is read.
+
+mod accessor;
+mod container;
+mod nodes;
+mod out;
+
+use std::path::Path;
+
+use ::gltf::mesh::Mode;
+use ::gltf::{Document, Semantic};
+use glam::{DMat4, Vec3};
+
+use super::mesh::MeshObject;
+use super::mtl::Material;
+use super::obj::ObjFile;
+use crate::error::{Error, Result};
+pub use container::{is_glb, is_gltf_json};
+use nodes::{Instance, instances};
+use out::{Out, assemble};
+
+/// Reads a `.gltf` or `.glb` file (by its content); buffers named by
+/// relative URIs are read from the file's folder.
+pub fn load_gltf(path: &Path) -> Result<ObjFile> {
+    let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
+    gltf_from_bytes(path, &bytes, is_glb(&bytes))
+}
+
+/// `load_gltf` of a file already read, as GLB (`glb`) or as JSON. Errors
+/// name `path` (also for problems in the buffers it names) and the JSON
+/// path, mesh, primitive, accessor or node at fault.
+pub(super) fn gltf_from_bytes(path: &Path, bytes: &[u8], glb: bool) -> Result<ObjFile> {
+    let (json, bin, what) = if glb {
+        let (json, bin) = container::split_glb(bytes).map_err(|e| e.in_file(path))?;
+        (json, bin, "GLB JSON chunk ")
+    } else {
+        (bytes, None, "")
+    };
+    let json = json.strip_prefix(b"\xef\xbb\xbf").unwrap_or(json);
+    let mut root = ::gltf::json::Root::from_slice(json).map_err(|e| {
+        Error::file(
+            path,
+            format!("{what}line {} column {}", e.line(), e.column()),
+            e.to_string(),
+        )
+    })?;
+    let mut warnings = check_asset(path, &mut root)?;
+    check_attributes(path, &root)?;
+    let document = Document::from_json(root).map_err(|e| invalid(path, e))?;
+    let mut reader = Reader {
+        path,
+        document: &document,
+        bin,
+        buffers: vec![None; document.buffers().len()],
+        out: Out::default(),
+    };
+    reader.out.warnings.append(&mut warnings);
+    for instance in instances(path, &document)? {
+        reader.instance(&instance)?;
+    }
+    reader.out.finish().map_err(|e| e.in_file(path))
+}
+
+/// Refuses what the document model would misread: other glTF versions,
+/// and required extensions that change geometry (compression, quantization,
+/// GPU instancing). Required extensions of appearance only (materials,
+/// textures, lights) are dropped from the list, with a warning, so that
+/// validation does not refuse what penumbra does not use anyway.
+fn check_asset(path: &Path, root: &mut ::gltf::json::Root) -> Result<Vec<String>> {
+    let version = &root.asset.version;
+    if !version.starts_with("2.") {
+        return Err(Error::file(
+            path,
+            "asset.version",
+            format!("'{version}'; only glTF 2.0 is read"),
+        ));
+    }
+    let appearance = |e: &str| {
+        ["KHR_materials_", "KHR_texture_", "EXT_texture_", "KHR_lights_punctual"]
+            .iter()
+            .any(|a| e.starts_with(a))
+    };
+    let (looks, geometry): (Vec<String>, Vec<String>) = std::mem::take(&mut root.extensions_required)
+        .into_iter()
+        .partition(|e| appearance(e));
+    if !geometry.is_empty() {
+        return Err(Error::file(
+            path,
+            "extensionsRequired",
+            format!(
+                "{} cannot be read (mesh extensions are not supported)",
+                geometry.join(", ")
+            ),
+        ));
+    }
+    Ok(looks
+        .into_iter()
+        .map(|e| format!("extension {e} is required; penumbra reads the geometry without it"))
+        .collect())
+}
+
+/// Checks the accessor index of every primitive attribute: gltf-json's
+/// validation (1.4.1) indexes the POSITION accessor before checking that it
+/// exists, and panics when it does not (found by `tests/fuzz_readers.rs`;
+/// `tests/regressions/glb/`).
+fn check_attributes(path: &Path, root: &::gltf::json::Root) -> Result<()> {
+    let n = root.accessors.len();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if let Some(bad) = primitive.attributes.values().map(|a| a.value()).find(|&a| a >= n) {
+                return Err(Error::file(
+                    path,
+                    format!("meshes[{m}].primitives[{p}].attributes"),
+                    format!("accessor {bad} is out of range (the file has {n} accessors)"),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The first validation problems of the JSON, by their JSON path.
+fn invalid(path: &Path, e: ::gltf::Error) -> Error {
+    match e {
+        ::gltf::Error::Validation(problems) if !problems.is_empty() => {
+            let (at, problem) = &problems[0];
+            let more = match problems.len() - 1 {
+                0 => String::new(),
+                n => format!(" (and {n} more problems)"),
+            };
+            let problem = match problem {
+                ::gltf::json::validation::Error::IndexOutOfBounds => "index out of range".to_string(),
+                ::gltf::json::validation::Error::Invalid => "invalid value".to_string(),
+                ::gltf::json::validation::Error::Missing => "missing".to_string(),
+                other => other.to_string(),
+            };
+            Error::file(path, at.to_string(), format!("{problem}{more}"))
+        }
+        other => Error::file(path, "", format!("invalid glTF: {other}")),
+    }
+}
+
+/// The document, its buffers as loaded on first use, and the mesh so far.
+struct Reader<'a> {
+    path: &'a Path,
+    document: &'a Document,
+    bin: Option<&'a [u8]>,
+    buffers: Vec<Option<Vec<u8>>>,
+    out: Out,
+}
+
+impl Reader<'_> {
+    fn instance(&mut self, instance: &Instance) -> Result<()> {
+        let Some(mesh) = self.document.meshes().nth(instance.mesh) else {
+            return Ok(());
+        };
+        let start = self.out.triangles.len();
+        for primitive in mesh.primitives() {
+            let field = format!(
+                "meshes[{}]{} primitives[{}]",
+                mesh.index(),
+                mesh.name().map_or_else(String::new, |n| format!(" '{n}'")),
+                primitive.index()
+            );
+            self.primitive(&field, &primitive, instance.world)?;
+        }
+        if instance.skinned {
+            self.out
+                .warn(format!("'{}' has a skin: the rest pose is read", instance.name));
+        }
+        if mesh.weights().is_some() || mesh.primitives().any(|p| p.morph_targets().len() > 0) {
+            self.out.warn(format!(
+                "meshes[{}] has morph targets: the base shape is read",
+                mesh.index()
+            ));
+        }
+        let end = self.out.triangles.len();
+        if end > start {
+            self.out.objects.push(MeshObject {
+                name: instance.name.clone(),
+                triangles: start as u32..end as u32,
+            });
+        }
+        Ok(())
+    }
+
+    /// The bytes of the buffer accessor `a` reads from, loaded once.
+    fn buffer_of(&mut self, a: &::gltf::Accessor) -> std::result::Result<&[u8], String> {
+        let Some(view) = a.view() else {
+            return Ok(&[]);
+        };
+        let buffer = view.buffer();
+        let i = buffer.index();
+        if self.buffers[i].is_none() {
+            let source = match buffer.source() {
+                ::gltf::buffer::Source::Bin => container::Source::Bin(self.bin),
+                ::gltf::buffer::Source::Uri(uri) => container::Source::Uri(uri),
+            };
+            let dir = self.path.parent().unwrap_or(Path::new("."));
+            let data = container::load(source, buffer.length(), dir).map_err(|e| format!("buffers[{i}] {e}"))?;
+            self.buffers[i] = Some(data);
+        }
+        Ok(self.buffers[i].as_deref().unwrap_or(&[]))
+    }
+
+    fn primitive(&mut self, field: &str, p: &::gltf::Primitive, world: DMat4) -> Result<()> {
+        let path = self.path;
+        let fail = |problem: String| Error::file(path, field, problem);
+        let mode = p.mode();
+        if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+            self.out
+                .warn(format!("{field}: mode {mode:?} is not a surface; skipped"));
+            return Ok(());
+        }
+        let Some(position) = p.get(&Semantic::Positions) else {
+            return Err(fail("has no POSITION attribute".into()));
+        };
+        let attribute = |name: &'static str| move |e: String| format!("{name} {e}");
+        let buffer = self.buffer_of(&position).map_err(attribute("POSITION")).map_err(fail)?;
+        let positions = accessor::vec3(&position, buffer)
+            .map_err(attribute("POSITION"))
+            .map_err(fail)?;
+        let normals = match p.get(&Semantic::Normals) {
+            Some(a) => {
+                let buffer = self.buffer_of(&a).map_err(attribute("NORMAL")).map_err(fail)?;
+                let n = accessor::vec3(&a, buffer).map_err(attribute("NORMAL")).map_err(fail)?;
+                if n.len() != positions.len() {
+                    return Err(fail(format!(
+                        "NORMAL accessor {} has {} elements, POSITION accessor {} has {}",
+                        a.index(),
+                        n.len(),
+                        position.index(),
+                        positions.len()
+                    )));
+                }
+                Some(n)
+            }
+            None => None,
+        };
+        let indices = match p.indices() {
+            Some(a) => {
+                let buffer = self.buffer_of(&a).map_err(attribute("indices")).map_err(fail)?;
+                let indices = accessor::indices(&a, buffer)
+                    .map_err(attribute("indices"))
+                    .map_err(fail)?;
+                let n = positions.len();
+                if let Some((k, bad)) = indices.iter().enumerate().find(|&(_, &v)| v as usize >= n) {
+                    return Err(fail(format!(
+                        "indices accessor {}: index {bad} (element {k}) is out of range (POSITION accessor {} \
+                         has {n} vertices)",
+                        a.index(),
+                        position.index()
+                    )));
+                }
+                indices
+            }
+            None => (0..positions.len() as u32).collect(),
+        };
+        let triangles = assemble(mode, &indices).map_err(fail)?;
+        let material = self.material(p.material())?;
+        self.out
+            .append(&positions, normals.as_deref(), &triangles, world, material)
+            .map_err(fail)
+    }
+
+    /// Our index of a primitive's material: 0 for glTF's default material.
+    /// Colours must be finite and not negative (glTF says in [0, 1];
+    /// `KHR_materials_emissive_strength` scales emission beyond).
+    fn material(&mut self, m: ::gltf::Material) -> Result<u32> {
+        let Some(index) = m.index() else {
+            return Ok(0);
+        };
+        if let Some(&ours) = self.out.material_index.get(&index) {
+            return Ok(ours);
+        }
+        let name = m.name().map_or_else(|| format!("material {index}"), str::to_string);
+        let pbr = m.pbr_metallic_roughness();
+        let [r, g, b, alpha] = pbr.base_color_factor();
+        let strength = m.emissive_strength().unwrap_or(1.0);
+        let kd = Vec3::new(r, g, b);
+        let ke = Vec3::from(m.emissive_factor()) * strength;
+        for (field, c) in [("pbrMetallicRoughness.baseColorFactor", kd), ("emissiveFactor", ke)] {
+            if !c.is_finite() || c.min_element() < 0.0 {
+                return Err(Error::file(
+                    self.path,
+                    format!("materials[{index}].{field}"),
+                    format!("{c} (with any emissive strength) is not a finite, non-negative colour"),
+                ));
+            }
+        }
+        let mut unused = Vec::new();
+        if pbr.base_color_texture().is_some() || m.emissive_texture().is_some() {
+            unused.push("textures");
+        }
+        if pbr.metallic_factor() > 0.0 {
+            unused.push("metalness");
+        }
+        if alpha < 1.0 && m.alpha_mode() != ::gltf::material::AlphaMode::Opaque {
+            unused.push("transparency");
+        }
+        if !unused.is_empty() {
+            self.out.warn(format!(
+                "material '{name}': {} not used; its baseColorFactor is the diffuse colour",
+                unused.join(", ")
+            ));
+        }
+        self.out.materials.push(Material {
+            ka: kd,
+            kd,
+            ke,
+            illum: 1,
+            ..Material::named(&name)
+        });
+        let ours = self.out.materials.len() as u32 - 1;
+        self.out.material_index.insert(index, ours);
+        Ok(ours)
+    }
+}

@@ -1,0 +1,162 @@
+//! Assembling the mesh: primitives' triangles by mode, placed by their
+//! node's transform, with what shading adds.
+
+use std::collections::HashMap;
+
+use ::gltf::mesh::Mode;
+use glam::{DMat3, DMat4, Vec3};
+
+use crate::error::{Error, Result};
+use crate::scene::mesh::{Mesh, MeshObject};
+use crate::scene::mtl::Material;
+use crate::scene::obj::{NO_NORMAL, ObjFile, SMOOTH_DEFAULT};
+
+/// Triangles of a primitive's index list by its mode (glTF 2.0 section
+/// 3.7.2.1): strips alternate their winding so that every triangle faces
+/// the same way; fans turn around the first vertex.
+pub fn assemble(mode: Mode, idx: &[u32]) -> std::result::Result<Vec<[u32; 3]>, String> {
+    let n = idx.len();
+    Ok(match mode {
+        Mode::Triangles => {
+            if !n.is_multiple_of(3) {
+                return Err(format!(
+                    "has {n} vertices (or indices), not a multiple of 3 (TRIANGLES)"
+                ));
+            }
+            idx.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()
+        }
+        Mode::TriangleStrip => (0..n.saturating_sub(2))
+            .map(|i| match i % 2 {
+                0 => [idx[i], idx[i + 1], idx[i + 2]],
+                _ => [idx[i + 1], idx[i], idx[i + 2]],
+            })
+            .collect(),
+        _ => (0..n.saturating_sub(2))
+            .map(|i| [idx[i + 1], idx[i + 2], idx[0]])
+            .collect(),
+    })
+}
+
+/// The mesh and what shading adds, as it is assembled.
+pub struct Out {
+    pub positions: Vec<Vec3>,
+    pub triangles: Vec<[u32; 3]>,
+    pub objects: Vec<MeshObject>,
+    /// Per vertex (zero where a primitive has no NORMAL).
+    pub normals: Vec<Vec3>,
+    pub corner_normals: Vec<[u32; 3]>,
+    pub smoothing: Vec<u32>,
+    pub materials: Vec<Material>,
+    /// glTF material index to ours.
+    pub material_index: HashMap<usize, u32>,
+    pub triangle_materials: Vec<u32>,
+    pub warnings: Vec<String>,
+}
+
+impl Default for Out {
+    fn default() -> Self {
+        Out {
+            positions: Vec::new(),
+            triangles: Vec::new(),
+            objects: Vec::new(),
+            normals: Vec::new(),
+            corner_normals: Vec::new(),
+            smoothing: Vec::new(),
+            materials: vec![Material::default_surface()],
+            material_index: HashMap::new(),
+            triangle_materials: Vec::new(),
+            warnings: Vec::new(),
+        }
+    }
+}
+
+impl Out {
+    /// A warning, once.
+    pub fn warn(&mut self, warning: String) {
+        if !self.warnings.contains(&warning) {
+            self.warnings.push(warning);
+        }
+    }
+
+    /// Appends one primitive, placed by `world`.
+    pub fn append(
+        &mut self,
+        positions: &[Vec3],
+        normals: Option<&[Vec3]>,
+        triangles: &[[u32; 3]],
+        world: DMat4,
+        material: u32,
+    ) -> std::result::Result<(), String> {
+        let base = self.positions.len();
+        if base + positions.len() >= u32::MAX as usize || self.triangles.len() + triangles.len() >= u32::MAX as usize {
+            return Err("the scene has more than 2^32-1 vertices or triangles".into());
+        }
+        let base = base as u32;
+        if world == DMat4::IDENTITY {
+            // Bit for bit what the file holds (x * 1 + 0 would turn -0 into +0).
+            self.positions.extend_from_slice(positions);
+        } else {
+            self.positions
+                .extend(positions.iter().map(|p| world.transform_point3(p.as_dvec3()).as_vec3()));
+        }
+        let linear = DMat3::from_mat4(world);
+        let mirrored = linear.determinant() < 0.0;
+        match normals {
+            Some(normals) if world == DMat4::IDENTITY => self.normals.extend_from_slice(normals),
+            Some(normals) => {
+                // The cofactor matrix maps normals as the inverse transpose
+                // does, up to a positive scale once the sign is fixed.
+                let [c0, c1, c2] = [linear.x_axis, linear.y_axis, linear.z_axis];
+                let cofactor = DMat3::from_cols(c1.cross(c2), c2.cross(c0), c0.cross(c1));
+                let sign = if mirrored { -1.0 } else { 1.0 };
+                self.normals.extend(
+                    normals
+                        .iter()
+                        .map(|n| (cofactor * n.as_dvec3() * sign).normalize_or_zero().as_vec3()),
+                );
+            }
+            None => self.normals.extend(std::iter::repeat_n(Vec3::ZERO, positions.len())),
+        }
+        for t in triangles {
+            let [a, b, c] = t.map(|v| v + base);
+            let t = if mirrored { [a, c, b] } else { [a, b, c] };
+            self.triangles.push(t);
+            self.corner_normals
+                .push(if normals.is_some() { t } else { [NO_NORMAL; 3] });
+            // Without NORMAL, glTF asks for flat shading: smoothing off.
+            self.smoothing.push(if normals.is_some() { SMOOTH_DEFAULT } else { 0 });
+            self.triangle_materials.push(material);
+        }
+        Ok(())
+    }
+
+    pub fn finish(self) -> Result<ObjFile> {
+        let n = self.triangles.len() as u32;
+        let mesh = Mesh {
+            positions: self.positions,
+            triangles: self.triangles,
+            objects: self.objects,
+        };
+        if n == 0 {
+            return Err(Error::input(
+                "mesh",
+                format!(
+                    "the scene has no triangles ({} vertices); an empty mesh cannot be traced",
+                    mesh.positions.len()
+                ),
+            ));
+        }
+        mesh.validate()?;
+        Ok(ObjFile {
+            triangle_faces: (0..n).collect(),
+            materials: self.materials,
+            triangle_materials: self.triangle_materials,
+            normals: self.normals,
+            corner_normals: self.corner_normals,
+            smoothing: self.smoothing,
+            vertex_colors: None,
+            warnings: self.warnings,
+            mesh,
+        })
+    }
+}
