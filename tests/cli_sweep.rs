@@ -85,6 +85,23 @@ fn every_method_sweeps_its_grid() {
             field["truth"]["receiver_vertices"], 4096,
             "the ground under the mesh receives"
         );
+        // Deterministic for a seed, apart from times.
+        let again = sweep(
+            &dir,
+            &format!("field-again-{device}"),
+            &format!("field --mesh {sphere} --grid res=8,16 --grid bits=1,8 --grid positions=258 --truth-rays 32"),
+            device,
+            4,
+        );
+        let errors = |j: &Value| {
+            j["rows"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|r| r["error"].clone())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(errors(&field), errors(&again));
         let ssao = sweep(
             &dir,
             &format!("ssao-{device}"),

@@ -80,7 +80,7 @@ pub struct AoArgs {
     #[arg(long)]
     pub reference: bool,
     /// --method field: the cheapest --positions/--res/--bits whose AO error
-    /// against ray casting, estimated on 1024 vertices, is within this at
+    /// against ray casting, estimated on 4096 vertices, is within this at
     /// 95% confidence (cached per scene).
     #[arg(long, allow_negative_numbers = true, conflicts_with_all = ["field", "positions", "res", "bits"])]
     pub max_error: Option<f64>,

@@ -27,7 +27,7 @@ use crate::sweep::budget::{Candidate, Choice, SampleError};
 use crate::tracer::Tracer;
 
 /// Receiver vertices the error is estimated on.
-pub const SAMPLE_VERTICES: usize = 1024;
+pub const SAMPLE_VERTICES: usize = 4096;
 /// (positions, res, bits) tried, cheapest first. 8 bits: 32-bit maps
 /// measured no more accurate on the shared models (`sweep field`), at four
 /// times the memory; 32 bits comes only where the directions are finest.
