@@ -107,6 +107,44 @@ fn an_output_over_a_scene_files_mesh_is_refused() {
     r.bad_input(&["--per-vertex", "the input --scene"]);
 }
 
+/// A mesh's own companions (an OBJ's MTL file, a .gltf's buffer file) are
+/// inputs too.
+#[test]
+fn an_output_over_a_meshs_mtl_or_buffer_is_refused() {
+    let d = TempDir::new("guard_companions");
+    let mtl = d.write("m.mtl", "newmtl red\nKd 1 0 0\n");
+    let obj = d.write(
+        "m.obj",
+        "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n",
+    );
+    let r = pen(
+        "raytrace --method whitted --mesh {obj} --width 8 --height 8 --out {out} --device cpu",
+        &[("obj", &obj), ("out", &mtl)],
+    );
+    r.bad_input(&["--out", "the input --mesh"]);
+    assert!(std::fs::read_to_string(&mtl).unwrap().contains("Kd 1 0 0"));
+    let bin: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let bin_path = d.write("tri data.bin", &bin);
+    let gltf = d.write(
+        "t.gltf",
+        r#"{"asset": {"version": "2.0"}, "buffers": [{"uri": "tri%20data.bin", "byteLength": 36}],
+            "bufferViews": [{"buffer": 0, "byteLength": 36}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                           "min": [0, 0, 0], "max": [1, 1, 0]}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+            "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0}"#,
+    );
+    let r = pen(
+        "ao --mesh {gltf} --method raycast --rays 4 --per-vertex {out} --device cpu",
+        &[("gltf", &gltf), ("out", &bin_path)],
+    );
+    r.bad_input(&["--per-vertex", "the input --mesh"]);
+    assert_eq!(std::fs::read(&bin_path).unwrap(), bin);
+}
+
 /// Outputs that are not inputs are still written (and replace old files).
 #[test]
 fn an_output_beside_the_inputs_is_written_and_replaced_whole() {

@@ -22,6 +22,15 @@ impl Files {
         }
     }
 
+    /// A mesh and the files it names (MTL files, glTF buffers).
+    fn mesh(&mut self, option: &'static str, path: &Option<PathBuf>) {
+        if let Some(p) = path {
+            self.inputs.push((option, p.clone()));
+            let named = crate::scene::companion_files(p);
+            self.inputs.extend(named.into_iter().map(|f| (option, f)));
+        }
+    }
+
     /// A scene file and every file it names.
     fn scene(&mut self, path: &Option<PathBuf>) {
         if let Some(p) = path {
@@ -44,20 +53,20 @@ pub fn of(command: &Command) -> Files {
     match command {
         Command::Info(_) | Command::GenAssets(_) => {}
         Command::TraceRays(a) => {
-            f.input("--mesh", &Some(a.mesh.clone()));
+            f.mesh("--mesh", &Some(a.mesh.clone()));
             f.input("--rays", &Some(a.rays.clone()));
             f.output("--out", &Some(a.out.clone()));
         }
         Command::Ao(a) => {
-            f.input("--mesh", &a.mesh);
-            f.input("--receiver", &a.receiver);
+            f.mesh("--mesh", &a.mesh);
+            f.mesh("--receiver", &a.receiver);
             f.input("--field", &a.field);
             f.scene(&a.scene);
             f.output("--per-vertex", &a.per_vertex);
             f.output("--image", &a.image);
         }
         Command::Trace(a) => {
-            f.input("--mesh", &a.mesh);
+            f.mesh("--mesh", &a.mesh);
             f.scene(&a.scene);
             for (option, path) in [
                 ("--out", &a.out),
@@ -69,13 +78,13 @@ pub fn of(command: &Command) -> Files {
             }
         }
         Command::Ssao(a) => {
-            f.input("--mesh", &a.mesh);
+            f.mesh("--mesh", &a.mesh);
             f.scene(&a.scene);
             f.output("--out", &a.out);
             f.output("--image", &a.image);
         }
         Command::Prt(a) => {
-            f.input("--mesh", &a.mesh);
+            f.mesh("--mesh", &a.mesh);
             f.input("--env", &Some(a.env.clone()));
             f.output("--out", &a.out);
             if let Some(dir) = &a.out_frames {
@@ -86,19 +95,19 @@ pub fn of(command: &Command) -> Files {
             }
         }
         Command::Sweep(a) => {
-            f.input("--mesh", &a.mesh);
-            f.input("--receiver", &a.receiver);
+            f.mesh("--mesh", &a.mesh);
+            f.mesh("--receiver", &a.receiver);
             f.scene(&a.scene);
             a.outputs().into_iter().for_each(|p| f.output("--out", &Some(p)));
         }
         Command::Field(a) => {
             if let super::field::FieldCommand::Build(b) = &a.command {
-                f.input("--mesh", &Some(b.mesh.clone()));
+                f.mesh("--mesh", &Some(b.mesh.clone()));
                 f.output("-o", &Some(b.out.clone()));
             }
         }
         Command::Raytrace(a) => {
-            f.input("--mesh", &a.mesh);
+            f.mesh("--mesh", &a.mesh);
             f.input("--path", &a.path);
             f.scene(&a.scene);
             f.output("--error-image", &a.error_image);

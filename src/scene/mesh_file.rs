@@ -96,3 +96,32 @@ pub fn load_mesh_file(path: &Path) -> Result<ObjFile> {
         format => gltf_from_bytes(path, &bytes, format == MeshFormat::Glb),
     }
 }
+
+/// Files a mesh file names and a reader opens with it: an OBJ's `mtllib`
+/// files, a `.gltf`'s external buffers (relative to the mesh's folder).
+/// Outputs must not overwrite them either (`output::refuse_overwrites`);
+/// an unreadable or malformed mesh names none (its reader reports it).
+pub fn companion_files(path: &Path) -> Vec<std::path::PathBuf> {
+    let Ok(bytes) = std::fs::read(path) else {
+        return Vec::new();
+    };
+    let dir = path.parent().unwrap_or(Path::new("."));
+    match MeshFormat::detect(path, &bytes) {
+        Ok(MeshFormat::Obj) => String::from_utf8_lossy(&bytes)
+            .lines()
+            .filter_map(|l| l.trim_start().strip_prefix("mtllib"))
+            .flat_map(|names| names.split_whitespace().map(|n| dir.join(n)).collect::<Vec<_>>())
+            .collect(),
+        Ok(MeshFormat::Gltf) => {
+            let json: serde_json::Value = serde_json::from_slice(&bytes).unwrap_or_default();
+            let buffers = json["buffers"].as_array().cloned().unwrap_or_default();
+            buffers
+                .iter()
+                .filter_map(|b| b["uri"].as_str())
+                .filter(|uri| !uri.starts_with("data:"))
+                .map(|uri| dir.join(&*percent_encoding::percent_decode_str(uri).decode_utf8_lossy()))
+                .collect()
+        }
+        _ => Vec::new(),
+    }
+}

@@ -34,7 +34,7 @@ pub use camera_path::CameraPath;
 pub use environment::EnvironmentMap;
 pub use gltf::load_gltf;
 pub use mesh::{Mesh, MeshObject, ORIGIN_OFFSET, used_bounds, vertex_normals};
-pub use mesh_file::{MeshFormat, load_mesh, load_mesh_file};
+pub use mesh_file::{MeshFormat, companion_files, load_mesh, load_mesh_file};
 pub use mtl::{Material, load_mtl, parse_mtl, write_mtl};
 pub use obj::{
     DEFAULT_CREASE_DEGREES, NO_NORMAL, ObjFile, SMOOTH_DEFAULT, load_obj, load_obj_file, parse_obj, parse_obj_file,

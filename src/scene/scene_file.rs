@@ -230,10 +230,12 @@ pub fn referenced_files(path: &Path) -> Vec<PathBuf> {
     };
     let named = file.meshes.values().chain(file.fields.values());
     let environment = file.environment.iter().map(|e| &e.map);
-    named
+    let files: Vec<PathBuf> = named
         .chain(environment)
         .filter_map(|text| resolve(path, "", text).ok())
-        .collect()
+        .collect();
+    let companions = files.iter().flat_map(|f| super::companion_files(f));
+    companions.chain(files.iter().cloned()).collect()
 }
 
 /// Reads a scene file for methods that cast rays: geometry only.
