@@ -127,6 +127,37 @@ fn knobs_run_on_a_static_mesh() {
     }
 }
 
+/// The self-check (issue 15): on by default, in `--json` with its
+/// uncertainty, a warning on stderr above the threshold, off on request; the
+/// sides and lighting decisions are reported too.
+#[test]
+fn self_check_reports_and_warns() {
+    let dir = TempDir::new("prt-self-check");
+    let env = write_probe(&dir);
+    let base = "prt --animated cloth --env {env} --device cpu --json";
+    let r = pen(base, &[("env", &env)]);
+    let j = r.ok().json();
+    let sc = &j["self_check"];
+    let estimate = sc["estimate"].as_f64().unwrap();
+    assert!(estimate > 0.0 && estimate < 0.03, "{sc}");
+    assert!(sc["uncertainty"].as_f64().unwrap() > 0.0, "{sc}");
+    assert_eq!(sc["exceeded"], false);
+    assert!(!r.stderr.contains("self-check"), "{}", r.stderr);
+    assert_eq!(j["sides"]["two_sided"], true);
+    assert!(j["sides"]["back_exposure"].as_f64().unwrap() > 0.1);
+    assert!(j["hierarchy"]["tolerance"].as_f64().unwrap() > 0.0);
+    assert!(j["lighting"]["least_after"].as_f64().unwrap() >= 0.0);
+    let r = pen(&format!("{base} --self-check-threshold 0.001"), &[("env", &env)]);
+    assert_eq!(r.ok().json()["self_check"]["exceeded"], true);
+    assert!(
+        r.stderr.contains("self-check: estimated transfer error"),
+        "{}",
+        r.stderr
+    );
+    let r = pen(&format!("{base} --self-check off"), &[("env", &env)]);
+    assert!(r.ok().json()["self_check"].is_null());
+}
+
 #[test]
 fn bad_input_is_exit_code_two() {
     let dir = TempDir::new("prt-bad");
@@ -160,6 +191,18 @@ fn bad_input_is_exit_code_two() {
         ("prt --animated cloth --env {env} --exposure 0", &["--exposure"]),
         ("prt --animated cloth --env {env} --dt nan", &["--dt"]),
         ("prt --animated cloth --env {env} --check-rays 0", &["--check-rays"]),
+        (
+            "prt --animated cloth --env {env} --coarse-tolerance -1",
+            &["--coarse-tolerance"],
+        ),
+        (
+            "prt --animated cloth --env {env} --self-check-threshold 0",
+            &["--self-check-threshold"],
+        ),
+        (
+            "prt --animated cloth --env {env} --shadows off --self-check on",
+            &["--self-check", "--shadows on"],
+        ),
         (
             "prt --animated cloth --env {env} --out {dir}/no/such/folder/x.png",
             &["--out"],

@@ -113,7 +113,17 @@ fn prt_rules(a: &super::prt::PrtArgs) -> Vec<Rule> {
         rule(a.pvs == OnOff::On, &["pvs_frames", "pvs_span"], "--pvs on"),
         rule(raytraced, &["check_rays"], "--check or --shadows raytraced"),
         rule(a.check, &["check_frames"], "--check"),
-        rule(a.hierarchy == OnOff::On, &["near", "ring", "coarse"], "--hierarchy on"),
+        rule(
+            a.hierarchy == OnOff::On,
+            &["near", "ring", "coarse", "coarse_tolerance"],
+            "--hierarchy on",
+        ),
+        rule(a.shadows == Shadows::On, &["self_check"], "--shadows on"),
+        rule(
+            a.shadows == Shadows::On && a.self_check == OnOff::On,
+            &["self_check_threshold"],
+            "--self-check on",
+        ),
         rule(a.animated.is_some(), &["start", "dt"], "--animated"),
         rule(
             a.out.is_some() || a.out_frames.is_some(),

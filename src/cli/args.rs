@@ -147,6 +147,8 @@ pub fn flag(name: &str) -> Option<&'static str> {
         "ring" => "--ring",
         "group_size" => "--group-size",
         "coarse_triangles" => "--coarse",
+        "coarse_tolerance" => "--coarse-tolerance",
+        "self_check_threshold" => "--self-check-threshold",
         "shininess" => "--shininess",
         "specular" => "--specular",
         "pvs_frames" => "--pvs-frames",

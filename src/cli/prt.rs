@@ -15,6 +15,7 @@ use crate::prt::hierarchy::{HierarchySettings, NearField};
 use crate::prt::pipeline::{PrtSettings, Toggle};
 use crate::prt::render::{auto_exposure, render};
 use crate::prt::runner::{Playback, PrtRunner, PvsSampling, RayTraced, Shadows, animate};
+use crate::prt::selfcheck::SelfCheck;
 use crate::prt::transfer::{Brdf, BrdfKind, Integration};
 use crate::scene::animated::AnimatedScene;
 use crate::scene::{EnvironmentMap, Scene, View, load_mesh, used_bounds};
@@ -70,9 +71,12 @@ pub struct PrtArgs {
     /// Ring of the full mesh drawn at full resolution: 1 or 2.
     #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
     pub ring: i64,
-    /// Coarse triangles to aim for [default: triangles / 16].
+    /// Coarse triangles to aim for [default: triangles / 16, at most 8 sqrt(triangles)].
     #[arg(long, allow_negative_numbers = true)]
     pub coarse: Option<i64>,
+    /// Angle (radians) a coarse triangle's distance from the fine surface may subtend at a vertex before the vertex draws the fine triangles instead (0: the paper's plain two levels).
+    #[arg(long, default_value_t = crate::prt::hierarchy::DEFAULT_TOLERANCE, allow_negative_numbers = true)]
+    pub coarse_tolerance: f32,
     /// Far triangles per culling group.
     #[arg(long, default_value_t = 16, allow_negative_numbers = true)]
     pub group_size: i64,
@@ -88,10 +92,10 @@ pub struct PrtArgs {
     /// Animation time the PVS samples, seconds from --start [default: the frames' span, at least 2 s].
     #[arg(long, allow_negative_numbers = true)]
     pub pvs_span: Option<f32>,
-    /// Cull blockers facing away from the vertex (auto: when the mesh is closed).
+    /// Cull blockers facing away from the vertex (auto: where rays find it costs no accuracy).
     #[arg(long, value_enum, default_value_t = Toggle::Auto)]
     pub backface: Toggle,
-    /// Shade each vertex's side facing the camera (auto: open meshes).
+    /// Shade each vertex's side facing the camera (auto: where the mesh's back is seen from outside).
     #[arg(long, value_enum, default_value_t = Toggle::Auto)]
     pub two_sided: Toggle,
     /// Where visibility comes from.
@@ -106,6 +110,12 @@ pub struct PrtArgs {
     /// Frames compared (evenly spread over the frames computed).
     #[arg(long, default_value_t = 4, allow_negative_numbers = true)]
     pub check_frames: i64,
+    /// Estimate the transfer error at setup by ray tracing a sample of vertices (`self_check` in --json).
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    pub self_check: OnOff,
+    /// Warn on stderr when the self-check's estimated error exceeds this.
+    #[arg(long, default_value_t = 0.03, allow_negative_numbers = true)]
+    pub self_check_threshold: f64,
     /// Per-phase times (the paper's Table 2); adds a little overhead.
     #[arg(long)]
     pub profile: bool,
@@ -160,6 +170,10 @@ fn knobs(a: &PrtArgs) -> Result<(PrtSettings, Playback, RayTraced)> {
         }),
         check_frames: if a.check { check_frames } else { 0 },
         profile: a.profile,
+        self_check: a.self_check.on().then_some(SelfCheck {
+            threshold: a.self_check_threshold,
+            ..SelfCheck::default()
+        }),
     };
     playback.validate()?;
     if let Some(e) = a.exposure
@@ -183,6 +197,7 @@ fn knobs(a: &PrtArgs) -> Result<(PrtSettings, Playback, RayTraced)> {
             ring,
             coarse_triangles,
             group_size,
+            tolerance: a.coarse_tolerance,
         },
         group_culling: a.group_culling.on(),
         backface: a.backface,
@@ -262,6 +277,9 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
             Ok(())
         },
     )?;
+    if let Some(w) = report.self_check.as_ref().and_then(|c| c.warning()) {
+        super::io::note(&w);
+    }
     let head = json!({ "scene": mesh.name, "images": images, "exposure": exposure, "camera": camera });
     let report = super::io::merged(head, &report)?;
     super::io::merged(report, args.common.report(runner.device(), threads))

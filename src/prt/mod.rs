@@ -10,23 +10,33 @@
 //! * `raster` — spherical rasterisation (CPU only; see `gpu`)
 //! * `transfer` — cells, integration, rotation, shading, twin of `wgsl/sh_transfer.wgsl` (3, 3.2)
 //! * `hierarchy` — two-level mesh and culling groups (3.2)
+//! * `clusters` — each fine triangle's coarse triangle
+//! * `proxy` — the coarse level checked against the fine one, refined per vertex (3.2)
+//! * `sides` — back-face culling and two-sided shading decided from the mesh
+//! * `geometry` — welding and point-triangle distances
 //! * `pvs` — potentially visible sets from sampled frames (3.2)
 //! * `pipeline` — the per-frame loop on the CPU
 //! * `reference` — Monte Carlo ray-traced transfer (the error measure of Table 1)
+//! * `selfcheck` — the ray-traced error estimate made at setup
 //! * `gpu` — the WGSL passes
 //! * `runner` — per-frame transfer of a deforming mesh on any device, with checks
 
 pub mod clip;
+pub mod clusters;
+pub mod geometry;
 pub mod gpu;
 pub mod hierarchy;
 pub mod lut;
 pub mod mask;
 pub mod pipeline;
+pub mod proxy;
 pub mod pvs;
 pub mod raster;
 pub mod reference;
 pub mod render;
 pub mod runner;
+pub mod selfcheck;
+pub mod sides;
 pub mod transfer;
 
 /// Compressed lists: `items[offsets[i]..offsets[i+1]]` is list i.

@@ -20,10 +20,11 @@ use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
 use super::Csr;
-use super::hierarchy::{Hierarchy, HierarchySettings, is_closed};
+use super::hierarchy::{Hierarchy, HierarchySettings};
 use super::lut::PlaneLut;
 use super::mask::MaskGrid;
 use super::raster::{BatchRefs, TriangleBatch, batch_or, batch_refs_inline};
+use super::sides::Sides;
 use super::transfer::{Brdf, CellTables, Integration, radiance};
 use crate::device::elapsed_ms;
 use crate::error::{Error, Result};
@@ -37,6 +38,16 @@ pub enum Toggle {
     Auto,
     On,
     Off,
+}
+
+impl Toggle {
+    /// The forced value, or None for `Auto`.
+    pub fn forced(self) -> Option<bool> {
+        match self {
+            Toggle::Auto => None,
+            t => Some(t == Toggle::On),
+        }
+    }
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -53,10 +64,11 @@ pub struct PrtSettings {
     pub hierarchy: HierarchySettings,
     /// Skip culling groups whose box is below the tangent plane.
     pub group_culling: bool,
-    /// Cull blockers facing away from the vertex (auto: if the mesh is closed).
+    /// Cull blockers facing away from the vertex (auto: where culling costs
+    /// no accuracy, `sides`).
     pub backface: Toggle,
-    /// Shade the side of each vertex that faces the eye (auto: if the mesh
-    /// is open, i.e. a two-sided sheet such as cloth).
+    /// Shade the side of each vertex that faces the eye (auto: where the
+    /// mesh's back is seen from outside, as a cloth's, `sides`).
     pub two_sided: Toggle,
     /// Rasterise at all (off: the unshadowed transfer, for comparison).
     pub shadows: bool,
@@ -172,6 +184,8 @@ pub struct Prt {
     own: OwnLists,
     pub cull_backfaces: bool,
     pub two_sided: bool,
+    /// How culling and sidedness were decided.
+    pub sides: Sides,
     pub vertex_count: usize,
     /// Bounding-box diagonal of the rest pose's used vertices (sets the
     /// contract's origin offset and the scale of tangent-frame coordinates).
@@ -286,15 +300,8 @@ impl Prt {
         let tables = CellTables::with_integration(&grid, settings.bands, settings.integration);
         let rotation = ShRotation::new(settings.bands);
         let hierarchy = Hierarchy::build(rest, triangles, &settings.hierarchy)?;
-        let closed = is_closed(triangles);
-        let cull_backfaces = match settings.backface {
-            Toggle::Auto => closed,
-            t => t == Toggle::On,
-        };
-        let two_sided = match settings.two_sided {
-            Toggle::Auto => !closed,
-            t => t == Toggle::On,
-        };
+        let sides = super::sides::decide(rest, triangles, settings.backface.forced(), settings.two_sided.forced())?;
+        let (cull_backfaces, two_sided) = (sides.backface_culling, sides.two_sided);
         let scale = used_bounds(rest, triangles).diagonal().max(f32::MIN_POSITIVE);
         #[cfg(target_arch = "x86_64")]
         let avx2 = std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma");
@@ -311,6 +318,7 @@ impl Prt {
             own: OwnLists::default(),
             cull_backfaces,
             two_sided,
+            sides,
             vertex_count: rest.len(),
             scale,
             lut_ms,
@@ -434,14 +442,7 @@ impl Prt {
         self.run_frame(positions, eye, &[], work, out)
     }
 
-    fn run_frame(
-        &self,
-        positions: &[Vec3],
-        eye: Option<Vec3>,
-        lighting: &[f32],
-        work: FrameWork,
-        out: &mut FrameOutput,
-    ) -> Result<()> {
+    fn check_pose(&self, positions: &[Vec3]) -> Result<()> {
         if positions.len() != self.vertex_count {
             return Err(Error::input(
                 "frame",
@@ -455,6 +456,18 @@ impl Prt {
         if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
             return Err(Error::input(format!("vertex {}", i + 1), "has a non-finite coordinate"));
         }
+        Ok(())
+    }
+
+    fn run_frame(
+        &self,
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        lighting: &[f32],
+        work: FrameWork,
+        out: &mut FrameOutput,
+    ) -> Result<()> {
+        self.check_pose(positions)?;
         match self.grid.words {
             4 => self.frame_impl::<4>(positions, eye, lighting, work, out),
             16 => self.frame_impl::<16>(positions, eye, lighting, work, out),
@@ -486,25 +499,7 @@ impl Prt {
         out.masks.resize(if keep_masks { nv * W } else { 0 }, 0);
         let mut normals = std::mem::take(&mut out.normals);
         self.shading_normals(positions, eye, &mut normals);
-        let h = &self.hierarchy;
-        let mut shared = FrameShared {
-            positions,
-            normals: &normals,
-            eye,
-            lighting,
-            boxes: Vec::new(),
-            far_xyz: Default::default(),
-            profile,
-            integrate,
-        };
-        if self.pvs.is_none() {
-            if self.settings.group_culling {
-                h.group_boxes(positions, &mut shared.boxes);
-            }
-            for (axis, a) in shared.far_xyz.iter_mut().enumerate() {
-                a.extend(h.group_verts.iter().map(|&v| positions[v as usize][axis]));
-            }
-        }
+        let shared = self.shared(positions, &normals, eye, lighting, profile, integrate);
         let counters: [AtomicU64; 12] = Default::default();
         let setup_ns = other_start.elapsed().as_nanos() as u64;
 
@@ -553,6 +548,39 @@ impl Prt {
             drawn: c[7],
             phase_ns: [c[8], c[9], c[10], c[11] + setup_ns],
         };
+    }
+
+    /// What every vertex of a frame shares: the pose, its shading normals,
+    /// the group boxes and far vertices.
+    fn shared<'a>(
+        &self,
+        positions: &'a [Vec3],
+        normals: &'a [Vec3],
+        eye: Option<Vec3>,
+        lighting: &'a [f32],
+        profile: bool,
+        integrate: bool,
+    ) -> FrameShared<'a> {
+        let h = &self.hierarchy;
+        let mut shared = FrameShared {
+            positions,
+            normals,
+            eye,
+            lighting,
+            boxes: Vec::new(),
+            far_xyz: Default::default(),
+            profile,
+            integrate,
+        };
+        if self.pvs.is_none() {
+            if self.settings.group_culling {
+                h.group_boxes(positions, &mut shared.boxes);
+            }
+            for (axis, a) in shared.far_xyz.iter_mut().enumerate() {
+                a.extend(h.group_verts.iter().map(|&v| positions[v as usize][axis]));
+            }
+        }
+        shared
     }
 
     #[cfg(target_arch = "x86_64")]

@@ -73,17 +73,29 @@ pub fn reference_transfer(
 /// vertices whose reference is not (nearly) zero. Returns (mean, vertices
 /// counted, vertices skipped).
 pub fn relative_l2_error(transfer: &[f32], reference: &[f32], coeffs: usize, floor: f32) -> (f64, usize, usize) {
-    let mut sum = 0.0f64;
-    let (mut counted, mut skipped) = (0, 0);
-    for (t, r) in transfer.chunks(coeffs).zip(reference.chunks(coeffs)) {
-        let norm: f32 = r.iter().map(|x| x * x).sum::<f32>().sqrt();
-        if norm <= floor {
-            skipped += 1;
-            continue;
-        }
-        let diff: f32 = t.iter().zip(r).map(|(a, b)| (a - b) * (a - b)).sum::<f32>().sqrt();
-        sum += (diff / norm) as f64;
-        counted += 1;
-    }
-    (if counted > 0 { sum / counted as f64 } else { 0.0 }, counted, skipped)
+    let errors = relative_l2_errors(transfer, reference, coeffs, floor);
+    let counted: Vec<f64> = errors.iter().flatten().copied().collect();
+    let skipped = errors.len() - counted.len();
+    let mean = if counted.is_empty() {
+        0.0
+    } else {
+        counted.iter().sum::<f64>() / counted.len() as f64
+    };
+    (mean, counted.len(), skipped)
+}
+
+/// Each vertex's `|T - T_ref| / |T_ref|`, or None where `|T_ref| <= floor`.
+pub fn relative_l2_errors(transfer: &[f32], reference: &[f32], coeffs: usize, floor: f32) -> Vec<Option<f64>> {
+    transfer
+        .chunks(coeffs)
+        .zip(reference.chunks(coeffs))
+        .map(|(t, r)| {
+            let norm: f32 = r.iter().map(|x| x * x).sum::<f32>().sqrt();
+            if norm <= floor {
+                return None;
+            }
+            let diff: f32 = t.iter().zip(r).map(|(a, b)| (a - b) * (a - b)).sum::<f32>().sqrt();
+            Some((diff / norm) as f64)
+        })
+        .collect()
 }

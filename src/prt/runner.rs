@@ -14,11 +14,14 @@ use super::gpu::{FrameInputs, GpuTransfer, MAX_GPU_BANDS};
 use super::hierarchy::NearField;
 use super::pipeline::{FrameOutput, FrameStats, Prt, PrtSettings};
 use super::reference::{reference_transfer, relative_l2_error};
+use super::selfcheck::{SelfCheck, SelfCheckReport};
+use super::sides::Sides;
 use super::transfer::{Brdf, Integration, radiance};
 use crate::device::{Device, OnDevice, elapsed_ms};
 use crate::error::{Error, Result};
 use crate::kdtree::{KdTree, KdTreeParams};
 use crate::scene::{EnvironmentMap, SceneMesh};
+use crate::sh::window::{Deringing, nonnegative};
 use crate::sh::{ShRgb, ShRotation, coefficient_count, project_environment};
 
 /// Where a frame's visibility comes from.
@@ -187,6 +190,17 @@ impl PrtRunner {
         ))
     }
 
+    /// The self-check's estimate of the transfer error on `poses` (frame
+    /// index and positions each), from a sample of vertices (`selfcheck`).
+    pub fn self_check(
+        &self,
+        poses: &[(usize, Vec<Vec3>)],
+        eye: Option<Vec3>,
+        check: &SelfCheck,
+    ) -> Result<SelfCheckReport> {
+        super::selfcheck::estimate(&self.prt, &self.triangles, poses, eye, check, self.reference.seed)
+    }
+
     /// The frame's mean relative L2 transfer error against ray tracing:
     /// (error, vertices counted, vertices skipped as nearly dark).
     pub fn transfer_error(
@@ -225,6 +239,8 @@ pub struct Playback {
     pub check_frames: usize,
     /// Per-phase times (the paper's Table 2).
     pub profile: bool,
+    /// The ray-traced error estimate at setup (`selfcheck`; None: none).
+    pub self_check: Option<SelfCheck>,
 }
 
 /// Poses a PVS is gathered from: `frames` over `span` seconds from the
@@ -248,6 +264,9 @@ impl Playback {
         if !(self.dt.is_finite() && self.start.is_finite() && self.env_spin.is_finite()) {
             return Err(Error::param("dt/start/env_spin", "must be finite"));
         }
+        if let Some(c) = &self.self_check {
+            c.validate()?;
+        }
         Ok(())
     }
 
@@ -257,7 +276,12 @@ impl Playback {
 
     /// The frames checked against ray tracing.
     fn checked(&self) -> Vec<usize> {
-        let k = self.check_frames.min(self.frames);
+        self.spread(self.check_frames)
+    }
+
+    /// `k` frames evenly spread over the run (fewer if there are fewer).
+    fn spread(&self, k: usize) -> Vec<usize> {
+        let k = k.min(self.frames);
         (0..k)
             .map(|i| if k == 1 { 0 } else { i * (self.frames - 1) / (k - 1) })
             .collect()
@@ -276,11 +300,17 @@ pub fn animate(
 ) -> Result<PrtReport> {
     animation.validate()?;
     let bands = runner.prt.settings.bands;
-    let lighting_world = project_environment(env, bands);
+    // Non-negative lighting, so that no visibility shades below zero
+    // (`sh::window`; issue 15 item 6).
+    let (lighting_world, deringing) = nonnegative(&project_environment(env, bands));
     let rotation = ShRotation::new(bands);
     let pvs = match animation.pvs {
         Some(sampling) => Some(gather_pvs(runner, mesh, animation, sampling)?),
         None => None,
+    };
+    let self_check = match animation.self_check {
+        Some(c) if runner.shadows == Shadows::On => Some(self_check(runner, mesh, eye, animation, &c)?),
+        _ => None,
     };
     let checked = animation.checked();
     let mut check = CheckReport {
@@ -321,7 +351,33 @@ pub fn animate(
         &sum,
         pvs,
         (!checked.is_empty()).then_some(check),
-    ))
+    )
+    .with_setup(self_check, deringing))
+}
+
+/// The self-check on the poses `--check` would compare (the default four
+/// frames; one pose for a static mesh).
+fn self_check(
+    runner: &PrtRunner,
+    mesh: &SceneMesh,
+    eye: Option<Vec3>,
+    animation: &Playback,
+    check: &SelfCheck,
+) -> Result<SelfCheckReport> {
+    let frames = match (&mesh.animation, animation.check_frames) {
+        (None, _) => vec![0],
+        (Some(_), 0) => animation.spread(4),
+        (Some(_), k) => animation.spread(k),
+    };
+    let poses: Vec<(usize, Vec<Vec3>)> = frames
+        .into_iter()
+        .map(|f| {
+            let mut p = Vec::new();
+            mesh.positions_at(animation.time(f), &mut p);
+            (f, p)
+        })
+        .collect();
+    runner.self_check(&poses, eye, check)
 }
 
 fn gather_pvs(
@@ -383,6 +439,8 @@ pub struct PrtReport {
     pub hierarchy: HierarchyReport,
     pub backface_culling: bool,
     pub two_sided: bool,
+    /// How culling and sidedness were decided (`prt::sides`).
+    pub sides: Sides,
     pub pvs: Option<PvsReport>,
     pub avg_candidates_per_vertex: f64,
     pub culling_per_vertex: CullingReport,
@@ -390,6 +448,10 @@ pub struct PrtReport {
     pub phases: Option<Phases>,
     pub setup_ms: f64,
     pub check: Option<CheckReport>,
+    /// The ray-traced estimate of the error made at setup (`prt::selfcheck`).
+    pub self_check: Option<SelfCheckReport>,
+    /// How the lighting was windowed to keep it non-negative (`sh::window`).
+    pub lighting: Option<Deringing>,
 }
 
 #[derive(Debug, Clone, Copy, Serialize)]
@@ -414,6 +476,16 @@ pub struct HierarchyReport {
     pub near: NearField,
     pub ring: usize,
     pub low_res_triangles: Option<usize>,
+    /// `HierarchySettings::tolerance`, radians (0: no refinement).
+    pub tolerance: f32,
+    /// Coarse triangles' deviation from the fine surface (`prt::proxy`),
+    /// relative to the rest pose's bounding-box diagonal: mean and largest.
+    pub deviation_mean: Option<f64>,
+    pub deviation_max: Option<f64>,
+    /// Per vertex, on average: fine triangles drawn near it and coarse
+    /// triangles they replace (the near field, refinement included).
+    pub near_triangles_per_vertex: f64,
+    pub replaced_per_vertex: f64,
     pub groups: usize,
     pub group_culling: bool,
 }
@@ -526,11 +598,24 @@ impl PrtReport {
                 near: s.hierarchy.near,
                 ring: s.hierarchy.ring,
                 low_res_triangles: h.coarse.then_some(h.far.len()),
+                tolerance: s.hierarchy.tolerance,
+                deviation_mean: (!h.deviation.is_empty()).then(|| {
+                    h.deviation.iter().map(|&d| d as f64).sum::<f64>() / h.deviation.len() as f64 / prt.scale as f64
+                }),
+                deviation_max: h
+                    .deviation
+                    .iter()
+                    .copied()
+                    .reduce(f32::max)
+                    .map(|d| d as f64 / prt.scale as f64),
+                near_triangles_per_vertex: h.near.items.len() as f64 / prt.vertex_count.max(1) as f64,
+                replaced_per_vertex: h.excluded.items.len() as f64 / prt.vertex_count.max(1) as f64,
                 groups: h.groups.len(),
                 group_culling: s.group_culling,
             },
             backface_culling: prt.cull_backfaces,
             two_sided: prt.two_sided,
+            sides: prt.sides,
             pvs,
             avg_candidates_per_vertex: sum.candidates as f64 / verts,
             culling_per_vertex: CullingReport {
@@ -543,6 +628,17 @@ impl PrtReport {
             phases,
             setup_ms: prt.setup_ms,
             check,
+            self_check: None,
+            lighting: None,
+        }
+    }
+
+    /// With what was decided and measured before the first frame.
+    fn with_setup(self, self_check: Option<SelfCheckReport>, lighting: Deringing) -> PrtReport {
+        PrtReport {
+            self_check,
+            lighting: Some(lighting),
+            ..self
         }
     }
 }

@@ -436,9 +436,9 @@ mod tests {
         let cloth = cloth();
         assert_eq!(cloth.vertex_count(), 1369);
         assert_eq!(cloth.triangles.len(), 2592);
-        assert!(!crate::prt::hierarchy::is_closed(&cloth.triangles));
+        assert!(!crate::prt::sides::is_closed(&cloth.triangles));
         let ch = character();
-        assert!(crate::prt::hierarchy::is_closed(&ch.triangles), "every part is closed");
+        assert!(crate::prt::sides::is_closed(&ch.triangles), "every part is closed");
         // Outward: the head's top vertex has an upward normal.
         let m = ch.mesh_at(0.0);
         let normals = m.vertex_normals();

@@ -23,6 +23,7 @@ pub mod basis;
 pub mod projection;
 pub mod quadrature;
 pub mod rotation;
+pub mod window;
 pub mod zonal;
 
 pub use basis::ShBasis;

@@ -61,6 +61,11 @@ const KNOBS: &[Knob] = &[
         default_grid: &[],
     },
     Knob {
+        name: "coarse-tolerance",
+        help: "angle (rad) a coarse triangle may deviate before fine ones are drawn",
+        default_grid: &[],
+    },
+    Knob {
         name: "group-size",
         help: "far triangles per culling group",
         default_grid: &[],
@@ -130,6 +135,7 @@ impl PrtSweep {
                 ring: s.get("ring")?.unwrap_or(h.ring),
                 coarse_triangles: s.get("coarse")?.or(h.coarse_triangles),
                 group_size: s.get("group-size")?.unwrap_or(h.group_size),
+                tolerance: s.get("coarse-tolerance")?.unwrap_or(h.tolerance),
             },
             group_culling: s.get_on_off("group-culling")?.unwrap_or(base.group_culling),
             backface: s.get_enum::<Toggle>("backface")?.unwrap_or(base.backface),
