@@ -169,3 +169,48 @@ fn obj_text(positions: &[glam::Vec3], triangles: &[[u32; 3]]) -> String {
     }
     text
 }
+
+#[test]
+fn prt_picks_the_fastest_mask_and_hierarchy_within_the_budget() {
+    use image::Rgb;
+    use image::codecs::hdr::HdrEncoder;
+    let dir = TempDir::new("max-error-prt");
+    let (w, h) = (32usize, 16usize);
+    let sky: Vec<Rgb<f32>> = (0..w * h)
+        .map(|i| {
+            if i / w < h / 2 {
+                Rgb([2.0, 1.8, 1.5])
+            } else {
+                Rgb([0.2, 0.2, 0.25])
+            }
+        })
+        .collect();
+    let env = dir.p("probe.hdr");
+    HdrEncoder::new(std::io::BufWriter::new(std::fs::File::create(&env).unwrap()))
+        .encode(&sky, w, h)
+        .unwrap();
+    let mesh = asset_s("sphere-on-plane.obj");
+    let base = "prt --mesh {mesh} --env {env} --check --check-rays 1024 --device cpu --json";
+    let vars = [("mesh", mesh.as_str()), ("env", env.as_str())];
+    let j = pen_cached(&dir, &format!("{base} --max-error 0.05"), &vars).ok().json();
+    let choice = &j["max_error"];
+    assert_eq!(choice["candidates"].as_array().unwrap().len(), 6, "{choice}");
+    let time = |c: &Value| c["time_ms"].as_f64().unwrap();
+    let within: Vec<&Value> = choice["candidates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|c| c["within"] == true)
+        .collect();
+    if let Some(fastest) = within.iter().min_by(|a, b| time(a).total_cmp(&time(b))) {
+        assert_eq!(fastest["knobs"], choice["chosen"]);
+    }
+    // The self-check's estimate is of --check's figure (its rays: 4096 there, 1024 here).
+    let full = j["transfer_l2_error"].as_f64().unwrap();
+    println!("prt: estimate {} full {full}", choice["estimate"]);
+    assert!(
+        (choice["estimate"].as_f64().unwrap() - full).abs() < 0.01,
+        "{choice} vs {full}"
+    );
+    pen_cached(&dir, &format!("{base} --max-error 0.05 --mask 16"), &vars).bad_input(&["--mask", "--max-error"]);
+}

@@ -11,6 +11,7 @@ use serde_json::{Value, json};
 use super::args::{CameraArgs, Common, OnOff, check_output, parse_vec3, positive, stem};
 use super::io::write_rgb_png;
 use crate::error::{Error, Result};
+use crate::progress::Bars;
 use crate::prt::hierarchy::{HierarchySettings, NearField};
 use crate::prt::pipeline::{PrtSettings, Toggle};
 use crate::prt::render::{auto_exposure, render};
@@ -19,6 +20,7 @@ use crate::prt::selfcheck::SelfCheck;
 use crate::prt::transfer::{Brdf, BrdfKind, Integration};
 use crate::scene::animated::AnimatedScene;
 use crate::scene::{EnvironmentMap, Scene, View, load_mesh, used_bounds};
+use crate::sweep::budget::{Choice, cached};
 
 #[derive(clap::Args)]
 pub struct PrtArgs {
@@ -116,6 +118,10 @@ pub struct PrtArgs {
     /// Warn on stderr when the self-check's estimated error exceeds this.
     #[arg(long, default_value_t = 0.03, allow_negative_numbers = true)]
     pub self_check_threshold: f64,
+    /// The fastest --mask and --hierarchy whose transfer error, estimated by
+    /// the self-check, is within this at 95% confidence (cached per mesh).
+    #[arg(long, allow_negative_numbers = true, conflicts_with_all = ["mask", "hierarchy"])]
+    pub max_error: Option<f64>,
     /// Per-phase times (the paper's Table 2); adds a little overhead.
     #[arg(long)]
     pub profile: bool,
@@ -213,7 +219,7 @@ fn knobs(a: &PrtArgs) -> Result<(PrtSettings, Playback, RayTraced)> {
 
 pub fn run(args: &PrtArgs) -> Result<Value> {
     let threads = args.common.init_threads()?;
-    let (settings, playback, reference) = knobs(args)?;
+    let (mut settings, playback, reference) = knobs(args)?;
     let view = View::new(args.camera.spec(), args.width, args.height)?;
     let out_png = args.out.as_deref().map(|p| check_output(p, "--out")).transpose()?;
     if let Some(dir) = &args.out_frames
@@ -237,10 +243,14 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     let triangles = &mesh.mesh.triangles;
     let mut rest = Vec::new();
     mesh.positions_at(playback.start, &mut rest);
-    let mut runner = PrtRunner::new(&device, &rest, triangles, &settings, args.shadows, reference)?;
-    runner.notes().iter().for_each(|n| super::io::note(n));
     // Camera: the animation's, else the contract's default; options override.
     let camera = view.camera.resolve(scene.camera, &used_bounds(&rest, triangles))?;
+    let choice = match args.max_error {
+        Some(e) => Some(choose(args, &device, (&rest, triangles), &mut settings, camera.eye, e)?),
+        None => None,
+    };
+    let mut runner = PrtRunner::new(&device, &rest, triangles, &settings, args.shadows, reference)?;
+    runner.notes().iter().for_each(|n| super::io::note(n));
     let (mut exposure, mut images) = (args.exposure, 0usize);
     let report = animate(
         &mut runner,
@@ -280,7 +290,43 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     if let Some(w) = report.self_check.as_ref().and_then(|c| c.warning()) {
         super::io::note(&w);
     }
-    let head = json!({ "scene": mesh.name, "images": images, "exposure": exposure, "camera": camera });
+    let head =
+        json!({ "scene": mesh.name, "images": images, "exposure": exposure, "camera": camera, "max_error": choice });
     let report = super::io::merged(head, &report)?;
     super::io::merged(report, args.common.report(runner.device(), threads))
+}
+
+/// `--max-error`: the cached or checked choice, applied to `settings`.
+fn choose(
+    args: &PrtArgs,
+    device: &crate::device::Device,
+    (rest, triangles): (&[Vec3], &[[u32; 3]]),
+    settings: &mut PrtSettings,
+    eye: Vec3,
+    max_error: f64,
+) -> Result<Choice> {
+    let check = SelfCheck::default();
+    let files: Vec<&std::path::Path> = args.mesh.iter().map(PathBuf::as_path).collect();
+    let options = format!("{max_error}|{:?}|{:?}|{eye}|{}", args.animated, settings, device.kind());
+    let seed = args.common.seed;
+    let choice = cached("prt", &options, &files, || {
+        crate::prt::budget::choose(
+            device,
+            rest,
+            triangles,
+            settings,
+            Some(eye),
+            &check,
+            seed,
+            max_error,
+            Bars::Stderr,
+        )
+    })?;
+    super::io::note_choice(&choice);
+    settings.mask_side = choice.chosen.get("mask")?.unwrap_or(settings.mask_side);
+    settings.hierarchy.enabled = choice
+        .chosen
+        .get_on_off("hierarchy")?
+        .unwrap_or(settings.hierarchy.enabled);
+    Ok(choice)
 }

@@ -21,6 +21,7 @@
 //! * `gpu` — the WGSL passes
 //! * `runner` — per-frame transfer of a deforming mesh on any device, with checks
 
+pub mod budget;
 pub mod clip;
 pub mod clusters;
 pub mod geometry;
