@@ -17,7 +17,7 @@ use crate::field::budget as field_budget;
 use crate::field::options::FieldOptions;
 use crate::field::runner::{FieldAo, MAX_FRAMES};
 use crate::progress::Bars;
-use crate::scene::{Instance, Role, Scene, SceneMesh, Transform, View, load_mesh};
+use crate::scene::{Role, Scene, SceneMesh, View, load_mesh};
 use crate::sweep::budget::{Choice, cached};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -101,20 +101,8 @@ fn scene_of(args: &AoArgs) -> Result<Scene> {
 }
 
 /// The one-mesh `scene` made a caster onto the mesh at `receiver`.
-pub(super) fn with_receiver(mut scene: Scene, receiver: &Path) -> Result<Scene> {
-    scene.instances[0].role = Role::Caster;
-    scene
-        .meshes
-        .push(SceneMesh::new("receiver", receiver, load_mesh(receiver)?));
-    scene.instances.push(Instance {
-        name: "receiver".into(),
-        mesh: 1,
-        role: Role::Receiver,
-        transform: Transform::default(),
-        motion: None,
-        material: None,
-    });
-    Ok(scene)
+pub(super) fn with_receiver(scene: Scene, receiver: &Path) -> Result<Scene> {
+    Ok(scene.with_receiver(SceneMesh::new("receiver", receiver, load_mesh(receiver)?)))
 }
 
 pub fn run(args: &AoArgs) -> Result<Value> {

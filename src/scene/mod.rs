@@ -185,6 +185,22 @@ impl Scene {
         Self::of(SceneMesh::new(name, path, mesh))
     }
 
+    /// This one-mesh scene made a caster onto `receiver`, which only
+    /// receives (`ao --receiver`: the displacement-field paper's form).
+    pub fn with_receiver(mut self, receiver: SceneMesh) -> Scene {
+        self.instances[0].role = Role::Caster;
+        self.instances.push(Instance {
+            name: receiver.name.clone(),
+            mesh: self.meshes.len(),
+            role: Role::Receiver,
+            transform: Transform::default(),
+            motion: None,
+            material: None,
+        });
+        self.meshes.push(receiver);
+        self
+    }
+
     /// A scene of one deforming mesh (its rest pose at time 0), framed by
     /// the animation's camera.
     pub fn from_animation(animation: animated::Animation) -> Scene {

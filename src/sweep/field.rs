@@ -13,7 +13,7 @@ use crate::error::Result;
 use crate::field::runner::FieldAo;
 use crate::field::{DirectionMapping, FieldParams, Positional};
 use crate::progress::Bars;
-use crate::scene::{Instance, Mesh, Role, Scene, SceneMesh, Transform};
+use crate::scene::{Mesh, Scene, SceneMesh};
 
 const KNOBS: &[Knob] = &[
     Knob {
@@ -107,21 +107,12 @@ pub fn on_ground(name: &str, path: &std::path::Path, mesh: Mesh) -> Result<Scene
             [[i, i + n, i + 1], [i + 1, i + n, i + n + 1]]
         })
         .collect();
-    let mut scene = Scene::from_mesh(name, path, mesh);
-    scene.instances[0].role = Role::Caster;
-    let ground = Mesh::new(positions, triangles)?;
-    scene
-        .meshes
-        .push(SceneMesh::new("ground", std::path::Path::new("<ground>"), ground));
-    scene.instances.push(Instance {
-        name: "ground".into(),
-        mesh: 1,
-        role: Role::Receiver,
-        transform: Transform::default(),
-        motion: None,
-        material: None,
-    });
-    Ok(scene)
+    let ground = SceneMesh::new(
+        "ground",
+        std::path::Path::new("<ground>"),
+        Mesh::new(positions, triangles)?,
+    );
+    Ok(Scene::from_mesh(name, path, mesh).with_receiver(ground))
 }
 
 impl<'s> SweepMethod for FieldSweep<'s> {
