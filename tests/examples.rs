@@ -22,7 +22,6 @@ use common::cli::TempDir;
 use penumbra::device::Device;
 use penumbra::prt::pipeline::FrameOutput;
 use penumbra::prt::runner::{PrtRunner, RayTraced, Shadows};
-use penumbra::sh::project_environment;
 use penumbra::ssao::gbuffer::{GBuffer, ScreenView};
 use penumbra::ssao::{final_ao, run_cpu};
 
@@ -85,7 +84,7 @@ fn host_prt_example_equals_the_cpu_runner_and_ray_tracing() {
     let rest = host_prt::positions_at(0.0);
     let triangles = host_prt::triangles();
     let mut cpu = PrtRunner::new(&Device::cpu(), &rest, &triangles, &settings, Shadows::On, reference).unwrap();
-    let lighting = project_environment(&host_prt::sky().unwrap(), settings.bands).to_f32_planar();
+    let lighting = host_prt::lighting(settings.bands).unwrap();
     let mut frame = FrameOutput::default();
     let eye = Some(host_prt::camera().eye);
     cpu.frame(&report.positions, eye, &lighting, false, &mut frame).unwrap();

@@ -64,8 +64,8 @@ pub struct PrtSettings {
     pub hierarchy: HierarchySettings,
     /// Skip culling groups whose box is below the tangent plane.
     pub group_culling: bool,
-    /// Cull blockers facing away from the vertex (auto: where culling costs
-    /// no accuracy, `sides`).
+    /// Cull blockers facing away from the vertex (auto: where rays find that
+    /// culling costs no accuracy, `sides`).
     pub backface: Toggle,
     /// Shade the side of each vertex that faces the eye (auto: where the
     /// mesh's back is seen from outside, as a cloth's, `sides`).
@@ -442,7 +442,14 @@ impl Prt {
         self.run_frame(positions, eye, &[], work, out)
     }
 
-    fn check_pose(&self, positions: &[Vec3]) -> Result<()> {
+    fn run_frame(
+        &self,
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        lighting: &[f32],
+        work: FrameWork,
+        out: &mut FrameOutput,
+    ) -> Result<()> {
         if positions.len() != self.vertex_count {
             return Err(Error::input(
                 "frame",
@@ -456,18 +463,6 @@ impl Prt {
         if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
             return Err(Error::input(format!("vertex {}", i + 1), "has a non-finite coordinate"));
         }
-        Ok(())
-    }
-
-    fn run_frame(
-        &self,
-        positions: &[Vec3],
-        eye: Option<Vec3>,
-        lighting: &[f32],
-        work: FrameWork,
-        out: &mut FrameOutput,
-    ) -> Result<()> {
-        self.check_pose(positions)?;
         match self.grid.words {
             4 => self.frame_impl::<4>(positions, eye, lighting, work, out),
             16 => self.frame_impl::<16>(positions, eye, lighting, work, out),
@@ -499,7 +494,25 @@ impl Prt {
         out.masks.resize(if keep_masks { nv * W } else { 0 }, 0);
         let mut normals = std::mem::take(&mut out.normals);
         self.shading_normals(positions, eye, &mut normals);
-        let shared = self.shared(positions, &normals, eye, lighting, profile, integrate);
+        let h = &self.hierarchy;
+        let mut shared = FrameShared {
+            positions,
+            normals: &normals,
+            eye,
+            lighting,
+            boxes: Vec::new(),
+            far_xyz: Default::default(),
+            profile,
+            integrate,
+        };
+        if self.pvs.is_none() {
+            if self.settings.group_culling {
+                h.group_boxes(positions, &mut shared.boxes);
+            }
+            for (axis, a) in shared.far_xyz.iter_mut().enumerate() {
+                a.extend(h.group_verts.iter().map(|&v| positions[v as usize][axis]));
+            }
+        }
         let counters: [AtomicU64; 12] = Default::default();
         let setup_ns = other_start.elapsed().as_nanos() as u64;
 
@@ -548,39 +561,6 @@ impl Prt {
             drawn: c[7],
             phase_ns: [c[8], c[9], c[10], c[11] + setup_ns],
         };
-    }
-
-    /// What every vertex of a frame shares: the pose, its shading normals,
-    /// the group boxes and far vertices.
-    fn shared<'a>(
-        &self,
-        positions: &'a [Vec3],
-        normals: &'a [Vec3],
-        eye: Option<Vec3>,
-        lighting: &'a [f32],
-        profile: bool,
-        integrate: bool,
-    ) -> FrameShared<'a> {
-        let h = &self.hierarchy;
-        let mut shared = FrameShared {
-            positions,
-            normals,
-            eye,
-            lighting,
-            boxes: Vec::new(),
-            far_xyz: Default::default(),
-            profile,
-            integrate,
-        };
-        if self.pvs.is_none() {
-            if self.settings.group_culling {
-                h.group_boxes(positions, &mut shared.boxes);
-            }
-            for (axis, a) in shared.far_xyz.iter_mut().enumerate() {
-                a.extend(h.group_verts.iter().map(|&v| positions[v as usize][axis]));
-            }
-        }
-        shared
     }
 
     #[cfg(target_arch = "x86_64")]

@@ -28,7 +28,9 @@
 //!
 //! The deviation is kept where it is, not only how large: at the points of
 //! a barycentric grid on C (thirds) and at each fine vertex. A vertex v then
-//! draws C's whole cluster at full resolution instead of C when C strays by
+//! draws what C stands for at full resolution instead of C (its cluster,
+//! and the fine triangles of neighbouring clusters that lie nearer to C
+//! than to their own coarse triangle, `stand_ins`) when C strays by
 //! more than `tolerance` radians as seen from v: `d / max(r - d, 0) >
 //! tolerance`, i.e. `r < d (1 + 1/tolerance)`, either for the point y of C
 //! nearest to v (r = |v - y|, d the largest deviation at the grid points
@@ -67,8 +69,8 @@ pub struct Deviation {
     /// Coarse -> fine: at each `GRID` point, the distance to the fine surface.
     pub grid: [f32; 10],
     /// Fine -> coarse: vertices of the cluster with their distance to the
-    /// coarse surface (those under a thousandth of the largest dropped: they
-    /// cannot trigger a refinement the others do not).
+    /// coarse surface (those under a thousandth of the largest dropped to
+    /// keep the list short: they reach a thousandth as far).
     pub fine: Vec<(Vec3, f32)>,
     /// The largest of all (0: the coarse triangle lies on the fine surface).
     pub max: f32,
@@ -186,21 +188,16 @@ fn nearest_sq(x: Vec3, tris: &[[Vec3; 3]]) -> f32 {
 /// it also stood in for a neighbour's stray fine triangles (a fold of a
 /// curtain assigned to the coarse triangle of the next fold).
 pub fn stand_ins(members: &Csr, deviation: &[Deviation]) -> Csr {
-    let orphans = deviation
-        .iter()
-        .flat_map(|d| d.orphans.iter().map(|&(by, f)| (by as usize, f)));
-    let own = (0..members.len()).flat_map(|c| members.get(c).iter().map(move |&f| (c, f)));
-    let mut lists = Csr::from_lists(members.len(), own.chain(orphans));
+    let mut lists: Vec<Vec<u32>> = (0..members.len()).map(|c| members.get(c).to_vec()).collect();
+    for &(by, f) in deviation.iter().flat_map(|d| &d.orphans) {
+        lists[by as usize].push(f);
+    }
     // Sorted and without repeats, as the near field expects.
-    let mut out = Vec::with_capacity(members.len());
-    for c in 0..members.len() {
-        let mut l = lists.get(c).to_vec();
+    for l in &mut lists {
         l.sort_unstable();
         l.dedup();
-        out.push(l);
     }
-    lists = Csr::from_vecs(&out);
-    lists
+    Csr::from_vecs(&lists)
 }
 
 /// Per vertex, the coarse triangles whose deviation subtends more than
