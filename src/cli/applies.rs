@@ -109,12 +109,16 @@ fn prt_rules(a: &super::prt::PrtArgs) -> Vec<Rule> {
     use crate::prt::transfer::BrdfKind;
     let raytraced = a.check || a.shadows == Shadows::Raytraced;
     vec![
-        rule(a.brdf == BrdfKind::Phong, &["shininess", "specular"], "--brdf phong"),
+        rule(
+            a.knobs.brdf == BrdfKind::Phong,
+            &["shininess", "specular"],
+            "--brdf phong",
+        ),
         rule(a.pvs == OnOff::On, &["pvs_frames", "pvs_span"], "--pvs on"),
         rule(raytraced, &["check_rays"], "--check or --shadows raytraced"),
         rule(a.check, &["check_frames"], "--check"),
         rule(
-            a.hierarchy == OnOff::On,
+            a.knobs.hierarchy == OnOff::On,
             &["near", "ring", "coarse", "coarse_tolerance"],
             "--hierarchy on",
         ),

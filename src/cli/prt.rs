@@ -12,12 +12,11 @@ use super::args::{CameraArgs, Common, OnOff, check_output, parse_vec3, positive,
 use super::io::write_rgb_png;
 use crate::error::{Error, Result};
 use crate::progress::Bars;
-use crate::prt::hierarchy::{HierarchySettings, NearField};
-use crate::prt::pipeline::{PrtSettings, Toggle};
+use crate::prt::options::PrtOptions;
+use crate::prt::pipeline::PrtSettings;
 use crate::prt::render::{auto_exposure, render};
 use crate::prt::runner::{Playback, PrtRunner, PvsSampling, RayTraced, Shadows, animate};
 use crate::prt::selfcheck::SelfCheck;
-use crate::prt::transfer::{Brdf, BrdfKind, Integration};
 use crate::scene::animated::AnimatedScene;
 use crate::scene::{EnvironmentMap, Scene, View, load_mesh, used_bounds};
 use crate::sweep::budget::{Choice, cached};
@@ -42,49 +41,6 @@ pub struct PrtArgs {
     /// Animation time between frames, seconds.
     #[arg(long, default_value_t = 1.0 / 30.0, allow_negative_numbers = true)]
     pub dt: f32,
-    /// SH bands (5 = 25 coefficients).
-    #[arg(long, default_value_t = 5, allow_negative_numbers = true)]
-    pub order: i64,
-    /// Visibility mask side in pixels: 16, 32 or 64.
-    #[arg(long, default_value_t = 32, allow_negative_numbers = true)]
-    pub mask: i64,
-    /// Plane LUT cells per cube-face side (the paper: 128).
-    #[arg(long, default_value_t = 128, allow_negative_numbers = true)]
-    pub lut: i64,
-    /// BRDF of the transfer.
-    #[arg(long, value_enum, default_value_t = BrdfKind::Diffuse)]
-    pub brdf: BrdfKind,
-    /// Phong exponent.
-    #[arg(long, default_value_t = 16.0, allow_negative_numbers = true)]
-    pub shininess: f32,
-    /// Phong lobe weight k_s in [0, 1] (the rest is diffuse).
-    #[arg(long, default_value_t = 0.4, allow_negative_numbers = true)]
-    pub specular: f32,
-    /// Mask integration: 4x4 grey levels (the paper), grey levels with first
-    /// moments, or every pixel.
-    #[arg(long, value_enum, default_value_t = Integration::CellsLinear)]
-    pub integration: Integration,
-    /// Two-level mesh hierarchy (coarse mesh for distant blockers).
-    #[arg(long, value_enum, default_value_t = OnOff::On)]
-    pub hierarchy: OnOff,
-    /// Fine triangles drawn near a vertex.
-    #[arg(long, value_enum, default_value_t = NearField::Clusters)]
-    pub near: NearField,
-    /// Ring of the full mesh drawn at full resolution: 1 or 2.
-    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
-    pub ring: i64,
-    /// Coarse triangles to aim for [default: triangles / 16, at most 8 sqrt(triangles)].
-    #[arg(long, allow_negative_numbers = true)]
-    pub coarse: Option<i64>,
-    /// Angle (radians) a coarse triangle's distance from the fine surface may subtend at a vertex before the vertex draws the fine triangles instead (0: the paper's plain two levels).
-    #[arg(long, default_value_t = crate::prt::hierarchy::DEFAULT_TOLERANCE, allow_negative_numbers = true)]
-    pub coarse_tolerance: f32,
-    /// Far triangles per culling group.
-    #[arg(long, default_value_t = 16, allow_negative_numbers = true)]
-    pub group_size: i64,
-    /// Skip culling groups below the tangent plane.
-    #[arg(long, value_enum, default_value_t = OnOff::On)]
-    pub group_culling: OnOff,
     /// Potentially visible sets from sampled animation frames.
     #[arg(long, value_enum, default_value_t = OnOff::Off)]
     pub pvs: OnOff,
@@ -94,12 +50,8 @@ pub struct PrtArgs {
     /// Animation time the PVS samples, seconds from --start [default: the frames' span, at least 2 s].
     #[arg(long, allow_negative_numbers = true)]
     pub pvs_span: Option<f32>,
-    /// Cull blockers facing away from the vertex (auto: where rays find it costs no accuracy).
-    #[arg(long, value_enum, default_value_t = Toggle::Auto)]
-    pub backface: Toggle,
-    /// Shade each vertex's side facing the camera (auto: where the mesh's back is seen from outside).
-    #[arg(long, value_enum, default_value_t = Toggle::Auto)]
-    pub two_sided: Toggle,
+    #[command(flatten)]
+    pub knobs: PrtOptions,
     /// Where visibility comes from.
     #[arg(long, value_enum, default_value_t = Shadows::On)]
     pub shadows: Shadows,
@@ -156,15 +108,9 @@ pub struct PrtArgs {
 /// the reference's rays.
 fn knobs(a: &PrtArgs) -> Result<(PrtSettings, Playback, RayTraced)> {
     let frames = positive("--frames", a.frames)?;
-    let bands = positive("--order", a.order)?;
-    let mask_side = positive("--mask", a.mask)?;
-    let lut_size = positive("--lut", a.lut)?;
-    let ring = positive("--ring", a.ring)?;
-    let group_size = positive("--group-size", a.group_size)?;
     let check_rays = positive("--check-rays", a.check_rays)?;
     let check_frames = positive("--check-frames", a.check_frames)?;
     let pvs_frames = positive("--pvs-frames", a.pvs_frames)?;
-    let coarse_triangles = a.coarse.map(|c| positive("--coarse", c)).transpose()?;
     let playback = Playback {
         frames,
         start: a.start,
@@ -191,25 +137,7 @@ fn knobs(a: &PrtArgs) -> Result<(PrtSettings, Playback, RayTraced)> {
         return Err(Error::param("--albedo", "must be non-negative"));
     }
     let rays = u32::try_from(check_rays).map_err(|_| Error::param("--check-rays", "is too large"))?;
-    let settings = PrtSettings {
-        mask_side,
-        lut_size,
-        bands,
-        brdf: Brdf::new(a.brdf, a.shininess, a.specular),
-        integration: a.integration,
-        hierarchy: HierarchySettings {
-            enabled: a.hierarchy.on(),
-            near: a.near,
-            ring,
-            coarse_triangles,
-            group_size,
-            tolerance: a.coarse_tolerance,
-        },
-        group_culling: a.group_culling.on(),
-        backface: a.backface,
-        two_sided: a.two_sided,
-        shadows: a.shadows == Shadows::On,
-    };
+    let settings = a.knobs.settings(a.shadows == Shadows::On)?;
     let reference = RayTraced {
         rays,
         seed: a.common.seed,

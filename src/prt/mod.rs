@@ -29,6 +29,7 @@ pub mod gpu;
 pub mod hierarchy;
 pub mod lut;
 pub mod mask;
+pub mod options;
 pub mod pipeline;
 pub mod proxy;
 pub mod pvs;
