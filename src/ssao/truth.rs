@@ -42,10 +42,20 @@ pub struct Estimate {
     pub ms: f64,
 }
 
+/// The two halves' size and independent sequences for `samples` per
+/// pixel: one definition, so a sample of pixels (`raytraced_at`) traces
+/// exactly the rays the full image (`halves`) does.
+fn halves_of(samples: u32, seed: u32) -> (u32, [SampleSequence; 2]) {
+    let half = (samples / 2).max(1);
+    (
+        half,
+        [SampleSequence::new(seed), SampleSequence::new(seed ^ 0x6a09_e667)],
+    )
+}
+
 fn halves(gb: &GBuffer, samples: u32, seed: u32, f: impl Fn(u32, u32, &SampleSequence, u32) -> f32 + Sync) -> Estimate {
     let start = std::time::Instant::now();
-    let half = (samples / 2).max(1);
-    let seqs = [SampleSequence::new(seed), SampleSequence::new(seed ^ 0x6a09_e667)];
+    let (half, seqs) = halves_of(samples, seed);
     let w = gb.width;
     let pairs: Vec<(f32, f32)> = (0..gb.pixels() as u32)
         .into_par_iter()
@@ -107,8 +117,7 @@ pub fn raytraced_at(
     pixels: &[u32],
 ) -> Vec<f32> {
     let traced = Traced::new(tree, camera, view, gb, measure, radius);
-    let half = (rays / 2).max(1);
-    let seqs = [SampleSequence::new(seed), SampleSequence::new(seed ^ 0x6a09_e667)];
+    let (half, seqs) = halves_of(rays, seed);
     let w = gb.width;
     pixels
         .par_iter()
