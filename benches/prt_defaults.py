@@ -6,7 +6,7 @@ machine:
 
     PENUMBRA_DATA=../shared/data python3 benches/prt_defaults.py [--before OLD_BINARY]
 
-Meshes: the shared cow, spot, teapot and Stanford bunny, both built-in
+Meshes: the shared cow, spot, teapot, Stanford bunny and dragon, both built-in
 animations, and three written here (the same formulas as
 tests/prt_defaults.rs): a spiky ball, a thin closed shell and a curtain of
 overhanging folds. Every figure comes from `penumbra prt ... --json`; the
@@ -112,7 +112,7 @@ for name, make in [("spiky", spiky), ("shell", shell), ("curtain", curtain)]:
     write_obj(path, *make())
     ours[name] = path
 
-meshes = ["cow", "spot", "teapot", "stanford-bunny", "cloth", "character", "spiky", "shell", "curtain"]
+meshes = ["cow", "spot", "teapot", "stanford-bunny", "cloth", "character", "spiky", "shell", "curtain", "dragon100k"]
 if a.only:
     meshes = a.only.split(",")
 
@@ -138,7 +138,7 @@ def accuracy(binary, m):
 
 
 def speed(binary, m, new):
-    frames = "5" if m == "stanford-bunny" else "60"
+    frames = "5" if m in ("stanford-bunny", "dragon100k") else "60"
     return run(binary, source(m) + ["--frames", frames] + (["--self-check", "off"] if new else []))
 
 

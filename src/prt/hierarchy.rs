@@ -2,7 +2,8 @@
 //!
 //! **Two levels.** Near a vertex, blockers come from the full-resolution
 //! mesh; elsewhere from a coarse mesh made once from the rest pose with
-//! meshoptimizer's edge-collapse simplifier (`meshopt::simplify`). The
+//! meshoptimizer's edge-collapse simplifier (`meshopt::simplify`; its size
+//! and the rest of the coarse level in `level`). The
 //! coarse triangles index the *same* vertex array as the fine mesh (the
 //! simplifier only collapses vertices), so the coarse mesh deforms with the
 //! animation for free.
@@ -50,9 +51,8 @@ use std::collections::HashMap;
 use glam::Vec3;
 
 use super::Csr;
-use super::clusters::assign_clusters;
 use super::geometry::weld;
-use super::proxy;
+use super::level::coarse_level;
 use crate::error::{Error, Result};
 use crate::scene::used_bounds;
 
@@ -76,7 +76,8 @@ pub struct HierarchySettings {
     pub near: NearField,
     /// 1 or 2: the ring of the full mesh around the vertex.
     pub ring: usize,
-    /// Coarse triangles to aim for (default: `default_coarse`).
+    /// Coarse triangles to aim for (default: `level::default_coarse`, grown
+    /// where the proxy check's refinement outweighs it).
     pub coarse_triangles: Option<usize>,
     /// Far triangles per culling group, 1..=4096.
     pub group_size: usize,
@@ -172,17 +173,13 @@ impl Hierarchy {
                 .enumerate()
                 .flat_map(|(t, tri)| tri.map(|v| (v as usize, t as u32))),
         );
-        let (far_unsorted, coarse) = if s.enabled {
-            let target = s.coarse_triangles.unwrap_or_else(|| default_coarse(triangles.len()));
-            let c = simplify(rest, triangles, target);
-            if c.is_empty() || c.len() >= triangles.len() {
-                (triangles.to_vec(), false)
-            } else {
-                (c, true)
-            }
+        let level = if s.enabled {
+            coarse_level(rest, triangles, s)
         } else {
-            (triangles.to_vec(), false)
+            None
         };
+        let far_unsorted = level.as_ref().map_or_else(|| triangles.to_vec(), |l| l.tris.clone());
+        let coarse = level.is_some();
         // Culling groups by median splits of rest-pose centroids.
         let centroid = |t: &[u32; 3]| (rest[t[0] as usize] + rest[t[1] as usize] + rest[t[2] as usize]) / 3.0;
         let mut order: Vec<u32> = (0..far_unsorted.len() as u32).collect();
@@ -250,37 +247,32 @@ impl Hierarchy {
             tris
         };
         let mut deviation = Vec::new();
-        let (cluster_of_fine, near, excluded) = if coarse {
-            let cluster_of_fine: Vec<u32> = assign_clusters(rest, triangles, &far_unsorted)
-                .into_iter()
-                .map(|c| rank[c as usize])
-                .collect();
-            let members = Csr::from_lists(
-                far.len(),
-                cluster_of_fine.iter().enumerate().map(|(f, &c)| (c as usize, f as u32)),
+        let (cluster_of_fine, near, excluded) = if let Some(level) = level {
+            // Into group order.
+            let cluster_of_fine: Vec<u32> = level.cluster_of_fine.iter().map(|&c| rank[c as usize]).collect();
+            let stand_in = Csr::from_vecs(
+                &order
+                    .iter()
+                    .map(|&c| level.stand_in.get(c as usize).to_vec())
+                    .collect::<Vec<_>>(),
             );
-            // Coarse triangles whose error subtends too much at a vertex are
-            // replaced there by what they stand for (`proxy`).
-            let (refine, members) = if s.tolerance > 0.0 {
-                deviation = proxy::deviations(rest, triangles, &far, &members);
-                let refine = proxy::too_coarse(rest, &far, &deviation, s.tolerance);
-                (refine, proxy::stand_ins(&members, &deviation))
-            } else {
-                (Csr::from_vecs(&vec![Vec::new(); nv]), members)
-            };
+            deviation = order
+                .iter()
+                .map(|&c| level.deviation.get(c as usize).map_or(0.0, |d| d.max))
+                .collect();
             let mut near = Vec::with_capacity(nv);
             let mut excluded = Vec::with_capacity(nv);
             for v in 0..nv {
                 let ring = rings(v);
-                let mut cl: Vec<u32> = refine.get(v).to_vec();
+                let mut cl: Vec<u32> = level.refine.get(v).iter().map(|&c| rank[c as usize]).collect();
                 if s.near == NearField::Clusters {
                     cl.extend(ring.iter().map(|&t| cluster_of_fine[t as usize]));
-                    cl.sort_unstable();
-                    cl.dedup();
                 }
+                cl.sort_unstable();
+                cl.dedup();
                 let mut fine: Vec<u32> = cl
                     .iter()
-                    .flat_map(|&c| members.get(c as usize).iter().copied())
+                    .flat_map(|&c| stand_in.get(c as usize).iter().copied())
                     .collect();
                 if s.near == NearField::Rings {
                     fine.extend(ring);
@@ -300,7 +292,7 @@ impl Hierarchy {
             )
         };
         // Deviations back in the mesh's units (the hierarchy ran at unit size).
-        let deviation = deviation.iter().map(|d| d.max / k).collect();
+        let deviation = deviation.iter().map(|d| d / k).collect();
         Ok(Hierarchy {
             fine: triangles.to_vec(),
             far,
@@ -338,17 +330,6 @@ impl Hierarchy {
     }
 }
 
-/// The default coarse mesh size for a mesh of `n` triangles: a sixteenth,
-/// as the paper's cloth (2560 -> 160), up to `8 sqrt(n)` (2,100 for the
-/// 69K-triangle bunny). A vertex pays for every coarse triangle plus the
-/// clusters refined near it (`proxy`), about `n / coarse` fine triangles
-/// each; `c + a n / c` is least at `c ~ sqrt(a n)`, so on large meshes the
-/// coarse level grows as the square root (the paper's own models keep
-/// 160-444 coarse triangles from 2,560 up to 15,854, section 4).
-pub fn default_coarse(n: usize) -> usize {
-    (n / 16).min((8.0 * (n as f64).sqrt()) as usize).max(1)
-}
-
 /// Splits `order[..]` (starting at `offset` in the full order) into ranges of
 /// at most `size` by median splits along the longest axis of the centroids.
 fn split_groups(
@@ -384,24 +365,4 @@ fn split_groups(
     let (left, right) = order.split_at_mut(mid);
     split_groups(left, offset, centroid, size, out);
     split_groups(right, offset + mid, centroid, size, out);
-}
-
-/// The coarse mesh: meshoptimizer's simplifier on the rest pose, aiming at
-/// `target` triangles with no error bound (it stops earlier only where the
-/// topology forbids collapses).
-fn simplify(rest: &[Vec3], triangles: &[[u32; 3]], target: usize) -> Vec<[u32; 3]> {
-    let positions: Vec<[f32; 3]> = rest.iter().map(|p| p.to_array()).collect();
-    let Ok(adapter) = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&positions), 12, 0) else {
-        return Vec::new();
-    };
-    let indices: Vec<u32> = triangles.iter().flatten().copied().collect();
-    let out = meshopt::simplify(
-        &indices,
-        &adapter,
-        target * 3,
-        1.0,
-        meshopt::SimplifyOptions::None,
-        None,
-    );
-    out.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
 }

@@ -10,6 +10,7 @@
 //! * `raster` — spherical rasterisation (CPU only; see `gpu`)
 //! * `transfer` — cells, integration, rotation, shading, twin of `wgsl/sh_transfer.wgsl` (3, 3.2)
 //! * `hierarchy` — two-level mesh and culling groups (3.2)
+//! * `level` — the coarse level: simplification, clusters, proxy check, size
 //! * `clusters` — each fine triangle's coarse triangle
 //! * `proxy` — the coarse level checked against the fine one, refined per vertex (3.2)
 //! * `sides` — back-face culling and two-sided shading decided from the mesh
@@ -27,6 +28,7 @@ pub mod clusters;
 pub mod geometry;
 pub mod gpu;
 pub mod hierarchy;
+pub mod level;
 pub mod lut;
 pub mod mask;
 pub mod options;

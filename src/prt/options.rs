@@ -42,7 +42,7 @@ pub struct PrtOptions {
     /// Ring of the full mesh drawn at full resolution: 1 or 2.
     #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
     pub ring: i64,
-    /// Coarse triangles to aim for [default: triangles / 16, at most 8 sqrt(triangles)].
+    /// Coarse triangles to aim for [default: triangles / 16, at most 8 sqrt(triangles) unless refinement outweighs it].
     #[arg(long, allow_negative_numbers = true)]
     pub coarse: Option<i64>,
     /// Angle (radians) a coarse triangle's distance from the fine surface may subtend at a vertex before the vertex draws the fine triangles instead (0: the paper's plain two levels).
