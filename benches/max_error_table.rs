@@ -16,6 +16,7 @@ use penumbra::ao::AoSettings;
 use penumbra::ao::runner::AoRequest;
 use penumbra::device::Device;
 use penumbra::field::budget as field_budget;
+use penumbra::field::reach::Reach;
 use penumbra::field::{DirectionMapping, Positional};
 use penumbra::progress::Bars;
 use penumbra::scene::{Scene, View, load_obj, load_scene};
@@ -25,6 +26,13 @@ use penumbra::ssao::{Estimator, Measure, MeasureKind, SsaoSettings};
 use penumbra::sweep::budget::Choice;
 
 const SEEDS: u32 = 20;
+
+/// The field budget's fixed options: one frame, AO to infinity.
+const FIXED: field_budget::Fixed = field_budget::Fixed {
+    directions: DirectionMapping::Concentric,
+    positional: Positional::Bilinear,
+    reach: Reach::EVERYTHING,
+};
 
 fn main() {
     let data = std::env::var_os("PENUMBRA_DATA").map(std::path::PathBuf::from);
@@ -169,16 +177,8 @@ fn field_row(name: &str, scene: &Scene, e: f64) -> String {
             vertices: true,
             image: None,
         };
-        let (choice, mut fields) = field_budget::choose(
-            &device,
-            scene,
-            &request,
-            DirectionMapping::Concentric,
-            Positional::Bilinear,
-            e,
-            Bars::Hidden,
-        )
-        .expect("choice");
+        let (choice, mut fields) =
+            field_budget::choose(&device, scene, &request, FIXED, e, Bars::Hidden).expect("choice");
         let full = fields
             .run(&request, 1, true)
             .expect("run")
@@ -203,9 +203,7 @@ fn field_row(name: &str, scene: &Scene, e: f64) -> String {
         s.0.insert("res".into(), res.to_string());
         s.0.insert("bits".into(), bits.to_string());
         let start = std::time::Instant::now();
-        let mut fields =
-            field_budget::fields_of(scene, &s, DirectionMapping::Concentric, Positional::Bilinear, &device)
-                .expect("fields");
+        let mut fields = field_budget::fields_of(scene, &s, FIXED, &device).expect("fields");
         let request = AoRequest {
             settings: AoSettings {
                 rays_per_point: 64,

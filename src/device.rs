@@ -105,6 +105,13 @@ impl Device {
         self.gpu.as_ref().map(GpuContext::label)
     }
 
+    /// The pipelines this device's passes compiled so far, what that cost,
+    /// and those their kernel sets declared but never needed; `None` on
+    /// the CPU.
+    pub fn pipelines(&self) -> Option<crate::gpu::kernels::PipelineReport> {
+        self.gpu.as_ref().map(|ctx| ctx.kernels.log.report())
+    }
+
     /// Whether the device was chosen automatically.
     pub fn is_automatic(&self) -> bool {
         self.automatic

@@ -277,3 +277,58 @@ fn ao_method_field_with_objects_that_cast_and_receive() {
     assert_eq!(json["points"], 3267 + 2 * 192);
     assert!(all < 0.03 && fields < 0.03, "{json}");
 }
+
+/// Model only what the scene requires: a caster mesh out of every
+/// receiver's reach at the AO radius gets no field, and `--json` names it
+/// under `skipped` with the reason; with an infinite radius it is built.
+#[test]
+fn ao_field_skips_the_fields_no_receiver_needs() {
+    let d = TempDir::new("ao_field_reach");
+    let scene = format!(
+        r#"{{"meshes": {{"floor": "{floor}", "near": "{cube}", "far": "{sphere}"}},
+           "instances": [
+             {{"mesh": "floor", "role": "receiver"}},
+             {{"mesh": "near", "role": "caster", "translate": [0.3, 0.15, 0.3], "scale": 0.12}},
+             {{"mesh": "far", "role": "caster", "translate": [9, 0, 0], "scale": 0.2}}]}}"#,
+        floor = asset_s("corner.obj"),
+        cube = asset_s("cube-with-hole.obj"),
+        sphere = asset_s("sphere-on-plane.obj"),
+    );
+    let scene = d.write("scene.json", scene);
+    let base = "ao --method field --scene {scene} --rays 16 --positions 258 --res 8 --per-vertex {csv} --json";
+    let csv = d.p("ao.csv");
+    let vars = [("scene", scene.as_str()), ("csv", csv.as_str())];
+    let near = pen(&format!("{base} --radius 0.5"), &vars).ok().json();
+    let built: Vec<&str> = near["fields"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["mesh"].as_str().unwrap())
+        .collect();
+    println!("radius 0.5: built {built:?}, skipped {}", near["skipped"]);
+    assert_eq!(built, ["near"]);
+    assert_eq!(near["skipped"][0]["what"], "field");
+    assert_eq!(near["skipped"][0]["name"], "far");
+    assert!(near["skipped"][0]["why"].as_str().unwrap().contains("radius 0.5"));
+    let near_csv = std::fs::read(&csv).unwrap();
+    let all = pen(base, &vars).ok().json();
+    assert_eq!(all["fields"].as_array().unwrap().len(), 2);
+    assert!(all["skipped"].as_array().unwrap().is_empty());
+    // The far caster is beyond 0.5 of every receiver point: without the
+    // radius it may occlude, with it the AO equals a run without it.
+    let without_far = d.write(
+        "near-only.json",
+        std::fs::read_to_string(&scene).unwrap().replace(
+            r#",
+             {"mesh": "far", "role": "caster", "translate": [9, 0, 0], "scale": 0.2}"#,
+            "",
+        ),
+    );
+    assert_ne!(
+        std::fs::read_to_string(&without_far).unwrap(),
+        std::fs::read_to_string(&scene).unwrap()
+    );
+    let vars = [("scene", without_far.as_str()), ("csv", csv.as_str())];
+    pen(&format!("{base} --radius 0.5"), &vars).ok();
+    assert_eq!(std::fs::read(&csv).unwrap(), near_csv);
+}

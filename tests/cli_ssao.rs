@@ -227,3 +227,71 @@ fn seeds_repeat_and_differ() {
     assert_eq!(read(&outs[0]), read(&outs[1]));
     assert_ne!(read(&outs[0]), read(&outs[2]));
 }
+
+/// Model only what the frame requires: on a GPU only the estimator's and
+/// the used filter's pipelines compile (the others are listed as skipped),
+/// no kd-tree is built without a truth, and the JSON says so.
+#[test]
+fn only_the_kernels_and_truths_used_are_built() {
+    let dir = TempDir::new("ssao-modelled");
+    let mesh = asset_s("sphere-on-plane.obj");
+    let out = dir.p("ao.png");
+    let vars = [("mesh", mesh.as_str()), ("out", out.as_str())];
+    let lean = "ssao --mesh {mesh} --spp 8 --radius 0.5 --width 64 --height 48 --truth-rays 0 --reference-spp 0 \
+                --out {out}";
+    let cpu = pen(&format!("{lean} --estimator importance --device cpu --json"), &vars)
+        .ok()
+        .json();
+    let whats: Vec<&str> = cpu["skipped"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["what"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        whats,
+        ["ray-traced truth", "screen-space reference"],
+        "the CPU G-buffer needs the tree"
+    );
+    assert!(cpu["build_ms"].as_f64().unwrap() > 0.0);
+    assert!(cpu.get("pipelines").is_none(), "no pipelines on the CPU");
+    if !gpu_available() {
+        return;
+    }
+    for (filter, estimator, compiled) in [
+        (
+            "on",
+            "importance",
+            vec![
+                "ssao_estimate.ssao_pack_depth",
+                "ssao_estimate.ssao_points",
+                "ssao_filter.ssao_filter_ao",
+            ],
+        ),
+        (
+            "off",
+            "raymarch",
+            vec!["ssao_estimate.ssao_pack_depth", "ssao_estimate.ssao_march"],
+        ),
+    ] {
+        let args = format!("{lean} --filter {filter} --estimator {estimator} --device gpu --json");
+        let gpu = pen(&args, &vars).ok().json();
+        let names: Vec<&str> = gpu["pipelines"]["compiled"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| c["name"].as_str().unwrap())
+            .collect();
+        println!(
+            "filter {filter} {estimator}: compiled {names:?}, skipped {}",
+            gpu["pipelines"]["skipped"]
+        );
+        assert_eq!(names, compiled);
+        let skipped = gpu["pipelines"]["skipped"].as_array().unwrap();
+        assert_eq!(names.len() + skipped.len(), 8, "every SSAO kernel is listed once");
+        assert!(skipped.iter().any(|s| s == "ssao_indirect.ssao_compose"));
+        assert!(gpu["pipelines"]["compile_ms"].as_f64().unwrap() > 0.0);
+        assert_eq!(gpu["build_ms"], 0.0);
+        assert_eq!(gpu["skipped"][0]["what"], "kd-tree");
+    }
+}

@@ -9,16 +9,21 @@ use common::{Rng, data_model, gpu};
 use glam::{Quat, Vec3};
 use penumbra::ao::points::vertex_points;
 use penumbra::ao::raycast::ao_rays;
+use penumbra::ao::runner::AoRequest;
 use penumbra::ao::{AoSettings, VisibilityMasks};
+use penumbra::device::Device;
 use penumbra::field::gpu::{FieldAoBatches, FieldGroup, GpuField, GpuInstance, probe_gpu};
+use penumbra::field::reach::Reach;
+use penumbra::field::runner::{FieldAo, FieldAoRun};
 use penumbra::field::{
     DirectionMapping, DisplacementField, FieldCaster, FieldParams, FieldTrace, NO_OWNER, OctahedralGrid, Positional,
     Storage, field_ao, field_probe, file,
 };
 use penumbra::kdtree::{KdTree, KdTreeParams};
+use penumbra::progress::Bars;
 use penumbra::progress::Progress;
 use penumbra::scene::procedural::{corner, uv_sphere};
-use penumbra::scene::{Mesh, Transform, load_obj};
+use penumbra::scene::{Instance, Mesh, Role, Scene, SceneMesh, Transform, load_obj};
 
 fn params(side: u32, res: u32, storage: Storage, directions: DirectionMapping) -> FieldParams {
     FieldParams {
@@ -601,4 +606,112 @@ fn rays_from_inside_the_sphere_by_depth() {
     let rate = |(n, wrong, _): (u64, u64, u64)| wrong as f64 / n.max(1) as f64;
     let (shallow, deep) = (rate(bins[0]), rate(*bins.iter().rev().find(|b| b.0 > 100).unwrap()));
     assert!(bins[0].0 > 100 && deep > shallow, "shallow {shallow}, deep {deep}");
+}
+
+/// A scene of `corner` (receiver) and cube-with-hole instances placed by
+/// `casters` (name, translation, scale, role).
+fn corner_scene(casters: &[(&str, Vec3, f32, Role)]) -> Scene {
+    let path = std::path::Path::new("corner.obj");
+    let mut scene = Scene::from_mesh("corner", path, corner());
+    scene.instances[0].role = Role::Receiver;
+    scene.meshes.push(SceneMesh::new(
+        "cube",
+        path,
+        load_obj(&common::asset("cube-with-hole.obj")).unwrap(),
+    ));
+    for &(name, translation, scale, role) in casters {
+        scene.instances.push(Instance {
+            name: name.into(),
+            mesh: 1,
+            role,
+            transform: Transform {
+                translation,
+                rotation: Quat::from_axis_angle(Vec3::Y, 0.4),
+                scale,
+            },
+            motion: None,
+            material: None,
+        });
+    }
+    scene
+}
+
+/// AO of `scene`'s receiver vertices through fields covering `reach`.
+fn field_run(scene: &Scene, reach: Reach, radius: f32, device: &Device) -> (FieldAoRun, usize, Vec<String>) {
+    let p = FieldParams::new(258, 16, 8, DirectionMapping::Concentric).unwrap();
+    let mut fields = FieldAo::new(scene, &p, Positional::Bilinear, reach, Bars::Hidden).unwrap();
+    fields.upload(device).unwrap();
+    let request = AoRequest {
+        settings: AoSettings {
+            rays_per_point: 64,
+            radius,
+            seed: 5,
+        },
+        vertices: true,
+        image: None,
+    };
+    let run = fields.run(&request, 1, false).unwrap();
+    let skipped = fields.skipped().iter().filter_map(|s| s.name.clone()).collect();
+    (run, fields.reports().len(), skipped)
+}
+
+/// Model only what the scene requires: a caster mesh whose instances are
+/// all beyond the AO radius of every receiver gets no field, and the AO is
+/// bit for bit what it is with the field built (CPU and GPU).
+#[test]
+fn fields_out_of_reach_are_not_built_and_change_nothing() {
+    let near = ("near", Vec3::new(0.3, 0.15, 0.3), 0.12, Role::Caster);
+    let far = ("far", Vec3::new(3.0, 0.15, 0.3), 0.12, Role::Caster);
+    let scene_far = corner_scene(&[far]);
+    let scene_both = corner_scene(&[near, far]);
+    let radius = 0.5;
+    let reach = Reach { radius, frames: 1 };
+    let mut devices = vec![Device::cpu()];
+    devices.extend(gpu().map(Device::gpu));
+    for device in &devices {
+        let (everything, built_all, skipped_all) = field_run(&scene_far, Reach::EVERYTHING, radius, device);
+        let (reached, built, skipped) = field_run(&scene_far, reach, radius, device);
+        println!(
+            "{}: far caster at radius {radius}: fields {built_all} -> {built}, skipped {skipped:?}",
+            device.kind()
+        );
+        assert_eq!((built_all, built), (1, 0));
+        assert!(skipped_all.is_empty());
+        assert_eq!(skipped, ["cube"]);
+        assert_eq!(reached.vertices, everything.vertices);
+        assert_eq!(
+            (reached.rays_inside_sphere, reached.rays_hidden),
+            (everything.rays_inside_sphere, everything.rays_hidden)
+        );
+        // The near instance keeps the mesh's field; the far one adds no
+        // lookups but the answer is unchanged.
+        let (all, _, _) = field_run(&scene_both, Reach::EVERYTHING, radius, device);
+        let (some, built, skipped) = field_run(&scene_both, reach, radius, device);
+        assert_eq!((built, skipped.len()), (1, 0));
+        assert_eq!(some.vertices, all.vertices);
+        let occluded = all.vertices.as_ref().unwrap().ao.iter().filter(|&&a| a < 1.0).count();
+        assert!(occluded > 0, "the near caster occludes something");
+    }
+}
+
+/// A caster that is the only receiver never consults its own field (its
+/// self-occlusion is ray cast): no field is built for it, whatever the
+/// radius, and the run says why.
+#[test]
+fn a_caster_that_only_shades_itself_gets_no_field() {
+    let mut scene = corner_scene(&[("alone", Vec3::new(0.3, 0.15, 0.3), 0.12, Role::Both)]);
+    scene.instances[0].role = Role::Caster;
+    let p = FieldParams::new(258, 16, 8, DirectionMapping::Concentric).unwrap();
+    let fields = FieldAo::new(&scene, &p, Positional::Bilinear, Reach::EVERYTHING, Bars::Hidden).unwrap();
+    let meshes: Vec<&str> = fields.reports().iter().map(|r| r.mesh.as_str()).collect();
+    let skipped: Vec<_> = fields
+        .skipped()
+        .iter()
+        .map(|s| (s.name.as_deref().unwrap(), s.why.as_str()))
+        .collect();
+    println!("built {meshes:?}, skipped {skipped:?}");
+    assert_eq!(meshes, ["corner"], "the corner casts onto the cube");
+    assert_eq!(skipped.len(), 1);
+    assert_eq!(skipped[0].0, "cube");
+    assert!(skipped[0].1.contains("no other instance receives"), "{}", skipped[0].1);
 }

@@ -11,7 +11,9 @@ use super::{AoPoint, AoSettings, VisibilityMasks};
 use crate::error::Result;
 use crate::gpu::batch::{BatchPlan, Batched, Pass, run_batches};
 use crate::gpu::buffers::read_buffer;
-use crate::gpu::kernels::Kernels;
+use std::sync::Arc;
+
+use crate::gpu::kernels::{Kernels, PipelineLog};
 use crate::gpu::layout::Io;
 use crate::gpu::{GpuContext, dispatch_grid};
 use crate::kdtree::gpu::GpuKdTree;
@@ -71,9 +73,15 @@ const AO_IO: &[Io] = &[
 pub struct AoRaysKernels(TreeKernels);
 
 impl Kernels for AoRaysKernels {
-    fn build(device: &wgpu::Device) -> AoRaysKernels {
+    fn build(device: &wgpu::Device, log: &Arc<PipelineLog>) -> AoRaysKernels {
         let module = &crate::wgsl::AO_RAYS_MODULE;
-        AoRaysKernels(TreeKernels::build(device, module, AO_IO, &["ao_rays", "ao_samples"]))
+        AoRaysKernels(TreeKernels::build(
+            device,
+            module,
+            AO_IO,
+            &["ao_rays", "ao_samples"],
+            log,
+        ))
     }
 }
 

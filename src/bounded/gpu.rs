@@ -15,7 +15,7 @@ use super::interpolate::PixelJob;
 use crate::error::{Error, Result};
 use crate::gpu::batch::{BatchPass, BatchPlan, Batched, Pass, run_batches};
 use crate::gpu::buffers::KeptGroup;
-use crate::gpu::kernels::{Kernels, compute_pipelines, record_dispatch};
+use crate::gpu::kernels::{Kernels, PipelineLog, Pipelines, compute_pipelines, record_dispatch};
 use crate::gpu::layout::{Io, io_layout};
 use crate::gpu::timer::PassTimer;
 use crate::gpu::{GpuContext, dispatch_grid};
@@ -42,14 +42,14 @@ pub const JOBS_PER_BATCH: usize = 1 << 18;
 
 pub struct InterpolateKernels {
     layout: wgpu::BindGroupLayout,
-    pipeline: wgpu::ComputePipeline,
+    pipeline: Pipelines,
 }
 
 impl Kernels for InterpolateKernels {
-    fn build(device: &wgpu::Device) -> InterpolateKernels {
+    fn build(device: &wgpu::Device, log: &Arc<PipelineLog>) -> InterpolateKernels {
         let layout = io_layout(device, "interpolate", INTERPOLATE_IO);
-        let pipeline =
-            compute_pipelines(device, &crate::wgsl::INTERPOLATE_MODULE, &[&layout], &["interpolate"]).remove(0);
+        let module = &crate::wgsl::INTERPOLATE_MODULE;
+        let pipeline = compute_pipelines(device, module, &[&layout], &["interpolate"], log);
         InterpolateKernels { layout, pipeline }
     }
 }
@@ -119,7 +119,7 @@ impl InterpolatePass {
             encoder,
             "interpolate",
             timestamp_writes,
-            &self.kernels.pipeline,
+            self.kernels.pipeline.get(0),
             &[self.io.group()],
             self.grid,
         );

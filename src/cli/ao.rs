@@ -13,8 +13,9 @@ use crate::ao::AoSettings;
 use crate::ao::runner::{AoRequest, PixelAo, VertexAo, mean, raycast};
 use crate::error::{Error, Result};
 use crate::field::Positional;
-use crate::field::budget as field_budget;
+use crate::field::budget::{self as field_budget, Fixed};
 use crate::field::options::FieldOptions;
+use crate::field::reach::Reach;
 use crate::field::runner::{FieldAo, MAX_FRAMES};
 use crate::progress::Bars;
 use crate::scene::{Role, Scene, SceneMesh, View, load_mesh};
@@ -221,10 +222,14 @@ fn field(args: &AoArgs, settings: AoSettings, threads: usize) -> Result<Value> {
         scene.fields.insert(0, file.clone());
     }
     let device = args.common.open_device()?;
+    let reach = Reach {
+        radius: settings.radius,
+        frames: args.frames as u32,
+    };
     let (mut fields, choice) = match args.max_error {
-        Some(e) => field_choice(args, &device, &scene, &request, e)?,
+        Some(e) => field_choice(args, &device, &scene, &request, reach, e)?,
         None => {
-            let mut fields = FieldAo::new(&scene, &params, args.positional, Bars::Stderr)?;
+            let mut fields = FieldAo::new(&scene, &params, args.positional, reach, Bars::Stderr)?;
             fields.upload(&device)?;
             (fields, None)
         }
@@ -241,6 +246,7 @@ fn field(args: &AoArgs, settings: AoSettings, threads: usize) -> Result<Value> {
         "build_ms": fields.reports().iter().filter_map(|f| f.build_ms).sum::<f64>(),
         "self_occlusion_ms": run.self_occlusion_ms,
         "fields": fields.reports(),
+        "skipped": fields.skipped(),
         "casters": {
             "instances": scene.instances.iter().filter(|i| i.role.casts()).count(),
             "triangles": scene.world_mesh(Role::casts).triangles.len(),
@@ -277,34 +283,40 @@ fn field_choice<'s>(
     device: &crate::device::Device,
     scene: &'s Scene,
     request: &AoRequest,
+    reach: Reach,
     max_error: f64,
 ) -> Result<(FieldAo<'s>, Option<Choice>)> {
     if !scene.fields.is_empty() {
         let problem = "does not apply: the scene names its field files, whose parameters are fixed";
         return Err(Error::param("--max-error", problem));
     }
-    let (directions, positional) = (args.field_options.directions, args.positional);
+    let fixed = Fixed {
+        directions: args.field_options.directions,
+        positional: args.positional,
+        reach,
+    };
     let files: Vec<&Path> = [&args.mesh, &args.receiver, &args.scene]
         .into_iter()
         .flatten()
         .map(PathBuf::as_path)
         .collect();
     let options = format!(
-        "{max_error}|{directions:?}|{positional:?}|{:?}|{}",
+        "{max_error}|{:?}|{:?}|{:?}|{}",
+        fixed.directions,
+        fixed.positional,
         request.settings,
         device.kind()
     );
     let mut checked = None;
     let choice = cached("field", &options, &files, || {
-        let (choice, fields) =
-            field_budget::choose(device, scene, request, directions, positional, max_error, Bars::Stderr)?;
+        let (choice, fields) = field_budget::choose(device, scene, request, fixed, max_error, Bars::Stderr)?;
         checked = Some(fields);
         Ok(choice)
     })?;
     super::io::note_choice(&choice);
     let fields = match checked {
         Some(f) => f,
-        None => field_budget::fields_of(scene, &choice.chosen, directions, positional, device)?,
+        None => field_budget::fields_of(scene, &choice.chosen, fixed, device)?,
     };
     Ok((fields, Some(choice)))
 }

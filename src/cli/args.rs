@@ -49,7 +49,11 @@ impl Common {
 
     /// The report's fields every computing command has.
     pub fn report(&self, device: &Device, threads: usize) -> Value {
-        json!({ "device": device.kind(), "adapter": device.adapter(), "threads": threads })
+        let mut report = json!({ "device": device.kind(), "adapter": device.adapter(), "threads": threads });
+        if let Some(pipelines) = device.pipelines() {
+            report["pipelines"] = json!(pipelines);
+        }
+        report
     }
 }
 

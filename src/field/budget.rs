@@ -13,6 +13,7 @@
 
 use std::time::Instant;
 
+use super::reach::Reach;
 use super::runner::FieldAo;
 use super::{DirectionMapping, FieldParams, Positional};
 use crate::ao::points::vertex_points;
@@ -45,17 +46,28 @@ pub const CANDIDATES: [(i64, i64, i64); 8] = [
 /// accurate one tried is chosen then, with a warning.
 pub const MAX_CHECK_MS: f64 = 60_000.0;
 
+/// What `--max-error` does not choose: how directions map and lookups
+/// interpolate, and what the fields must cover (the run's radius and frames).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Fixed {
+    pub directions: DirectionMapping,
+    pub positional: Positional,
+    pub reach: Reach,
+}
+
 /// Chooses the field parameters for `request` (vertices) within
 /// `max_error`; returns the choice and the winner's fields on `device`.
 pub fn choose<'s>(
     device: &Device,
     scene: &'s Scene,
     request: &AoRequest,
-    directions: DirectionMapping,
-    positional: Positional,
+    fixed: Fixed,
     max_error: f64,
     bars: Bars,
 ) -> Result<(Choice, FieldAo<'s>)> {
+    let Fixed {
+        directions, positional, ..
+    } = fixed;
     if !(max_error > 0.0 && max_error.is_finite()) {
         return Err(Error::param("max_error", format!("must be positive, got {max_error}")));
     }
@@ -85,7 +97,7 @@ pub fn choose<'s>(
         }
         let params = FieldParams::new(positions, res, bits, directions)?;
         let build = Instant::now();
-        let mut fields = FieldAo::new(scene, &params, positional, Bars::Hidden)?;
+        let mut fields = FieldAo::new(scene, &params, positional, fixed.reach, Bars::Hidden)?;
         fields.upload(device)?;
         let run = fields.run(&only_vertices, 1, false)?;
         let time_ms = elapsed_ms(build);
@@ -118,22 +130,16 @@ pub fn choose<'s>(
     // unless it was the last one tried.
     let fields = match winner {
         Some(f) if choice.met || choice.chosen == *choice.candidates.last().map(|c| &c.knobs).expect("tried") => f,
-        _ => fields_of(scene, &choice.chosen, directions, positional, device)?,
+        _ => fields_of(scene, &choice.chosen, fixed, device)?,
     };
     Ok((choice, fields))
 }
 
 /// The fields of a choice (from the cache, or the most accurate tried).
-pub fn fields_of<'s>(
-    scene: &'s Scene,
-    chosen: &Setting,
-    directions: DirectionMapping,
-    positional: Positional,
-    device: &Device,
-) -> Result<FieldAo<'s>> {
+pub fn fields_of<'s>(scene: &'s Scene, chosen: &Setting, fixed: Fixed, device: &Device) -> Result<FieldAo<'s>> {
     let get = |k: &str| chosen.get::<i64>(k).map(|v| v.unwrap_or(0));
-    let params = FieldParams::new(get("positions")?, get("res")?, get("bits")?, directions)?;
-    let mut fields = FieldAo::new(scene, &params, positional, Bars::Stderr)?;
+    let params = FieldParams::new(get("positions")?, get("res")?, get("bits")?, fixed.directions)?;
+    let mut fields = FieldAo::new(scene, &params, fixed.positional, fixed.reach, Bars::Stderr)?;
     fields.upload(device)?;
     Ok(fields)
 }

@@ -30,7 +30,7 @@ use crate::ao::{AoPoint, AoSettings, VisibilityMasks};
 use crate::error::{Error, Result};
 use crate::gpu::batch::{BatchPass, BatchPlan, Batched, Pass, run_batches};
 use crate::gpu::buffers::{GrowingBuffer, read_buffer, storage_buffer, uniform_buffer};
-use crate::gpu::kernels::{Kernels, compute_pipelines, record_dispatch};
+use crate::gpu::kernels::{Kernels, PipelineLog, Pipelines, compute_pipelines, record_dispatch};
 use crate::gpu::layout::{Io, bind_group, io_layout, layout, storage_entry, texture_entry, uniform_entry};
 use crate::gpu::timer::PassTimer;
 use crate::gpu::{GpuContext, dispatch_grid};
@@ -393,13 +393,13 @@ pub struct FieldPipelines {
     pub maps_layout: wgpu::BindGroupLayout,
     pub ao_layout: wgpu::BindGroupLayout,
     pub probe_layout: wgpu::BindGroupLayout,
-    pub ao: wgpu::ComputePipeline,
-    pub probe: wgpu::ComputePipeline,
+    pub ao: Pipelines,
+    pub probe: Pipelines,
 }
 
 /// The field kernels of one device, built on first use per map access.
-#[derive(Default)]
 pub struct FieldKernels {
+    log: Arc<PipelineLog>,
     filtered: OnceLock<FieldPipelines>,
     loaded: OnceLock<FieldPipelines>,
     bits: OnceLock<FieldPipelines>,
@@ -407,8 +407,13 @@ pub struct FieldKernels {
 
 impl Kernels for FieldKernels {
     /// Nothing yet: each map access's pipelines are built on first use.
-    fn build(_device: &wgpu::Device) -> FieldKernels {
-        FieldKernels::default()
+    fn build(_device: &wgpu::Device, log: &Arc<PipelineLog>) -> FieldKernels {
+        FieldKernels {
+            log: Arc::clone(log),
+            filtered: OnceLock::new(),
+            loaded: OnceLock::new(),
+            bits: OnceLock::new(),
+        }
     }
 }
 
@@ -424,8 +429,9 @@ impl FieldKernels {
             let maps = maps_layout(device, access);
             let ao_layout = io_layout(device, "field ao io", FIELD_AO_IO);
             let probe_layout = io_layout(device, "field probe io", PROBE_IO);
-            let ao = compute_pipelines(device, &ao_module, &[&maps, &ao_layout], &["field_ao"]).remove(0);
-            let probe = compute_pipelines(device, &probe_module, &[&maps, &probe_layout], &["field_probe"]).remove(0);
+            let log = &self.log;
+            let ao = compute_pipelines(device, &ao_module, &[&maps, &ao_layout], &["field_ao"], log);
+            let probe = compute_pipelines(device, &probe_module, &[&maps, &probe_layout], &["field_probe"], log);
             FieldPipelines {
                 maps_layout: maps,
                 ao_layout,
@@ -559,7 +565,7 @@ impl FieldAoPass {
                 encoder,
                 "field ao",
                 writes,
-                &p.ao,
+                p.ao.get(0),
                 &[&g.field.bind_group, io],
                 self.grid,
             );
@@ -721,7 +727,7 @@ pub fn probe_gpu(ctx: &GpuContext, field: &GpuField, rays: &[(Vec3, Vec3)]) -> R
         &mut encoder,
         "field probe",
         None,
-        &p.probe,
+        p.probe.get(0),
         &[&field.bind_group, &io],
         (gx, gy),
     );

@@ -28,6 +28,7 @@ pub mod gpu;
 pub mod lookup;
 pub mod options;
 pub mod positions;
+pub mod reach;
 pub mod runner;
 pub mod storage;
 

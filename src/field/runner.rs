@@ -17,6 +17,7 @@ use super::ao::{FieldCaster, NO_OWNER, RayClasses, field_ao};
 use super::build::{DisplacementField, FieldSummary};
 use super::gpu::{FieldAoBatches, FieldGroup, GpuField, GpuInstance};
 use super::lookup::Positional;
+use super::reach::{Reach, reaching, skipped_fields};
 use super::storage::FieldParams;
 use crate::ao::points::vertex_points;
 use crate::ao::runner::{AoRequest, PixelAo, VertexAo, casters, visible_points};
@@ -25,6 +26,7 @@ use crate::device::{Device, GpuOutput, OnDevice, Timed, elapsed_ms};
 use crate::error::{Error, Result};
 use crate::progress::{Bars, Progress};
 use crate::scene::{Instance, Mesh, Role, Scene};
+use crate::skipped::Skipped;
 use crate::tracer::Tracer;
 
 /// Most animation frames one run may ask for.
@@ -51,6 +53,11 @@ pub struct FieldAo<'s> {
     positional: Positional,
     fields: BTreeMap<usize, DisplacementField>,
     reports: Vec<FieldReport>,
+    /// What the fields were built for, per instance whether its field can
+    /// occlude some receiver there, and the meshes left without a field.
+    reach: Reach,
+    reaching: Vec<bool>,
+    skipped: Vec<Skipped>,
     gpu: OnDevice<GpuFields>,
     /// Where the fields live (the CPU until `upload`).
     device: Device,
@@ -65,18 +72,27 @@ struct GpuFields {
 
 impl<'s> FieldAo<'s> {
     /// Reads the field of every caster mesh the scene names a file for
-    /// (`Scene::fields`) and builds the others with `params`; the fields
-    /// answer on the CPU until `upload`ed.
-    pub fn new(scene: &'s Scene, params: &FieldParams, positional: Positional, bars: Bars) -> Result<Self> {
+    /// (`Scene::fields`) and builds the others with `params`, for the
+    /// casters whose fields can occlude a receiver within `reach` (the
+    /// others are `skipped`); the fields answer on the CPU until `upload`ed.
+    pub fn new(
+        scene: &'s Scene,
+        params: &FieldParams,
+        positional: Positional,
+        reach: Reach,
+        bars: Bars,
+    ) -> Result<Self> {
         if !scene.instances.iter().any(|i| i.role.casts()) {
             return Err(Error::param("scene", "no instance is a caster: nothing occludes"));
         }
         if !scene.instances.iter().any(|i| i.role.receives()) {
             return Err(Error::param("scene", "no instance is a receiver: no vertices to shade"));
         }
+        let reaching = reaching(scene, reach);
+        let skipped = skipped_fields(scene, &reaching, reach);
         let mut fields = BTreeMap::new();
         let mut reports = Vec::new();
-        for inst in scene.instances.iter().filter(|i| i.role.casts()) {
+        for (inst, _) in scene.instances.iter().zip(&reaching).filter(|(_, r)| **r) {
             if fields.contains_key(&inst.mesh) {
                 continue;
             }
@@ -108,6 +124,9 @@ impl<'s> FieldAo<'s> {
             positional,
             fields,
             reports,
+            reach,
+            reaching,
+            skipped,
             gpu: OnDevice::Cpu,
             device: Device::cpu(),
             bars,
@@ -136,6 +155,11 @@ impl<'s> FieldAo<'s> {
         &self.reports
     }
 
+    /// The caster meshes no receiver needs a field of, and why.
+    pub fn skipped(&self) -> &[Skipped] {
+        &self.skipped
+    }
+
     /// The AO rays of `points` (owned by instance `owners[i]`, or
     /// `NO_OWNER`) through every caster's field at animation `frame`.
     pub fn visibility(
@@ -149,7 +173,18 @@ impl<'s> FieldAo<'s> {
         if points.len() != owners.len() {
             return Err(Error::input("points", "need one owner each"));
         }
-        let casters = self.scene.instances.iter().enumerate().filter(|(_, i)| i.role.casts());
+        let reaching = &self.reaching;
+        let casters = self.scene.instances.iter().enumerate().filter(|&(k, _)| reaching[k]);
+        if casters.clone().next().is_none() {
+            // No field can occlude any receiver: every ray is open.
+            let masks = open_masks(points.len(), settings);
+            let none = vec![0; masks.bits.len()];
+            let classes = RayClasses {
+                inside: none.clone(),
+                hidden: none,
+            };
+            return Timed::wall(|| Ok((without_extra_bits(masks, settings), classes)));
+        }
         let (fields, positional) = (&self.fields, self.positional);
         self.gpu.run(
             |ctx, g| {
@@ -195,6 +230,13 @@ impl<'s> FieldAo<'s> {
                 "frames",
                 format!("must be between 1 and {MAX_FRAMES}, got {frames}"),
             ));
+        }
+        if !self.reach.covers(settings.radius, frames) {
+            let problem = format!(
+                "the fields were chosen for radius {} over {} frame(s); this run asks radius {} over {frames}",
+                self.reach.radius, self.reach.frames, settings.radius
+            );
+            return Err(Error::param("reach", problem));
         }
         let scene = self.scene;
         let owners = receiver_owners(scene);
@@ -505,7 +547,11 @@ fn without_self(
             cast_subset(&casters, "casters", points, selected, settings, &mut masks)?;
         }
     }
-    // Keep only the valid ray bits (an all-open mask sets every bit).
+    Ok(without_extra_bits(masks, settings))
+}
+
+/// Keeps only the valid ray bits (an all-open mask sets every bit).
+fn without_extra_bits(mut masks: VisibilityMasks, settings: &AoSettings) -> VisibilityMasks {
     let words = masks.words_per_point as usize;
     for (i, w) in masks.bits.iter_mut().enumerate() {
         let rays = (settings.rays_per_point as usize)
@@ -515,7 +561,7 @@ fn without_self(
             *w &= (1u32 << rays) - 1;
         }
     }
-    Ok(masks)
+    masks
 }
 
 /// Every ray of every point open (all bits set).

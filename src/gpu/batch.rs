@@ -71,9 +71,11 @@ pub trait Pass: Sized {
     /// A pass (with empty kept buffers) over kernels built before.
     fn with_kernels(device: &wgpu::Device, kernels: Arc<Self::Kernels>) -> Self;
 
-    /// Builds the kernels for `device`.
+    /// Builds the kernels for `device` (a host's: what they compile is
+    /// logged nowhere; use `with_kernels` and `Kernels::build` to see it).
     fn new(device: &wgpu::Device) -> Self {
-        Self::with_kernels(device, Arc::new(Self::Kernels::build(device)))
+        let log = Arc::default();
+        Self::with_kernels(device, Arc::new(Self::Kernels::build(device, &log)))
     }
 
     /// A pass over the kernels cached on `ctx`.

@@ -16,7 +16,9 @@ use super::pass::{Dispatch, TreeBatch, TreeKernelSet, TreeKernels, TreePass};
 use crate::error::{Error, Result};
 use crate::gpu::batch::{BatchPlan, Batched, run_batches};
 use crate::gpu::buffers::{storage_buffer, uniform_buffer};
-use crate::gpu::kernels::Kernels;
+use std::sync::Arc;
+
+use crate::gpu::kernels::{Kernels, PipelineLog};
 use crate::gpu::layout::{Io, bind_group, layout, storage_entry, uniform_entry};
 use crate::gpu::{GpuContext, dispatch_grid};
 use crate::progress::Progress;
@@ -134,10 +136,10 @@ const TRACE_IO: &[Io] = &[
 pub struct TraceRaysKernels(TreeKernels);
 
 impl Kernels for TraceRaysKernels {
-    fn build(device: &wgpu::Device) -> TraceRaysKernels {
+    fn build(device: &wgpu::Device, log: &Arc<PipelineLog>) -> TraceRaysKernels {
         let entries = ["trace_closest", "trace_any", "trace_closest_counted"];
         let module = &crate::wgsl::TRACE_RAYS_MODULE;
-        TraceRaysKernels(TreeKernels::build(device, module, TRACE_IO, &entries))
+        TraceRaysKernels(TreeKernels::build(device, module, TRACE_IO, &entries, log))
     }
 }
 

@@ -12,7 +12,7 @@ use crate::error::Result;
 use crate::gpu::GpuContext;
 use crate::gpu::batch::{BatchPass, Pass};
 use crate::gpu::buffers::KeptGroup;
-use crate::gpu::kernels::{Kernels, compute_pipelines, record_dispatch};
+use crate::gpu::kernels::{Kernels, PipelineLog, Pipelines, compute_pipelines, record_dispatch};
 use crate::gpu::layout::{Io, io_layout};
 use crate::gpu::timer::PassTimer;
 use crate::wgsl::Composition;
@@ -20,16 +20,22 @@ use crate::wgsl::Composition;
 /// Pipelines over the kd-tree (bind group 0) with one io bind group (1).
 pub struct TreeKernels {
     pub io_layout: wgpu::BindGroupLayout,
-    pub pipelines: Vec<wgpu::ComputePipeline>,
+    pub pipelines: Pipelines,
 }
 
 impl TreeKernels {
     /// The pipelines of `entry_points` of `module`, with bind group 1 laid
     /// out as `io`.
-    pub fn build(device: &wgpu::Device, module: &Composition, io: &[Io], entry_points: &[&str]) -> TreeKernels {
+    pub fn build(
+        device: &wgpu::Device,
+        module: &Composition,
+        io: &[Io],
+        entry_points: &[&'static str],
+        log: &Arc<PipelineLog>,
+    ) -> TreeKernels {
         let io_layout = io_layout(device, module.name, io);
         let layouts = [&kdtree_bind_group_layout(device), &io_layout];
-        let pipelines = compute_pipelines(device, module, &layouts, entry_points);
+        let pipelines = compute_pipelines(device, module, &layouts, entry_points, log);
         TreeKernels { io_layout, pipelines }
     }
 }
@@ -104,7 +110,7 @@ impl<K: TreeKernelSet> TreePass<K> {
         if let Some(b) = self.clear {
             encoder.clear_buffer(self.io.buffer(b), 0, None);
         }
-        let pipeline = &self.kernels.tree_kernels().pipelines[self.entry];
+        let pipeline = self.kernels.tree_kernels().pipelines.get(self.entry);
         let groups = [&tree.bind_group, self.io.group()];
         record_dispatch(encoder, K::LABEL, timestamp_writes, pipeline, &groups, self.grid);
     }

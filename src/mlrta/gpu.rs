@@ -14,7 +14,9 @@ use crate::device::elapsed_ms;
 use crate::error::Result;
 use crate::gpu::GpuContext;
 use crate::gpu::batch::{BatchPlan, Batched, run_batches};
-use crate::gpu::kernels::Kernels;
+use std::sync::Arc;
+
+use crate::gpu::kernels::{Kernels, PipelineLog};
 use crate::gpu::layout::Io;
 use crate::kdtree::gpu::GpuKdTree;
 use crate::kdtree::pass::{Dispatch, TreeBatch, TreeKernelSet, TreeKernels, TreePass};
@@ -77,9 +79,9 @@ const PACKET_IO: &[Io] = &[
 pub struct PacketKernels(TreeKernels);
 
 impl Kernels for PacketKernels {
-    fn build(device: &wgpu::Device) -> PacketKernels {
+    fn build(device: &wgpu::Device, log: &Arc<PipelineLog>) -> PacketKernels {
         let module = &crate::wgsl::PACKET_TRAVERSE_MODULE;
-        PacketKernels(TreeKernels::build(device, module, PACKET_IO, &["trace_packet"]))
+        PacketKernels(TreeKernels::build(device, module, PACKET_IO, &["trace_packet"], log))
     }
 }
 

@@ -27,7 +27,7 @@ use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::gpu::batch::{BatchPass, BatchPlan, readback_buffer, run_batches};
 use crate::gpu::buffers::{GrowingBuffer, KeptGroup, storage_buffer};
-use crate::gpu::kernels::{Kernels, compute_pipelines, record_dispatch};
+use crate::gpu::kernels::{Kernels, PipelineLog, Pipelines, compute_pipelines, record_dispatch};
 use crate::gpu::layout::{Io, bind_group, io_layout, layout, storage_entry};
 use crate::gpu::timer::PassTimer;
 use crate::progress::Progress;
@@ -67,11 +67,11 @@ const FRAME_IO: &[Io] = &[
 pub struct ShTransferKernels {
     pub tables_layout: wgpu::BindGroupLayout,
     pub frame_layout: wgpu::BindGroupLayout,
-    pipeline: wgpu::ComputePipeline,
+    pipeline: Pipelines,
 }
 
 impl Kernels for ShTransferKernels {
-    fn build(device: &wgpu::Device) -> ShTransferKernels {
+    fn build(device: &wgpu::Device, log: &Arc<PipelineLog>) -> ShTransferKernels {
         let tables_layout = layout(
             device,
             "sh_transfer tables",
@@ -83,8 +83,8 @@ impl Kernels for ShTransferKernels {
             &crate::wgsl::SH_TRANSFER_MODULE,
             &[&tables_layout, &frame_layout],
             &["sh_transfer"],
-        )
-        .remove(0);
+            log,
+        );
         ShTransferKernels {
             tables_layout,
             frame_layout,
@@ -113,7 +113,7 @@ pub struct ShTransferPass {
 impl ShTransferPass {
     /// Builds the kernels for `device` and uploads `prt`'s tables.
     pub fn new(device: &wgpu::Device, prt: &Prt) -> Result<ShTransferPass> {
-        Self::with_kernels(device, Arc::new(ShTransferKernels::build(device)), prt)
+        Self::with_kernels(device, Arc::new(ShTransferKernels::build(device, &Arc::default())), prt)
     }
 
     /// As `new`, with kernels built before (e.g. `ShTransferKernels::cached`).
@@ -267,7 +267,7 @@ impl ShTransferPass {
             encoder,
             "sh_transfer",
             timestamp_writes,
-            &self.kernels.pipeline,
+            self.kernels.pipeline.get(0),
             &groups,
             self.grid,
         );

@@ -9,7 +9,9 @@ use super::scene::RenderScene;
 use super::whitted::{PixelOut, WhittedParams};
 use crate::error::{Error, Result};
 use crate::gpu::batch::{BatchPlan, Batched, run_batches};
-use crate::gpu::kernels::Kernels;
+use std::sync::Arc;
+
+use crate::gpu::kernels::{Kernels, PipelineLog};
 use crate::gpu::layout::Io;
 use crate::gpu::{GpuContext, dispatch_grid};
 use crate::kdtree::gpu::GpuKdTree;
@@ -34,12 +36,13 @@ pub const PIXELS_PER_BATCH: usize = 1 << 16;
 pub struct WhittedKernels(TreeKernels);
 
 impl Kernels for WhittedKernels {
-    fn build(device: &wgpu::Device) -> WhittedKernels {
+    fn build(device: &wgpu::Device, log: &Arc<PipelineLog>) -> WhittedKernels {
         WhittedKernels(TreeKernels::build(
             device,
             &crate::wgsl::WHITTED_MODULE,
             WHITTED_IO,
             &["whitted"],
+            log,
         ))
     }
 }

@@ -22,7 +22,7 @@ use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::gpu::batch::Pass;
 use crate::gpu::buffers::{KeptGroup, check_storage_size, read_back, read_buffer, uniform_buffer, zeroed_buffer};
-use crate::gpu::kernels::{Kernels, compute_pipelines, record_dispatch};
+use crate::gpu::kernels::{Kernels, PipelineLog, Pipelines, compute_pipelines, record_dispatch};
 use crate::gpu::layout::{Io, io_layout, layout, texture_entry, uniform_entry_for};
 use crate::gpu::timer::PassTimer;
 use crate::scene::{Camera, Light, Mesh};
@@ -341,7 +341,7 @@ impl GBufferPass {
     }
 }
 
-/// The SSAO kernels (one entry point each), in `SsaoKernels`' order.
+/// The SSAO kernels (one entry point each).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum SsaoKernel {
     PackDepth,
@@ -381,29 +381,45 @@ const SSAO_IO: &[Io] = &[
 pub struct SsaoKernels {
     pub gbuffer_layout: wgpu::BindGroupLayout,
     pub io_layout: wgpu::BindGroupLayout,
-    pipelines: [wgpu::ComputePipeline; 8],
+    /// By module: estimate (pack depth, points, march, disk), indirect
+    /// (indirect, compose), filter (ao, indirect).
+    estimate: Pipelines,
+    indirect: Pipelines,
+    filter: Pipelines,
 }
 
 impl Kernels for SsaoKernels {
-    fn build(device: &wgpu::Device) -> SsaoKernels {
+    fn build(device: &wgpu::Device, log: &Arc<PipelineLog>) -> SsaoKernels {
         let texture = |binding| texture_entry(binding, wgpu::TextureViewDimension::D2, false);
         let gbuffer_layout = layout(device, "ssao g-buffer", &[texture(0), texture(1)]);
         let io_layout = io_layout(device, "ssao io", SSAO_IO);
         let layouts = [&gbuffer_layout, &io_layout];
-        let build = |module, entries: &[&str]| compute_pipelines(device, module, &layouts, entries);
-        let mut all = build(
-            &crate::wgsl::SSAO_ESTIMATE_MODULE,
-            &["ssao_pack_depth", "ssao_points", "ssao_march", "ssao_disk"],
-        );
-        all.extend(build(&crate::wgsl::SSAO_INDIRECT_MODULE, &["ssao_indirect"]));
+        let build = |module, entries: &[&'static str]| compute_pipelines(device, module, &layouts, entries, log);
+        let estimate = ["ssao_pack_depth", "ssao_points", "ssao_march", "ssao_disk"];
         let filters = ["ssao_filter_ao", "ssao_filter_indirect"];
-        all.extend(build(&crate::wgsl::SSAO_FILTER_MODULE, &filters));
-        all.extend(build(&crate::wgsl::SSAO_INDIRECT_MODULE, &["ssao_compose"]));
-        let pipelines: [wgpu::ComputePipeline; 8] = all.try_into().expect("eight entry points");
         SsaoKernels {
+            estimate: build(&crate::wgsl::SSAO_ESTIMATE_MODULE, &estimate),
+            indirect: build(&crate::wgsl::SSAO_INDIRECT_MODULE, &["ssao_indirect", "ssao_compose"]),
+            filter: build(&crate::wgsl::SSAO_FILTER_MODULE, &filters),
             gbuffer_layout,
             io_layout,
-            pipelines,
+        }
+    }
+}
+
+impl SsaoKernels {
+    /// The pipeline of `kernel`, compiled on first use.
+    fn pipeline(&self, kernel: SsaoKernel) -> &wgpu::ComputePipeline {
+        use SsaoKernel::*;
+        match kernel {
+            PackDepth => self.estimate.get(0),
+            Points => self.estimate.get(1),
+            March => self.estimate.get(2),
+            Disk => self.estimate.get(3),
+            Indirect => self.indirect.get(0),
+            Compose => self.indirect.get(1),
+            FilterAo => self.filter.get(0),
+            FilterIndirect => self.filter.get(1),
         }
     }
 }
@@ -553,7 +569,7 @@ impl SsaoPass {
             match action {
                 Run(kernel, step) => {
                     let writes = timer.as_mut().and_then(|t| t.next_pass());
-                    let pipeline = &self.kernels.pipelines[kernel as usize];
+                    let pipeline = self.kernels.pipeline(kernel);
                     record_dispatch(encoder, "ssao", writes, pipeline, &[gbuffer, self.io.group()], grid);
                     steps.push(step);
                 }

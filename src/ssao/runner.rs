@@ -14,7 +14,9 @@ use crate::device::{Device, GpuOutput, Timing, elapsed_ms};
 use crate::error::{Error, Result};
 use crate::progress::Bars;
 use crate::scene::{Camera, Scene, View};
+use crate::skipped::Skipped;
 use crate::tracer::build_tree;
+use std::cell::OnceCell;
 
 /// One SSAO frame and its measurements.
 #[derive(Debug, Clone, PartialEq)]
@@ -86,8 +88,13 @@ pub struct SsaoReport {
     pub mean_ao: f64,
     pub truth: Option<Estimate>,
     pub reference: Option<Estimate>,
+    /// The whole scene's kd-tree (0 when it was not needed).
     pub build_ms: f64,
     pub camera: Camera,
+    /// What the frame did not need: the kd-tree of the drawn scene (a GPU
+    /// rasterises the G-buffer; the truth needs only the casters'), the
+    /// truth and the screen reference when not asked for.
+    pub skipped: Vec<Skipped>,
     /// What screen space cannot see (with a reference; null without truth).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rmse_reference_vs_raytraced: Option<Option<f64>>,
@@ -105,7 +112,15 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: Bars) ->
     let (w, h) = (request.view.width, request.view.height);
     let view = ScreenView::new(&camera, w, h);
     let shade = request.shade.as_ref();
-    let tree = build_tree(&mesh, bars, "ssao")?;
+    // The whole scene's tree serves the CPU G-buffer and a truth whose
+    // casters are the whole scene; built on first need.
+    let tree = OnceCell::new();
+    let whole_tree = || -> Result<&crate::kdtree::KdTree> {
+        if tree.get().is_none() {
+            let _ = tree.set(build_tree(&mesh, bars, "ssao")?);
+        }
+        Ok(tree.get().expect("set above"))
+    };
     let framed = device.run(
         |ctx| {
             let source = GBufferSource::Render {
@@ -120,8 +135,9 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: Bars) ->
             })
         },
         || {
+            let tree = whole_tree()?;
             let start = std::time::Instant::now();
-            let gb = gbuffer(&tree, &mesh, &camera, &scene.lights, w, h);
+            let gb = gbuffer(tree, &mesh, &camera, &scene.lights, w, h);
             let gbuffer_ms = elapsed_ms(start);
             let mut frame = run_cpu(&gb, &view, settings, shade)?;
             frame.timings.gbuffer_ms = gbuffer_ms;
@@ -133,7 +149,7 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: Bars) ->
     let truth = if request.truth_rays > 0 {
         let caster_tree;
         let occ_tree = if occluders.triangles.len() == mesh.triangles.len() {
-            &tree
+            whole_tree()?
         } else if occluders.triangles.is_empty() {
             return Err(Error::param("scene", "no instance is a caster: nothing occludes"));
         } else {
@@ -155,7 +171,9 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: Bars) ->
         None
     };
     let reference = (request.reference_spp > 0).then(|| screen_reference(&gb, &view, settings, request.reference_spp));
-    let report = SsaoReport::new(request, &camera, &gb, &frame, &truth, &reference, tree.stats.build_ms);
+    let mut report = SsaoReport::new(request, &camera, &gb, &frame, &truth, &reference);
+    report.build_ms = tree.get().map_or(0.0, |t| t.stats.build_ms);
+    report.skipped = skipped(request, tree.get().is_none());
     Ok(SsaoRun {
         camera,
         gbuffer: gb,
@@ -164,6 +182,23 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: Bars) ->
         reference,
         report,
     })
+}
+
+/// What `request` left out (`tree_unused`: the whole scene's kd-tree was
+/// never needed).
+fn skipped(request: &SsaoRequest, tree_unused: bool) -> Vec<Skipped> {
+    let mut skipped = Vec::new();
+    if tree_unused {
+        let why = "the G-buffer was rasterised and no truth traced the whole scene";
+        skipped.push(Skipped::new("kd-tree", why));
+    }
+    if request.truth_rays == 0 {
+        skipped.push(Skipped::new("ray-traced truth", "--truth-rays 0"));
+    }
+    if request.reference_spp == 0 {
+        skipped.push(Skipped::new("screen-space reference", "--reference-spp 0"));
+    }
+    skipped
 }
 
 impl SsaoRun {
@@ -183,7 +218,6 @@ impl SsaoReport {
         frame: &SsaoFrame,
         truth: &Option<Estimate>,
         reference: &Option<Estimate>,
-        build_ms: f64,
     ) -> SsaoReport {
         let s = &request.settings;
         let t: Timings = frame.timings;
@@ -226,8 +260,9 @@ impl SsaoReport {
             mean_ao,
             truth: truth.clone(),
             reference: reference.clone(),
-            build_ms,
+            build_ms: 0.0,
             camera: *camera,
+            skipped: Vec::new(),
             rmse_reference_vs_raytraced: reference
                 .as_ref()
                 .map(|r| truth.as_ref().map(|t| rmse(gb, &r.values, &t.values))),

@@ -10,6 +10,7 @@ use crate::ao::AoSettings;
 use crate::ao::runner::{AoRequest, raycast};
 use crate::device::Device;
 use crate::error::Result;
+use crate::field::reach::Reach;
 use crate::field::runner::FieldAo;
 use crate::field::{DirectionMapping, FieldParams, Positional};
 use crate::progress::Bars;
@@ -115,6 +116,16 @@ pub fn on_ground(name: &str, path: &std::path::Path, mesh: Mesh) -> Result<Scene
     Ok(Scene::from_mesh(name, path, mesh).with_receiver(ground))
 }
 
+impl FieldSweep<'_> {
+    /// The sweep runs one frame at the request's radius.
+    fn reach(&self) -> Reach {
+        Reach {
+            radius: self.request.settings.radius,
+            frames: 1,
+        }
+    }
+}
+
 impl<'s> SweepMethod for FieldSweep<'s> {
     fn name(&self) -> &'static str {
         "field"
@@ -154,7 +165,7 @@ impl<'s> SweepMethod for FieldSweep<'s> {
         let reuse = matches!(&self.built, Some((p, l, _, _)) if *p == params && *l == positional);
         if !reuse {
             self.built = None;
-            let mut fields = FieldAo::new(self.scene, &params, positional, Bars::Hidden)?;
+            let mut fields = FieldAo::new(self.scene, &params, positional, self.reach(), Bars::Hidden)?;
             fields.upload(&self.device)?;
             let build_ms = fields.reports().iter().filter_map(|r| r.build_ms).sum();
             self.built = Some((params, positional, fields, build_ms));
