@@ -451,3 +451,33 @@ fn prt_numbers_out() {
         assert_eq!(q.0, [0, 1, 2].map(|k| srgb8(e[k] * exposure)));
     }
 }
+
+/// `ssao --image` shades with the OBJ's MTL materials: a red (`Kd 1 0 0`)
+/// half of a floor is red in the linear image (green and blue exactly 0,
+/// every term is multiplied by the albedo), the half without `usemtl`
+/// keeps the palette's grey-beige; without the MTL no pixel is pure red.
+#[test]
+fn ssao_image_albedo_comes_from_obj_materials() {
+    let d = TempDir::new("out-ssao-mtl");
+    d.write("m.mtl", "newmtl red\nKd 1 0 0\n");
+    let geometry = "v -1 0 -1\nv 0 0 -1\nv 0 0 1\nv -1 0 1\nv 1 0 -1\nv 1 0 1\nf 2 3 6 5\n";
+    let with = d.write("with.obj", format!("mtllib m.mtl\n{geometry}usemtl red\nf 1 4 3 2\n"));
+    let without = d.write("without.obj", format!("{geometry}f 1 4 3 2\n"));
+    let pure_red = |mesh: &str, img: &str| -> (usize, usize) {
+        let img = d.p(img);
+        pen(
+            "ssao --mesh {mesh} --estimator sphere --spp 4 --radius 0.5 --width 40 --height 30 \
+             --truth-rays 0 --reference-spp 0 --device cpu --image {img}",
+            &[("mesh", mesh), ("img", &img)],
+        )
+        .ok();
+        let px = exr(&img);
+        let red = px.iter().filter(|p| p[0] > 0.0 && p[1] == 0.0 && p[2] == 0.0).count();
+        let other = px.iter().filter(|p| p[1] > 0.0).count();
+        (red, other)
+    };
+    let (red, other) = pure_red(&with, "with.exr");
+    assert!(red > 30 && other > 30, "red {red}, other {other}");
+    let (red, other) = pure_red(&without, "without.exr");
+    assert!(red == 0 && other > 100, "red {red}, other {other}");
+}

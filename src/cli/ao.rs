@@ -178,7 +178,9 @@ fn vertex_report(args: &AoArgs, csv: &Path, v: &VertexAo, (scene, frame): (&Scen
             v.without_normal
         ));
     }
-    near_zero_warning(&v.ao, args.radius, scene).map(|w| super::io::note(&w));
+    near_zero_warning(&v.ao, args.radius, scene)
+        .iter()
+        .for_each(|w| super::io::note(w));
     write_vertex_ao(csv, scene, frame, &v.ao)?;
     Ok(json!({
         "file": csv.display().to_string(),
@@ -191,7 +193,9 @@ fn vertex_report(args: &AoArgs, csv: &Path, v: &VertexAo, (scene, frame): (&Scen
 /// Writes the image; the report's `image`.
 fn image_report(args: &AoArgs, png: &Path, image: &PixelAo, scene: &Scene) -> Result<Value> {
     let values: Vec<f32> = image.values.iter().flatten().copied().collect();
-    near_zero_warning(&values, args.radius, scene).map(|w| super::io::note(&w));
+    near_zero_warning(&values, args.radius, scene)
+        .iter()
+        .for_each(|w| super::io::note(w));
     write_grey(png, image.width, image.height, &image.values, args.grey.style())?;
     Ok(json!({
         "file": png.display().to_string(),

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use serde_json::Value;
 
-use super::args::{CameraArgs, Common, check_outputs, load_input};
+use super::args::{CameraArgs, Common, check_outputs, load_input, load_shaded_input};
 use crate::error::{Error, Result};
 use crate::image_out::{GreyImageOptions, ImageFormat, write_grey, write_radiance};
 use crate::progress::Bars;
@@ -96,7 +96,16 @@ pub fn run(args: &SsaoArgs) -> Result<Value> {
     let outputs = check_outputs(&[(&args.out, "--out"), (&args.image, "--image")])?;
     outputs[0].map(|p| args.grey.style().check(p, "--out")).transpose()?;
     outputs[1].map(|p| ImageFormat::check(p, "--image")).transpose()?;
-    let scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
+    let load = if args.image.is_some() {
+        load_shaded_input
+    } else {
+        load_input
+    };
+    let scene = load(args.mesh.as_deref(), args.scene.as_deref())?;
+    scene
+        .warnings
+        .iter()
+        .for_each(|w| super::io::note(&format!("warning: {w}")));
     crate::ssao::gbuffer::validate_lights(&scene.lights)?;
     let bounds = scene.world_mesh(|_| true).bounds();
     request.view.camera = request.view.camera.resolve(scene.camera, &bounds)?.into();

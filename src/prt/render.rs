@@ -49,7 +49,7 @@ pub fn render_radiance(
         .map(|ray| {
             let (o, d) = (ray.o(), ray.d());
             let hit = tree.closest_hit(o, d, f32::INFINITY);
-            let c = if hit.is_hit() {
+            if hit.is_hit() {
                 let t = triangles[hit.triangle as usize];
                 let [a, b, c] = t.map(|i| positions[i as usize]);
                 let p = o + d * hit.t;
@@ -64,8 +64,7 @@ pub fn render_radiance(
                 Vec3::from_array(env.lookup(d.normalize()))
             } else {
                 Vec3::ZERO
-            };
-            c
+            }
         })
         .collect())
 }
