@@ -390,7 +390,7 @@ mod tests {
             let max = if bits == PngBits::Sixteen { 65535.0 } else { 255.0 };
             assert_eq!(
                 img.color().bytes_per_pixel() as usize,
-                (1 + transparent as usize) * (max as usize / 255)
+                (1 + transparent as usize) * if bits == PngBits::Sixteen { 2 } else { 1 }
             );
             let la = img.into_luma_alpha16();
             for (p, v) in la.pixels().zip(&values) {

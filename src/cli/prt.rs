@@ -250,8 +250,8 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     if let Some(p) = &args.sh_out {
         write_sh_json(p, &env, &args.env, settings.bands, args.env_spin)?;
     }
-    let head =
-        json!({ "scene": mesh.name, "images": images, "exposure": exposure, "camera": camera, "max_error": choice });
+    let head = json!({ "scene": mesh.name, "images": images, "exposure": exposure, "camera": camera, "max_error": choice,
+                 "sh_out": args.sh_out, "per_vertex": args.per_vertex });
     let report = super::io::merged(head, &report)?;
     super::io::merged(report, args.common.report(runner.device(), threads))
 }
