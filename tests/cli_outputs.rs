@@ -287,6 +287,19 @@ fn ssao_and_trace_float_images_match_their_pngs() {
             .all(|(f, p)| *p == (f[0].clamp(0.0, 1.0) * 255.0).round() as u8)
     );
     assert!(ao.iter().any(|f| f[0] > 0.0 && f[0] < 1.0));
+    let (ao16, img2) = (d.p("ao16.png"), d.p("img2.png"));
+    pen(
+        &format!("{ssao} --png-bits 16"),
+        &[("mesh", &mesh), ("ao", &ao16), ("img", &img2)],
+    )
+    .ok();
+    let levels = png16(&ao16);
+    assert_eq!(levels.len(), ao.len());
+    let exact16 = ao
+        .iter()
+        .zip(&levels)
+        .all(|(f, p)| p[0] == (f[0].clamp(0.0, 1.0) * 65535.0).round() as u16);
+    assert!(exact16, "the 16-bit PNG holds the float values in 65535 steps");
     let radiance = exr(&d.p("img.exr"));
     let srgb = image::open(d.p("img.png")).unwrap().to_rgb8();
     for (f, p) in radiance.iter().zip(srgb.pixels()) {
