@@ -14,6 +14,7 @@ pub mod device;
 pub mod error;
 pub mod field;
 pub mod gpu;
+pub mod image_out;
 pub mod kdtree;
 pub mod mlrta;
 pub mod options;
@@ -30,6 +31,7 @@ pub mod skipped;
 pub mod ssao;
 pub mod sweep;
 pub mod tracer;
+pub mod vertex_out;
 pub mod wgsl;
 
 pub use error::{Error, Result};

@@ -24,22 +24,70 @@ pub fn write_with<F>(path: &Path, fill: F) -> Result<()>
 where
     F: FnOnce(&mut BufWriter<std::fs::File>) -> std::result::Result<(), String>,
 {
-    if path.file_name().is_none() || path.is_dir() {
-        return Err(Error::file(path, "", "is a folder, not a file name"));
+    let mut pending = Pending::create(path)?;
+    match fill(pending.writer()) {
+        Ok(()) => pending.finish(),
+        Err(e) => Err(pending.fail(e)),
     }
-    let tmp = temporary(path);
-    let written = (|| {
-        let file = std::fs::File::create(&tmp).map_err(|e| e.to_string())?;
-        let mut out = BufWriter::new(file);
-        fill(&mut out)?;
-        let file = out.into_inner().map_err(|e| e.error().to_string())?;
-        file.sync_all().map_err(|e| e.to_string())
-    })();
-    let renamed = written.and_then(|()| std::fs::rename(&tmp, path).map_err(|e| e.to_string()));
-    renamed.map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::write(path, e)
-    })
+}
+
+/// An output being written piece by piece (e.g. one animation frame at a
+/// time) into its temporary sibling: `finish` renames it over `path`;
+/// dropped unfinished (an error on the way), the temporary is removed and
+/// `path` is left as it was.
+pub struct Pending {
+    path: PathBuf,
+    tmp: PathBuf,
+    out: Option<BufWriter<std::fs::File>>,
+}
+
+impl Pending {
+    pub fn create(path: &Path) -> Result<Pending> {
+        if path.file_name().is_none() || path.is_dir() {
+            return Err(Error::file(path, "", "is a folder, not a file name"));
+        }
+        let tmp = temporary(path);
+        let file = std::fs::File::create(&tmp).map_err(|e| Error::write(path, e))?;
+        Ok(Pending {
+            path: path.to_path_buf(),
+            tmp,
+            out: Some(BufWriter::new(file)),
+        })
+    }
+
+    /// Where to write.
+    pub fn writer(&mut self) -> &mut BufWriter<std::fs::File> {
+        self.out.as_mut().expect("written after finishing")
+    }
+
+    /// The error of a failed write, the temporary removed.
+    pub fn fail(mut self, e: impl std::fmt::Display) -> Error {
+        self.out = None;
+        let _ = std::fs::remove_file(&self.tmp);
+        Error::write(&self.path, e)
+    }
+
+    /// Flushes, syncs and renames the file over `path`.
+    pub fn finish(mut self) -> Result<()> {
+        let out = self.out.take().expect("finished once");
+        let done = (|| {
+            let file = out.into_inner().map_err(|e| e.error().to_string())?;
+            file.sync_all().map_err(|e| e.to_string())?;
+            std::fs::rename(&self.tmp, &self.path).map_err(|e| e.to_string())
+        })();
+        done.map_err(|e| {
+            let _ = std::fs::remove_file(&self.tmp);
+            Error::write(&self.path, e)
+        })
+    }
+}
+
+impl Drop for Pending {
+    fn drop(&mut self) {
+        if self.out.take().is_some() {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
 }
 
 /// Writes `bytes` to `path`.

@@ -270,9 +270,9 @@ fn empty_rays_file_is_valid() {
 
 /// `ao` on cube-with-hole.obj writing `{csv}`, with `rest` appended.
 fn ao(d: &TempDir, rest: &str) -> Out {
-    let (mesh, csv) = (asset_s("cube-with-hole.obj"), d.p("out.csv"));
+    let (mesh, csv, png) = (asset_s("cube-with-hole.obj"), d.p("out.csv"), d.p("out.png"));
     let template = format!("ao --mesh {{mesh}} --method raycast --per-vertex {{csv}} --device cpu {rest}");
-    pen(&template, &[("mesh", &mesh), ("csv", &csv)])
+    pen(&template, &[("mesh", &mesh), ("csv", &csv), ("png", &png)])
 }
 
 /// `trace` on cube-with-hole.obj, with `rest` appended.
@@ -292,9 +292,9 @@ fn ao_parameter_errors() {
     ao(&d, "--rays 8 --radius=-1").bad_input(&["--radius", "positive"]);
     ao(&d, "--rays 8 --radius nan").bad_input(&["--radius"]);
     ao(&d, "--rays 8 --threads 0").bad_input(&["--threads"]);
-    ao(&d, "--rays 8 --image {csv} --width 0").bad_input(&["--width"]);
+    ao(&d, "--rays 8 --image {png} --width 0").bad_input(&["--width"]);
     assert!(
-        !Path::new(&d.p("out.csv")).exists(),
+        !Path::new(&d.p("out.csv")).exists() && !Path::new(&d.p("out.png")).exists(),
         "no output may be written when the arguments are bad"
     );
 }
@@ -1106,6 +1106,7 @@ fn bad_inputs_never_panic() {
         ("half", d.write("half.f32", [0u8; 12])),
         ("scene", d.write("scene.json", [0xffu8, 0xfe, 0x00, 0x7b])),
         ("csv", d.p("out.csv")),
+        ("png", d.p("out.png")),
         ("hits", d.p("hits.bin")),
     ];
     let vars: Vec<(&str, &str)> = vars.iter().map(|(k, v)| (*k, v.as_str())).collect();
@@ -1117,8 +1118,8 @@ fn bad_inputs_never_panic() {
         "ao --mesh {plane} --method raycast --rays 4294967295 --per-vertex {csv} --device cpu",
         "ao --mesh {plane} --method raycast --rays 8 --radius nan --per-vertex {csv} --device cpu",
         "ao --scene {scene} --method raycast --rays 8 --per-vertex {csv} --device cpu",
-        "ao --mesh {plane} --method raycast --rays 8 --image {csv} --width 0 --height 5 --device cpu",
-        "ao --mesh {plane} --method raycast --rays 8 --image {csv} --width 65536 --height 65536 --device cpu",
+        "ao --mesh {plane} --method raycast --rays 8 --image {png} --width 0 --height 5 --device cpu",
+        "ao --mesh {plane} --method raycast --rays 8 --image {png} --width 65536 --height 65536 --device cpu",
         "trace --mesh {plane} --width 100000 --height 100000 --device cpu",
         "trace --mesh {plane} --width 8 --height 8 --fov nan --device cpu",
         "trace --mesh {plane} --width 8 --height 8 --eye inf,0,0 --device cpu",

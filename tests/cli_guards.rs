@@ -91,6 +91,39 @@ fn an_output_that_is_an_input_is_refused_under_every_spelling() {
     r.bad_input(&["--out", "never overwrites an input"]);
 }
 
+/// prt's outputs (`--sh-out`, `--per-vertex`, a frame of a `{}` --out)
+/// and a per-vertex PLY are refused over an input too, the input unchanged.
+#[test]
+fn the_numbers_out_of_prt_and_ply_ao_never_overwrite_inputs() {
+    let d = TempDir::new("guard_prt_outputs");
+    let mesh = copy_mesh(&d);
+    let ply = d.write("mesh.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+    let env = d.write("env.hdr", b"not read: refused first");
+    let original = std::fs::read(&env).unwrap();
+    for (option, out) in [("--sh-out", &env), ("--per-vertex", &env), ("--per-vertex", &mesh)] {
+        let r = pen(
+            &format!("prt --mesh {{mesh}} --env {{env}} {option} {{out}}"),
+            &[("mesh", &mesh), ("env", &env), ("out", out)],
+        );
+        r.bad_input(&[option, "never overwrites an input"]);
+    }
+    let frame = d.write("f_0002.hdr", &original);
+    let mut args = common::cli::cmd(
+        "prt --mesh {mesh} --env {frame} --frames 3 --out",
+        &[("mesh", &mesh), ("frame", &frame)],
+    );
+    args.push(d.p("f_{:04}.hdr"));
+    let r = run(&args);
+    r.bad_input(&["--out", "never overwrites an input"]);
+    let r = pen(
+        "ao --mesh {ply} --method raycast --rays 4 --per-vertex {ply}",
+        &[("ply", &ply)],
+    );
+    r.bad_input(&["--per-vertex", "never overwrites an input"]);
+    assert_eq!(std::fs::read(&env).unwrap(), original);
+    assert!(std::fs::read_to_string(&ply).unwrap().starts_with("ply"));
+}
+
 /// A scene file's meshes are inputs too.
 #[test]
 fn an_output_over_a_scene_files_mesh_is_refused() {

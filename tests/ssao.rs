@@ -61,6 +61,7 @@ fn compare_gbuffers(ctx: &GpuContext, name: &str, mesh: &Mesh, camera: &Camera) 
         mesh,
         camera,
         lights: &[],
+        albedos: None,
     };
     let gpu = run_frame(ctx, source, &view, &settings, None, 1).unwrap().gbuffer;
     let (mut agree, mut not_silhouette, mut worst_z, mut worst_dot) = (0usize, 0usize, 0f32, 1f32);

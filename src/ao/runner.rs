@@ -141,6 +141,37 @@ pub fn receivers(scene: &Scene, frame: u32) -> Result<Mesh> {
     Ok(mesh)
 }
 
+/// Writes per-vertex AO of the receivers at `frame` to `path`: CSV, or
+/// the receivers' mesh with AO as vertex colours for a `.ply` name
+/// (`crate::vertex_out`).
+pub fn write_vertex_ao(path: &std::path::Path, scene: &Scene, frame: u32, ao: &[f32]) -> Result<()> {
+    match crate::vertex_out::VertexFormat::of(path) {
+        crate::vertex_out::VertexFormat::Csv => crate::vertex_out::write_ao_csv(path, ao),
+        crate::vertex_out::VertexFormat::Ply => crate::vertex_out::write_ao_ply(path, &receivers(scene, frame)?, ao),
+    }
+}
+
+/// AO at most this everywhere, with an infinite radius, earns a warning.
+pub const NEAR_ZERO: f32 = 0.02;
+
+/// A warning when every value of `ao` is near 0 with no `radius`: every
+/// ray hits something, as inside a closed scene (a room), where AO with an
+/// infinite radius is 0 everywhere and says nothing; it suggests a tenth
+/// of the scene's bounding-box diagonal as `radius`.
+pub fn near_zero_warning(ao: &[f32], radius: Option<f32>, scene: &Scene) -> Option<String> {
+    let most = ao.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    if radius.is_some_and(f32::is_finite) || ao.is_empty() || most > NEAR_ZERO {
+        return None;
+    }
+    let size = scene.world_mesh(|_| true).bounds().diagonal();
+    Some(format!(
+        "warning: AO is at most {most:.3} everywhere: with the default infinite `radius` every ray hits something, \
+         as inside a closed scene (a room); give a finite `radius` for local occlusion, e.g. `radius` {:.3} \
+         (a tenth of the scene's size)",
+        0.1 * size
+    ))
+}
+
 /// The AO points of the pixels a view sees, from `tracer`'s closest hits
 /// on `everything` (the scene at that moment).
 pub struct VisiblePoints {

@@ -8,15 +8,15 @@ use clap::ValueEnum;
 use serde_json::{Value, json};
 
 use super::args::{CameraArgs, Common, check_outputs, load_input};
-use super::io::{write_grey_png, write_vertex_csv};
 use crate::ao::AoSettings;
-use crate::ao::runner::{AoRequest, PixelAo, VertexAo, mean, raycast};
+use crate::ao::runner::{AoRequest, PixelAo, VertexAo, mean, near_zero_warning, raycast, write_vertex_ao};
 use crate::error::{Error, Result};
 use crate::field::Positional;
 use crate::field::budget::{self as field_budget, Fixed};
 use crate::field::options::FieldOptions;
 use crate::field::reach::Reach;
 use crate::field::runner::{FieldAo, MAX_FRAMES};
+use crate::image_out::{GreyImageOptions, write_grey};
 use crate::progress::Bars;
 use crate::scene::{Role, Scene, SceneMesh, View, load_mesh};
 use crate::sweep::budget::{Choice, cached};
@@ -49,12 +49,14 @@ pub struct AoArgs {
     /// Occluders beyond this distance do not count (default: infinite).
     #[arg(long, allow_negative_numbers = true)]
     pub radius: Option<f32>,
-    /// Per-vertex output: `index,ao` lines.
+    /// Per-vertex output: `index,ao` lines, or for a .ply name the mesh with AO as vertex colours.
     #[arg(long)]
     pub per_vertex: Option<PathBuf>,
-    /// Per-pixel output: AO at the primary hits, grey PNG (linear), background transparent.
+    /// Per-pixel output: AO at the primary hits, .png (linear grey), .exr or .pfm (float).
     #[arg(long)]
     pub image: Option<PathBuf>,
+    #[command(flatten)]
+    pub grey: GreyImageOptions,
     /// Image width in pixels.
     #[arg(long, default_value_t = 512, allow_negative_numbers = true)]
     pub width: u32,
@@ -133,11 +135,11 @@ pub fn run(args: &AoArgs) -> Result<Value> {
         "mrays_per_s": ao.points() as f64 * settings.rays_per_point as f64 / (ao.ao_ms().max(1e-9) * 1e3),
     });
     if let (Some(csv), Some(v)) = (csv, &ao.vertices) {
-        report["per_vertex"] = vertex_report(csv, v)?;
+        report["per_vertex"] = vertex_report(args, csv, v, (&scene, 0))?;
         report["per_vertex"]["ao_ms"] = json!(v.ms);
     }
     if let (Some(png), Some(image)) = (png, &ao.image) {
-        report["image"] = image_report(png, image)?;
+        report["image"] = image_report(args, png, image, &scene)?;
         let c = image.camera;
         report["image"]["eye"] = json!(c.eye.to_array());
         report["image"]["target"] = json!(c.target.to_array());
@@ -153,6 +155,9 @@ fn request(args: &AoArgs, settings: AoSettings) -> Result<(Option<&Path>, Option
         return Err(Error::param("--per-vertex/--image", "give at least one output"));
     }
     let outputs = check_outputs(&[(&args.per_vertex, "--per-vertex"), (&args.image, "--image")])?;
+    if let Some(p) = outputs[1] {
+        args.grey.style().check(p, "--image")?;
+    }
     let image = match outputs[1] {
         Some(_) => Some(View::new(args.camera.spec(), args.width, args.height)?),
         None => None,
@@ -165,8 +170,8 @@ fn request(args: &AoArgs, settings: AoSettings) -> Result<(Option<&Path>, Option
     Ok((outputs[0], outputs[1], request))
 }
 
-/// Writes the CSV; the report's `per_vertex`.
-fn vertex_report(csv: &Path, v: &VertexAo) -> Result<Value> {
+/// Writes the CSV or PLY (of the receivers at `frame`); the report's `per_vertex`.
+fn vertex_report(args: &AoArgs, csv: &Path, v: &VertexAo, (scene, frame): (&Scene, u32)) -> Result<Value> {
     if v.without_normal > 0 {
         super::io::note(&format!(
             "{} vertices are used by no triangle of non-zero area; they have no normal, cast no rays and are \
@@ -174,7 +179,10 @@ fn vertex_report(csv: &Path, v: &VertexAo) -> Result<Value> {
             v.without_normal
         ));
     }
-    write_vertex_csv(csv, &v.ao)?;
+    near_zero_warning(&v.ao, args.radius, scene)
+        .iter()
+        .for_each(|w| super::io::note(w));
+    write_vertex_ao(csv, scene, frame, &v.ao)?;
     Ok(json!({
         "file": csv.display().to_string(),
         "vertices": v.ao.len(),
@@ -183,9 +191,13 @@ fn vertex_report(csv: &Path, v: &VertexAo) -> Result<Value> {
     }))
 }
 
-/// Writes the PNG; the report's `image`.
-fn image_report(png: &Path, image: &PixelAo) -> Result<Value> {
-    write_grey_png(png, image.width, image.height, &image.values)?;
+/// Writes the image; the report's `image`.
+fn image_report(args: &AoArgs, png: &Path, image: &PixelAo, scene: &Scene) -> Result<Value> {
+    let values: Vec<f32> = image.values.iter().flatten().copied().collect();
+    near_zero_warning(&values, args.radius, scene)
+        .iter()
+        .for_each(|w| super::io::note(w));
+    write_grey(png, image.width, image.height, &image.values, args.grey.style())?;
     Ok(json!({
         "file": png.display().to_string(),
         "width": image.width,
@@ -263,11 +275,11 @@ fn field(args: &AoArgs, settings: AoSettings, threads: usize) -> Result<Value> {
         "max_error": choice,
     });
     if let (Some(csv), Some(v)) = (csv, &run.vertices) {
-        report["per_vertex"] = vertex_report(csv, v)?;
+        report["per_vertex"] = vertex_report(args, csv, v, (&scene, args.frames as u32 - 1))?;
         report["per_vertex"].as_object_mut().map(|o| o.remove("without_normal"));
     }
     if let (Some(png), Some(image)) = (png, &run.image) {
-        report["image"] = image_report(png, image)?;
+        report["image"] = image_report(args, png, image, &scene)?;
     }
     for absent in ["reference", "max_error"] {
         if report[absent].is_null() {

@@ -48,6 +48,11 @@ const BOUNDED_ONLY: &[&str] = &[
 ];
 const PRT_IMAGE: &[&str] = &["width", "height", "eye", "target", "fov", "exposure", "albedo"];
 
+fn is_png(path: &Option<std::path::PathBuf>) -> bool {
+    let png = |p: &std::path::PathBuf| crate::image_out::ImageFormat::check(p, "").ok();
+    path.as_ref().and_then(png) == Some(crate::image_out::ImageFormat::Png)
+}
+
 fn rules(command: &Command) -> Vec<Rule> {
     match command {
         Command::Ao(a) => ao_rules(a),
@@ -64,6 +69,8 @@ fn ao_rules(a: &super::ao::AoArgs) -> Vec<Rule> {
     vec![
         rule(a.method == super::ao::Method::Field, FIELD_ONLY, "--method field"),
         rule(a.image.is_some(), CAMERA_AND_SIZE, "--image"),
+        rule(a.image.is_some(), &["background"], "--image"),
+        rule(is_png(&a.image), &["png_bits"], "--image FILE.png"),
     ]
 }
 
@@ -101,6 +108,8 @@ fn ssao_rules(a: &super::ssao::SsaoArgs) -> Vec<Rule> {
         ),
         rule(a.knobs.filter == OnOff::On, &["filter_depth"], "--filter on"),
         rule(a.image.is_some(), &["ambient"], "--image"),
+        rule(a.out.is_some(), &["background"], "--out"),
+        rule(is_png(&a.out), &["png_bits"], "--out FILE.png"),
     ]
 }
 
@@ -129,6 +138,7 @@ fn prt_rules(a: &super::prt::PrtArgs) -> Vec<Rule> {
             "--self-check on",
         ),
         rule(a.animated.is_some(), &["start", "dt"], "--animated"),
+        rule(a.per_vertex.is_some(), &["per_vertex_transfer"], "--per-vertex"),
         rule(
             a.out.is_some() || a.out_frames.is_some(),
             PRT_IMAGE,

@@ -101,6 +101,15 @@ pub fn load_input(mesh: Option<&Path>, scene: Option<&Path>) -> Result<Scene> {
     }
 }
 
+/// `load_input` keeping the meshes' materials (an OBJ's MTL, glTF's) for shading.
+pub fn load_shaded_input(mesh: Option<&Path>, scene: Option<&Path>) -> Result<Scene> {
+    match (mesh, scene) {
+        (Some(m), None) => Ok(Scene::from_obj_file(&stem(m), m, crate::scene::load_mesh_file(m)?)),
+        (None, Some(s)) => crate::scene::load_scene_shaded(s),
+        _ => load_input(mesh, scene),
+    }
+}
+
 /// A file's name without its extension ("mesh" if it has none).
 pub fn stem(path: &Path) -> String {
     path.file_stem()

@@ -45,6 +45,17 @@ impl Files {
             self.outputs.push((option, p.clone()));
         }
     }
+
+    /// An output that is a file per frame where its name holds `{}`.
+    fn frames(&mut self, option: &'static str, path: &Option<PathBuf>, frames: u32) {
+        if let Some(out) = path {
+            let all: Vec<PathBuf> = (0..frames).filter_map(|i| crate::output::frame_path(out, i)).collect();
+            if all.is_empty() {
+                self.output(option, path);
+            }
+            all.into_iter().for_each(|p| self.output(option, &Some(p)));
+        }
+    }
 }
 
 /// What `command` reads and writes.
@@ -86,7 +97,9 @@ pub fn of(command: &Command) -> Files {
         Command::Prt(a) => {
             f.mesh("--mesh", &a.mesh);
             f.input("--env", &Some(a.env.clone()));
-            f.output("--out", &a.out);
+            f.frames("--out", &a.out, a.frames.clamp(0, 100_000) as u32);
+            f.output("--sh-out", &a.sh_out);
+            f.output("--per-vertex", &a.per_vertex);
             if let Some(dir) = &a.out_frames {
                 let frames = a.frames.clamp(0, 100_000);
                 for i in 0..frames {
@@ -111,15 +124,7 @@ pub fn of(command: &Command) -> Files {
             f.input("--path", &a.path);
             f.scene(&a.scene);
             f.output("--error-image", &a.error_image);
-            if let Some(out) = &a.out {
-                let frames = a.frames.min(100_000);
-                let each = (0..frames).filter_map(|i| crate::output::frame_path(out, i));
-                let all: Vec<PathBuf> = each.collect();
-                if all.is_empty() {
-                    f.output("--out", &a.out);
-                }
-                all.into_iter().for_each(|p| f.output("--out", &Some(p)));
-            }
+            f.frames("--out", &a.out, a.frames.min(100_000));
         }
     }
     f

@@ -1,35 +1,12 @@
-//! Writing the command line's outputs: per-vertex CSV, PNG images, JSON
-//! reports and notes on stderr.
+//! Writing the command line's outputs: RGB PNG maps, JSON reports and
+//! notes on stderr (images and per-vertex files: `crate::image_out`,
+//! `crate::vertex_out`).
 
-use std::io::Write;
 use std::path::Path;
 
 use serde_json::Value;
 
 use crate::error::{Error, Result};
-
-/// `index,ao` lines, no header.
-pub fn write_vertex_csv(path: &Path, ao: &[f32]) -> Result<()> {
-    crate::output::write_with(path, |out| {
-        for (i, a) in ao.iter().enumerate() {
-            writeln!(out, "{i},{a}").map_err(|e| e.to_string())?;
-        }
-        Ok(())
-    })
-}
-
-/// A grey image with alpha: `values` in [0, 1] stored linearly (no sRGB
-/// curve, so pixel / 255 is the value), `None` transparent.
-pub fn write_grey_png(path: &Path, width: u32, height: u32, values: &[Option<f32>]) -> Result<()> {
-    let mut img = image::GrayAlphaImage::new(width, height);
-    for (p, v) in img.pixels_mut().zip(values) {
-        *p = match v {
-            Some(v) => image::LumaA([(v.clamp(0.0, 1.0) * 255.0).round() as u8, 255]),
-            None => image::LumaA([0, 0]),
-        };
-    }
-    crate::output::write_image(path, &img, image::ImageFormat::Png)
-}
 
 /// An RGB image, 8 bits per channel.
 pub fn write_rgb_png(path: &Path, width: u32, height: u32, pixels: &[[u8; 3]]) -> Result<()> {

@@ -9,14 +9,16 @@ use glam::Vec3;
 use serde_json::{Value, json};
 
 use super::args::{CameraArgs, Common, OnOff, check_output, parse_vec3, positive, stem};
-use super::io::write_rgb_png;
 use crate::error::{Error, Result};
+use crate::image_out::{ImageFormat, write_radiance};
+use crate::output::frame_path;
 use crate::progress::Bars;
 use crate::prt::options::PrtOptions;
 use crate::prt::pipeline::PrtSettings;
-use crate::prt::render::{auto_exposure, render};
+use crate::prt::render::{auto_exposure, render_radiance};
 use crate::prt::runner::{Playback, PrtRunner, PvsSampling, RayTraced, Shadows, animate};
 use crate::prt::selfcheck::SelfCheck;
+use crate::prt::sh_out::write_sh_json;
 use crate::scene::animated::AnimatedScene;
 use crate::scene::{EnvironmentMap, Scene, View, load_mesh, used_bounds};
 use crate::sweep::budget::{Choice, cached};
@@ -77,9 +79,19 @@ pub struct PrtArgs {
     /// Per-phase times (the paper's Table 2); adds a little overhead.
     #[arg(long)]
     pub profile: bool,
-    /// Image of the last frame.
+    /// Image of the last frame, or of every frame where the name holds `{}`
+    /// (or `{:04}`): .png (sRGB), .exr or .pfm (linear radiance).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// The probe's SH coefficients per colour channel, with their convention (JSON).
+    #[arg(long)]
+    pub sh_out: Option<PathBuf>,
+    /// Radiance per frame and vertex: CSV `frame,vertex,r,g,b` with a header row.
+    #[arg(long)]
+    pub per_vertex: Option<PathBuf>,
+    /// Add each vertex's transfer vector (t0, t1, ...) to the --per-vertex rows.
+    #[arg(long)]
+    pub per_vertex_transfer: bool,
     /// Folder for every frame's image (frame-0000.png, ...).
     #[arg(long)]
     pub out_frames: Option<PathBuf>,
@@ -150,6 +162,10 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     let (mut settings, playback, reference) = knobs(args)?;
     let view = View::new(args.camera.spec(), args.width, args.height)?;
     let out_png = args.out.as_deref().map(|p| check_output(p, "--out")).transpose()?;
+    out_png.map(|p| ImageFormat::check(p, "--out")).transpose()?;
+    for (path, option) in [(&args.sh_out, "--sh-out"), (&args.per_vertex, "--per-vertex")] {
+        path.as_deref().map(|p| check_output(p, option)).transpose()?;
+    }
     if let Some(dir) = &args.out_frames
         && !dir.is_dir()
     {
@@ -179,6 +195,16 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     };
     let mut runner = PrtRunner::new(&device, &rest, triangles, &settings, args.shadows, reference)?;
     runner.notes().iter().for_each(|n| super::io::note(n));
+    let transfer = if args.per_vertex_transfer {
+        crate::sh::coefficient_count(settings.bands)
+    } else {
+        0
+    };
+    let mut csv = args
+        .per_vertex
+        .as_deref()
+        .map(|p| crate::vertex_out::PrtVertexCsv::create(p, transfer))
+        .transpose()?;
     let (mut exposure, mut images) = (args.exposure, 0usize);
     let report = animate(
         &mut runner,
@@ -187,13 +213,20 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
         Some(camera.eye),
         &playback,
         |f, positions, out| {
+            if let Some(csv) = csv.as_mut() {
+                csv.frame(f, &out.radiance, args.albedo.to_array(), &out.transfer)?;
+            }
             let last = f + 1 == playback.frames;
-            if args.out_frames.is_none() && !(last && out_png.is_some()) {
+            let paths = [
+                args.out_frames.as_ref().map(|d| d.join(format!("frame-{f:04}.png"))),
+                out_png.and_then(|p| frame_path(p, f as u32).or_else(|| last.then(|| p.to_path_buf()))),
+            ];
+            if paths.iter().all(Option::is_none) {
                 return Ok(());
             }
             let exp = *exposure.get_or_insert_with(|| auto_exposure(&out.radiance, args.albedo));
             let (w, h) = (args.width, args.height);
-            let pixels = render(
+            let image = render_radiance(
                 positions,
                 triangles,
                 &out.radiance,
@@ -202,14 +235,9 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
                 &camera,
                 w,
                 h,
-                exp,
             )?;
-            let paths = [
-                args.out_frames.as_ref().map(|d| d.join(format!("frame-{f:04}.png"))),
-                out_png.filter(|_| last).map(PathBuf::from),
-            ];
             for path in paths.iter().flatten() {
-                write_rgb_png(path, w, h, &pixels)?;
+                write_radiance(path, w, h, &image, exp)?;
                 images += 1;
             }
             Ok(())
@@ -218,8 +246,12 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     if let Some(w) = report.self_check.as_ref().and_then(|c| c.warning()) {
         super::io::note(&w);
     }
-    let head =
-        json!({ "scene": mesh.name, "images": images, "exposure": exposure, "camera": camera, "max_error": choice });
+    csv.map(|c| c.finish()).transpose()?;
+    if let Some(p) = &args.sh_out {
+        write_sh_json(p, &env, &args.env, settings.bands, args.env_spin)?;
+    }
+    let head = json!({ "scene": mesh.name, "images": images, "exposure": exposure, "camera": camera, "max_error": choice,
+                 "sh_out": args.sh_out, "per_vertex": args.per_vertex });
     let report = super::io::merged(head, &report)?;
     super::io::merged(report, args.common.report(runner.device(), threads))
 }

@@ -10,8 +10,8 @@ use super::args::{CameraArgs, Common, check_output, stem};
 use super::io::note;
 use crate::bounded::options::BoundedOptions;
 use crate::error::{Error, Result};
+use crate::image_out::{ImageFormat, write_radiance};
 use crate::progress::Bars;
-use crate::raytrace::image::{RadianceFormat, write_radiance};
 use crate::raytrace::options::WhittedOptions;
 use crate::raytrace::{RenderScene, WhittedRenderer, WhittedSettings};
 use crate::scene::{Camera, CameraPath, Scene, load_mesh_file, load_scene_shaded};
@@ -182,11 +182,15 @@ fn setup(args: &RaytraceArgs) -> Result<(Setup<'_>, WhittedRenderer)> {
     }
     let out = match &args.out {
         Some(p) => {
-            RadianceFormat::of(p).map_err(|e| e.with_names(|_| Some("--out")))?;
+            ImageFormat::check(p, "--out")?;
             Some(check_output(p, "--out")?)
         }
         None => None,
     };
+    args.error_image
+        .as_deref()
+        .map(|p| ImageFormat::check_png(p, "--error-image"))
+        .transpose()?;
     let path = args.path.as_deref().map(CameraPath::load).transpose()?;
     let scene = load(args)?;
     let load_warnings = scene.warnings.len();

@@ -6,10 +6,9 @@ use std::path::PathBuf;
 
 use serde_json::Value;
 
-use super::args::{CameraArgs, Common, check_outputs, load_input};
-use super::io::{write_grey_png, write_rgb_png};
-use crate::color::srgb8;
+use super::args::{CameraArgs, Common, check_outputs, load_input, load_shaded_input};
 use crate::error::{Error, Result};
+use crate::image_out::{GreyImageOptions, ImageFormat, write_grey, write_radiance};
 use crate::progress::Bars;
 use crate::scene::View;
 use crate::ssao::ShadeSettings;
@@ -34,11 +33,13 @@ pub struct SsaoArgs {
     /// Image height in pixels.
     #[arg(long, default_value_t = 600, allow_negative_numbers = true)]
     pub height: u32,
-    /// Accessibility per pixel, grey PNG (linear), background transparent.
+    /// Accessibility per pixel: .png (linear grey), .exr or .pfm (float).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub grey: GreyImageOptions,
     /// The shaded image, direct + a (La O + I) with the indirect light
-    /// I = L~ (1 - O), RGB PNG (sRGB).
+    /// I = L~ (1 - O): .png (sRGB), .exr or .pfm (linear radiance).
     #[arg(long)]
     pub image: Option<PathBuf>,
     /// Compute the indirect light and image even without --image (timed).
@@ -93,7 +94,18 @@ pub fn run(args: &SsaoArgs) -> Result<Value> {
         ));
     }
     let outputs = check_outputs(&[(&args.out, "--out"), (&args.image, "--image")])?;
-    let scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
+    outputs[0].map(|p| args.grey.style().check(p, "--out")).transpose()?;
+    outputs[1].map(|p| ImageFormat::check(p, "--image")).transpose()?;
+    let load = if args.image.is_some() {
+        load_shaded_input
+    } else {
+        load_input
+    };
+    let scene = load(args.mesh.as_deref(), args.scene.as_deref())?;
+    scene
+        .warnings
+        .iter()
+        .for_each(|w| super::io::note(&format!("warning: {w}")));
     crate::ssao::gbuffer::validate_lights(&scene.lights)?;
     let bounds = scene.world_mesh(|_| true).bounds();
     request.view.camera = request.view.camera.resolve(scene.camera, &bounds)?.into();
@@ -105,11 +117,11 @@ pub fn run(args: &SsaoArgs) -> Result<Value> {
     let ssao = run_ssao(&device, &scene, &request, Bars::Stderr)?;
     let (w, h) = (args.width, args.height);
     if let Some(p) = outputs[0] {
-        write_grey_png(p, w, h, &ssao.ao_image())?;
+        write_grey(p, w, h, &ssao.ao_image(), args.grey.style())?;
     }
     if let (Some(p), Some(image)) = (outputs[1], &ssao.frame.image) {
-        let pixels: Vec<[u8; 3]> = image.iter().map(|c| [c[0], c[1], c[2]].map(srgb8)).collect();
-        write_rgb_png(p, w, h, &pixels)?;
+        let radiance: Vec<glam::Vec3> = image.iter().map(|c| glam::Vec3::new(c[0], c[1], c[2])).collect();
+        write_radiance(p, w, h, &radiance, 1.0)?;
     }
     let report = super::io::merged(args.common.report(&device, threads), &ssao.report)?;
     super::io::merged(report, serde_json::json!({ "max_error": choice }))

@@ -6,8 +6,9 @@ use std::path::PathBuf;
 use serde_json::Value;
 
 use super::args::{CameraArgs, Common, check_outputs, load_input};
-use super::io::{write_grey_png, write_rgb_png};
+use super::io::write_rgb_png;
 use crate::error::Result;
+use crate::image_out::{GreyStyle, ImageFormat, write_grey};
 use crate::mlrta::options::TraceOptions;
 use crate::mlrta::runner::trace_view;
 use crate::progress::Bars;
@@ -31,14 +32,14 @@ pub struct TraceArgs {
     #[command(flatten)]
     pub knobs: TraceOptions,
     /// Image: |cos| between the ray and the hit triangle (shadowed hits at
-    /// a quarter), grey PNG.
+    /// a quarter): .png (linear grey, background transparent), .exr or .pfm.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Map of the final tiles: brightness = entry point's subtree size (log),
     /// red = diverging tile, blue = the search stopped at an occluder.
     #[arg(long)]
     pub tiles_image: Option<PathBuf>,
-    /// Where anti-aliasing put its rays: brightness = rays per pixel.
+    /// Where anti-aliasing put its rays: brightness = rays per pixel (.png, .exr or .pfm).
     #[arg(long)]
     pub aa_image: Option<PathBuf>,
     /// Write the primary rays traced, in the RAYS.f32 format of trace-rays
@@ -63,6 +64,9 @@ pub fn run(args: &TraceArgs) -> Result<Value> {
     ])?[..] else {
         unreachable!("four outputs")
     };
+    out.map(|p| ImageFormat::check(p, "--out")).transpose()?;
+    aa.map(|p| ImageFormat::check(p, "--aa-image")).transpose()?;
+    tiles.map(|p| ImageFormat::check_png(p, "--tiles-image")).transpose()?;
     let scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
     let mesh = scene.world_mesh(|_| true);
     request.view.camera = request.view.camera.resolve(scene.camera, &mesh.bounds())?.into();
@@ -76,10 +80,10 @@ pub fn run(args: &TraceArgs) -> Result<Value> {
         write_rgb_png(path, w, h, &image.tile_map())?;
     }
     if let (Some(path), Some(rays)) = (aa, image.aa_rays()) {
-        write_grey_png(path, w, h, &rays)?;
+        write_grey(path, w, h, &rays, GreyStyle::keyed(path))?;
     }
     if let Some(path) = out {
-        write_grey_png(path, w, h, &image.shading(&mesh))?;
+        write_grey(path, w, h, &image.shading(&mesh), GreyStyle::keyed(path))?;
     }
     super::io::merged(args.common.report(&device, threads), &image.stats)
 }

@@ -40,6 +40,7 @@ pub mod reference;
 pub mod render;
 pub mod runner;
 pub mod selfcheck;
+pub mod sh_out;
 pub mod sides;
 pub mod transfer;
 

@@ -24,6 +24,23 @@ pub fn render(
     height: u32,
     exposure: f32,
 ) -> Result<Vec<[u8; 3]>> {
+    let image = render_radiance(positions, triangles, radiance, albedo, env, camera, width, height)?;
+    Ok(image.iter().map(|c| (*c * exposure).to_array().map(srgb8)).collect())
+}
+
+/// Renders one frame as linear radiance (no exposure), row 0 at the top:
+/// what `render` tone-maps, and what `.exr`/`.pfm` outputs hold.
+#[allow(clippy::too_many_arguments)]
+pub fn render_radiance(
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    radiance: &[[f32; 3]],
+    albedo: Vec3,
+    env: Option<&EnvironmentMap>,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+) -> Result<Vec<Vec3>> {
     let soup: Vec<[Vec3; 3]> = triangles.iter().map(|t| t.map(|i| positions[i as usize])).collect();
     let tree = KdTree::from_triangles(soup, &KdTreeParams::default())?;
     let rays = camera.primary_rays(width, height);
@@ -32,7 +49,7 @@ pub fn render(
         .map(|ray| {
             let (o, d) = (ray.o(), ray.d());
             let hit = tree.closest_hit(o, d, f32::INFINITY);
-            let c = if hit.is_hit() {
+            if hit.is_hit() {
                 let t = triangles[hit.triangle as usize];
                 let [a, b, c] = t.map(|i| positions[i as usize]);
                 let p = o + d * hit.t;
@@ -47,8 +64,7 @@ pub fn render(
                 Vec3::from_array(env.lookup(d.normalize()))
             } else {
                 Vec3::ZERO
-            };
-            (c * exposure).to_array().map(srgb8)
+            }
         })
         .collect())
 }

@@ -182,6 +182,35 @@ pub fn triangle_albedos(mesh: &Mesh) -> Vec<f32> {
     out
 }
 
+/// Packed albedo of every triangle of `scene.world_mesh(|_| true)`: the
+/// diffuse colour `Kd` of its material where it has one (the instance's
+/// scene-file material, else the OBJ's MTL material of the triangle; a
+/// triangle with no `usemtl` has none), else its instance's palette colour
+/// as `triangle_albedos` gives it. `Kd` is clamped to [0, 1] and rounded to
+/// 8 bits, as the G-buffer stores albedo.
+pub fn scene_albedos(scene: &crate::scene::Scene) -> Vec<f32> {
+    let mut out = Vec::new();
+    for (o, inst) in scene.instances.iter().enumerate() {
+        let source = &scene.meshes[inst.mesh];
+        let named = inst
+            .material
+            .as_ref()
+            .and_then(|n| scene.materials.iter().find(|m| &m.name == n));
+        let shading = source.shading.as_ref();
+        out.extend((0..source.mesh.triangles.len()).map(|t| {
+            let own = shading.and_then(|s| {
+                let m = s.triangle_materials[t] as usize;
+                (m != 0).then(|| s.materials[m].kd)
+            });
+            match named.map(|m| m.kd).or(own) {
+                Some(kd) => pack_albedo(kd.to_array().map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8)),
+                None => pack_albedo(object_albedo(o)),
+            }
+        }));
+    }
+    out
+}
+
 /// The lights of the G-buffer's direct term. Directional lights' `direction`
 /// is the direction the light travels.
 pub fn lights_or_default(lights: &[Light]) -> Vec<Light> {
@@ -243,8 +272,19 @@ pub fn texel(camera: &Camera, lights: &[Light], p: Vec3, n: Vec3, albedo: f32) -
 /// CPU twin of the G-buffer pass: the closest hit of each pixel's primary
 /// ray through its centre (the rasteriser samples pixel centres too).
 pub fn gbuffer(tree: &KdTree, mesh: &Mesh, camera: &Camera, lights: &[Light], width: u32, height: u32) -> GBuffer {
+    gbuffer_with(tree, mesh, &triangle_albedos(mesh), camera, lights, (width, height))
+}
+
+/// `gbuffer` with the packed albedo of each triangle given (`scene_albedos`).
+pub fn gbuffer_with(
+    tree: &KdTree,
+    mesh: &Mesh,
+    albedos: &[f32],
+    camera: &Camera,
+    lights: &[Light],
+    (width, height): (u32, u32),
+) -> GBuffer {
     let rays = camera.primary_rays(width, height);
-    let albedos = triangle_albedos(mesh);
     let lights = lights_or_default(lights);
     let (geometry, shade) = rays
         .par_iter()

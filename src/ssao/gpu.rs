@@ -50,9 +50,11 @@ pub struct SceneVertices {
 }
 
 impl SceneVertices {
-    pub fn upload(device: &wgpu::Device, mesh: &Mesh) -> Result<SceneVertices> {
+    pub fn upload(device: &wgpu::Device, mesh: &Mesh, albedos: &[f32]) -> Result<SceneVertices> {
         mesh.validate()?;
-        let albedos = triangle_albedos(mesh);
+        if albedos.len() != mesh.triangles.len() {
+            return Err(Error::internal("one albedo per triangle"));
+        }
         let mut vertices = Vec::with_capacity(mesh.triangles.len() * 3);
         for (t, &albedo) in albedos.iter().enumerate() {
             let n = mesh.unit_face_normal(t).to_array();
@@ -608,6 +610,9 @@ pub enum GBufferSource<'a> {
         mesh: &'a Mesh,
         camera: &'a Camera,
         lights: &'a [Light],
+        /// Packed albedo per triangle (`gbuffer::scene_albedos`); `None`:
+        /// the palette (`gbuffer::triangle_albedos`).
+        albedos: Option<&'a [f32]>,
     },
     /// Upload a G-buffer made elsewhere (the CPU twin's, for the twin tests).
     Upload(&'a GBuffer),
@@ -642,10 +647,23 @@ pub fn run_frame(
         &targets.shade.create_view(&Default::default()),
     );
     let render = match source {
-        GBufferSource::Render { mesh, camera, lights } => {
+        GBufferSource::Render {
+            mesh,
+            camera,
+            lights,
+            albedos,
+        } => {
             super::gbuffer::validate_lights(lights)?;
             let pass = ctx.kernels.get_or_insert(|| GBufferPass::new(device));
-            let vertices = SceneVertices::upload(device, mesh)?;
+            let palette;
+            let albedos = match albedos {
+                Some(a) => a,
+                None => {
+                    palette = triangle_albedos(mesh);
+                    &palette
+                }
+            };
+            let vertices = SceneVertices::upload(device, mesh, albedos)?;
             let b = mesh.bounds();
             let near = 1e-6 * ((camera.eye - b.center()).length() + b.diagonal());
             let uniform = uniform_buffer(device, "g-buffer view", &ViewUniform::new(camera, view, lights, near));

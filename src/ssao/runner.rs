@@ -6,7 +6,7 @@
 
 use serde::Serialize;
 
-use super::gbuffer::{GBuffer, ScreenView, gbuffer, validate_lights};
+use super::gbuffer::{GBuffer, ScreenView, gbuffer_with, scene_albedos, validate_lights};
 use super::gpu::{GBufferSource, run_frame};
 use super::truth::{Estimate, raytraced, screen_reference};
 use super::{Estimator, Measure, ShadeSettings, SsaoFrame, SsaoSettings, Timings, rmse, run_cpu};
@@ -121,12 +121,14 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: Bars) ->
         }
         Ok(tree.get().expect("set above"))
     };
+    let albedos = scene_albedos(scene);
     let framed = device.run(
         |ctx| {
             let source = GBufferSource::Render {
                 mesh: &mesh,
                 camera: &camera,
                 lights: &scene.lights,
+                albedos: Some(&albedos),
             };
             let f = run_frame(ctx, source, &view, settings, shade, request.repeat)?;
             Ok(GpuOutput {
@@ -137,7 +139,7 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: Bars) ->
         || {
             let tree = whole_tree()?;
             let start = std::time::Instant::now();
-            let gb = gbuffer(tree, &mesh, &camera, &scene.lights, w, h);
+            let gb = gbuffer_with(tree, &mesh, &albedos, &camera, &scene.lights, (w, h));
             let gbuffer_ms = elapsed_ms(start);
             let mut frame = run_cpu(&gb, &view, settings, shade)?;
             frame.timings.gbuffer_ms = gbuffer_ms;
