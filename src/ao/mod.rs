@@ -17,7 +17,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use crate::error::{Error, Result};
-use crate::sampling::{Frame, SampleSequence, cosine_hemisphere};
+use crate::sampling::{Frame, SampleSequence, StreamSampler, cosine_hemisphere};
 
 /// Where AO is estimated: the ray origin (already offset from the surface),
 /// the unit normal of the hemisphere, and the index of the point's stream in
@@ -83,8 +83,32 @@ impl AoSettings {
 /// the point's stream, mapped to the cosine-weighted hemisphere about `normal`.
 #[inline]
 pub fn ray_direction(seq: &SampleSequence, point: u32, j: u32, normal: Vec3) -> Vec3 {
-    let [u, v] = seq.sample(point, j);
-    Frame::from_normal(normal).to_world(cosine_hemisphere(u, v))
+    PointDirections::new(seq, point, normal).direction(j)
+}
+
+/// The AO ray directions of one point, with what all of them share (the
+/// stream's scramble seeds, the tangent frame) made once: `direction(j)` is
+/// `ray_direction(seq, point, j, normal)` bit for bit.
+#[derive(Debug, Clone, Copy)]
+pub struct PointDirections {
+    stream: StreamSampler,
+    frame: Frame,
+}
+
+impl PointDirections {
+    #[inline]
+    pub fn new(seq: &SampleSequence, point: u32, normal: Vec3) -> Self {
+        PointDirections {
+            stream: seq.stream(point),
+            frame: Frame::from_normal(normal),
+        }
+    }
+
+    #[inline]
+    pub fn direction(&self, j: u32) -> Vec3 {
+        let [u, v] = self.stream.sample(j);
+        self.frame.to_world(cosine_hemisphere(u, v))
+    }
 }
 
 /// Per-ray results: bit j of point i's `words_per_point` words is set when

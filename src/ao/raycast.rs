@@ -4,7 +4,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::{AoPoint, AoSettings, VisibilityMasks, ray_direction};
+use super::{AoPoint, AoSettings, PointDirections, VisibilityMasks, ray_direction};
 use crate::kdtree::KdTree;
 use crate::progress::Progress;
 use crate::sampling::SampleSequence;
@@ -32,11 +32,9 @@ pub fn ao_rays(tree: &KdTree, points: &[AoPoint], settings: &AoSettings, progres
 fn point_visibility(tree: &KdTree, seq: &SampleSequence, point: &AoPoint, settings: &AoSettings, mask: &mut [u32]) {
     let normal = Vec3::from_array(point.normal);
     let origin = Vec3::from_array(point.origin);
+    let dirs = PointDirections::new(seq, point.stream, normal);
     for j in 0..settings.rays_per_point {
-        let visible = !point.has_hemisphere() || {
-            let dir = ray_direction(seq, point.stream, j, normal);
-            !tree.any_hit(origin, dir, settings.radius)
-        };
+        let visible = !point.has_hemisphere() || !tree.any_hit(origin, dirs.direction(j), settings.radius);
         if visible {
             mask[(j / 32) as usize] |= 1 << (j % 32);
         }

@@ -50,8 +50,9 @@ pub fn reference_transfer(
         };
         let mut acc = vec![0.0f64; n];
         let mut y = vec![0.0f32; n];
+        let stream = seq.stream(v as u32);
         for j in 0..rays {
-            let [u, w] = seq.sample(v as u32, j);
+            let [u, w] = stream.sample(j);
             let d = frame.to_world(cosine_hemisphere(u, w)).normalize();
             if tree.any_hit(origin, d, f32::INFINITY) {
                 continue;
