@@ -26,6 +26,7 @@ pub mod raytrace;
 pub mod sampling;
 pub mod scene;
 pub mod sh;
+pub mod simd;
 pub mod ssao;
 pub mod sweep;
 pub mod tracer;

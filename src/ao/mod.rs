@@ -9,6 +9,7 @@
 //! return the per-ray results as bit masks so they can be compared ray by ray.
 
 pub mod gpu;
+pub mod packets;
 pub mod points;
 pub mod raycast;
 pub mod runner;
@@ -17,7 +18,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use crate::error::{Error, Result};
-use crate::sampling::{Frame, SampleSequence, StreamSampler, cosine_hemisphere};
+use crate::sampling::{Frame, SampleSequence, StreamSampler, cosine_hemisphere, unit_float};
 
 /// Where AO is estimated: the ray origin (already offset from the surface),
 /// the unit normal of the hemisphere, and the index of the point's stream in
@@ -108,6 +109,17 @@ impl PointDirections {
     pub fn direction(&self, j: u32) -> Vec3 {
         let [u, v] = self.stream.sample(j);
         self.frame.to_world(cosine_hemisphere(u, v))
+    }
+
+    /// Ray j's direction and the cell of its sample in the square's 4x4
+    /// grid, in Morton order (`packets` groups rays by it).
+    #[inline]
+    pub fn direction_and_cell(&self, j: u32) -> (Vec3, u8) {
+        let bits = self.stream.sample_bits(j);
+        let [u, v] = bits.map(unit_float);
+        let [x, y] = bits.map(|b| (b >> 30) as u8);
+        let cell = (x & 1) | (y & 1) << 1 | (x >> 1) << 2 | (y >> 1) << 3;
+        (self.frame.to_world(cosine_hemisphere(u, v)), cell)
     }
 }
 

@@ -7,6 +7,7 @@ mod build;
 pub(crate) mod clip;
 pub mod gpu;
 pub mod node;
+pub mod occlusion;
 pub mod pass;
 mod traverse;
 pub mod watertight;

@@ -1,0 +1,335 @@
+//! Any-hit packets of up to 16 rays sharing an origin (AO rays, shadow rays
+//! towards a point): which of them hit something with `0 < t < t_max`.
+//!
+//! Each lane keeps its own interval `[t_min, t_max]` in the current cell
+//! and makes, at every interior node, exactly the decision the single-ray
+//! traversal (`traverse.rs`) makes for its ray: the same distance to the
+//! split plane, the same slack, the same NaN rule, the same check of a
+//! deferred cell's entry against the ray's limit. A lane therefore visits
+//! exactly the cells its single ray would (until either finds a hit) and
+//! tests their triangles with the watertight test's operations in the same
+//! order, so its answer is the single ray's, bit for bit. Only the order in
+//! which the packet visits cells differs, which cannot change whether a ray
+//! hits anything: with a shared origin the child holding the origin comes
+//! first for every lane, and lanes that want one child only are masked off
+//! the other.
+//!
+//! The lanes run in AVX-512, AVX2, SSE2 or plain scalars (`simd::Isa`),
+//! chosen at run time; `occluded` takes the instruction set so that tests
+//! can run each.
+
+use std::mem::MaybeUninit;
+
+use glam::Vec3;
+
+use super::KdTree;
+use super::node::MAX_TREE_DEPTH;
+use super::traverse::TRAVERSAL_SLACK;
+use super::watertight::ShearedRay;
+use crate::simd::{Isa, Lanes, Mask, Scalar16};
+
+/// Rays per packet.
+pub const LANES: usize = 16;
+
+/// Which of the rays `dirs` (at most 16) from `origin` hit a triangle with
+/// `0 < t < t_max`: bit r for `dirs[r]`, equal to `tree.any_hit` ray for ray.
+/// `isa` picks the instruction set (`Isa::best()` normally; one this CPU
+/// lacks is replaced by the best it has).
+pub fn occluded(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32, isa: Isa) -> u16 {
+    assert!(dirs.len() <= LANES, "at most {LANES} rays per packet");
+    if dirs.is_empty() {
+        return 0;
+    }
+    let rays = SharedOrigin::new(tree, origin, dirs, t_max);
+    if rays.live == 0 {
+        return 0;
+    }
+    match isa.or_best() {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `or_best` returns an instruction set this CPU has.
+        Isa::Avx512 => unsafe { occluded_avx512(tree, &rays) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        Isa::Avx2 => unsafe { occluded_avx2(tree, &rays) },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Sse => traverse::<crate::simd::Ssex4>(tree, &rays),
+        _ => traverse::<Scalar16>(tree, &rays),
+    }
+}
+
+// The generic traversal compiled with each instruction set enabled, so that
+// the lane wrappers inline as single instructions.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn occluded_avx512(tree: &KdTree, rays: &SharedOrigin) -> u16 {
+    traverse::<crate::simd::Avx512>(tree, rays)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn occluded_avx2(tree: &KdTree, rays: &SharedOrigin) -> u16 {
+    traverse::<crate::simd::Avx2x2>(tree, rays)
+}
+
+/// The packet's per-lane constants, lane by lane (unused and dead lanes
+/// repeat a live lane's values, so their arithmetic stays finite).
+struct SharedOrigin {
+    origin: Vec3,
+    t_max: f32,
+    /// Lanes whose ray meets the tree's box.
+    live: u16,
+    t_min: [f32; LANES],
+    t_cell_max: [f32; LANES],
+    inv: [[f32; LANES]; 3],
+    /// Per axis: lanes whose direction component is <= 0 (the single ray's
+    /// choice of first child when the origin lies on a split plane).
+    below_on_plane: [u16; 3],
+    sx: [f32; LANES],
+    sy: [f32; LANES],
+    sz: [f32; LANES],
+    /// The shear axes as lane masks: `k[i][0]` lanes whose axis i is x,
+    /// `k[i][1]` those whose axis i is y (else z); i = kx, ky, kz.
+    k: [[u16; 2]; 3],
+    /// The origin in the intersection frame, and the frame's scale.
+    frame_origin: Vec3,
+    scale: f32,
+}
+
+impl SharedOrigin {
+    fn new(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32) -> Self {
+        let mut s = SharedOrigin {
+            origin,
+            t_max,
+            live: 0,
+            t_min: [0.0; LANES],
+            t_cell_max: [0.0; LANES],
+            inv: [[1.0; LANES]; 3],
+            below_on_plane: [0; 3],
+            sx: [0.0; LANES],
+            sy: [0.0; LANES],
+            sz: [1.0; LANES],
+            k: [[0; 2]; 3],
+            frame_origin: origin * tree.frame_scale,
+            scale: tree.frame_scale,
+        };
+        let mut first_live = None;
+        for (r, &dir) in dirs.iter().enumerate() {
+            // The single ray's set-up (`KdTree::traverse`), lane by lane.
+            let Some((t0, t1)) = tree.bounds.clip_ray(origin, dir, 0.0, t_max) else {
+                continue;
+            };
+            s.live |= 1 << r;
+            first_live.get_or_insert(r);
+            s.t_min[r] = t0 * (1.0 - TRAVERSAL_SLACK);
+            s.t_cell_max[r] = t1 * (1.0 + TRAVERSAL_SLACK);
+            let inv = dir.recip();
+            for a in 0..3 {
+                s.inv[a][r] = inv[a];
+                s.below_on_plane[a] |= ((dir[a] <= 0.0) as u16) << r;
+            }
+            let sheared = ShearedRay::in_frame(origin, dir, tree.frame_scale);
+            (s.sx[r], s.sy[r], s.sz[r]) = (sheared.sx, sheared.sy, sheared.sz);
+            for (i, axis) in [sheared.kx, sheared.ky, sheared.kz].into_iter().enumerate() {
+                if axis < 2 {
+                    s.k[i][axis] |= 1 << r;
+                }
+            }
+        }
+        // Dead lanes copy a live one's numbers (a zero direction component
+        // gives infinite inverses; masked lanes may compute with them, but
+        // finite copies keep the arithmetic free of surprises).
+        if let Some(l) = first_live {
+            for r in (0..LANES).filter(|r| s.live & (1 << r) == 0) {
+                s.t_min[r] = s.t_min[l];
+                s.t_cell_max[r] = s.t_cell_max[l];
+                for a in 0..3 {
+                    s.inv[a][r] = s.inv[a][l];
+                }
+                (s.sx[r], s.sy[r], s.sz[r]) = (s.sx[l], s.sy[l], s.sz[l]);
+            }
+        }
+        s
+    }
+}
+
+/// The lanes' shear constants as vectors.
+struct Shear<V: Lanes> {
+    sx: V,
+    sy: V,
+    sz: V,
+    k: [[V::M; 2]; 3],
+    limit: V,
+}
+
+impl<V: Lanes> Shear<V> {
+    /// Coordinate `axis i` (kx, ky or kz) of `p`, per lane.
+    #[inline(always)]
+    fn pick(&self, p: [f32; 3], i: usize) -> V {
+        let [m0, m1] = self.k[i];
+        V::select(m0, V::splat(p[0]), V::select(m1, V::splat(p[1]), V::splat(p[2])))
+    }
+
+    /// The lanes of `active` that hit the triangle (vertices in the frame,
+    /// origin subtracted): `ShearedRay::intersect` lane by lane, the same
+    /// operations in the same order.
+    #[inline(always)]
+    fn hits(&self, a: [f32; 3], b: [f32; 3], c: [f32; 3], active: V::M) -> V::M {
+        let (az0, bz0, cz0) = (self.pick(a, 2), self.pick(b, 2), self.pick(c, 2));
+        let ax = self.pick(a, 0).sub(self.sx.mul(az0));
+        let ay = self.pick(a, 1).sub(self.sy.mul(az0));
+        let bx = self.pick(b, 0).sub(self.sx.mul(bz0));
+        let by = self.pick(b, 1).sub(self.sy.mul(bz0));
+        let cx = self.pick(c, 0).sub(self.sx.mul(cz0));
+        let cy = self.pick(c, 1).sub(self.sy.mul(cz0));
+        let u = cx.mul(by).sub(cy.mul(bx));
+        let v = ax.mul(cy).sub(ay.mul(cx));
+        let w = bx.mul(ay).sub(by.mul(ax));
+        let zero = V::splat(0.0);
+        let negative = u.lt(zero).or(v.lt(zero)).or(w.lt(zero));
+        let positive = u.gt(zero).or(v.gt(zero)).or(w.gt(zero));
+        // Inside: not (some edge negative and some positive).
+        let mut ok = active.and_not(negative.and(positive));
+        if !ok.any() {
+            return ok;
+        }
+        let det = u.add(v).add(w);
+        ok = ok.and_not(det.eq(zero));
+        let az = self.sz.mul(az0);
+        let bz = self.sz.mul(bz0);
+        let cz = self.sz.mul(cz0);
+        let t_scaled = u.mul(az).add(v.mul(bz)).add(w.mul(cz));
+        let wrong_side = det
+            .gt(zero)
+            .and(t_scaled.le(zero))
+            .or(det.lt(zero).and(t_scaled.ge(zero)));
+        ok = ok.and_not(wrong_side);
+        let t = t_scaled.div(det);
+        ok.and(t.gt(zero)).and(t.lt(self.limit))
+    }
+}
+
+/// A deferred cell: node, lanes, and their intervals.
+type Deferred<V> = (u32, <V as Lanes>::M, V, V);
+
+#[inline(always)]
+fn traverse<V: Lanes>(tree: &KdTree, rays: &SharedOrigin) -> u16 {
+    let shear = Shear::<V> {
+        sx: V::from_array(rays.sx),
+        sy: V::from_array(rays.sy),
+        sz: V::from_array(rays.sz),
+        k: rays.k.map(|[m0, m1]| [V::M::from_bits(m0), V::M::from_bits(m1)]),
+        // The single ray compares with `t_max * scale` (its best t is t_max
+        // until it hits).
+        limit: V::splat(rays.t_max * rays.scale),
+    };
+    let inv = rays.inv.map(V::from_array);
+    let below_on_plane = rays.below_on_plane.map(V::M::from_bits);
+    let (lo_slack, hi_slack) = (V::splat(1.0 - TRAVERSAL_SLACK), V::splat(1.0 + TRAVERSAL_SLACK));
+    let t_limit = V::splat(rays.t_max);
+    let zero = V::splat(0.0);
+    let o = rays.origin.to_array();
+    let fo = rays.frame_origin;
+
+    let mut alive = rays.live;
+    let mut stack = [const { MaybeUninit::<Deferred<V>>::uninit() }; MAX_TREE_DEPTH];
+    let mut sp = 0usize;
+    let mut node_index = 0u32;
+    let mut mask = V::M::from_bits(rays.live);
+    let mut t_min = V::from_array(rays.t_min);
+    let mut t_max = V::from_array(rays.t_cell_max);
+    loop {
+        let node = tree.nodes[node_index as usize];
+        if !node.is_leaf() {
+            let axis = node.axis();
+            let split = node.split();
+            let tp = V::splat(split - o[axis]).mul(inv[axis]);
+            // The single ray's three cases, per lane.
+            let first_only = tp.le(zero).or(tp.mul(lo_slack).gt(t_max));
+            let second_only = tp.mul(hi_slack).lt(t_min).and_not(first_only);
+            let both = V::M::from_bits(!0).and_not(first_only).and_not(second_only);
+            let cut = both.and_not(tp.ne(tp));
+            let first_max = V::select(cut, t_max.min(tp.mul(hi_slack)), t_max);
+            let second_min = V::select(cut, t_min.max(tp.mul(lo_slack)), t_min);
+            let first = mask.and_not(second_only);
+            let second = mask.and_not(first_only);
+            // A deferred second child is dropped at its pop when it starts
+            // beyond the ray's limit (no hit yet: best t = t_max).
+            let second = second.and_not(both.and_not(second_min.le(t_limit)));
+            // Per lane, which child is its first.
+            let below_first = if o[axis] < split {
+                V::M::from_bits(!0)
+            } else if o[axis] == split {
+                below_on_plane[axis]
+            } else {
+                V::M::from_bits(0)
+            };
+            let below = first.and(below_first).or(second.and_not(below_first));
+            let above = first.and_not(below_first).or(second.and(below_first));
+            let below_iv = (
+                V::select(below_first, t_min, second_min),
+                V::select(below_first, first_max, t_max),
+            );
+            let above_iv = (
+                V::select(below_first, second_min, t_min),
+                V::select(below_first, t_max, first_max),
+            );
+            let below_node = node_index + 1;
+            let above_node = node.above_child();
+            // The child holding the origin first (every lane's first
+            // child, unless the origin lies on the plane).
+            let near_below = o[axis] <= split;
+            let (near, near_iv, near_node, far, far_iv, far_node) = if near_below {
+                (below, below_iv, below_node, above, above_iv, above_node)
+            } else {
+                (above, above_iv, above_node, below, below_iv, below_node)
+            };
+            if near.any() {
+                if far.any() {
+                    // Stack entries never outnumber the tree's depth.
+                    stack[sp].write((far_node, far, far_iv.0, far_iv.1));
+                    sp += 1;
+                }
+                (node_index, mask, t_min, t_max) = (near_node, near, near_iv.0, near_iv.1);
+                continue;
+            }
+            if far.any() {
+                (node_index, mask, t_min, t_max) = (far_node, far, far_iv.0, far_iv.1);
+                continue;
+            }
+        } else {
+            let range = node.leaf_range();
+            for verts in &tree.leaf_vertices[range] {
+                let [a, b, c] = verts.map(|v| (v - fo).to_array());
+                let hit = shear.hits(a, b, c, mask).bits();
+                if hit != 0 {
+                    alive &= !hit;
+                    if alive == 0 {
+                        return rays.live;
+                    }
+                    mask = mask.and_not(V::M::from_bits(hit));
+                    if !mask.any() {
+                        break;
+                    }
+                }
+            }
+        }
+        // The next deferred cell with lanes still looking.
+        loop {
+            if sp == 0 {
+                return rays.live & !alive;
+            }
+            sp -= 1;
+            // SAFETY: entry `sp` was written by the push that raised the
+            // stack pointer above it, and entries are never read twice.
+            let (i, m, a, b) = unsafe { stack[sp].assume_init() };
+            let m = m.and(V::M::from_bits(alive));
+            if m.any() {
+                (node_index, mask, t_min, t_max) = (i, m, a, b);
+                break;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;
