@@ -26,7 +26,7 @@ use super::KdTree;
 use super::node::MAX_TREE_DEPTH;
 use super::traverse::TRAVERSAL_SLACK;
 use super::watertight::ShearedRay;
-use crate::simd::{Isa, Lanes, Mask, Scalar16};
+use crate::simd::{Isa, Kernel, Lanes, Mask, dispatch};
 
 /// Rays per packet.
 pub const LANES: usize = 16;
@@ -36,43 +36,123 @@ pub const LANES: usize = 16;
 /// `isa` picks the instruction set (`Isa::best()` normally; one this CPU
 /// lacks is replaced by the best it has).
 pub fn occluded(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32, isa: Isa) -> u16 {
+    struct One<'a> {
+        tree: &'a KdTree,
+        origin: Vec3,
+        dirs: &'a [Vec3],
+        t_max: f32,
+    }
+    impl Kernel for One<'_> {
+        type Out = u16;
+        #[inline(always)]
+        fn run<V: Lanes>(self) -> u16 {
+            occluded_in::<V>(self.tree, self.origin, self.dirs, self.t_max)
+        }
+    }
+    dispatch(
+        isa,
+        One {
+            tree,
+            origin,
+            dirs,
+            t_max,
+        },
+    )
+}
+
+/// `occluded` in lanes `V`, for kernels that run many packets in one
+/// instruction set (`ao::packets`).
+#[inline(always)]
+pub fn occluded_in<V: Lanes>(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32) -> u16 {
     assert!(dirs.len() <= LANES, "at most {LANES} rays per packet");
     if dirs.is_empty() {
         return 0;
     }
-    let rays = SharedOrigin::new(tree, origin, dirs, t_max);
+    let rays = match Rays::<V>::new(tree, origin, dirs, t_max) {
+        Some(rays) => rays,
+        None => SharedOrigin::new(tree, origin, dirs, t_max).lanes(),
+    };
     if rays.live == 0 {
         return 0;
     }
-    match isa.or_best() {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: `or_best` returns an instruction set this CPU has.
-        Isa::Avx512 => unsafe { occluded_avx512(tree, &rays) },
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above.
-        Isa::Avx2 => unsafe { occluded_avx2(tree, &rays) },
-        #[cfg(target_arch = "x86_64")]
-        Isa::Sse => traverse::<crate::simd::Ssex4>(tree, &rays),
-        _ => traverse::<Scalar16>(tree, &rays),
+    traverse(tree, &rays)
+}
+
+/// The packet's lanes as vectors.
+struct Rays<V: Lanes> {
+    origin: Vec3,
+    t_max: f32,
+    live: u16,
+    t_min: V,
+    t_cell_max: V,
+    inv: [V; 3],
+    below_on_plane: [V::M; 3],
+    shear: Shear<V>,
+    frame_origin: Vec3,
+}
+
+impl<V: Lanes> Rays<V> {
+    /// The single ray's set-up (`KdTree::traverse`, `ShearedRay::in_frame`)
+    /// for all lanes at once, or `None` if a direction has a zero component
+    /// (`SharedOrigin` then does it lane by lane, as `Aabb::clip_ray` takes
+    /// another path for such rays).
+    #[inline(always)]
+    fn new(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32) -> Option<Self> {
+        let n = dirs.len();
+        let d: [V; 3] = std::array::from_fn(|a| V::from_array(std::array::from_fn(|r| dirs[r.min(n - 1)][a])));
+        let zero = V::splat(0.0);
+        if d.iter().any(|c| c.eq(zero).any()) {
+            return None;
+        }
+        let one = V::splat(1.0);
+        let inv = d.map(|c| one.div(c));
+        // Aabb::clip_ray: the slabs' entries and exits (no NaN arises).
+        let (lo, hi) = (tree.bounds.min - origin, tree.bounds.max - origin);
+        let slab = |a: usize| {
+            let (p, q) = (V::splat(lo[a]).mul(inv[a]), V::splat(hi[a]).mul(inv[a]));
+            (p.min(q), p.max(q))
+        };
+        let (x, y, z) = (slab(0), slab(1), slab(2));
+        let t0 = x.0.max(y.0).max(z.0).max(zero);
+        let t1 = x.1.min(y.1).min(z.1).min(V::splat(t_max));
+        let live = t0.le(t1).bits() & (((1u32 << n) - 1) as u16);
+        // shear_axes: kz the largest |component| (x, then y on ties), kx and
+        // ky the next two, swapped where d[kz] < 0.
+        let abs = d.map(|c| c.max(zero.sub(c)));
+        let kz0 = abs[0].ge(abs[1]).and(abs[0].ge(abs[2]));
+        let kz1 = abs[1].ge(abs[2]).and_not(kz0);
+        let kz2 = V::M::from_bits(!0).and_not(kz0).and_not(kz1);
+        let pick = |m0: V::M, m1: V::M, v: &[V; 3]| V::select(m0, v[0], V::select(m1, v[1], v[2]));
+        let dz = pick(kz0, kz1, &d);
+        let neg = dz.lt(zero);
+        let kx0 = kz2.and_not(neg).or(kz1.and(neg));
+        let kx1 = kz0.and_not(neg).or(kz2.and(neg));
+        let ky0 = kz1.and_not(neg).or(kz2.and(neg));
+        let ky1 = kz2.and_not(neg).or(kz0.and(neg));
+        let shear = Shear {
+            sx: pick(kx0, kx1, &d).div(dz),
+            sy: pick(ky0, ky1, &d).div(dz),
+            sz: one.div(dz),
+            k: [[kx0, kx1], [ky0, ky1], [kz0, kz1]],
+            limit: V::splat(t_max * tree.frame_scale),
+        };
+        Some(Rays {
+            origin,
+            t_max,
+            live,
+            t_min: t0.mul(V::splat(1.0 - TRAVERSAL_SLACK)),
+            t_cell_max: t1.mul(V::splat(1.0 + TRAVERSAL_SLACK)),
+            inv,
+            below_on_plane: d.map(|c| c.le(zero)),
+            shear,
+            frame_origin: origin * tree.frame_scale,
+        })
     }
 }
 
-// The generic traversal compiled with each instruction set enabled, so that
-// the lane wrappers inline as single instructions.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn occluded_avx512(tree: &KdTree, rays: &SharedOrigin) -> u16 {
-    traverse::<crate::simd::Avx512>(tree, rays)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn occluded_avx2(tree: &KdTree, rays: &SharedOrigin) -> u16 {
-    traverse::<crate::simd::Avx2x2>(tree, rays)
-}
-
-/// The packet's per-lane constants, lane by lane (unused and dead lanes
-/// repeat a live lane's values, so their arithmetic stays finite).
+/// The packet's per-lane constants computed lane by lane, for packets with
+/// a zero direction component (unused and dead lanes repeat a live lane's
+/// values, so their arithmetic stays finite).
 struct SharedOrigin {
     origin: Vec3,
     t_max: f32,
@@ -150,6 +230,29 @@ impl SharedOrigin {
         }
         s
     }
+
+    #[inline(always)]
+    fn lanes<V: Lanes>(&self) -> Rays<V> {
+        Rays {
+            origin: self.origin,
+            t_max: self.t_max,
+            live: self.live,
+            t_min: V::from_array(self.t_min),
+            t_cell_max: V::from_array(self.t_cell_max),
+            inv: self.inv.map(V::from_array),
+            below_on_plane: self.below_on_plane.map(V::M::from_bits),
+            shear: Shear {
+                sx: V::from_array(self.sx),
+                sy: V::from_array(self.sy),
+                sz: V::from_array(self.sz),
+                k: self.k.map(|[m0, m1]| [V::M::from_bits(m0), V::M::from_bits(m1)]),
+                // The single ray compares with `t_max * scale` (its best t is
+                // t_max until it hits).
+                limit: V::splat(self.t_max * self.scale),
+            },
+            frame_origin: self.frame_origin,
+        }
+    }
 }
 
 /// The lanes' shear constants as vectors.
@@ -212,18 +315,10 @@ impl<V: Lanes> Shear<V> {
 type Deferred<V> = (u32, <V as Lanes>::M, V, V);
 
 #[inline(always)]
-fn traverse<V: Lanes>(tree: &KdTree, rays: &SharedOrigin) -> u16 {
-    let shear = Shear::<V> {
-        sx: V::from_array(rays.sx),
-        sy: V::from_array(rays.sy),
-        sz: V::from_array(rays.sz),
-        k: rays.k.map(|[m0, m1]| [V::M::from_bits(m0), V::M::from_bits(m1)]),
-        // The single ray compares with `t_max * scale` (its best t is t_max
-        // until it hits).
-        limit: V::splat(rays.t_max * rays.scale),
-    };
-    let inv = rays.inv.map(V::from_array);
-    let below_on_plane = rays.below_on_plane.map(V::M::from_bits);
+fn traverse<V: Lanes>(tree: &KdTree, rays: &Rays<V>) -> u16 {
+    let shear = &rays.shear;
+    let inv = rays.inv;
+    let below_on_plane = rays.below_on_plane;
     let (lo_slack, hi_slack) = (V::splat(1.0 - TRAVERSAL_SLACK), V::splat(1.0 + TRAVERSAL_SLACK));
     let t_limit = V::splat(rays.t_max);
     let zero = V::splat(0.0);
@@ -235,8 +330,8 @@ fn traverse<V: Lanes>(tree: &KdTree, rays: &SharedOrigin) -> u16 {
     let mut sp = 0usize;
     let mut node_index = 0u32;
     let mut mask = V::M::from_bits(rays.live);
-    let mut t_min = V::from_array(rays.t_min);
-    let mut t_max = V::from_array(rays.t_cell_max);
+    let mut t_min = rays.t_min;
+    let mut t_max = rays.t_cell_max;
     loop {
         let node = tree.nodes[node_index as usize];
         if !node.is_leaf() {

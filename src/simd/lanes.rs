@@ -17,7 +17,8 @@ pub trait Mask: Copy {
 }
 
 /// Sixteen f32 lanes. Each operation is the IEEE operation of Rust's `f32`
-/// lane by lane (`min` and `max` only for operands that are not NaN), and
+/// lane by lane (`min` and `max` only for operands that are not NaN, and
+/// either zero for `min(-0, 0)`: kernels only compare their results), and
 /// comparisons follow Rust's: ordered ones are false where a lane is NaN,
 /// `ne` is true there.
 ///

@@ -87,5 +87,46 @@ impl Isa {
     }
 }
 
+/// Work generic over the lanes, run by `dispatch` in one instruction set.
+pub trait Kernel {
+    type Out;
+    /// The work in lanes `V`. Implementations are `#[inline(always)]` (as
+    /// everything they call on the lanes), so that they compile into the
+    /// dispatching `#[target_feature]` function.
+    fn run<V: Lanes>(self) -> Self::Out;
+}
+
+/// Runs `kernel` in `isa`, or in the widest instruction set the CPU has if
+/// it lacks `isa`.
+#[inline]
+pub fn dispatch<K: Kernel>(isa: Isa, kernel: K) -> K::Out {
+    match isa.or_best() {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `or_best` returns an instruction set this CPU has.
+        Isa::Avx512 => unsafe { run_avx512(kernel) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        Isa::Avx2 => unsafe { run_avx2(kernel) },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Sse => kernel.run::<Ssex4>(),
+        _ => kernel.run::<Scalar16>(),
+    }
+}
+
+// The kernel compiled with each instruction set enabled, so that the lanes'
+// intrinsics inline as single instructions (and the compiler may use the
+// wider registers for the kernel's scalar loops too).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn run_avx512<K: Kernel>(kernel: K) -> K::Out {
+    kernel.run::<Avx512>()
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn run_avx2<K: Kernel>(kernel: K) -> K::Out {
+    kernel.run::<Avx2x2>()
+}
+
 #[cfg(test)]
 mod tests;
