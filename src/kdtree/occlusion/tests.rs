@@ -42,7 +42,7 @@ fn scene(rng: &mut Rng) -> Vec<[Vec3; 3]> {
 /// lane).
 fn directions(rng: &mut Rng, k: usize) -> Vec<Vec3> {
     (0..16)
-        .map(|r| match if k % 2 == 0 { 3 } else { (k + r) % 9 } {
+        .map(|r| match if k.is_multiple_of(2) { 3 } else { (k + r) % 9 } {
             0 => Vec3::X * if r % 2 == 0 { 1.0 } else { -1.0 },
             1 => Vec3::new(0.0, rng.next() - 0.5, rng.next() - 0.5),
             2 => Vec3::new(rng.next() - 0.5, 0.0, 0.0),
