@@ -111,15 +111,24 @@ impl PointDirections {
         self.frame.to_world(cosine_hemisphere(u, v))
     }
 
-    /// Ray j's direction and the cell of its sample in the square's 4x4
-    /// grid, in Morton order (`packets` groups rays by it).
-    #[inline]
-    pub fn direction_and_cell(&self, j: u32) -> (Vec3, u8) {
-        let bits = self.stream.sample_bits(j);
-        let [u, v] = bits.map(unit_float);
-        let [x, y] = bits.map(|b| (b >> 30) as u8);
-        let cell = (x & 1) | (y & 1) << 1 | (x >> 1) << 2 | (y >> 1) << 3;
-        (self.frame.to_world(cosine_hemisphere(u, v)), cell)
+    /// Rays 0..`out.len()`: each one's direction and the cell of its sample in the
+    /// square's 4x4 grid, in Morton order (`packets` groups rays by it).
+    /// Two passes: the samples' integer arithmetic for all rays, which the
+    /// compiler vectorises, then the map to the hemisphere, whose sine and
+    /// cosine are libm's, one ray at a time.
+    /// (Plain loops over slices: iterator adaptors compiled out of line
+    /// would not see the caller's `target_feature`.)
+    #[inline(always)]
+    pub fn directions_and_cells(&self, bits: &mut [[u32; 2]], out: &mut [(Vec3, u8)]) {
+        for (j, b) in bits.iter_mut().enumerate() {
+            *b = self.stream.sample_bits(j as u32);
+        }
+        for (o, &b) in out.iter_mut().zip(bits.iter()) {
+            let [u, v] = b.map(unit_float);
+            let [x, y] = b.map(|b| (b >> 30) as u8);
+            let cell = (x & 1) | (y & 1) << 1 | (x >> 1) << 2 | (y >> 1) << 3;
+            *o = (self.frame.to_world(cosine_hemisphere(u, v)), cell);
+        }
     }
 }
 

@@ -60,7 +60,8 @@ impl Kernel for Point<'_> {
         let n = self.n as usize;
         // Directions and grid cells, then the rays' order by cell (a
         // counting sort: stable, so each cell keeps the sequence's order).
-        let rays: Vec<(Vec3, u8)> = (0..self.n).map(|j| self.dirs.direction_and_cell(j)).collect();
+        let (mut bits, mut rays) = (vec![[0u32; 2]; n], vec![(Vec3::ZERO, 0u8); n]);
+        self.dirs.directions_and_cells(&mut bits, &mut rays);
         let mut start = [0u32; CELLS + 1];
         for &(_, c) in &rays {
             start[c as usize + 1] += 1;

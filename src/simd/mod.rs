@@ -25,7 +25,7 @@ use std::sync::OnceLock;
 /// An instruction set the lanes can run in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub enum Isa {
-    /// One 512-bit register and a 16-bit mask register (AVX-512F).
+    /// One 512-bit register and a 16-bit mask register (AVX-512 F, BW, DQ, VL).
     Avx512,
     /// Two 256-bit registers (AVX2).
     Avx2,
@@ -40,7 +40,12 @@ impl Isa {
     pub fn is_available(self) -> bool {
         match self {
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => std::is_x86_feature_detected!("avx512f"),
+            Isa::Avx512 => {
+                std::is_x86_feature_detected!("avx512f")
+                    && std::is_x86_feature_detected!("avx512bw")
+                    && std::is_x86_feature_detected!("avx512dq")
+                    && std::is_x86_feature_detected!("avx512vl")
+            }
             #[cfg(target_arch = "x86_64")]
             Isa::Avx2 => std::is_x86_feature_detected!("avx2"),
             #[cfg(target_arch = "x86_64")]
@@ -116,8 +121,11 @@ pub fn dispatch<K: Kernel>(isa: Isa, kernel: K) -> K::Out {
 // The kernel compiled with each instruction set enabled, so that the lanes'
 // intrinsics inline as single instructions (and the compiler may use the
 // wider registers for the kernel's scalar loops too).
+// AVX-512 as Skylake-X and later have it (F, BW, DQ, VL: what Embree's
+// AVX-512 path requires too); the lanes use F only, the rest lets the
+// compiler vectorise the kernels' integer loops (the AO samples' hashing).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
+#[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
 fn run_avx512<K: Kernel>(kernel: K) -> K::Out {
     kernel.run::<Avx512>()
 }

@@ -32,7 +32,7 @@ fn ops<V: Lanes>(a: [f32; 16], b: [f32; 16], m: u16) -> Vec<u32> {
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
+#[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
 fn ops_avx512(a: [f32; 16], b: [f32; 16], m: u16) -> Vec<u32> {
     ops::<Avx512>(a, b, m)
 }
