@@ -24,7 +24,7 @@ use glam::Vec3;
 
 use super::KdTree;
 use super::node::MAX_TREE_DEPTH;
-use super::traverse::TRAVERSAL_SLACK;
+use super::traverse::{NoCounts, SingleRay, TRAVERSAL_SLACK};
 use super::watertight::ShearedRay;
 use crate::simd::{Isa, Kernel, Lanes, Mask, dispatch};
 
@@ -89,9 +89,49 @@ struct Rays<V: Lanes> {
     below_on_plane: [V::M; 3],
     shear: Shear<V>,
     frame_origin: Vec3,
+    scale: f32,
 }
 
 impl<V: Lanes> Rays<V> {
+    /// Lane `r` as the single-ray traversal's ray (`traverse::SingleRay`).
+    #[inline(always)]
+    fn single(&self, r: usize) -> SingleRay {
+        let lane = |v: V| v.to_array()[r];
+        let bit = |m: V::M| m.bits() & (1 << r) != 0;
+        let axis = |[m0, m1]: [V::M; 2]| {
+            if bit(m0) {
+                0
+            } else if bit(m1) {
+                1
+            } else {
+                2
+            }
+        };
+        let [kx, ky, kz] = self.shear.k.map(axis);
+        let o = self.origin;
+        SingleRay {
+            o4: [o.x, o.y, o.z, 0.0],
+            inv4: [lane(self.inv[0]), lane(self.inv[1]), lane(self.inv[2]), 0.0],
+            below_on_plane: [
+                bit(self.below_on_plane[0]),
+                bit(self.below_on_plane[1]),
+                bit(self.below_on_plane[2]),
+                false,
+            ],
+            ray: ShearedRay {
+                origin: self.frame_origin,
+                kx,
+                ky,
+                kz,
+                sx: lane(self.shear.sx),
+                sy: lane(self.shear.sy),
+                sz: lane(self.shear.sz),
+                scale: self.scale,
+                inv_scale: 1.0 / self.scale,
+            },
+        }
+    }
+
     /// The single ray's set-up (`KdTree::traverse`, `ShearedRay::in_frame`)
     /// for all lanes at once, or `None` if a direction has a zero component
     /// (`SharedOrigin` then does it lane by lane, as `Aabb::clip_ray` takes
@@ -146,6 +186,7 @@ impl<V: Lanes> Rays<V> {
             below_on_plane: d.map(|c| c.le(zero)),
             shear,
             frame_origin: origin * tree.frame_scale,
+            scale: tree.frame_scale,
         })
     }
 }
@@ -251,6 +292,7 @@ impl SharedOrigin {
                 limit: V::splat(self.t_max * self.scale),
             },
             frame_origin: self.frame_origin,
+            scale: self.scale,
         }
     }
 }
@@ -334,7 +376,24 @@ fn traverse<V: Lanes>(tree: &KdTree, rays: &Rays<V>) -> u16 {
     let mut t_max = rays.t_cell_max;
     loop {
         let node = tree.nodes[node_index as usize];
-        if !node.is_leaf() {
+        let lanes = mask.bits();
+        if lanes.count_ones() == 1 {
+            // One lane left in this subtree: the single-ray traversal goes
+            // on from here with the lane's interval (the state its own
+            // traversal would have here), at a third of the packet's cost
+            // per node. Far from the origin most packets end this way.
+            let r = lanes.trailing_zeros() as usize;
+            let (a, b) = (t_min.to_array()[r], t_max.to_array()[r]);
+            if tree
+                .walk::<true, _>(&rays.single(r), node_index, a, b, rays.t_max, &mut NoCounts)
+                .is_hit()
+            {
+                alive &= !lanes;
+                if alive == 0 {
+                    return rays.live;
+                }
+            }
+        } else if !node.is_leaf() {
             let axis = node.axis();
             let split = node.split();
             let tp = V::splat(split - o[axis]).mul(inv[axis]);
