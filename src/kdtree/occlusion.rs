@@ -410,23 +410,35 @@ fn traverse<V: Lanes>(tree: &KdTree, rays: &Rays<V>) -> u16 {
             // beyond the ray's limit (no hit yet: best t = t_max).
             let second = second.and_not(both.and_not(second_min.le(t_limit)));
             // Per lane, which child is its first.
-            let below_first = if o[axis] < split {
-                V::M::from_bits(!0)
-            } else if o[axis] == split {
-                below_on_plane[axis]
+            // Per lane, which child is its first: the origin's side, or on
+            // the plane the direction's sign.
+            let ((below, below_iv), (above, above_iv)) = if o[axis] != split {
+                let firsts = (first, (t_min, first_max));
+                let seconds = (second, (second_min, t_max));
+                if o[axis] < split {
+                    (firsts, seconds)
+                } else {
+                    (seconds, firsts)
+                }
             } else {
-                V::M::from_bits(0)
+                let below_first = below_on_plane[axis];
+                (
+                    (
+                        first.and(below_first).or(second.and_not(below_first)),
+                        (
+                            V::select(below_first, t_min, second_min),
+                            V::select(below_first, first_max, t_max),
+                        ),
+                    ),
+                    (
+                        first.and_not(below_first).or(second.and(below_first)),
+                        (
+                            V::select(below_first, second_min, t_min),
+                            V::select(below_first, t_max, first_max),
+                        ),
+                    ),
+                )
             };
-            let below = first.and(below_first).or(second.and_not(below_first));
-            let above = first.and_not(below_first).or(second.and(below_first));
-            let below_iv = (
-                V::select(below_first, t_min, second_min),
-                V::select(below_first, first_max, t_max),
-            );
-            let above_iv = (
-                V::select(below_first, second_min, t_min),
-                V::select(below_first, t_max, first_max),
-            );
             let below_node = node_index + 1;
             let above_node = node.above_child();
             // The child holding the origin first (every lane's first
