@@ -317,15 +317,32 @@ impl<V: Lanes> Shear<V> {
     /// The lanes of `active` that hit the triangle (vertices in the frame,
     /// origin subtracted): `ShearedRay::intersect` lane by lane, the same
     /// operations in the same order.
+    /// `common`: the axes when every lane has the same (then a coordinate
+    /// is one broadcast rather than two selects).
     #[inline(always)]
-    fn hits(&self, a: [f32; 3], b: [f32; 3], c: [f32; 3], active: V::M) -> V::M {
-        let (az0, bz0, cz0) = (self.pick(a, 2), self.pick(b, 2), self.pick(c, 2));
-        let ax = self.pick(a, 0).sub(self.sx.mul(az0));
-        let ay = self.pick(a, 1).sub(self.sy.mul(az0));
-        let bx = self.pick(b, 0).sub(self.sx.mul(bz0));
-        let by = self.pick(b, 1).sub(self.sy.mul(bz0));
-        let cx = self.pick(c, 0).sub(self.sx.mul(cz0));
-        let cy = self.pick(c, 1).sub(self.sy.mul(cz0));
+    fn hits(&self, a: [f32; 3], b: [f32; 3], c: [f32; 3], active: V::M, common: Option<[usize; 3]>) -> V::M {
+        match common {
+            Some(k) => self.hits_with(a, b, c, active, |p: [f32; 3], i| V::splat(p[k[i]])),
+            None => self.hits_with(a, b, c, active, |p, i| self.pick(p, i)),
+        }
+    }
+
+    #[inline(always)]
+    fn hits_with(
+        &self,
+        a: [f32; 3],
+        b: [f32; 3],
+        c: [f32; 3],
+        active: V::M,
+        pick: impl Fn([f32; 3], usize) -> V,
+    ) -> V::M {
+        let (az0, bz0, cz0) = (pick(a, 2), pick(b, 2), pick(c, 2));
+        let ax = pick(a, 0).sub(self.sx.mul(az0));
+        let ay = pick(a, 1).sub(self.sy.mul(az0));
+        let bx = pick(b, 0).sub(self.sx.mul(bz0));
+        let by = pick(b, 1).sub(self.sy.mul(bz0));
+        let cx = pick(c, 0).sub(self.sx.mul(cz0));
+        let cy = pick(c, 1).sub(self.sy.mul(cz0));
         let u = cx.mul(by).sub(cy.mul(bx));
         let v = ax.mul(cy).sub(ay.mul(cx));
         let w = bx.mul(ay).sub(by.mul(ax));
@@ -366,6 +383,21 @@ fn traverse<V: Lanes>(tree: &KdTree, rays: &Rays<V>) -> u16 {
     let zero = V::splat(0.0);
     let o = rays.origin.to_array();
     let fo = rays.frame_origin;
+    // The live lanes' shear axes, if they are all the same.
+    let live = rays.live;
+    let common = (|| {
+        let mut k = [0usize; 3];
+        for (i, [m0, m1]) in shear.k.iter().enumerate() {
+            let (m0, m1) = (m0.bits() & live, m1.bits() & live);
+            k[i] = match (m0, m1) {
+                (m, 0) if m == live => 0,
+                (0, m) if m == live => 1,
+                (0, 0) => 2,
+                _ => return None,
+            };
+        }
+        Some(k)
+    })();
 
     let mut alive = rays.live;
     let mut stack = [const { MaybeUninit::<Deferred<V>>::uninit() }; MAX_TREE_DEPTH];
@@ -466,7 +498,7 @@ fn traverse<V: Lanes>(tree: &KdTree, rays: &Rays<V>) -> u16 {
             let range = node.leaf_range();
             for verts in &tree.leaf_vertices[range] {
                 let [a, b, c] = verts.map(|v| (v - fo).to_array());
-                let hit = shear.hits(a, b, c, mask).bits();
+                let hit = shear.hits(a, b, c, mask, common).bits();
                 if hit != 0 {
                     alive &= !hit;
                     if alive == 0 {
