@@ -27,6 +27,7 @@ pub mod raytrace;
 pub mod sampling;
 pub mod scene;
 pub mod sh;
+pub mod simd;
 pub mod skipped;
 pub mod ssao;
 pub mod sweep;

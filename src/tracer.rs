@@ -89,6 +89,23 @@ impl Tracer {
         )
     }
 
+    /// `closest` for rays in no particular order (a ray file): on the CPU
+    /// they are traced in an order sorted by where they enter the tree
+    /// (`KdTree::trace_closest_incoherent`); the hits are the same.
+    pub fn closest_incoherent(&mut self, rays: &[Ray]) -> Result<Timed<Vec<Hit>>> {
+        let tree = &self.tree;
+        self.gpu.run(
+            |ctx, g| {
+                let traced = g.trace(ctx, rays, TraceMode::Closest)?;
+                Ok(GpuOutput {
+                    value: traced.hits,
+                    gpu_ms: traced.gpu_ms,
+                })
+            },
+            || Ok(tree.trace_closest_incoherent(rays)),
+        )
+    }
+
     /// Traversal steps and intersection tests of the closest hits of
     /// `rays`, summed (the kernel's counters on a GPU; not timed).
     pub fn traversal_counts(&mut self, rays: &[Ray]) -> Result<TraversalCounts> {

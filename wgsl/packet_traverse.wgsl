@@ -109,8 +109,9 @@ var<private> pk_isects: u32;
 // ray's own path and empty in cells the packet visits without it. So the
 // lane tests the single ray's triangles, and stops where the single ray
 // would, without carrying the cells' boxes. (The CPU packet clips lanes
-// against the leaf's box instead, and the packet against it with
-// equation (2); the GPU saves that private memory.)
+// against the leaf's box instead; the GPU saves that private memory.
+// Equation (2) against the leaf's box is implied by the packet's interval
+// on both.)
 fn packet_traverse(pk: PacketRecord, d: vec3<f32>) -> Hit {
     let any_hit = (pk.flags & FLAG_ANY_HIT) != 0u;
     let o = pk.origin;

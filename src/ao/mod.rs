@@ -9,6 +9,7 @@
 //! return the per-ray results as bit masks so they can be compared ray by ray.
 
 pub mod gpu;
+pub mod packets;
 pub mod points;
 pub mod raycast;
 pub mod runner;
@@ -17,7 +18,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use crate::error::{Error, Result};
-use crate::sampling::{Frame, SampleSequence, cosine_hemisphere};
+use crate::sampling::{Frame, SampleSequence, StreamSampler, cosine_hemisphere, unit_float};
 
 /// Where AO is estimated: the ray origin (already offset from the surface),
 /// the unit normal of the hemisphere, and the index of the point's stream in
@@ -83,8 +84,52 @@ impl AoSettings {
 /// the point's stream, mapped to the cosine-weighted hemisphere about `normal`.
 #[inline]
 pub fn ray_direction(seq: &SampleSequence, point: u32, j: u32, normal: Vec3) -> Vec3 {
-    let [u, v] = seq.sample(point, j);
-    Frame::from_normal(normal).to_world(cosine_hemisphere(u, v))
+    PointDirections::new(seq, point, normal).direction(j)
+}
+
+/// The AO ray directions of one point, with what all of them share (the
+/// stream's scramble seeds, the tangent frame) made once: `direction(j)` is
+/// `ray_direction(seq, point, j, normal)` bit for bit.
+#[derive(Debug, Clone, Copy)]
+pub struct PointDirections {
+    stream: StreamSampler,
+    frame: Frame,
+}
+
+impl PointDirections {
+    #[inline]
+    pub fn new(seq: &SampleSequence, point: u32, normal: Vec3) -> Self {
+        PointDirections {
+            stream: seq.stream(point),
+            frame: Frame::from_normal(normal),
+        }
+    }
+
+    #[inline]
+    pub fn direction(&self, j: u32) -> Vec3 {
+        let [u, v] = self.stream.sample(j);
+        self.frame.to_world(cosine_hemisphere(u, v))
+    }
+
+    /// Rays 0..`out.len()`: each one's direction and the cell of its sample in the
+    /// square's 4x4 grid, in Morton order (`packets` groups rays by it).
+    /// Two passes: the samples' integer arithmetic for all rays, which the
+    /// compiler vectorises, then the map to the hemisphere, whose sine and
+    /// cosine are libm's, one ray at a time.
+    /// (Plain loops over slices: iterator adaptors compiled out of line
+    /// would not see the caller's `target_feature`.)
+    #[inline(always)]
+    pub fn directions_and_cells(&self, bits: &mut [[u32; 2]], out: &mut [(Vec3, u8)]) {
+        for (j, b) in bits.iter_mut().enumerate() {
+            *b = self.stream.sample_bits(j as u32);
+        }
+        for (o, &b) in out.iter_mut().zip(bits.iter()) {
+            let [u, v] = b.map(unit_float);
+            let [x, y] = b.map(|b| (b >> 30) as u8);
+            let cell = (x & 1) | (y & 1) << 1 | (x >> 1) << 2 | (y >> 1) << 3;
+            *o = (self.frame.to_world(cosine_hemisphere(u, v)), cell);
+        }
+    }
 }
 
 /// Per-ray results: bit j of point i's `words_per_point` words is set when

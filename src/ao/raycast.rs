@@ -4,14 +4,36 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::{AoPoint, AoSettings, VisibilityMasks, ray_direction};
+use super::{AoPoint, AoSettings, PointDirections, VisibilityMasks, packets, ray_direction};
 use crate::kdtree::KdTree;
 use crate::progress::Progress;
 use crate::sampling::SampleSequence;
+use crate::simd::Isa;
+
+/// How the CPU casts a point's AO rays; every way gives the same bits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Casting {
+    /// One ray at a time (`KdTree::any_hit`).
+    Single,
+    /// Packets of 16 sharing the origin (`ao::packets`) in an instruction set.
+    Packets(Isa),
+}
 
 /// Casts `rays_per_point` AO rays from every point (rayon, all threads of the
-/// current pool) and returns which escaped.
+/// current pool) and returns which escaped: packets of 16 in the widest
+/// instruction set the CPU has.
 pub fn ao_rays(tree: &KdTree, points: &[AoPoint], settings: &AoSettings, progress: &Progress) -> VisibilityMasks {
+    ao_rays_by(tree, points, settings, progress, Casting::Packets(Isa::best()))
+}
+
+/// `ao_rays`, casting the rays as `casting` says.
+pub fn ao_rays_by(
+    tree: &KdTree,
+    points: &[AoPoint],
+    settings: &AoSettings,
+    progress: &Progress,
+    casting: Casting,
+) -> VisibilityMasks {
     let words = settings.words_per_point() as usize;
     let seq = SampleSequence::new(settings.seed);
     let mut bits = vec![0u32; points.len() * words];
@@ -19,7 +41,7 @@ pub fn ao_rays(tree: &KdTree, points: &[AoPoint], settings: &AoSettings, progres
         .zip(points.par_iter())
         .with_min_len(16)
         .for_each(|(mask, point)| {
-            point_visibility(tree, &seq, point, settings, mask);
+            point_visibility(tree, &seq, point, settings, casting, mask);
             progress.inc(1);
         });
     VisibilityMasks {
@@ -29,16 +51,31 @@ pub fn ao_rays(tree: &KdTree, points: &[AoPoint], settings: &AoSettings, progres
     }
 }
 
-fn point_visibility(tree: &KdTree, seq: &SampleSequence, point: &AoPoint, settings: &AoSettings, mask: &mut [u32]) {
-    let normal = Vec3::from_array(point.normal);
-    let origin = Vec3::from_array(point.origin);
-    for j in 0..settings.rays_per_point {
-        let visible = !point.has_hemisphere() || {
-            let dir = ray_direction(seq, point.stream, j, normal);
-            !tree.any_hit(origin, dir, settings.radius)
-        };
-        if visible {
+fn point_visibility(
+    tree: &KdTree,
+    seq: &SampleSequence,
+    point: &AoPoint,
+    settings: &AoSettings,
+    casting: Casting,
+    mask: &mut [u32],
+) {
+    let n = settings.rays_per_point;
+    if !point.has_hemisphere() {
+        for j in 0..n {
             mask[(j / 32) as usize] |= 1 << (j % 32);
+        }
+        return;
+    }
+    let origin = Vec3::from_array(point.origin);
+    let dirs = PointDirections::new(seq, point.stream, Vec3::from_array(point.normal));
+    match casting {
+        Casting::Packets(isa) => packets::point_visibility(tree, origin, &dirs, n, settings.radius, isa, mask),
+        Casting::Single => {
+            for j in 0..n {
+                if !tree.any_hit(origin, dirs.direction(j), settings.radius) {
+                    mask[(j / 32) as usize] |= 1 << (j % 32);
+                }
+            }
         }
     }
 }

@@ -35,7 +35,7 @@ pub fn run(args: &TraceRaysArgs) -> Result<Value> {
     let device = args.common.open_device()?;
     let mut tracer = Tracer::build(&device, &mesh, Bars::Stderr, "trace-rays")?;
     let progress = Bars::Stderr.spinner(&format!("tracing {} rays", rays.len()));
-    let traced = tracer.closest(&rays)?;
+    let traced = tracer.closest_incoherent(&rays)?;
     progress.finish();
     write_hits(out, &traced.value)?;
     let stats = &tracer.tree().stats;

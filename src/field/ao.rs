@@ -14,7 +14,7 @@ use rayon::prelude::*;
 
 use super::build::DisplacementField;
 use super::lookup::{FieldTrace, Positional};
-use crate::ao::{AoPoint, AoSettings, VisibilityMasks, ray_direction};
+use crate::ao::{AoPoint, AoSettings, PointDirections, VisibilityMasks};
 use crate::progress::Progress;
 use crate::sampling::SampleSequence;
 use crate::scene::Transform;
@@ -81,6 +81,7 @@ pub fn field_ao(
         .for_each(|(((mask, inside), hidden), (point, &owner))| {
             let normal = Vec3::from_array(point.normal);
             let origin = Vec3::from_array(point.origin);
+            let dirs = PointDirections::new(&seq, point.stream, normal);
             for j in 0..settings.rays_per_point {
                 let bit = 1u32 << (j % 32);
                 let w = (j / 32) as usize;
@@ -88,7 +89,7 @@ pub fn field_ao(
                     mask[w] |= bit;
                     continue;
                 }
-                let dir = ray_direction(&seq, point.stream, j, normal);
+                let dir = dirs.direction(j);
                 let mut visible = true;
                 for c in casters.iter().filter(|c| c.instance != owner) {
                     let trace = c.trace(origin, dir, positional);

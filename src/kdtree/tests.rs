@@ -88,6 +88,23 @@ fn random_soups_match_brute_force() {
 }
 
 #[test]
+fn sorted_ray_order_gives_the_same_hits() {
+    let mut rng = Rng(0x51ed_270b_4a3f_1c9d);
+    let tree = KdTree::from_triangles(random_soup(&mut rng, 2000, 0.05), &KdTreeParams::default()).unwrap();
+    let mut rays: Vec<Ray> = rays_at(&mut rng, 5000, 1.0)
+        .into_iter()
+        .map(|(o, d)| Ray::new(o, d))
+        .collect();
+    // Axis-parallel directions, and origins outside every octant of the box.
+    rays.push(Ray::new(Vec3::new(-5.0, 0.0, 0.0), Vec3::X));
+    rays.push(Ray::new(Vec3::new(0.1, 9.0, 0.2), -Vec3::Y));
+    rays.push(Ray::new(Vec3::splat(7.0), Vec3::splat(1.0)));
+    let hits = tree.trace_closest_incoherent(&rays);
+    assert_eq!(hits, tree.trace_closest(&rays));
+    assert!(hits.iter().filter(|h| h.is_hit()).count() > 100);
+}
+
+#[test]
 fn origins_inside_the_scene_and_short_rays() {
     let mut rng = Rng(7);
     let tree = KdTree::from_triangles(random_soup(&mut rng, 2000, 0.08), &KdTreeParams::default()).unwrap();

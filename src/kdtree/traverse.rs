@@ -72,6 +72,32 @@ pub const TRAVERSAL_SLACK: f32 = 1e-6;
 const STACK_SIZE: usize = MAX_TREE_DEPTH.next_power_of_two();
 const STACK_MASK: usize = STACK_SIZE - 1;
 
+/// What the traversal keeps of a ray: per-axis origin, inverse direction
+/// and first child on a split plane in 4-element arrays, indexed by `word1
+/// & 3` (the compiler sees that is below 4: no bounds checks, and no match
+/// as glam's run-time indexing has; which child comes first when the origin
+/// lies on the split plane depends only on the direction's sign), and the
+/// sheared ray of the intersection test.
+pub(crate) struct SingleRay {
+    pub o4: [f32; 4],
+    pub inv4: [f32; 4],
+    pub below_on_plane: [bool; 4],
+    pub ray: ShearedRay,
+}
+
+impl SingleRay {
+    #[inline(always)]
+    pub fn new(origin: Vec3, dir: Vec3, frame_scale: f32) -> Self {
+        let quad = |v: Vec3| [v.x, v.y, v.z, 0.0];
+        SingleRay {
+            o4: quad(origin),
+            inv4: quad(dir.recip()),
+            below_on_plane: [dir.x <= 0.0, dir.y <= 0.0, dir.z <= 0.0, false],
+            ray: ShearedRay::in_frame(origin, dir, frame_scale),
+        }
+    }
+}
+
 impl KdTree {
     /// Closest hit with `0 < t < t_max`, or `Hit::MISS`.
     #[inline]
@@ -95,16 +121,32 @@ impl KdTree {
         let Some((t0, t1)) = self.bounds.clip_ray(origin, dir, 0.0, t_max) else {
             return Hit::MISS;
         };
-        let mut t_min = t0 * (1.0 - TRAVERSAL_SLACK);
-        let mut t_cell_max = t1 * (1.0 + TRAVERSAL_SLACK);
-        let ray = ShearedRay::in_frame(origin, dir, self.frame_scale);
-        // Per-axis ray data in 4-element arrays, indexed by `word1 & 3`
-        // (the compiler sees that is below 4: no bounds checks, and no match
-        // as glam's run-time indexing has). Which child comes first when the
-        // origin lies on the split plane depends only on the direction's sign.
-        let quad = |v: Vec3| [v.x, v.y, v.z, 0.0];
-        let (o4, inv4) = (quad(origin), quad(dir.recip()));
-        let below_on_plane = [dir.x <= 0.0, dir.y <= 0.0, dir.z <= 0.0, false];
+        let ray = SingleRay::new(origin, dir, self.frame_scale);
+        self.walk::<ANY, C>(
+            &ray,
+            0,
+            t0 * (1.0 - TRAVERSAL_SLACK),
+            t1 * (1.0 + TRAVERSAL_SLACK),
+            t_max,
+            counts,
+        )
+    }
+
+    /// The traversal of node `node_index`'s subtree with the ray's interval
+    /// `[t_min, t_cell_max]` in its cell: from the root, the whole search;
+    /// from inside, the rest of a search a packet began
+    /// (`occlusion`, which hands a ray its lanes no longer share).
+    #[inline(always)]
+    pub(crate) fn walk<const ANY: bool, C: Counters>(
+        &self,
+        r: &SingleRay,
+        mut node_index: u32,
+        mut t_min: f32,
+        mut t_cell_max: f32,
+        t_max: f32,
+        counts: &mut C,
+    ) -> Hit {
+        let (ray, o4, inv4, below_on_plane) = (&r.ray, r.o4, r.inv4, r.below_on_plane);
         // The stack never holds more entries than the tree is deep (at most
         // MAX_TREE_DEPTH); indexing with `sp & STACK_MASK` lets the compiler
         // drop the bounds checks without changing any index. It is left
@@ -113,7 +155,6 @@ impl KdTree {
         // read.
         let mut stack = [const { MaybeUninit::<(u32, f32, f32)>::uninit() }; STACK_SIZE];
         let mut sp = 0usize;
-        let mut node_index = 0u32;
         let mut best = Hit {
             t: t_max,
             triangle: Hit::MISS_INDEX,

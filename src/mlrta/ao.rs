@@ -6,7 +6,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::ao::{AoPoint, AoSettings, VisibilityMasks, ray_direction};
+use crate::ao::{AoPoint, AoSettings, PointDirections, VisibilityMasks};
 use crate::mlrta::entry_point::EntryPoint;
 use crate::mlrta::frustum::sign_class;
 use crate::mlrta::packet::{MlrtaCounts, PACKET};
@@ -64,7 +64,8 @@ fn point_visibility(
     }
     let origin = Vec3::from_array(point.origin);
     let normal = Vec3::from_array(point.normal);
-    let dirs: Vec<Vec3> = (0..n).map(|j| ray_direction(seq, point.stream, j, normal)).collect();
+    let point_dirs = PointDirections::new(seq, point.stream, normal);
+    let dirs: Vec<Vec3> = (0..n).map(|j| point_dirs.direction(j)).collect();
     // Rays sorted by octant, so that packets are coherent.
     let mut order: Vec<u32> = (0..n).collect();
     order.sort_by_key(|&j| sign_class(dirs[j as usize]).unwrap_or(8));

@@ -11,9 +11,11 @@ use rayon::prelude::*;
 
 use super::transfer::Brdf;
 use crate::kdtree::KdTree;
+use crate::kdtree::occlusion::{LANES, occluded};
 use crate::sampling::{Frame, SampleSequence, cosine_hemisphere};
 use crate::scene::ORIGIN_OFFSET;
 use crate::sh::{ShBasis, coefficient_count};
+use crate::simd::Isa;
 
 /// Reference transfer vectors (world space, `bands²` per vertex) for the
 /// given shading normals (zero normal: zero transfer).
@@ -50,16 +52,23 @@ pub fn reference_transfer(
         };
         let mut acc = vec![0.0f64; n];
         let mut y = vec![0.0f32; n];
-        for j in 0..rays {
-            let [u, w] = seq.sample(v as u32, j);
-            let d = frame.to_world(cosine_hemisphere(u, w)).normalize();
-            if tree.any_hit(origin, d, f32::INFINITY) {
-                continue;
+        let stream = seq.stream(v as u32);
+        // Sixteen rays at a time through the shared-origin packets (the
+        // same answers as `any_hit` one by one), summed in ray order.
+        let mut dirs = [Vec3::ZERO; LANES];
+        for first in (0..rays).step_by(LANES) {
+            let n = (rays - first).min(LANES as u32) as usize;
+            for (k, d) in dirs[..n].iter_mut().enumerate() {
+                let [u, w] = stream.sample(first + k as u32);
+                *d = frame.to_world(cosine_hemisphere(u, w)).normalize();
             }
-            let rho = brdf.rho(d, reflected);
-            basis.eval(d, &mut y);
-            for (a, yi) in acc.iter_mut().zip(&y) {
-                *a += (rho * yi) as f64;
+            let hit = occluded(tree, origin, &dirs[..n], f32::INFINITY, Isa::best());
+            for (_, &d) in dirs[..n].iter().enumerate().filter(|&(k, _)| hit & (1 << k) == 0) {
+                let rho = brdf.rho(d, reflected);
+                basis.eval(d, &mut y);
+                for (a, yi) in acc.iter_mut().zip(&y) {
+                    *a += (rho * yi) as f64;
+                }
             }
         }
         for (ti, a) in t.iter_mut().zip(&acc) {

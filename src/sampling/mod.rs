@@ -13,4 +13,4 @@ pub mod sequence;
 
 pub use concentric::{concentric_disk, concentric_square};
 pub use hemisphere::{Frame, cosine_hemisphere, malley_inverse};
-pub use sequence::{SampleSequence, hash_u32, unit_float};
+pub use sequence::{SampleSequence, StreamSampler, hash_u32, unit_float};

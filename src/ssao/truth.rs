@@ -170,10 +170,10 @@ impl<'a> Traced<'a> {
         }
         let frame = Frame::from_normal(normal);
         let origin = p + self.offset * normal;
-        let stream = y * self.gb.width + x;
+        let stream = seq.stream(y * self.gb.width + x);
         let mut sum = 0.0f64;
         for j in 0..n {
-            let [u, v] = seq.sample(stream, j);
+            let [u, v] = stream.sample(j);
             let d = frame.to_world(cosine_hemisphere(u, v));
             let hit = self.tree.closest_hit(origin, d, self.radius);
             let dist = if hit.is_hit() { hit.t } else { f32::INFINITY };

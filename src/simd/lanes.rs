@@ -1,0 +1,49 @@
+//! The operations a packet kernel needs on sixteen f32 lanes and their masks.
+
+/// A mask over sixteen lanes (the result of a lane comparison).
+pub trait Mask: Copy {
+    /// Lanes whose bit is set in `bits` (bit r = lane r).
+    fn from_bits(bits: u16) -> Self;
+    /// Lane r's state as bit r.
+    fn bits(self) -> u16;
+    fn and(self, o: Self) -> Self;
+    fn or(self, o: Self) -> Self;
+    /// `self & !o`.
+    fn and_not(self, o: Self) -> Self;
+    #[inline(always)]
+    fn any(self) -> bool {
+        self.bits() != 0
+    }
+}
+
+/// Sixteen f32 lanes. Each operation is the IEEE operation of Rust's `f32`
+/// lane by lane (`min` and `max` only for operands that are not NaN, and
+/// either zero for `min(-0, 0)`: kernels only compare their results), and
+/// comparisons follow Rust's: ordered ones are false where a lane is NaN,
+/// `ne` is true there.
+///
+/// # Safety
+///
+/// Implementations may execute instructions the CPU lacks unless the
+/// instruction set is available; an implementation's values must be created
+/// only after `Isa::is_available` said so (the dispatching functions check).
+pub unsafe trait Lanes: Copy {
+    type M: Mask;
+    fn splat(x: f32) -> Self;
+    fn from_array(a: [f32; 16]) -> Self;
+    fn to_array(self) -> [f32; 16];
+    fn add(self, o: Self) -> Self;
+    fn sub(self, o: Self) -> Self;
+    fn mul(self, o: Self) -> Self;
+    fn div(self, o: Self) -> Self;
+    fn min(self, o: Self) -> Self;
+    fn max(self, o: Self) -> Self;
+    fn lt(self, o: Self) -> Self::M;
+    fn le(self, o: Self) -> Self::M;
+    fn gt(self, o: Self) -> Self::M;
+    fn ge(self, o: Self) -> Self::M;
+    fn eq(self, o: Self) -> Self::M;
+    fn ne(self, o: Self) -> Self::M;
+    /// `m ? a : b` per lane.
+    fn select(m: Self::M, a: Self, b: Self) -> Self;
+}
