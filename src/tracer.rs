@@ -76,23 +76,18 @@ impl Tracer {
 
     /// Closest hits of `rays` (directions need not be normalised; t in their units).
     pub fn closest(&mut self, rays: &[Ray]) -> Result<Timed<Vec<Hit>>> {
-        let tree = &self.tree;
-        self.gpu.run(
-            |ctx, g| {
-                let traced = g.trace(ctx, rays, TraceMode::Closest)?;
-                Ok(GpuOutput {
-                    value: traced.hits,
-                    gpu_ms: traced.gpu_ms,
-                })
-            },
-            || Ok(tree.trace_closest(rays)),
-        )
+        self.closest_by(rays, KdTree::trace_closest)
     }
 
     /// `closest` for rays in no particular order (a ray file): on the CPU
     /// they are traced in an order sorted by where they enter the tree
     /// (`KdTree::trace_closest_incoherent`); the hits are the same.
     pub fn closest_incoherent(&mut self, rays: &[Ray]) -> Result<Timed<Vec<Hit>>> {
+        self.closest_by(rays, KdTree::trace_closest_incoherent)
+    }
+
+    /// Closest hits on the GPU, or by `cpu` on the CPU.
+    fn closest_by(&mut self, rays: &[Ray], cpu: fn(&KdTree, &[Ray]) -> Vec<Hit>) -> Result<Timed<Vec<Hit>>> {
         let tree = &self.tree;
         self.gpu.run(
             |ctx, g| {
@@ -102,7 +97,7 @@ impl Tracer {
                     gpu_ms: traced.gpu_ms,
                 })
             },
-            || Ok(tree.trace_closest_incoherent(rays)),
+            || Ok(cpu(tree, rays)),
         )
     }
 
