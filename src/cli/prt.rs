@@ -3,12 +3,12 @@
 //! Lehtinen and Aila 2004), on a mesh or one of the built-in animations
 //! (`prt::runner`).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use serde_json::{Value, json};
 
-use super::args::{CameraArgs, Common, OnOff, check_output, parse_vec3, positive, stem};
+use super::args::{CameraArgs, Common, OnOff, check_outputs, parse_vec3, positive, stem};
 use crate::error::{Error, Result};
 use crate::image_out::{ImageFormat, write_radiance};
 use crate::output::frame_path;
@@ -161,27 +161,11 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     let threads = args.common.init_threads()?;
     let (mut settings, playback, reference) = knobs(args)?;
     let view = View::new(args.camera.spec(), args.width, args.height)?;
-    let out_png = args.out.as_deref().map(|p| check_output(p, "--out")).transpose()?;
-    out_png.map(|p| ImageFormat::check(p, "--out")).transpose()?;
-    for (path, option) in [(&args.sh_out, "--sh-out"), (&args.per_vertex, "--per-vertex")] {
-        path.as_deref().map(|p| check_output(p, option)).transpose()?;
-    }
-    if let Some(dir) = &args.out_frames
-        && !dir.is_dir()
-    {
-        return Err(Error::param(
-            "--out-frames",
-            format!("{} is not a folder", dir.display()),
-        ));
-    }
+    let out_png = checked_outputs(args)?;
     settings.validate()?;
     // Inputs: the probe first (a bad file fails before any work).
     let env = EnvironmentMap::load(&args.env)?;
-    let scene = match (&args.mesh, &args.animated) {
-        (Some(path), None) => Scene::from_mesh(&stem(path), path, load_mesh(path)?),
-        (None, Some(name)) => Scene::from_animation(AnimatedScene::parse(name)?.build()),
-        _ => return Err(Error::param("--mesh", "give --mesh FILE or --animated cloth|character")),
-    };
+    let scene = scene_of(args)?;
     let device = args.common.open_device()?;
     let mesh = &scene.meshes[0];
     let triangles = &mesh.mesh.triangles;
@@ -195,11 +179,7 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     };
     let mut runner = PrtRunner::new(&device, &rest, triangles, &settings, args.shadows, reference)?;
     runner.notes().iter().for_each(|n| super::io::note(n));
-    let transfer = if args.per_vertex_transfer {
-        crate::sh::coefficient_count(settings.bands)
-    } else {
-        0
-    };
+    let transfer = args.per_vertex_transfer as usize * crate::sh::coefficient_count(settings.bands);
     let mut csv = args
         .per_vertex
         .as_deref()
@@ -254,6 +234,36 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
                  "sh_out": args.sh_out, "per_vertex": args.per_vertex });
     let report = super::io::merged(head, &report)?;
     super::io::merged(report, args.common.report(runner.device(), threads))
+}
+
+/// The checked `--out` (its image format too), `--sh-out`, `--per-vertex`
+/// and `--out-frames` folder, before any work; `--out`'s path.
+fn checked_outputs(args: &PrtArgs) -> Result<Option<&Path>> {
+    let outputs = [
+        (&args.out, "--out"),
+        (&args.sh_out, "--sh-out"),
+        (&args.per_vertex, "--per-vertex"),
+    ];
+    let out = check_outputs(&outputs)?[0];
+    out.map(|p| ImageFormat::check(p, "--out")).transpose()?;
+    if let Some(dir) = &args.out_frames
+        && !dir.is_dir()
+    {
+        return Err(Error::param(
+            "--out-frames",
+            format!("{} is not a folder", dir.display()),
+        ));
+    }
+    Ok(out)
+}
+
+/// The one-mesh scene of `--mesh` or `--animated`.
+fn scene_of(args: &PrtArgs) -> Result<Scene> {
+    match (&args.mesh, &args.animated) {
+        (Some(path), None) => Ok(Scene::from_mesh(&stem(path), path, load_mesh(path)?)),
+        (None, Some(name)) => Ok(Scene::from_animation(AnimatedScene::parse(name)?.build())),
+        _ => Err(Error::param("--mesh", "give --mesh FILE or --animated cloth|character")),
+    }
 }
 
 /// `--max-error`: the cached or checked choice, applied to `settings`.

@@ -54,11 +54,15 @@ pub fn reaching(scene: &Scene, reach: Reach) -> Vec<bool> {
             .enumerate()
             .filter(move |&(r, i)| r != k && i.role.receives())
     };
-    let spheres: Vec<(Vec3, f32)> = scene.meshes.iter().map(|m| bounding_sphere(&m.mesh)).collect();
     let casters = scene.instances.iter().filter(|i| i.role.casts()).count() as u64;
     let receivers = scene.instances.iter().filter(|i| i.role.receives()).count() as u64;
     let tests = casters * receivers * reach.frames as u64;
     let bounded = reach.radius.is_finite() && tests <= MOST_SPHERE_TESTS;
+    // Spheres only where distances decide.
+    let spheres: Vec<(Vec3, f32)> = match bounded {
+        true => scene.meshes.iter().map(|m| bounding_sphere(&m.mesh)).collect(),
+        false => Vec::new(),
+    };
     scene
         .instances
         .iter()
