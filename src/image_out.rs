@@ -335,6 +335,15 @@ pub fn read_pfm(path: &Path) -> Result<(u32, u32, Vec<Vec3>)> {
     Ok((width, height, out))
 }
 
+/// An RGB image, 8 bits per channel.
+pub fn write_rgb_png(path: &Path, width: u32, height: u32, pixels: &[[u8; 3]]) -> Result<()> {
+    let mut img = image::RgbImage::new(width, height);
+    for (p, v) in img.pixels_mut().zip(pixels) {
+        *p = image::Rgb(*v);
+    }
+    crate::output::write_image(path, &img, image::ImageFormat::Png)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -57,3 +57,64 @@ pub fn positive(name: &str, v: i64) -> Result<usize> {
     }
     usize::try_from(v).map_err(|_| Error::param(name, "is too large"))
 }
+
+/// The most threads per available core.
+pub const MAX_THREADS_PER_CORE: usize = 8;
+
+/// Sets up the global rayon pool with `threads` threads (default: all
+/// cores); returns the thread count.
+pub fn init_thread_pool(threads: Option<usize>) -> Result<usize> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    // Oversubscribing a little can help a benchmark; thousands of threads
+    // only cost minutes of start-up and memory.
+    let most = MAX_THREADS_PER_CORE * cores;
+    let threads = match threads {
+        Some(0) => return Err(Error::param("threads", "must be at least 1")),
+        Some(n) if n > most => {
+            let problem = format!("is {n}; at most {most} ({MAX_THREADS_PER_CORE} per core, {cores} cores here)");
+            return Err(Error::param("threads", problem));
+        }
+        Some(n) => n,
+        None => cores,
+    };
+    // The global pool can be built once per process; the CLI does so once.
+    match rayon::ThreadPoolBuilder::new().num_threads(threads).build_global() {
+        Ok(()) => {}
+        Err(_) if rayon::current_num_threads() == threads => {}
+        Err(e) => return Err(e.into()),
+    }
+    Ok(threads)
+}
+
+impl From<rayon::ThreadPoolBuildError> for Error {
+    fn from(e: rayon::ThreadPoolBuildError) -> Self {
+        Error::internal(format!("cannot start the thread pool: {e}"))
+    }
+}
+
+/// Options (clap ids: the groups' field names) that do something only
+/// where `holds`; `needs` names what makes them apply. A group's
+/// `applies` lists its own; `refuse_unused` turns a given option whose rule
+/// does not hold into an error, so no option is silently ignored.
+pub struct Applies {
+    pub holds: bool,
+    pub options: &'static [&'static str],
+    pub needs: &'static str,
+}
+
+pub fn applies(holds: bool, options: &'static [&'static str], needs: &'static str) -> Applies {
+    Applies { holds, options, needs }
+}
+
+/// Refuses the first option given on the command line (clap's
+/// `ValueSource`: defaults never count) whose rule does not hold.
+pub fn refuse_unused(rules: &[Applies], matches: &clap::ArgMatches) -> Result<()> {
+    let given = |id: &str| matches.value_source(id) == Some(clap::parser::ValueSource::CommandLine);
+    for r in rules.iter().filter(|r| !r.holds) {
+        if let Some(id) = r.options.iter().find(|id| given(id)) {
+            let problem = format!("does not apply here: it is used only with {}", r.needs);
+            return Err(Error::param(format!("--{}", id.replace('_', "-")), problem));
+        }
+    }
+    Ok(())
+}

@@ -177,6 +177,84 @@ pub fn refuse_overwrites(inputs: &[(&str, PathBuf)], outputs: &[(&str, PathBuf)]
     Ok(())
 }
 
+/// The output paths that are given, each checked to have an existing folder.
+pub fn check_outputs<'a>(outputs: &[(&'a Option<PathBuf>, &str)]) -> Result<Vec<Option<&'a Path>>> {
+    outputs
+        .iter()
+        .map(|(path, option)| path.as_deref().map(|p| check_output(p, option)).transpose())
+        .collect()
+}
+
+/// An output path whose folder exists.
+pub fn check_output<'a>(path: &'a Path, option: &str) -> Result<&'a Path> {
+    let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
+    if let Some(dir) = parent
+        && !dir.is_dir()
+    {
+        return Err(Error::param(
+            option,
+            format!("{}: folder {} does not exist", path.display(), dir.display()),
+        ));
+    }
+    Ok(path)
+}
+
+/// What a run reads and writes, each file with the option (or field)
+/// that names it: `check` refuses an output that is an input.
+#[derive(Default)]
+pub struct RunFiles {
+    pub inputs: Vec<(&'static str, PathBuf)>,
+    pub outputs: Vec<(&'static str, PathBuf)>,
+}
+
+impl RunFiles {
+    pub fn input(&mut self, option: &'static str, path: &Option<PathBuf>) {
+        if let Some(p) = path {
+            self.inputs.push((option, p.clone()));
+        }
+    }
+
+    /// A mesh and the files it names (MTL files, glTF buffers).
+    pub fn mesh(&mut self, option: &'static str, path: &Option<PathBuf>) {
+        if let Some(p) = path {
+            self.inputs.push((option, p.clone()));
+            let named = crate::scene::companion_files(p);
+            self.inputs.extend(named.into_iter().map(|f| (option, f)));
+        }
+    }
+
+    /// A scene file and every file it names.
+    pub fn scene(&mut self, path: &Option<PathBuf>) {
+        if let Some(p) = path {
+            self.inputs.push(("--scene", p.clone()));
+            let named = crate::scene::referenced_files(p);
+            self.inputs.extend(named.into_iter().map(|f| ("--scene", f)));
+        }
+    }
+
+    pub fn output(&mut self, option: &'static str, path: &Option<PathBuf>) {
+        if let Some(p) = path {
+            self.outputs.push((option, p.clone()));
+        }
+    }
+
+    /// An output that is a file per frame where its name holds `{}`.
+    pub fn frames(&mut self, option: &'static str, path: &Option<PathBuf>, frames: u32) {
+        if let Some(out) = path {
+            let all: Vec<PathBuf> = (0..frames).filter_map(|i| frame_path(out, i)).collect();
+            if all.is_empty() {
+                self.output(option, path);
+            }
+            all.into_iter().for_each(|p| self.output(option, &Some(p)));
+        }
+    }
+
+    /// Refuses an output that is one of the inputs (`refuse_overwrites`).
+    pub fn check(&self) -> Result<()> {
+        refuse_overwrites(&self.inputs, &self.outputs)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

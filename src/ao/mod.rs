@@ -9,9 +9,11 @@
 //! return the per-ray results as bit masks so they can be compared ray by ray.
 
 pub mod gpu;
+pub mod options;
 pub mod packets;
 pub mod points;
 pub mod raycast;
+pub mod report;
 pub mod runner;
 
 use bytemuck::{Pod, Zeroable};

@@ -4,8 +4,9 @@
 use clap::Args;
 
 use super::runner::DEFAULT_FLOOR;
+use super::sequence::Measures;
 use super::{BoundKind, BoundedSettings, SplitKind};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::options::OnOff;
 use crate::raytrace::WhittedSettings;
 
@@ -35,6 +36,12 @@ pub struct BoundedOptions {
     /// bounded: a failed cell is split only if at least this many pixels per child ask for it.
     #[arg(long, default_value_t = 2, allow_negative_numbers = true)]
     pub min_pixels: u32,
+    /// bounded: also render every frame exactly and report the error and the speed-up.
+    #[arg(long)]
+    pub reference: bool,
+    /// bounded: trace K random lines in every accepted cell a frame uses and count violations.
+    #[arg(long, allow_negative_numbers = true)]
+    pub check: Option<u32>,
 }
 
 impl BoundedOptions {
@@ -57,5 +64,17 @@ impl BoundedOptions {
         };
         s.validate()?;
         Ok(s)
+    }
+
+    /// What each frame is measured against (`seed`: the check's lines').
+    pub fn measures(&self, seed: u32) -> Result<Measures> {
+        if self.check == Some(0) {
+            return Err(Error::param("check", "must be at least 1 line per cell"));
+        }
+        Ok(Measures {
+            reference: self.reference,
+            check_lines: self.check,
+            seed,
+        })
     }
 }

@@ -5,22 +5,11 @@
 //! line (clap's `ValueSource`), so defaults never trip the check.
 
 use clap::ArgMatches;
-use clap::parser::ValueSource;
 
 use super::Command;
 use super::args::OnOff;
-use crate::error::{Error, Result};
-
-/// Options (clap ids, the field names) that apply only where `holds`.
-struct Rule {
-    holds: bool,
-    options: &'static [&'static str],
-    needs: &'static str,
-}
-
-fn rule(holds: bool, options: &'static [&'static str], needs: &'static str) -> Rule {
-    Rule { holds, options, needs }
-}
+use crate::error::Result;
+use crate::options::{Applies as Rule, applies as rule};
 
 const CAMERA_AND_SIZE: &[&str] = &["width", "height", "eye", "target", "fov"];
 const FIELD_ONLY: &[&str] = &[
@@ -67,7 +56,7 @@ fn rules(command: &Command) -> Vec<Rule> {
 
 fn ao_rules(a: &super::ao::AoArgs) -> Vec<Rule> {
     vec![
-        rule(a.method == super::ao::Method::Field, FIELD_ONLY, "--method field"),
+        rule(a.knobs.method == super::ao::Method::Field, FIELD_ONLY, "--method field"),
         rule(a.image.is_some(), CAMERA_AND_SIZE, "--image"),
         rule(a.image.is_some(), &["background"], "--image"),
         rule(is_png(&a.image), &["png_bits"], "--image FILE.png"),
@@ -77,60 +66,42 @@ fn ao_rules(a: &super::ao::AoArgs) -> Vec<Rule> {
 fn raytrace_rules(a: &super::raytrace::RaytraceArgs) -> Vec<Rule> {
     use super::raytrace::Method;
     vec![
-        rule(a.method == Method::Bounded, BOUNDED_ONLY, "--method bounded"),
-        rule(a.method == Method::Whitted, &["ray_tree"], "--method whitted"),
-        rule(a.frames > 1, &["path"], "--frames above 1"),
+        rule(a.knobs.method == Method::Bounded, BOUNDED_ONLY, "--method bounded"),
+        rule(a.knobs.method == Method::Whitted, &["ray_tree"], "--method whitted"),
+        rule(a.knobs.frames > 1, &["path"], "--frames above 1"),
     ]
 }
 
 fn trace_rules(a: &super::trace::TraceArgs) -> Vec<Rule> {
-    let tiles = &["tile", "min_tile", "split_factor", "tiles_image"];
-    let aa = &["aa_samples", "aa_reference", "aa_image"];
-    vec![
-        rule(!a.knobs.single_ray, tiles, "packets (without --single-ray)"),
-        rule(
-            a.knobs.aa != crate::mlrta::aa::AaMode::None,
-            aa,
-            "--aa adaptive or uniform",
-        ),
-    ]
+    let mut rules = a.knobs.applies();
+    rules.push(rule(
+        !a.knobs.single_ray,
+        &["tiles_image"],
+        "packets (without --single-ray)",
+    ));
+    let aa = a.knobs.aa != crate::mlrta::aa::AaMode::None;
+    rules.push(rule(aa, &["aa_image"], "--aa adaptive or uniform"));
+    rules
 }
 
 fn ssao_rules(a: &super::ssao::SsaoArgs) -> Vec<Rule> {
-    use crate::ssao::Estimator;
-    use crate::ssao::measure::MeasureKind;
-    vec![
-        rule(a.knobs.measure == MeasureKind::Exp, &["sigma"], "--measure exp"),
-        rule(
-            matches!(a.knobs.estimator, None | Some(Estimator::Raymarch)),
-            &["steps"],
-            "--estimator raymarch",
-        ),
-        rule(a.knobs.filter == OnOff::On, &["filter_depth"], "--filter on"),
+    let mut rules = a.knobs.applies();
+    rules.extend([
         rule(a.image.is_some(), &["ambient"], "--image"),
         rule(a.out.is_some(), &["background"], "--out"),
         rule(is_png(&a.out), &["png_bits"], "--out FILE.png"),
-    ]
+    ]);
+    rules
 }
 
 fn prt_rules(a: &super::prt::PrtArgs) -> Vec<Rule> {
     use crate::prt::runner::Shadows;
-    use crate::prt::transfer::BrdfKind;
     let raytraced = a.check || a.shadows == Shadows::Raytraced;
-    vec![
-        rule(
-            a.knobs.brdf == BrdfKind::Phong,
-            &["shininess", "specular"],
-            "--brdf phong",
-        ),
+    let mut rules = a.knobs.applies();
+    rules.extend([
         rule(a.pvs == OnOff::On, &["pvs_frames", "pvs_span"], "--pvs on"),
         rule(raytraced, &["check_rays"], "--check or --shadows raytraced"),
         rule(a.check, &["check_frames"], "--check"),
-        rule(
-            a.knobs.hierarchy == OnOff::On,
-            &["near", "ring", "coarse", "coarse_tolerance"],
-            "--hierarchy on",
-        ),
         rule(a.shadows == Shadows::On, &["self_check"], "--shadows on"),
         rule(
             a.shadows == Shadows::On && a.self_check == OnOff::On,
@@ -144,7 +115,8 @@ fn prt_rules(a: &super::prt::PrtArgs) -> Vec<Rule> {
             PRT_IMAGE,
             "--out or --out-frames",
         ),
-    ]
+    ]);
+    rules
 }
 
 fn sweep_rules(a: &super::sweep::SweepArgs) -> Vec<Rule> {
@@ -171,26 +143,10 @@ fn sweep_rules(a: &super::sweep::SweepArgs) -> Vec<Rule> {
     ]
 }
 
-fn given(matches: &ArgMatches, id: &str) -> bool {
-    matches.value_source(id) == Some(ValueSource::CommandLine)
-}
-
-/// The long spelling of clap id `id`.
-fn spelling(id: &str) -> String {
-    format!("--{}", id.replace('_', "-"))
-}
-
 /// Refuses a given option that `command` does not use; `matches` are the
 /// subcommand's.
 pub fn refuse_unused(command: &Command, matches: &ArgMatches) -> Result<()> {
-    for r in rules(command).iter().filter(|r| !r.holds) {
-        if let Some(id) = r.options.iter().find(|id| given(matches, id)) {
-            let option = spelling(id);
-            let problem = format!("does not apply here: it is used only with {}", r.needs);
-            return Err(Error::param(option, problem));
-        }
-    }
-    Ok(())
+    crate::options::refuse_unused(&rules(command), matches)
 }
 
 #[cfg(test)]

@@ -1,14 +1,11 @@
 //! Options shared by the computing subcommands, and the one place the
 //! command line resolves `--device`.
 
-use std::path::{Path, PathBuf};
-
 use clap::Args;
 use serde_json::{Value, json};
 
 use crate::device::{Device, DeviceChoice};
-use crate::error::{Error, Result};
-use crate::scene::{Scene, load_mesh, load_scene};
+use crate::error::Result;
 
 /// The default `--seed`: outputs repeat bit for bit on one device.
 pub const DEFAULT_SEED: u32 = 0x5eed;
@@ -57,135 +54,45 @@ impl Common {
     }
 }
 
-/// The most `--threads` per available core.
-pub const MAX_THREADS_PER_CORE: usize = 8;
-
-/// Sets up the global rayon pool with `threads` threads (default: all
-/// cores); returns the thread count.
-pub fn init_thread_pool(threads: Option<usize>) -> Result<usize> {
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    // Oversubscribing a little can help a benchmark; thousands of threads
-    // only cost minutes of start-up and memory.
-    let most = MAX_THREADS_PER_CORE * cores;
-    let threads = match threads {
-        Some(0) => return Err(Error::param("--threads", "must be at least 1")),
-        Some(n) if n > most => {
-            let problem = format!("is {n}; at most {most} ({MAX_THREADS_PER_CORE} per core, {cores} cores here)");
-            return Err(Error::param("--threads", problem));
-        }
-        Some(n) => n,
-        None => cores,
-    };
-    // The global pool can be built once per process; the CLI does so once.
-    match rayon::ThreadPoolBuilder::new().num_threads(threads).build_global() {
-        Ok(()) => {}
-        Err(_) if rayon::current_num_threads() == threads => {}
-        Err(e) => return Err(e.into()),
-    }
-    Ok(threads)
-}
-
+pub use crate::options::init_thread_pool;
 pub use crate::options::{CameraOptions as CameraArgs, OnOff, positive};
 pub(crate) use crate::scene::parse_vec3;
 
-/// `--mesh FILE` or `--scene FILE` as a scene.
-pub fn load_input(mesh: Option<&Path>, scene: Option<&Path>) -> Result<Scene> {
-    match (mesh, scene) {
-        (Some(m), None) => Ok(Scene::from_mesh(&stem(m), m, load_mesh(m)?)),
-        (None, Some(s)) => load_scene(s),
-        (Some(_), Some(_)) => Err(Error::param("--mesh/--scene", "give one of them, not both")),
-        (None, None) => Err(Error::param(
-            "--mesh",
-            "a mesh (--mesh FILE) or a scene (--scene FILE) is required",
-        )),
-    }
-}
+pub use crate::scene::{file_stem as stem, load_input, load_shaded_input};
 
-/// `load_input` keeping the meshes' materials (an OBJ's MTL, glTF's) for shading.
-pub fn load_shaded_input(mesh: Option<&Path>, scene: Option<&Path>) -> Result<Scene> {
-    match (mesh, scene) {
-        (Some(m), None) => Ok(Scene::from_obj_file(&stem(m), m, crate::scene::load_mesh_file(m)?)),
-        (None, Some(s)) => crate::scene::load_scene_shaded(s),
-        _ => load_input(mesh, scene),
-    }
-}
+pub use crate::output::{check_output, check_outputs};
 
-/// A file's name without its extension ("mesh" if it has none).
-pub fn stem(path: &Path) -> String {
-    path.file_stem()
-        .map_or("mesh".into(), |s| s.to_string_lossy().into_owned())
-}
-
-/// The output paths that are given, each checked to have an existing folder.
-pub fn check_outputs<'a>(outputs: &[(&'a Option<PathBuf>, &str)]) -> Result<Vec<Option<&'a Path>>> {
-    outputs
-        .iter()
-        .map(|(path, option)| path.as_deref().map(|p| check_output(p, option)).transpose())
-        .collect()
-}
-
-/// An output path whose folder exists.
-pub fn check_output<'a>(path: &'a Path, option: &str) -> Result<&'a Path> {
-    let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
-    if let Some(dir) = parent
-        && !dir.is_dir()
-    {
-        return Err(Error::param(
-            option,
-            format!("{}: folder {} does not exist", path.display(), dir.display()),
-        ));
-    }
-    Ok(path)
-}
-
-/// The command line's option for a library parameter name.
+/// The command line's option for a library parameter name: the table's
+/// where the names differ, else `--name-with-dashes` where some subcommand
+/// has that option.
 pub fn flag(name: &str) -> Option<&'static str> {
-    Some(match name {
-        "rays_per_point" => "--rays",
-        "radius" => "--radius",
-        "positions" => "--positions",
-        "res" => "--res",
-        "bits" => "--bits",
-        "frames" => "--frames",
-        "animation" => "--animated",
-        "eye/target" => "--eye/--target",
-        "fov_degrees" => "--fov",
-        "width/height" => "--width/--height",
-        "split_factor" => "--split-factor",
-        "initial_tile/min_tile" => "--tile/--min-tile",
-        "aa_samples" => "--aa-samples",
-        "bands" => "--order",
-        "lut_size" => "--lut",
-        "mask_side" => "--mask",
-        "ring" => "--ring",
-        "group_size" => "--group-size",
-        "coarse_triangles" => "--coarse",
-        "coarse_tolerance" => "--coarse-tolerance",
-        "self_check_threshold" => "--self-check-threshold",
-        "shininess" => "--shininess",
-        "specular" => "--specular",
-        "pvs_frames" => "--pvs-frames",
-        "dt/start/env_spin" => "--dt/--start/--env-spin",
-        "estimator" => "--estimator",
-        "measure" => "--measure",
-        "sigma" => "--sigma",
-        "spp" => "--spp",
-        "steps" => "--steps",
-        "filter_depth" => "--filter-depth",
-        "bias_px" => "--bias",
-        "ambient" => "--ambient",
-        "repeat" => "--repeat",
-        "scene" => "--scene",
-        "device" => "--device",
-        "max_depth" => "--max-depth",
-        "light_samples" => "--light-samples",
-        "pixel" => "--ray-tree",
-        "out" => "--out",
-        "epsilon" => "--epsilon",
-        "floor" => "--floor",
-        "memory_mb" => "--memory-mb",
-        "min_pixels" => "--min-pixels",
-        "max_error" => "--max-error",
-        _ => return None,
-    })
+    const RENAMED: &[(&str, &str)] = &[
+        ("rays_per_point", "--rays"),
+        ("animation", "--animated"),
+        ("eye/target", "--eye/--target"),
+        ("fov_degrees", "--fov"),
+        ("width/height", "--width/--height"),
+        ("initial_tile/min_tile", "--tile/--min-tile"),
+        ("bands", "--order"),
+        ("lut_size", "--lut"),
+        ("mask_side", "--mask"),
+        ("coarse_triangles", "--coarse"),
+        ("dt/start/env_spin", "--dt/--start/--env-spin"),
+        ("bias_px", "--bias"),
+        ("pixel", "--ray-tree"),
+        ("mesh/scene", "--mesh/--scene"),
+    ];
+    static LONGS: std::sync::OnceLock<Vec<String>> = std::sync::OnceLock::new();
+    if let Some((_, f)) = RENAMED.iter().find(|(n, _)| *n == name) {
+        return Some(f);
+    }
+    let longs = LONGS.get_or_init(|| {
+        let cli = <super::Cli as clap::CommandFactory>::command();
+        let options = cli
+            .get_subcommands()
+            .flat_map(|c| c.get_arguments().filter_map(|a| a.get_long()));
+        options.map(|l| format!("--{l}")).collect()
+    });
+    let wanted = format!("--{}", name.replace('_', "-"));
+    longs.iter().find(|l| **l == wanted).map(String::as_str)
 }

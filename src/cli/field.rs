@@ -7,11 +7,11 @@ use clap::Subcommand;
 use serde_json::{Value, json};
 
 use super::args::{check_output, init_thread_pool};
-use crate::error::{Error, Result};
+use crate::error::Result;
+use crate::field::file;
 use crate::field::options::FieldOptions;
-use crate::field::{DisplacementField, file};
+use crate::field::report::build_file;
 use crate::progress::Bars;
-use crate::scene::load_mesh;
 
 #[derive(clap::Args)]
 pub struct FieldArgs {
@@ -70,27 +70,7 @@ pub fn run(args: &FieldArgs) -> Result<Value> {
 
 fn build(args: &BuildArgs) -> Result<Value> {
     let threads = init_thread_pool(args.threads)?;
-    let params = args.field.params()?;
     let out = check_output(&args.out, "-o")?;
-    let mesh = load_mesh(&args.mesh)?;
-    let progress = Bars::Stderr.bar(params.maps() as u64, "building displacement maps");
-    let (field, stats) = DisplacementField::build(&mesh, &params, &args.mesh.display().to_string(), &progress)?;
-    progress.finish();
-    file::write(out, &field)?;
-    let bytes = std::fs::metadata(out).map_err(|e| Error::read(out, e))?.len();
-    super::io::merged(
-        json!(field.summary()),
-        json!({
-            "bytes": bytes,
-            "build_ms": stats.build_ms,
-            "kdtree_ms": stats.kdtree_ms,
-            "rays": stats.rays,
-            "hit_fraction": stats.hit_fraction,
-            "positions_requested": args.field.positions,
-            // Equal-area cells: the ratio tends to 1 as the quadrature refines.
-            "cell_area_ratio": params.grid.cell_area_ratio(8),
-            "threads": threads,
-            "file": out.display().to_string(),
-        }),
-    )
+    let report = build_file(&args.mesh, &args.field, out, Bars::Stderr)?;
+    super::io::merged(json!({ "threads": threads }), report)
 }

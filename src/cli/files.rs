@@ -4,59 +4,8 @@
 //! reads (`crate::output::refuse_overwrites` compares them). Outputs are
 //! then written atomically (`crate::output`).
 
-use std::path::PathBuf;
-
 use super::Command;
-
-/// A subcommand's files, each with the option that names it.
-#[derive(Default)]
-pub struct Files {
-    pub inputs: Vec<(&'static str, PathBuf)>,
-    pub outputs: Vec<(&'static str, PathBuf)>,
-}
-
-impl Files {
-    fn input(&mut self, option: &'static str, path: &Option<PathBuf>) {
-        if let Some(p) = path {
-            self.inputs.push((option, p.clone()));
-        }
-    }
-
-    /// A mesh and the files it names (MTL files, glTF buffers).
-    fn mesh(&mut self, option: &'static str, path: &Option<PathBuf>) {
-        if let Some(p) = path {
-            self.inputs.push((option, p.clone()));
-            let named = crate::scene::companion_files(p);
-            self.inputs.extend(named.into_iter().map(|f| (option, f)));
-        }
-    }
-
-    /// A scene file and every file it names.
-    fn scene(&mut self, path: &Option<PathBuf>) {
-        if let Some(p) = path {
-            self.inputs.push(("--scene", p.clone()));
-            let named = crate::scene::referenced_files(p);
-            self.inputs.extend(named.into_iter().map(|f| ("--scene", f)));
-        }
-    }
-
-    fn output(&mut self, option: &'static str, path: &Option<PathBuf>) {
-        if let Some(p) = path {
-            self.outputs.push((option, p.clone()));
-        }
-    }
-
-    /// An output that is a file per frame where its name holds `{}`.
-    fn frames(&mut self, option: &'static str, path: &Option<PathBuf>, frames: u32) {
-        if let Some(out) = path {
-            let all: Vec<PathBuf> = (0..frames).filter_map(|i| crate::output::frame_path(out, i)).collect();
-            if all.is_empty() {
-                self.output(option, path);
-            }
-            all.into_iter().for_each(|p| self.output(option, &Some(p)));
-        }
-    }
-}
+pub use crate::output::RunFiles as Files;
 
 /// What `command` reads and writes.
 pub fn of(command: &Command) -> Files {
@@ -124,7 +73,7 @@ pub fn of(command: &Command) -> Files {
             f.input("--path", &a.path);
             f.scene(&a.scene);
             f.output("--error-image", &a.error_image);
-            f.frames("--out", &a.out, a.frames.min(100_000));
+            f.frames("--out", &a.out, a.knobs.frames.min(100_000));
         }
     }
     f

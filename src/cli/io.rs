@@ -1,23 +1,10 @@
-//! Writing the command line's outputs: RGB PNG maps, JSON reports and
-//! notes on stderr (images and per-vertex files: `crate::image_out`,
-//! `crate::vertex_out`).
-
-use std::path::Path;
+//! The command line's JSON reports and notes on stderr (images and
+//! per-vertex files: `crate::image_out`, `crate::vertex_out`).
 
 use serde_json::Value;
 
 use crate::error::{Error, Result};
 
-/// An RGB image, 8 bits per channel.
-pub fn write_rgb_png(path: &Path, width: u32, height: u32, pixels: &[[u8; 3]]) -> Result<()> {
-    let mut img = image::RgbImage::new(width, height);
-    for (p, v) in img.pixels_mut().zip(pixels) {
-        *p = image::Rgb(*v);
-    }
-    crate::output::write_image(path, &img, image::ImageFormat::Png)
-}
-
-/// A runner's note on stderr, parameters named by their flags.
 /// Says on stderr what `--max-error` chose, and warns when no setting met it.
 pub fn note_choice(c: &crate::sweep::budget::Choice) {
     let how = if c.cached { "cached" } else { "checked" };
@@ -37,6 +24,7 @@ pub fn note_choice(c: &crate::sweep::budget::Choice) {
     }
 }
 
+/// A runner's note on stderr, parameters named by their flags.
 pub fn note(text: &str) {
     eprintln!("penumbra: {}", crate::error::rename_quoted(text, super::args::flag));
 }

@@ -117,8 +117,7 @@ pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
 }
 
 fn dispatch(command: Command) -> Result<()> {
-    let files = files::of(&command);
-    crate::output::refuse_overwrites(&files.inputs, &files.outputs)?;
+    files::of(&command).check()?;
     match command {
         Command::Info(a) => emit(a.json, info::run(&a)?),
         Command::TraceRays(a) => emit(a.common.json, trace_rays::run(&a)?),
@@ -159,11 +158,5 @@ fn emit(json: bool, value: Value) -> Result<()> {
             Err(Error::internal(format!("cannot write to stdout: {e}")))
         }
         _ => Ok(()),
-    }
-}
-
-impl From<rayon::ThreadPoolBuildError> for Error {
-    fn from(e: rayon::ThreadPoolBuildError) -> Self {
-        Error::internal(format!("cannot start the thread pool: {e}"))
     }
 }

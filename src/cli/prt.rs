@@ -13,6 +13,7 @@ use crate::error::{Error, Result};
 use crate::image_out::{ImageFormat, write_radiance};
 use crate::output::frame_path;
 use crate::progress::Bars;
+use crate::prt::budget::choose_cached;
 use crate::prt::options::PrtOptions;
 use crate::prt::pipeline::PrtSettings;
 use crate::prt::render::{auto_exposure, render_radiance};
@@ -21,7 +22,6 @@ use crate::prt::selfcheck::SelfCheck;
 use crate::prt::sh_out::write_sh_json;
 use crate::scene::animated::AnimatedScene;
 use crate::scene::{EnvironmentMap, Scene, View, load_mesh, used_bounds};
-use crate::sweep::budget::{Choice, cached};
 
 #[derive(clap::Args)]
 pub struct PrtArgs {
@@ -174,7 +174,14 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     // Camera: the animation's, else the contract's default; options override.
     let camera = view.camera.resolve(scene.camera, &used_bounds(&rest, triangles))?;
     let choice = match args.max_error {
-        Some(e) => Some(choose(args, &device, (&rest, triangles), &mut settings, camera.eye, e)?),
+        Some(e) => {
+            let files: Vec<&Path> = args.mesh.iter().map(PathBuf::as_path).collect();
+            let source = (&*format!("{:?}", args.animated), &files[..]);
+            let (seed, pose) = (args.common.seed, (&rest[..], &triangles[..]));
+            let choice = choose_cached(&device, pose, &mut settings, camera.eye, source, seed, e, Bars::Stderr)?;
+            super::io::note_choice(&choice);
+            Some(choice)
+        }
         None => None,
     };
     let mut runner = PrtRunner::new(&device, &rest, triangles, &settings, args.shadows, reference)?;
@@ -264,39 +271,4 @@ fn scene_of(args: &PrtArgs) -> Result<Scene> {
         (None, Some(name)) => Ok(Scene::from_animation(AnimatedScene::parse(name)?.build())),
         _ => Err(Error::param("--mesh", "give --mesh FILE or --animated cloth|character")),
     }
-}
-
-/// `--max-error`: the cached or checked choice, applied to `settings`.
-fn choose(
-    args: &PrtArgs,
-    device: &crate::device::Device,
-    (rest, triangles): (&[Vec3], &[[u32; 3]]),
-    settings: &mut PrtSettings,
-    eye: Vec3,
-    max_error: f64,
-) -> Result<Choice> {
-    let check = SelfCheck::default();
-    let files: Vec<&std::path::Path> = args.mesh.iter().map(PathBuf::as_path).collect();
-    let options = format!("{max_error}|{:?}|{:?}|{eye}|{}", args.animated, settings, device.kind());
-    let seed = args.common.seed;
-    let choice = cached("prt", &options, &files, || {
-        crate::prt::budget::choose(
-            device,
-            rest,
-            triangles,
-            settings,
-            Some(eye),
-            &check,
-            seed,
-            max_error,
-            Bars::Stderr,
-        )
-    })?;
-    super::io::note_choice(&choice);
-    settings.mask_side = choice.chosen.get("mask")?.unwrap_or(settings.mask_side);
-    settings.hierarchy.enabled = choice
-        .chosen
-        .get_on_off("hierarchy")?
-        .unwrap_or(settings.hierarchy.enabled);
-    Ok(choice)
 }

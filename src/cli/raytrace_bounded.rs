@@ -5,52 +5,40 @@
 use serde_json::{Value, json};
 
 use super::args::check_output;
-use super::io::write_rgb_png;
 use super::raytrace::{RaytraceArgs, Setup};
+use crate::bounded::BoundedRenderer;
 use crate::bounded::measure::path_colour;
-use crate::bounded::sequence::Measures;
-use crate::bounded::{BoundedRenderer, BoundedSettings};
-use crate::error::{Error, Result};
+use crate::error::Result;
+use crate::image_out::write_rgb_png;
 use crate::progress::Bars;
 use crate::raytrace::WhittedRenderer;
 
-fn settings(args: &RaytraceArgs, setup: &Setup) -> Result<BoundedSettings> {
-    if args.check == Some(0) {
-        return Err(Error::param("--check", "must be at least 1 line per cell"));
-    }
-    args.bounded.settings(setup.settings)
-}
-
 pub(super) fn run(args: &RaytraceArgs, setup: Setup, whitted: WhittedRenderer) -> Result<Value> {
-    let settings = settings(args, &setup)?;
+    let measures = args.bounded.measures(args.common.seed)?;
+    let settings = args.bounded.settings(setup.settings)?;
     let error_image = args
         .error_image
         .as_deref()
         .map(|p| check_output(p, "--error-image"))
         .transpose()?;
-    let (w, h) = (args.width, args.height);
+    let (size, frames) = ((args.width, args.height), args.knobs.frames);
     let mut bounded = BoundedRenderer::new(whitted, settings)?;
-    let measures = Measures {
-        reference: args.reference,
-        check_lines: args.check,
-        seed: args.common.seed,
-    };
-    let progress = Bars::Stderr.bar(args.frames as u64, "bounded-error frames");
+    let progress = Bars::Stderr.bar(frames as u64, "bounded-error frames");
     let (sequence, last) = bounded.render_sequence(
-        args.frames,
-        |f| setup.camera(f, args.frames),
-        (w, h),
+        frames,
+        |f| setup.camera(f, frames),
+        size,
         measures,
         &progress,
-        |f, frame| setup.write_frame(f, w, h, &frame.radiance, args.exposure),
+        |f, frame| setup.images.frame(f, &frame.radiance),
     )?;
     progress.finish();
-    setup.write_last(w, h, &last.radiance, args.exposure)?;
+    setup.images.last(&last.radiance)?;
     if let Some(path) = error_image {
         let colours: Vec<[u8; 3]> = last.paths.iter().map(|&p| path_colour(p)).collect();
-        write_rgb_png(path, w, h, &colours)?;
+        write_rgb_png(path, size.0, size.1, &colours)?;
     }
-    let mut report = setup.report(args, &bounded.whitted, &last.camera);
+    let mut report = setup.report(args, &bounded.whitted, last.camera)?;
     report["epsilon"] = json!(settings.epsilon);
     report["bounded"] = json!(settings);
     super::io::merged(report, &sequence)

@@ -2,20 +2,19 @@
 //! estimators, measured against world-space ray-traced AO and against a
 //! dense quadrature over the same depth buffer (`ssao::runner`).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
 use super::args::{CameraArgs, Common, check_outputs, load_input, load_shaded_input};
+use super::io::note_choice;
 use crate::error::{Error, Result};
 use crate::image_out::{GreyImageOptions, ImageFormat, write_grey, write_radiance};
 use crate::progress::Bars;
 use crate::scene::View;
-use crate::ssao::ShadeSettings;
-use crate::ssao::budget::choose as choose_knobs;
-use crate::ssao::options::SsaoOptions;
+use crate::ssao::budget::choose_cached;
+use crate::ssao::options::{SsaoOptions, SsaoRunOptions};
 use crate::ssao::runner::{SsaoRequest, run as run_ssao};
-use crate::sweep::budget::{Choice, cached};
 
 #[derive(clap::Args)]
 pub struct SsaoArgs {
@@ -42,21 +41,8 @@ pub struct SsaoArgs {
     /// I = L~ (1 - O): .png (sRGB), .exr or .pfm (linear radiance).
     #[arg(long)]
     pub image: Option<PathBuf>,
-    /// Compute the indirect light and image even without --image (timed).
-    #[arg(long)]
-    pub indirect: bool,
-    /// Ambient radiance La of the shaded image.
-    #[arg(long, default_value_t = 0.5, allow_negative_numbers = true)]
-    pub ambient: f32,
-    /// Rays per pixel of the ray-traced truth (0: skip it, rmse_vs_raytraced is null).
-    #[arg(long, default_value_t = 256, allow_negative_numbers = true)]
-    pub truth_rays: u32,
-    /// Samples per pixel of the screen-space reference (0: skip it).
-    #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
-    pub reference_spp: u32,
-    /// Run the GPU passes this many times and report each one's fastest.
-    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
-    pub repeat: u32,
+    #[command(flatten)]
+    pub run: SsaoRunOptions,
     #[command(flatten)]
     pub camera: CameraArgs,
     #[command(flatten)]
@@ -64,24 +50,8 @@ pub struct SsaoArgs {
 }
 
 fn request(a: &SsaoArgs) -> Result<SsaoRequest> {
-    let settings = a.knobs.settings(a.common.seed)?;
-    let shade = ShadeSettings { ambient: a.ambient };
-    let request = SsaoRequest {
-        settings,
-        view: View {
-            camera: a.camera.spec(),
-            width: a.width,
-            height: a.height,
-        },
-        shade: (a.indirect || a.image.is_some()).then_some(shade),
-        truth_rays: a.truth_rays,
-        reference_spp: a.reference_spp,
-        repeat: a.repeat,
-    };
-    crate::scene::check_image_size(a.width, a.height)?;
-    shade.validate()?;
-    request.validate()?;
-    Ok(request)
+    let view = View::new(a.camera.spec(), a.width, a.height)?;
+    a.run.request(a.knobs.settings(a.common.seed)?, view, a.image.is_some())
 }
 
 pub fn run(args: &SsaoArgs) -> Result<Value> {
@@ -111,7 +81,13 @@ pub fn run(args: &SsaoArgs) -> Result<Value> {
     request.view.camera = request.view.camera.resolve(scene.camera, &bounds)?.into();
     let device = args.common.open_device()?;
     let choice = match args.knobs.max_error {
-        Some(e) => Some(choose(args, &device, &scene, &mut request, e)?),
+        Some(e) => {
+            let files: Vec<&Path> = args.mesh.iter().chain(&args.scene).map(PathBuf::as_path).collect();
+            let free = (args.knobs.measure, args.knobs.free());
+            let choice = choose_cached(&device, (&scene, &files), &mut request, free, e, Bars::Stderr)?;
+            note_choice(&choice);
+            Some(choice)
+        }
         None => None,
     };
     let ssao = run_ssao(&device, &scene, &request, Bars::Stderr)?;
@@ -125,33 +101,4 @@ pub fn run(args: &SsaoArgs) -> Result<Value> {
     }
     let report = super::io::merged(args.common.report(&device, threads), &ssao.report)?;
     super::io::merged(report, serde_json::json!({ "max_error": choice }))
-}
-
-/// `--max-error`: the choice, from the cache or checked (and cached).
-fn choose(
-    args: &SsaoArgs,
-    device: &crate::device::Device,
-    scene: &crate::scene::Scene,
-    request: &mut SsaoRequest,
-    max_error: f64,
-) -> Result<Choice> {
-    let free = args.knobs.free();
-    let files: Vec<&std::path::Path> = args.mesh.iter().chain(&args.scene).map(PathBuf::as_path).collect();
-    let options = format!("{max_error}|{free:?}|{:?}|{}", request, device.kind());
-    let choice = cached("ssao", &options, &files, || {
-        choose_knobs(
-            device,
-            scene,
-            request,
-            args.knobs.measure,
-            free,
-            max_error,
-            Bars::Stderr,
-        )
-    })?;
-    super::io::note_choice(&choice);
-    let k = &choice.chosen;
-    request.settings.estimator = k.get_enum("estimator")?.unwrap_or(request.settings.estimator);
-    request.settings.spp = k.get("spp")?.unwrap_or(request.settings.spp);
-    Ok(choice)
 }

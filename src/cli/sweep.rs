@@ -3,31 +3,14 @@
 
 use std::path::PathBuf;
 
-use clap::ValueEnum;
 use serde_json::Value;
 
-use super::args::{CameraArgs, Common, load_input, stem};
-use crate::ao::AoSettings;
+use super::args::{CameraArgs, Common};
 use crate::error::{Error, Result};
 use crate::progress::Bars;
-use crate::prt::runner::RayTraced;
-use crate::raytrace::{LightingOptions, RenderScene, WhittedRenderer, WhittedSettings};
-use crate::scene::{Scene, View, load_mesh, load_mesh_file, load_scene_shaded};
-use crate::sweep::{self, Grid, SweepMethod};
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum Method {
-    /// Displacement fields against ray casting (receivers: --receiver, the scene's, or a ground).
-    Field,
-    /// Screen-space AO estimators against ray-traced AO.
-    Ssao,
-    /// Hemispherical rasterisation against ray-traced transfer.
-    Prt,
-    /// MLRTA traversal knobs (exact: error = hits that differ).
-    Trace,
-    /// Bounded-error ray tracing against exact Whitted.
-    Bounded,
-}
+use crate::scene::View;
+pub use crate::sweep::SweepKind as Method;
+use crate::sweep::{self, Grid, SweepInputs};
 
 #[derive(clap::Args)]
 pub struct SweepArgs {
@@ -84,101 +67,23 @@ pub fn run(args: &SweepArgs) -> Result<Value> {
     if let Some(parent) = args.out.parent().filter(|p| !p.as_os_str().is_empty())
         && !parent.is_dir()
     {
-        return Err(Error::param(
-            "--out",
-            format!("folder {} does not exist", parent.display()),
-        ));
+        let problem = format!("folder {} does not exist", parent.display());
+        return Err(Error::param("--out", problem));
     }
-    let view = View::new(args.camera.spec(), args.width, args.height)?;
-    let rays = args.truth_rays;
-    let device = args.common.open_device()?;
-    let seed = args.common.seed;
-    let scene;
-    let mut method: Box<dyn SweepMethod + '_> = match args.method {
-        Method::Field => {
-            scene = field_scene(args)?;
-            let settings = AoSettings {
-                rays_per_point: rays.unwrap_or(64),
-                radius: args.radius.unwrap_or(f32::INFINITY),
-                seed,
-            };
-            Box::new(sweep::field::FieldSweep::new(device.clone(), &scene, settings)?)
-        }
-        Method::Ssao => {
-            let scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
-            let bounds = scene.world_mesh(|_| true).bounds();
-            let radius = args.radius.unwrap_or(0.05 * bounds.diagonal());
-            let view = View {
-                camera: view.camera.resolve(scene.camera, &bounds)?.into(),
-                ..view
-            };
-            let ssao = sweep::ssao::SsaoSweep::new(device.clone(), scene, view, radius, rays.unwrap_or(256), seed)?;
-            Box::new(ssao)
-        }
-        Method::Prt => {
-            let path = args
-                .mesh
-                .as_ref()
-                .ok_or_else(|| Error::param("--mesh", "sweep prt needs --mesh"))?;
-            let mesh = load_mesh(path)?;
-            let eye = view.camera.resolve(None, &mesh.bounds())?.eye;
-            let reference = RayTraced {
-                rays: rays.unwrap_or(1024),
-                seed,
-            };
-            let prt = sweep::prt::PrtSweep::new(device.clone(), mesh.positions, mesh.triangles, eye, reference);
-            Box::new(prt)
-        }
-        Method::Trace => {
-            let scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
-            let mesh = scene.world_mesh(|_| true);
-            let view = View {
-                camera: view.camera.resolve(scene.camera, &mesh.bounds())?.into(),
-                ..view
-            };
-            Box::new(sweep::trace::TraceSweep::new(device.clone(), mesh, view))
-        }
-        Method::Bounded => {
-            let scene = shaded_scene(args)?;
-            let render_scene = RenderScene::new(&scene, 0, &LightingOptions::default())?;
-            let whitted = WhittedRenderer::new(&device, render_scene, Bars::Stderr)?;
-            let camera = view.camera.resolve(scene.camera, &whitted.bounds())?;
-            let settings = WhittedSettings {
-                seed,
-                ..WhittedSettings::default()
-            };
-            let size = (args.width, args.height);
-            Box::new(sweep::bounded::BoundedSweep::new(whitted, camera, size, settings))
-        }
+    let inputs = SweepInputs {
+        mesh: args.mesh.as_deref(),
+        scene: args.scene.as_deref(),
+        receiver: args.receiver.as_deref(),
+        view: View::new(args.camera.spec(), args.width, args.height)?,
+        truth_rays: args.truth_rays,
+        radius: args.radius,
+        seed: args.common.seed,
     };
-    let grid = Grid::parse(&args.grid, method.knobs())?;
-    let mut report = sweep::sweep(method.as_mut(), &grid, args.repeat, Bars::Stderr)?;
+    let device = args.common.open_device()?;
+    let mut report = sweep::with_method(args.method, &inputs, &device, |method| {
+        let grid = Grid::parse(&args.grid, method.knobs())?;
+        sweep::sweep(method, &grid, args.repeat, Bars::Stderr)
+    })?;
     sweep::write_outputs(&mut report, &args.out)?;
     super::io::merged(args.common.report(&device, threads), &report)
-}
-
-/// field: the scene file, or --mesh casting onto --receiver or a ground.
-fn field_scene(args: &SweepArgs) -> Result<Scene> {
-    let mut scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
-    match (&args.mesh, &args.receiver) {
-        (Some(_), Some(receiver)) => scene = super::ao::with_receiver(scene, receiver)?,
-        (Some(path), None) => {
-            let mesh = scene.meshes.remove(0).mesh;
-            scene = sweep::field::on_ground(&stem(path), path, mesh)?;
-        }
-        _ => {}
-    }
-    Ok(scene)
-}
-
-/// bounded: the OBJ with its materials, or a scene file.
-fn shaded_scene(args: &SweepArgs) -> Result<Scene> {
-    match (&args.mesh, &args.scene) {
-        (Some(m), None) => Ok(Scene::from_obj_file(&stem(m), m, load_mesh_file(m)?)),
-        (None, Some(s)) => load_scene_shaded(s),
-        _ => Err(Error::param(
-            "--mesh",
-            "a mesh (--mesh FILE) or a scene (--scene FILE) is required",
-        )),
-    }
 }

@@ -6,13 +6,12 @@ use std::path::PathBuf;
 use serde_json::Value;
 
 use super::args::{CameraArgs, Common, check_outputs, load_input};
-use super::io::write_rgb_png;
 use crate::error::Result;
-use crate::image_out::{GreyStyle, ImageFormat, write_grey};
+use crate::image_out::ImageFormat;
+use crate::mlrta::images::TraceImages;
 use crate::mlrta::options::TraceOptions;
 use crate::mlrta::runner::trace_view;
 use crate::progress::Bars;
-use crate::ray_file::write_rays;
 use crate::scene::View;
 
 #[derive(clap::Args)]
@@ -72,18 +71,12 @@ pub fn run(args: &TraceArgs) -> Result<Value> {
     request.view.camera = request.view.camera.resolve(scene.camera, &mesh.bounds())?.into();
     let device = args.common.open_device()?;
     let image = trace_view(&device, &mesh, None, &request, Bars::Stderr)?;
-    let (w, h) = (image.width, image.height);
-    if let Some(path) = dump {
-        write_rays(path, &image.rays)?;
-    }
-    if let Some(path) = tiles.filter(|_| !args.knobs.single_ray) {
-        write_rgb_png(path, w, h, &image.tile_map())?;
-    }
-    if let (Some(path), Some(rays)) = (aa, image.aa_rays()) {
-        write_grey(path, w, h, &rays, GreyStyle::keyed(path))?;
-    }
-    if let Some(path) = out {
-        write_grey(path, w, h, &image.shading(&mesh), GreyStyle::keyed(path))?;
-    }
+    let images = TraceImages {
+        shading: out,
+        tiles,
+        aa_rays: aa,
+        rays: dump,
+    };
+    images.write(&image, &mesh)?;
     super::io::merged(args.common.report(&device, threads), &image.stats)
 }

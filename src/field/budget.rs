@@ -24,7 +24,7 @@ use crate::progress::{Bars, Progress};
 use crate::sampling::hash_u32;
 use crate::scene::Scene;
 use crate::sweep::Setting;
-use crate::sweep::budget::{Candidate, Choice, SampleError};
+use crate::sweep::budget::{Candidate, Choice, SampleError, cached};
 use crate::tracer::Tracer;
 
 /// Receiver vertices the error is estimated on.
@@ -142,6 +142,41 @@ pub fn fields_of<'s>(scene: &'s Scene, chosen: &Setting, fixed: Fixed, device: &
     let mut fields = FieldAo::new(scene, &params, fixed.positional, fixed.reach, Bars::Stderr)?;
     fields.upload(device)?;
     Ok(fields)
+}
+
+/// `choose` through the `--max-error` cache (`sweep::budget::cached`, keyed
+/// on `files`' contents and every option that changes the answer): a
+/// cached choice only builds (or reads) the chosen fields.
+pub fn choose_cached<'s>(
+    device: &Device,
+    (scene, files): (&'s Scene, &[&std::path::Path]),
+    request: &AoRequest,
+    fixed: Fixed,
+    max_error: f64,
+    bars: Bars,
+) -> Result<(Choice, FieldAo<'s>)> {
+    if !scene.fields.is_empty() {
+        let problem = "does not apply: the scene names its field files, whose parameters are fixed";
+        return Err(Error::param("max_error", problem));
+    }
+    let options = format!(
+        "{max_error}|{:?}|{:?}|{:?}|{}",
+        fixed.directions,
+        fixed.positional,
+        request.settings,
+        device.kind()
+    );
+    let mut checked = None;
+    let choice = cached("field", &options, files, || {
+        let (choice, fields) = choose(device, scene, request, fixed, max_error, bars)?;
+        checked = Some(fields);
+        Ok(choice)
+    })?;
+    let fields = match checked {
+        Some(f) => f,
+        None => fields_of(scene, &choice.chosen, fixed, device)?,
+    };
+    Ok((choice, fields))
 }
 
 fn knobs(positions: i64, res: i64, bits: i64) -> Setting {

@@ -29,6 +29,7 @@ pub mod lookup;
 pub mod options;
 pub mod positions;
 pub mod reach;
+pub mod report;
 pub mod runner;
 pub mod storage;
 

@@ -150,6 +150,16 @@ impl<'s> FieldAo<'s> {
         Ok(())
     }
 
+    /// The scene the fields serve.
+    pub fn scene(&self) -> &'s Scene {
+        self.scene
+    }
+
+    /// How lookups read the positional samples.
+    pub fn positional(&self) -> Positional {
+        self.positional
+    }
+
     /// Where each field came from, in the order the casters name them.
     pub fn reports(&self) -> &[FieldReport] {
         &self.reports

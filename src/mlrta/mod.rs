@@ -20,6 +20,7 @@ pub mod ao;
 pub mod entry_point;
 pub mod frustum;
 pub mod gpu;
+pub mod images;
 pub mod options;
 pub mod packet;
 pub mod prepared;

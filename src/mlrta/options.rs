@@ -8,7 +8,7 @@ use super::aa::AaMode;
 use super::runner::{AaRequest, ShadowLight, TraceRequest};
 use super::tiles::DEFAULT_MIN_TILE;
 use crate::error::Result;
-use crate::options::OnOff;
+use crate::options::{Applies, OnOff, applies};
 use crate::scene::{View, parse_vec3};
 
 #[derive(Args, Clone, Debug)]
@@ -49,6 +49,16 @@ pub struct TraceOptions {
 }
 
 impl TraceOptions {
+    /// Tile knobs apply to packets, anti-aliasing knobs to --aa.
+    pub fn applies(&self) -> Vec<Applies> {
+        let tiles = &["tile", "min_tile", "split_factor"];
+        let aa = &["aa_samples", "aa_reference"];
+        vec![
+            applies(!self.single_ray, tiles, "packets (without --single-ray)"),
+            applies(self.aa != AaMode::None, aa, "--aa adaptive or uniform"),
+        ]
+    }
+
     /// The checked request for `view`.
     pub fn request(&self, view: View) -> Result<TraceRequest> {
         let request = TraceRequest {

@@ -17,7 +17,7 @@ use crate::device::{Device, elapsed_ms};
 use crate::error::{Error, Result};
 use crate::progress::Bars;
 use crate::sweep::Setting;
-use crate::sweep::budget::{Candidate, Choice, SampleError};
+use crate::sweep::budget::{Candidate, Choice, SampleError, cached};
 
 /// (mask side, hierarchy) tried.
 pub const CANDIDATES: [(usize, bool); 6] = [
@@ -87,4 +87,42 @@ pub fn choose(
         check.rays
     );
     Choice::pick(max_error, &measure, tried, elapsed_ms(start)).ok_or_else(|| Error::internal("no PRT candidate"))
+}
+
+/// `choose` through the `--max-error` cache (`sweep::budget::cached`),
+/// keyed on `files`' contents, `source` (what else names the mesh, e.g. a
+/// built-in animation) and every option that changes the answer; the
+/// choice is applied to `settings`.
+#[allow(clippy::too_many_arguments)]
+pub fn choose_cached(
+    device: &Device,
+    (rest, triangles): (&[Vec3], &[[u32; 3]]),
+    settings: &mut PrtSettings,
+    eye: Vec3,
+    (source, files): (&str, &[&std::path::Path]),
+    seed: u32,
+    max_error: f64,
+    bars: Bars,
+) -> Result<Choice> {
+    let check = SelfCheck::default();
+    let options = format!("{max_error}|{source}|{settings:?}|{eye}|{}", device.kind());
+    let choice = cached("prt", &options, files, || {
+        choose(
+            device,
+            rest,
+            triangles,
+            settings,
+            Some(eye),
+            &check,
+            seed,
+            max_error,
+            bars,
+        )
+    })?;
+    settings.mask_side = choice.chosen.get("mask")?.unwrap_or(settings.mask_side);
+    settings.hierarchy.enabled = choice
+        .chosen
+        .get_on_off("hierarchy")?
+        .unwrap_or(settings.hierarchy.enabled);
+    Ok(choice)
 }

@@ -7,7 +7,7 @@ use super::hierarchy::{DEFAULT_TOLERANCE, HierarchySettings, NearField};
 use super::pipeline::{PrtSettings, Toggle};
 use super::transfer::{Brdf, BrdfKind, Integration};
 use crate::error::Result;
-use crate::options::{OnOff, positive};
+use crate::options::{Applies, OnOff, applies, positive};
 
 #[derive(Args, Clone, Debug)]
 pub struct PrtOptions {
@@ -63,6 +63,15 @@ pub struct PrtOptions {
 }
 
 impl PrtOptions {
+    /// Which knobs apply to the chosen BRDF and hierarchy.
+    pub fn applies(&self) -> Vec<Applies> {
+        let hierarchy = &["near", "ring", "coarse", "coarse_tolerance"];
+        vec![
+            applies(self.brdf == BrdfKind::Phong, &["shininess", "specular"], "--brdf phong"),
+            applies(self.hierarchy == OnOff::On, hierarchy, "--hierarchy on"),
+        ]
+    }
+
     /// The checked settings (`shadows`: rasterise at all).
     pub fn settings(&self, shadows: bool) -> Result<PrtSettings> {
         let settings = PrtSettings {

@@ -12,6 +12,7 @@ pub mod optics;
 pub mod options;
 pub mod packets;
 pub mod ray_tree;
+pub mod report;
 pub mod runner;
 pub mod scene;
 pub mod scenes;

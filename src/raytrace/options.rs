@@ -1,11 +1,11 @@
 //! The Whitted ray tracer's knobs as command-line options (see
 //! `crate::options`).
 
-use clap::Args;
+use clap::{Args, ValueEnum};
 use glam::Vec3;
 
 use super::{LightingOptions, WhittedSettings};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::options::OnOff;
 use crate::scene::parse_vec3;
 
@@ -55,5 +55,59 @@ impl WhittedOptions {
             ambient: self.ambient,
             background: self.background,
         }
+    }
+}
+
+/// Which ray tracer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RaytraceMethod {
+    /// Exact Whitted ray tracing (section 3 of the bounded-error paper).
+    Whitted,
+    /// Radiance interpolants within a relative error bound (--epsilon).
+    Bounded,
+}
+
+/// The method, the animation and the image's tone.
+#[derive(Args, Clone, Debug)]
+pub struct RaytraceOptions {
+    #[arg(long, value_enum)]
+    pub method: RaytraceMethod,
+    /// PNG only: radiance is multiplied by this before clamping to [0, 1].
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    pub exposure: f32,
+    /// Render this many frames along --path (or the built-in walk from the camera without one).
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    pub frames: u32,
+    /// Adds the ray tree of pixel "X,Y" (first sample, first frame) to the JSON.
+    #[arg(long, value_parser = parse_pixel)]
+    pub ray_tree: Option<(u32, u32)>,
+}
+
+impl RaytraceOptions {
+    /// Refuses no frames and a non-positive exposure.
+    pub fn validate(&self) -> Result<()> {
+        if self.frames == 0 {
+            return Err(Error::param("frames", "must be at least 1"));
+        }
+        if !(self.exposure > 0.0 && self.exposure.is_finite()) {
+            return Err(Error::param(
+                "exposure",
+                format!("must be positive, got {}", self.exposure),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// "X,Y" as pixel coordinates.
+fn parse_pixel(s: &str) -> std::result::Result<(u32, u32), String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    match parts[..] {
+        [x, y] => match (x.parse(), y.parse()) {
+            (Ok(x), Ok(y)) => Ok((x, y)),
+            _ => Err(format!("'{s}' is not two pixel coordinates X,Y")),
+        },
+        _ => Err(format!("expected X,Y, got '{s}'")),
     }
 }

@@ -14,6 +14,7 @@ mod camera;
 mod camera_path;
 pub mod environment;
 mod gltf;
+mod input;
 mod mesh;
 mod mesh_file;
 pub mod mtl;
@@ -33,6 +34,7 @@ pub use camera::{Camera, CameraSpec, MAX_PIXELS, View, check_image_size, parse_v
 pub use camera_path::CameraPath;
 pub use environment::EnvironmentMap;
 pub use gltf::load_gltf;
+pub use input::{file_stem, load_input, load_shaded_input};
 pub use mesh::{Mesh, MeshObject, ORIGIN_OFFSET, used_bounds, vertex_normals};
 pub use mesh_file::{MeshFormat, companion_files, load_mesh, load_mesh_file};
 pub use mtl::{Material, load_mtl, parse_mtl, write_mtl};

@@ -17,7 +17,7 @@ use crate::progress::Bars;
 use crate::sampling::hash_u32;
 use crate::scene::Scene;
 use crate::sweep::Setting;
-use crate::sweep::budget::{Candidate, Choice, SampleError};
+use crate::sweep::budget::{Candidate, Choice, SampleError, cached};
 use crate::tracer::build_tree;
 
 /// Surface pixels the error is estimated on.
@@ -165,4 +165,24 @@ fn frame(device: &Device, gb: &GBuffer, view: &ScreenView, settings: &SsaoSettin
     )?;
     let ms = timed.value.timings.ao_ms();
     Ok((timed.value.ao, ms))
+}
+/// `choose` through the `--max-error` cache (`sweep::budget::cached`, keyed
+/// on `files`' contents and every option that changes the answer), applied
+/// to `request`.
+pub fn choose_cached(
+    device: &Device,
+    (scene, files): (&Scene, &[&std::path::Path]),
+    request: &mut SsaoRequest,
+    (kind, free): (MeasureKind, Free),
+    max_error: f64,
+    bars: Bars,
+) -> Result<Choice> {
+    let options = format!("{max_error}|{free:?}|{:?}|{}", request, device.kind());
+    let choice = cached("ssao", &options, files, || {
+        choose(device, scene, request, kind, free, max_error, bars)
+    })?;
+    let k = &choice.chosen;
+    request.settings.estimator = k.get_enum("estimator")?.unwrap_or(request.settings.estimator);
+    request.settings.spp = k.get("spp")?.unwrap_or(request.settings.spp);
+    Ok(choice)
 }

@@ -3,9 +3,11 @@
 use clap::Args;
 
 use super::budget::Free;
-use super::{DEFAULT_BIAS_PX, Estimator, Measure, MeasureKind, SsaoSettings};
+use super::runner::SsaoRequest;
+use super::{DEFAULT_BIAS_PX, Estimator, Measure, MeasureKind, ShadeSettings, SsaoSettings};
 use crate::error::Result;
-use crate::options::OnOff;
+use crate::options::{Applies, OnOff, applies};
+use crate::scene::View;
 
 #[derive(Args, Clone, Debug)]
 pub struct SsaoOptions {
@@ -70,11 +72,61 @@ impl SsaoOptions {
         Ok(settings)
     }
 
+    /// Which knobs apply to the chosen measure, estimator and filter.
+    pub fn applies(&self) -> Vec<Applies> {
+        let raymarch = matches!(self.estimator, None | Some(Estimator::Raymarch));
+        vec![
+            applies(self.measure == MeasureKind::Exp, &["sigma"], "--measure exp"),
+            applies(raymarch, &["steps"], "--estimator raymarch"),
+            applies(self.filter == OnOff::On, &["filter_depth"], "--filter on"),
+        ]
+    }
+
     /// What --max-error may choose: the knobs not given.
     pub fn free(&self) -> Free {
         Free {
             estimator: self.estimator.is_none(),
             spp: self.spp.is_none(),
         }
+    }
+}
+
+/// What a run computes besides the AO: the shaded image's ambient light,
+/// the truths it is measured against, and repeats of the GPU passes.
+#[derive(Args, Clone, Debug)]
+pub struct SsaoRunOptions {
+    /// Compute the indirect light and image even without --image (timed).
+    #[arg(long)]
+    pub indirect: bool,
+    /// Ambient radiance La of the shaded image.
+    #[arg(long, default_value_t = 0.5, allow_negative_numbers = true)]
+    pub ambient: f32,
+    /// Rays per pixel of the ray-traced truth (0: skip it, rmse_vs_raytraced is null).
+    #[arg(long, default_value_t = 256, allow_negative_numbers = true)]
+    pub truth_rays: u32,
+    /// Samples per pixel of the screen-space reference (0: skip it).
+    #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
+    pub reference_spp: u32,
+    /// Run the GPU passes this many times and report each one's fastest.
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    pub repeat: u32,
+}
+
+impl SsaoRunOptions {
+    /// The checked request of `settings` seen through `view`, shading only
+    /// when `image` is wanted or --indirect asks.
+    pub fn request(&self, settings: SsaoSettings, view: View, image: bool) -> Result<SsaoRequest> {
+        let shade = ShadeSettings { ambient: self.ambient };
+        shade.validate()?;
+        let request = SsaoRequest {
+            settings,
+            view,
+            shade: (self.indirect || image).then_some(shade),
+            truth_rays: self.truth_rays,
+            reference_spp: self.reference_spp,
+            repeat: self.repeat,
+        };
+        request.validate()?;
+        Ok(request)
     }
 }

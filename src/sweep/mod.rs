@@ -13,6 +13,7 @@ pub mod bounded;
 pub mod budget;
 pub mod field;
 pub mod grid;
+pub mod inputs;
 pub mod plot;
 pub mod prt;
 pub mod ssao;
@@ -29,6 +30,7 @@ use crate::error::{Error, Result};
 use crate::progress::Bars;
 
 pub use grid::{Grid, Knob, Setting};
+pub use inputs::{SweepInputs, SweepKind, with_method};
 
 /// One timed run of a setting.
 #[derive(Debug, Clone, Default)]
