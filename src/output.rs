@@ -4,7 +4,9 @@
 //! folder is atomic on POSIX file systems). A failed or interrupted run
 //! leaves the old file (or none), never a truncated one that looks valid.
 //! Before any of that, `refuse_overwrites` keeps outputs off inputs, and
-//! `frame_path` names the files of an animation.
+//! `frame_path` names the files of an animation. An interrupted run
+//! (Ctrl-C, with `remove_unfinished_on_interrupt`) removes the temporaries
+//! it was writing, so it leaves no trace at all.
 
 use std::io::{BufWriter, Seek, Write};
 use std::path::{Path, PathBuf};
@@ -16,6 +18,34 @@ fn temporary(path: &Path) -> PathBuf {
     let name = path.file_name().map(|n| n.to_string_lossy()).unwrap_or_default();
     let hidden = format!(".{name}.penumbra-{}.tmp", std::process::id());
     path.with_file_name(hidden)
+}
+
+/// Temporaries being written now: removed on an interrupt. Renames happen
+/// under this lock, so an interrupt never races one.
+static UNFINISHED: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+fn unfinished() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    UNFINISHED.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// Removes `tmp` from the temporaries being written.
+fn forget(tmp: &Path) {
+    unfinished().retain(|p| p != tmp);
+}
+
+/// On SIGINT/SIGTERM (Ctrl-C): removes every temporary being written, says
+/// so on stderr and exits with 130, as shells expect of an interrupted
+/// program. Outputs already renamed into place are complete; none is half
+/// written. Installed once per process (the command line does).
+pub fn remove_unfinished_on_interrupt() {
+    let _ = ctrlc::set_handler(|| {
+        let mut tmps = unfinished();
+        for tmp in tmps.drain(..) {
+            let _ = std::fs::remove_file(tmp);
+        }
+        eprintln!("penumbra: interrupted; unfinished outputs removed");
+        std::process::exit(130);
+    });
 }
 
 /// Writes `path` through `fill`, which writes the whole file into the
@@ -47,7 +77,9 @@ impl Pending {
             return Err(Error::file(path, "", "is a folder, not a file name"));
         }
         let tmp = temporary(path);
+        let mut tmps = unfinished();
         let file = std::fs::File::create(&tmp).map_err(|e| Error::write(path, e))?;
+        tmps.push(tmp.clone());
         Ok(Pending {
             path: path.to_path_buf(),
             tmp,
@@ -64,6 +96,7 @@ impl Pending {
     pub fn fail(mut self, e: impl std::fmt::Display) -> Error {
         self.out = None;
         let _ = std::fs::remove_file(&self.tmp);
+        forget(&self.tmp);
         Error::write(&self.path, e)
     }
 
@@ -73,10 +106,14 @@ impl Pending {
         let done = (|| {
             let file = out.into_inner().map_err(|e| e.error().to_string())?;
             file.sync_all().map_err(|e| e.to_string())?;
-            std::fs::rename(&self.tmp, &self.path).map_err(|e| e.to_string())
+            let mut tmps = unfinished();
+            let renamed = std::fs::rename(&self.tmp, &self.path).map_err(|e| e.to_string());
+            tmps.retain(|p| *p != self.tmp);
+            renamed
         })();
         done.map_err(|e| {
             let _ = std::fs::remove_file(&self.tmp);
+            forget(&self.tmp);
             Error::write(&self.path, e)
         })
     }
@@ -86,6 +123,7 @@ impl Drop for Pending {
     fn drop(&mut self) {
         if self.out.take().is_some() {
             let _ = std::fs::remove_file(&self.tmp);
+            forget(&self.tmp);
         }
     }
 }

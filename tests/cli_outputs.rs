@@ -574,3 +574,52 @@ fn sh_out_of_every_shared_probe_matches_a_texel_exact_projection() {
         assert!(worst_abs < 1e-4 && worst_rel < 1e-4, "{}", probe.display());
     }
 }
+
+/// Ctrl-C (SIGINT) in the middle of a run that streams an output (prt's
+/// per-vertex CSV, written frame by frame into a hidden temporary) leaves
+/// neither the output nor its temporary, and exits with 130.
+#[test]
+fn an_interrupted_run_leaves_no_output_and_no_temporary() {
+    let d = TempDir::new("out-interrupt");
+    let env = write_probe(&d, [0.9, 0.8, 0.7], [0.2, 0.2, 0.2]);
+    let csv = d.p("radiance.csv");
+    let args = cmd(
+        "prt --animated cloth --env {env} --frames 100000 --self-check off --per-vertex {csv} --device cpu",
+        &[("env", &env), ("csv", &csv)],
+    );
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_penumbra"))
+        .args(&args)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let temporaries = || -> Vec<String> {
+        std::fs::read_dir(&d.0)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.ends_with(".tmp"))
+            .collect()
+    };
+    let start = std::time::Instant::now();
+    while temporaries().is_empty() {
+        assert!(start.elapsed().as_secs() < 60, "the run never started its output");
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run ended before it was interrupted"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    // Frames are being written now.
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let pid = child.id().to_string();
+    let sent = std::process::Command::new("kill")
+        .args(["-INT", &pid])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{stderr}");
+    assert!(stderr.contains("interrupted"), "{stderr}");
+    assert!(temporaries().is_empty(), "temporaries left: {:?}", temporaries());
+    assert!(!std::path::Path::new(&csv).exists(), "a partial output was left");
+}

@@ -91,6 +91,7 @@ pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
             return e.exit_code();
         }
     };
+    crate::output::remove_unfinished_on_interrupt();
     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         let sub = matches.subcommand().map(|(_, m)| m);
         if let Some(sub) = sub {
