@@ -123,7 +123,7 @@ fn ssao_request(radius: f32, seed: u32) -> SsaoRequest {
         shade: None,
         truth_rays: 256,
         reference_spp: 0,
-        repeat: 1,
+        runs: Default::default(),
     }
 }
 

@@ -24,6 +24,7 @@ pub mod prt;
 pub mod ray;
 pub mod ray_file;
 pub mod raytrace;
+pub mod repeats;
 pub mod sampling;
 pub mod scene;
 pub mod sh;

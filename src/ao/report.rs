@@ -11,6 +11,7 @@ use super::AoSettings;
 use super::runner::{PixelAo, RaycastAo, VertexAo, mean, near_zero_warning, write_vertex_ao};
 use crate::error::Result;
 use crate::image_out::{GreyStyle, write_grey};
+use crate::repeats::RunTimes;
 use crate::scene::{Camera, Scene};
 
 /// Where an AO run's results go; `None`: not asked for.
@@ -141,6 +142,9 @@ pub struct AoReport {
     pub per_vertex: Option<VertexSummary>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub image: Option<ImageSummary>,
+    /// The measured runs' `ao_ms` (`--warmup`, `--repeat`); the rest is the last run's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub runs: Option<RunTimes>,
 }
 
 impl AoReport {
@@ -156,6 +160,7 @@ impl AoReport {
             mrays_per_s: points as f64 * settings.rays_per_point as f64 / (ao_ms.max(1e-9) * 1e3),
             per_vertex: None,
             image: None,
+            runs: None,
         }
     }
 
@@ -184,6 +189,11 @@ pub struct RaycastReport {
 }
 
 impl RaycastReport {
+    pub fn with_runs(mut self, runs: RunTimes) -> Self {
+        self.ao.runs = Some(runs);
+        self
+    }
+
     pub fn new(ao: &RaycastAo, settings: &AoSettings, written: Written) -> Self {
         RaycastReport {
             ao: AoReport::new("raycast", settings, ao.build_ms, (ao.points(), ao.ao_ms())).with(written),

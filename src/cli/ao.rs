@@ -81,13 +81,13 @@ pub fn run(args: &AoArgs) -> Result<Value> {
     }
     let scene = scene_of(args)?;
     let device = args.common.open_device()?;
-    let ao = raycast(&device, &scene, &request, Bars::Stderr)?;
+    let runs = args.common.runs.runs(1)?;
+    let once = || raycast(&device, &scene, &request, Bars::Stderr);
+    let (ao, times) = runs.run("ao_ms", once, |ao| ao.ao_ms())?;
     let written = outputs.write(&scene, 0, settings.radius, ao.vertices.as_ref(), ao.image.as_ref())?;
     written.notes.iter().for_each(|n| note(n));
-    merged(
-        args.common.report(&device, threads),
-        RaycastReport::new(&ao, &settings, written),
-    )
+    let report = RaycastReport::new(&ao, &settings, written).with_runs(times);
+    merged(args.common.report(&device, threads), report)
 }
 
 /// The checked `--per-vertex` and `--image` paths (at least one), and what
@@ -165,11 +165,14 @@ fn field(args: &AoArgs, outputs: AoOutputs, request: &AoRequest) -> Result<(Fiel
             (fields, None)
         }
     };
-    let run = fields.run(request, frames, args.knobs.reference)?;
+    let runs = args.common.runs.runs(1)?;
+    let once = || fields.run(request, frames, args.knobs.reference);
+    let (run, times) = runs.run("ao_ms", once, |r| r.frame_ao_ms.last().copied().unwrap_or(0.0))?;
     let radius = request.settings.radius;
     let written = outputs.write(&scene, frames - 1, radius, run.vertices.as_ref(), run.image.as_ref())?;
     written.notes.iter().for_each(|n| note(n));
     let mut report = FieldRunReport::new(&fields, run, &request.settings, written);
     report.max_error = choice;
+    report.ao.runs = Some(times);
     Ok((report, device))
 }

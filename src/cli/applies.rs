@@ -68,6 +68,12 @@ fn raytrace_rules(a: &super::raytrace::RaytraceArgs) -> Vec<Rule> {
     vec![
         rule(a.knobs.method == Method::Bounded, BOUNDED_ONLY, "--method bounded"),
         rule(a.knobs.method == Method::Whitted, &["ray_tree"], "--method whitted"),
+        // The bounded renderer's cells carry over from run to run.
+        rule(
+            a.knobs.method == Method::Whitted,
+            &["warmup", "repeat"],
+            "--method whitted",
+        ),
         rule(a.knobs.frames > 1, &["path"], "--frames above 1"),
     ]
 }

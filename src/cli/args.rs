@@ -24,6 +24,8 @@ pub struct Common {
     /// Print exactly one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
+    #[command(flatten)]
+    pub runs: crate::repeats::RepeatOptions,
 }
 
 impl Common {

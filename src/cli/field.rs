@@ -43,6 +43,8 @@ pub struct BuildArgs {
     /// Print exactly one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
+    #[command(flatten)]
+    pub runs: crate::repeats::RepeatOptions,
 }
 
 #[derive(clap::Args)]
@@ -71,6 +73,6 @@ pub fn run(args: &FieldArgs) -> Result<Value> {
 fn build(args: &BuildArgs) -> Result<Value> {
     let threads = init_thread_pool(args.threads)?;
     let out = check_output(&args.out, "-o")?;
-    let report = build_file(&args.mesh, &args.field, out, Bars::Stderr)?;
+    let report = build_file(&args.mesh, &args.field, out, (args.runs.runs(1)?, Bars::Stderr))?;
     super::io::merged(json!({ "threads": threads }), report)
 }

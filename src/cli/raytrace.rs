@@ -139,20 +139,26 @@ pub fn run(args: &RaytraceArgs) -> Result<Value> {
 
 fn whitted(args: &RaytraceArgs, setup: Setup, mut renderer: WhittedRenderer) -> Result<Value> {
     let (size, frames) = ((args.width, args.height), args.knobs.frames);
-    let progress = Bars::Stderr.bar(frames as u64 * size.0 as u64 * size.1 as u64, "ray tracing");
-    let (sequence, last) = renderer.render_sequence(
-        frames,
-        |f| setup.camera(f, frames),
-        size,
-        &setup.settings,
-        &progress,
-        |f, image| setup.images.frame(f, &image.radiance()),
-    )?;
+    let runs = args.common.runs.runs(1)?;
+    let pixels = (runs.warmup + runs.repeat) as u64 * frames as u64 * size.0 as u64 * size.1 as u64;
+    let progress = Bars::Stderr.bar(pixels, "ray tracing");
+    let once = || {
+        renderer.render_sequence(
+            frames,
+            |f| setup.camera(f, frames),
+            size,
+            &setup.settings,
+            &progress,
+            |f, image| setup.images.frame(f, &image.radiance()),
+        )
+    };
+    let ((sequence, last), times) = runs.run("render_ms", once, |(s, _)| s.render_ms)?;
     progress.finish();
     setup.images.last(&last.radiance())?;
     let mut report = merged(setup.report(args, &renderer, last.camera)?, &sequence)?;
     report["timing"] = json!(last.stats.timing);
     report["path"] = json!(last.stats.path);
+    report["runs"] = json!(times);
     if let Some(pixel) = args.knobs.ray_tree {
         report["ray_tree"] = json!(renderer.pixel_tree_report(&setup.base, size, &setup.settings, pixel)?);
     }

@@ -51,7 +51,11 @@ pub struct SsaoArgs {
 
 fn request(a: &SsaoArgs) -> Result<SsaoRequest> {
     let view = View::new(a.camera.spec(), a.width, a.height)?;
-    a.run.request(a.knobs.settings(a.common.seed)?, view, a.image.is_some())
+    a.run.request(
+        a.knobs.settings(a.common.seed)?,
+        view,
+        (a.image.is_some(), a.common.runs.runs(1)?),
+    )
 }
 
 pub fn run(args: &SsaoArgs) -> Result<Value> {

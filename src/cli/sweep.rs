@@ -33,9 +33,6 @@ pub struct SweepArgs {
     /// Output folder (created if missing) for sweep.csv, sweep.json, sweep.png.
     #[arg(long)]
     pub out: PathBuf,
-    /// Runs per setting; the fastest counts.
-    #[arg(long, default_value_t = 3, allow_negative_numbers = true)]
-    pub repeat: u32,
     /// Rays per point of the truth (field: per vertex, as the methods; ssao:
     /// per pixel; prt: per vertex) [default: field 64, ssao 256, prt 1024].
     #[arg(long, allow_negative_numbers = true)]
@@ -64,6 +61,7 @@ impl SweepArgs {
 
 pub fn run(args: &SweepArgs) -> Result<Value> {
     let threads = args.common.init_threads()?;
+    let runs = args.common.runs.runs(3)?;
     if let Some(parent) = args.out.parent().filter(|p| !p.as_os_str().is_empty())
         && !parent.is_dir()
     {
@@ -82,7 +80,7 @@ pub fn run(args: &SweepArgs) -> Result<Value> {
     let device = args.common.open_device()?;
     let mut report = sweep::with_method(args.method, &inputs, &device, |method| {
         let grid = Grid::parse(&args.grid, method.knobs())?;
-        sweep::sweep(method, &grid, args.repeat, Bars::Stderr)
+        sweep::sweep(method, &grid, runs, Bars::Stderr)
     })?;
     sweep::write_outputs(&mut report, &args.out)?;
     super::io::merged(args.common.report(&device, threads), &report)

@@ -70,7 +70,9 @@ pub fn run(args: &TraceArgs) -> Result<Value> {
     let mesh = scene.world_mesh(|_| true);
     request.view.camera = request.view.camera.resolve(scene.camera, &mesh.bounds())?.into();
     let device = args.common.open_device()?;
-    let image = trace_view(&device, &mesh, None, &request, Bars::Stderr)?;
+    let runs = args.common.runs.runs(1)?;
+    let once = || trace_view(&device, &mesh, None, &request, Bars::Stderr);
+    let (image, times) = runs.run("trace_ms", once, |i| i.stats.trace_ms)?;
     let images = TraceImages {
         shading: out,
         tiles,
@@ -78,5 +80,6 @@ pub fn run(args: &TraceArgs) -> Result<Value> {
         rays: dump,
     };
     images.write(&image, &mesh)?;
-    super::io::merged(args.common.report(&device, threads), &image.stats)
+    let report = super::io::merged(args.common.report(&device, threads), &image.stats)?;
+    super::io::merged(report, serde_json::json!({ "runs": times }))
 }

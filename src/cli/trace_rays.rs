@@ -35,7 +35,8 @@ pub fn run(args: &TraceRaysArgs) -> Result<Value> {
     let device = args.common.open_device()?;
     let mut tracer = Tracer::build(&device, &mesh, Bars::Stderr, "trace-rays")?;
     let progress = Bars::Stderr.spinner(&format!("tracing {} rays", rays.len()));
-    let traced = tracer.closest_incoherent(&rays)?;
+    let runs = args.common.runs.runs(1)?;
+    let (traced, times) = runs.run("trace_ms", || tracer.closest_incoherent(&rays), |t| t.ms)?;
     progress.finish();
     write_hits(out, &traced.value)?;
     let stats = &tracer.tree().stats;
@@ -47,6 +48,7 @@ pub fn run(args: &TraceRaysArgs) -> Result<Value> {
         "mrays_per_s": mrays_per_s(rays.len(), traced.ms),
         "timing": traced.timing,
         "kdtree": stats,
+        "runs": times,
     });
     super::io::merged(report, args.common.report(&device, threads))
 }

@@ -15,6 +15,7 @@ use crate::ao::AoSettings;
 use crate::ao::report::{AoReport, Casters, Written};
 use crate::error::{Error, Result};
 use crate::progress::Bars;
+use crate::repeats::{Repeats, RunTimes};
 use crate::scene::{Role, load_mesh};
 use crate::skipped::Skipped;
 use crate::sweep::budget::Choice;
@@ -79,6 +80,8 @@ pub struct BuildReport {
     pub rays: u64,
     pub hit_fraction: f64,
     pub positions_requested: i64,
+    /// The measured builds' times (`--warmup`, `--repeat`).
+    pub runs: RunTimes,
     /// Largest over smallest cell area of the positional grid: equal-area
     /// cells make it tend to 1 as the quadrature refines.
     pub cell_area_ratio: f64,
@@ -86,11 +89,22 @@ pub struct BuildReport {
 
 /// Builds the field of the mesh in the file `mesh` with `options` and
 /// writes it to `out` (atomically, as every output).
-pub fn build_file(mesh: &Path, options: &FieldOptions, out: &Path, bars: Bars) -> Result<BuildReport> {
+/// `runs`: untimed and measured builds; the last one is written.
+pub fn build_file(
+    mesh: &Path,
+    options: &FieldOptions,
+    out: &Path,
+    (runs, bars): (Repeats, Bars),
+) -> Result<BuildReport> {
     let params = &options.params()?;
     let object = load_mesh(mesh)?;
-    let progress = bars.bar(params.maps() as u64, "building displacement maps");
-    let (field, stats) = DisplacementField::build(&object, params, &mesh.display().to_string(), &progress)?;
+    let progress = bars.bar(
+        (runs.warmup + runs.repeat) as u64 * params.maps() as u64,
+        "building displacement maps",
+    );
+    let name = mesh.display().to_string();
+    let once = || DisplacementField::build(&object, params, &name, &progress);
+    let ((field, stats), times) = runs.run("build_ms", once, |(_, s)| s.build_ms)?;
     progress.finish();
     super::file::write(out, &field)?;
     Ok(BuildReport {
@@ -102,6 +116,7 @@ pub fn build_file(mesh: &Path, options: &FieldOptions, out: &Path, bars: Bars) -
         rays: stats.rays,
         hit_fraction: stats.hit_fraction,
         positions_requested: options.positions,
+        runs: times,
         cell_area_ratio: params.grid.cell_area_ratio(8),
     })
 }

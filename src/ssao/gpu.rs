@@ -622,6 +622,8 @@ pub enum GBufferSource<'a> {
 pub struct GpuFrame {
     pub gbuffer: GBuffer,
     pub frame: SsaoFrame,
+    /// Each run's time: its passes' sum (timestamps) or its wall time.
+    pub runs_ms: Vec<f64>,
 }
 
 /// Runs one SSAO frame on the GPU (blocking): G-buffer, estimator, filter,
@@ -683,7 +685,9 @@ pub fn run_frame(
     };
     let start = Instant::now();
     let mut best: Option<Vec<f64>> = None;
+    let mut runs_ms = Vec::new();
     for _ in 0..repeat.max(1) {
+        let run_start = Instant::now();
         let mut timer = PassTimer::new(ctx, 8);
         let mut encoder = device.create_command_encoder(&Default::default());
         let mut kinds = Vec::new();
@@ -717,6 +721,10 @@ pub fn run_frame(
             }
             None => vec![0.0; 5],
         };
+        runs_ms.push(match &timer {
+            Some(_) => per_kind.iter().sum(),
+            None => elapsed_ms(run_start),
+        });
         best = Some(match best {
             None => per_kind,
             Some(b) => b.iter().zip(&per_kind).map(|(a, c)| a.min(*c)).collect(),
@@ -762,5 +770,6 @@ pub fn run_frame(
             timings,
         },
         gbuffer,
+        runs_ms,
     })
 }

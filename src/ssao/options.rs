@@ -7,6 +7,7 @@ use super::runner::SsaoRequest;
 use super::{DEFAULT_BIAS_PX, Estimator, Measure, MeasureKind, ShadeSettings, SsaoSettings};
 use crate::error::Result;
 use crate::options::{Applies, OnOff, applies};
+use crate::repeats::Repeats;
 use crate::scene::View;
 
 #[derive(Args, Clone, Debug)]
@@ -107,15 +108,12 @@ pub struct SsaoRunOptions {
     /// Samples per pixel of the screen-space reference (0: skip it).
     #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
     pub reference_spp: u32,
-    /// Run the GPU passes this many times and report each one's fastest.
-    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
-    pub repeat: u32,
 }
 
 impl SsaoRunOptions {
     /// The checked request of `settings` seen through `view`, shading only
     /// when `image` is wanted or --indirect asks.
-    pub fn request(&self, settings: SsaoSettings, view: View, image: bool) -> Result<SsaoRequest> {
+    pub fn request(&self, settings: SsaoSettings, view: View, (image, runs): (bool, Repeats)) -> Result<SsaoRequest> {
         let shade = ShadeSettings { ambient: self.ambient };
         shade.validate()?;
         let request = SsaoRequest {
@@ -124,7 +122,7 @@ impl SsaoRunOptions {
             shade: (self.indirect || image).then_some(shade),
             truth_rays: self.truth_rays,
             reference_spp: self.reference_spp,
-            repeat: self.repeat,
+            runs,
         };
         request.validate()?;
         Ok(request)

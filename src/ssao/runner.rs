@@ -13,6 +13,7 @@ use super::{Estimator, Measure, ShadeSettings, SsaoFrame, SsaoSettings, Timings,
 use crate::device::{Device, GpuOutput, Timing, elapsed_ms};
 use crate::error::{Error, Result};
 use crate::progress::Bars;
+use crate::repeats::{MAX_RUNS, Repeats, RunTimes};
 use crate::scene::{Camera, Scene, View};
 use crate::skipped::Skipped;
 use crate::tracer::build_tree;
@@ -29,8 +30,9 @@ pub struct SsaoRequest {
     pub truth_rays: u32,
     /// Samples per pixel of the screen-space reference (0: none).
     pub reference_spp: u32,
-    /// GPU passes run this many times; each pass's fastest is reported.
-    pub repeat: u32,
+    /// Untimed frames first, then measured ones (the passes' fastest
+    /// times are reported, and every run's in `runs`); outputs are the last's.
+    pub runs: Repeats,
 }
 
 impl SsaoRequest {
@@ -40,8 +42,8 @@ impl SsaoRequest {
         if let Some(shade) = &self.shade {
             shade.validate()?;
         }
-        if self.repeat == 0 || self.repeat > 1000 {
-            return Err(Error::param("repeat", "must be between 1 and 1000"));
+        if self.runs.repeat == 0 || self.runs.repeat > MAX_RUNS || self.runs.warmup > MAX_RUNS {
+            return Err(Error::param("repeat", format!("must be between 1 and {MAX_RUNS}")));
         }
         Ok(())
     }
@@ -98,6 +100,9 @@ pub struct SsaoReport {
     /// What screen space cannot see (with a reference; null without truth).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rmse_reference_vs_raytraced: Option<Option<f64>>,
+    /// The measured frames' times (`--warmup`, `--repeat`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub runs: Option<RunTimes>,
 }
 
 /// Runs `request` on `scene` (every instance is drawn; casters occlude the
@@ -124,29 +129,36 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: Bars) ->
     let albedos = scene_albedos(scene);
     let framed = device.run(
         |ctx| {
-            let source = GBufferSource::Render {
+            let source = || GBufferSource::Render {
                 mesh: &mesh,
                 camera: &camera,
                 lights: &scene.lights,
                 albedos: Some(&albedos),
             };
-            let f = run_frame(ctx, source, &view, settings, shade, request.repeat)?;
+            for _ in 0..request.runs.warmup {
+                run_frame(ctx, source(), &view, settings, shade, 1)?;
+            }
+            let f = run_frame(ctx, source(), &view, settings, shade, request.runs.repeat)?;
             Ok(GpuOutput {
-                value: (f.gbuffer, f.frame),
+                value: (f.gbuffer, f.frame, f.runs_ms),
                 gpu_ms: None,
             })
         },
         || {
             let tree = whole_tree()?;
-            let start = std::time::Instant::now();
-            let gb = gbuffer_with(tree, &mesh, &albedos, &camera, &scene.lights, (w, h));
-            let gbuffer_ms = elapsed_ms(start);
-            let mut frame = run_cpu(&gb, &view, settings, shade)?;
-            frame.timings.gbuffer_ms = gbuffer_ms;
-            Ok((gb, frame))
+            let once = || {
+                let start = std::time::Instant::now();
+                let gb = gbuffer_with(tree, &mesh, &albedos, &camera, &scene.lights, (w, h));
+                let gbuffer_ms = elapsed_ms(start);
+                let mut frame = run_cpu(&gb, &view, settings, shade)?;
+                frame.timings.gbuffer_ms = gbuffer_ms;
+                Ok((gb, frame))
+            };
+            let ((gb, frame), runs) = request.runs.run("frame_ms", once, |(_, f)| f.timings.frame_ms())?;
+            Ok((gb, frame, runs.ms))
         },
     )?;
-    let (gb, frame) = framed.value;
+    let (gb, frame, runs_ms) = framed.value;
     // Ground truth: only casters occlude.
     let truth = if request.truth_rays > 0 {
         let caster_tree;
@@ -175,6 +187,7 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: Bars) ->
     let reference = (request.reference_spp > 0).then(|| screen_reference(&gb, &view, settings, request.reference_spp));
     let mut report = SsaoReport::new(request, &camera, &gb, &frame, &truth, &reference);
     report.build_ms = tree.get().map_or(0.0, |t| t.stats.build_ms);
+    report.runs = Some(RunTimes::of("frame_ms", request.runs.warmup, runs_ms));
     report.skipped = skipped(request, tree.get().is_none());
     Ok(SsaoRun {
         camera,
@@ -268,6 +281,7 @@ impl SsaoReport {
             rmse_reference_vs_raytraced: reference
                 .as_ref()
                 .map(|r| truth.as_ref().map(|t| rmse(gb, &r.values, &t.values))),
+            runs: None,
         }
     }
 }

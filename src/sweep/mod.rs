@@ -28,6 +28,7 @@ use serde_json::Value;
 use crate::device::elapsed_ms;
 use crate::error::{Error, Result};
 use crate::progress::Bars;
+use crate::repeats::Repeats;
 
 pub use grid::{Grid, Knob, Setting};
 pub use inputs::{SweepInputs, SweepKind, with_method};
@@ -101,7 +102,9 @@ pub struct SweepReport {
 }
 
 /// Runs every setting of `grid` `repeats` times against the truth.
-pub fn sweep(method: &mut dyn SweepMethod, grid: &Grid, repeats: u32, bars: Bars) -> Result<SweepReport> {
+/// Each setting first runs `runs.warmup` untimed times.
+pub fn sweep(method: &mut dyn SweepMethod, grid: &Grid, runs: Repeats, bars: Bars) -> Result<SweepReport> {
+    let repeats = runs.repeat;
     if repeats == 0 || repeats > 100 {
         return Err(Error::param(
             "repeat",
@@ -120,6 +123,9 @@ pub fn sweep(method: &mut dyn SweepMethod, grid: &Grid, repeats: u32, bars: Bars
     let mut estimated_s = 0.0;
     let progress = bars.bar(settings.len() as u64 * repeats as u64, "sweep");
     for (i, setting) in settings.iter().enumerate() {
+        for _ in 0..runs.warmup {
+            method.run(setting)?;
+        }
         let mut runs = Vec::with_capacity(repeats as usize);
         for _ in 0..repeats {
             let run_start = Instant::now();

@@ -147,7 +147,7 @@ impl SsaoSweep {
             shade: None,
             truth_rays,
             reference_spp: 0,
-            repeat: 1,
+            runs: Default::default(),
         }
     }
 
