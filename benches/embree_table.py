@@ -123,6 +123,7 @@ def main():
     rounds = 1 if args.quick else args.rounds
     size = ["--width", side, "--height", side]
     best = Best()
+    load_before = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as tmp:
         rays = Path(tmp) / "random.f32"
         run([TOOL, models / "stanford-bunny.obj", "--modes", "none", "--gen-rays", n_random, rays])
@@ -156,6 +157,7 @@ def main():
             pen = penumbra(["trace-rays", "--mesh", mesh, "--rays", rays, "--out", Path(tmp) / "hits.bin"])
             best.hi(("stanford-bunny", "random", "penumbra"), pen["mrays_per_s"])
     b = best.v
+    load = (load_before, os.getloadavg()[0])
     k = f"{side}^2"
     rows = [
         (f"bunny {k} primary", "stream, coherent", ("stanford-bunny", "primary"), "MLRTA"),
@@ -168,7 +170,9 @@ def main():
     ]
     lines = [
         f"Native Embree {version} against penumbra, one thread each, same rays; "
-        f"best of {rounds} alternating rounds (`benches/embree_table.py`).",
+        f"best of {rounds} alternating rounds (`benches/embree_table.py`; {os.cpu_count()} cores, "
+        f"load average {load[0]:.1f} at the start, {load[1]:.1f} at the end: absolute figures drop "
+        "on a busy machine, the ratios much less).",
         "",
         "| work | Embree best API | Embree Mrays/s | penumbra | penumbra Mrays/s | penumbra / Embree |",
         "|---|---|---:|---|---:|---:|",
