@@ -123,6 +123,13 @@ impl DisplacementField {
     /// Map m read at local direction `local` (z up = inward normal): the
     /// four texels around it, bilinearly weighted.
     pub fn map_sample(&self, m: u32, local: Vec3) -> Sample {
+        self.read_taps(m, &self.map_taps(local))
+    }
+
+    /// The four texels of a map around local direction `local` (indices in
+    /// the map) with their bilinear weights.
+    #[inline]
+    fn map_taps(&self, local: Vec3) -> [(u32, f32); 4] {
         let [s, t] = self.params.directions.locate(local);
         let res = self.params.res;
         let r = res as f32;
@@ -133,12 +140,17 @@ impl DisplacementField {
         let (a0, b0) = (x as u32, y as u32);
         let (fx, fy) = (x - a0 as f32, y - b0 as f32);
         let (a1, b1) = ((a0 + 1).min(res - 1), (b0 + 1).min(res - 1));
-        let taps = [
+        [
             (b0 * res + a0, (1.0 - fx) * (1.0 - fy)),
             (b0 * res + a1, fx * (1.0 - fy)),
             (b1 * res + a0, (1.0 - fx) * fy),
             (b1 * res + a1, fx * fy),
-        ];
+        ]
+    }
+
+    /// Map m's vote at `taps`.
+    #[inline]
+    fn read_taps(&self, m: u32, taps: &[(u32, f32); 4]) -> Sample {
         let mut out = Sample::default();
         let mut vote = |w: f32, d: f32| {
             out.coverage += w;
@@ -153,14 +165,14 @@ impl DisplacementField {
             FieldData::U8(v) => {
                 let texels = self.params.texels_per_map();
                 let map = &v[m as usize * texels..][..texels];
-                for (i, w) in taps {
+                for &(i, w) in taps {
                     let q = map[i as usize];
                     let w = if q < 255 { w } else { 0.0 };
                     vote(w, U8_DISTANCE[q as usize]);
                 }
             }
             data => {
-                for (i, w) in taps {
+                for &(i, w) in taps {
                     let d = data.value(&self.params, m as usize, i as usize);
                     if d < 1.0 {
                         vote(w, d);
@@ -192,11 +204,22 @@ impl DisplacementField {
                 let m = self.params.grid.nearest(p);
                 self.map_sample_world(m, &frame(m), d)
             }
+            // All four maps' taps first, then their reads: the reads are
+            // then independent loads the core overlaps (they miss the
+            // caches), instead of each waiting behind the next map's
+            // arithmetic. Same votes, summed in the same order.
             Positional::Bilinear => {
+                let maps = self.params.grid.bilinear(p);
+                let taps = maps.map(|(m, w)| {
+                    (w > 0.0).then(|| {
+                        let f = frame(m);
+                        self.map_taps(Vec3::new(d.dot(f.t), d.dot(f.b), d.dot(f.n)))
+                    })
+                });
                 let mut out = Sample::default();
-                for (m, w) in self.params.grid.bilinear(p) {
-                    if w > 0.0 {
-                        out.add(w, self.map_sample_world(m, &frame(m), d));
+                for ((m, w), taps) in maps.into_iter().zip(taps) {
+                    if let Some(taps) = taps {
+                        out.add(w, self.read_taps(m, &taps));
                     }
                 }
                 out
