@@ -493,13 +493,13 @@ def main(argv=None) -> int:
         if not m.is_file():
             log(f"error: model {m} not found (set PENUMBRA_DATA or pass --models)")
             return 2
-    if args.packets:
-        return packets_speed(args, exe)
-
     if embree_tool() is None:
         log("skipped: native embree_bench is not available (apt-get install -y libembree-dev g++; "
             f"its source is looked for in {TOOL_DIR}, or set EMBREE_BENCH_DIR)")
         return 0
+    if args.packets:
+        return packets_speed(args, exe)
+
 
     tmp = None
     if args.workdir is None:
