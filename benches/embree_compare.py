@@ -3,8 +3,8 @@
 
 For every model and ray set this script writes the rays to a RAYS.f32 file,
 runs `penumbra trace-rays --json` on each requested device, traces the same
-rays with Embree (through the `embreex` bindings, in this process, single
-thread), and compares the closest hits ray by ray.
+rays with native Embree (`../shared/tools/embree_bench --modes rays --hits`,
+single thread), and compares the closest hits ray by ray.
 
 Ray sets per model:
   random   N rays; origins uniform in the model's bounding box scaled by 3
@@ -16,13 +16,15 @@ Ray sets per model:
            diagonal, up +y, vertical fov 45 degrees, row 0 at the top,
            pixel centres at half-integer offsets, unit directions).
 
-Embree: embreex's EmbreeScene.run() loops over the rays in C and calls
-rtcIntersect1 once per ray (single-ray API, no packets or streams, no
-threads), with tnear = 0 and tfar = the `dists` we pass (+inf here). The
-scene is built with RTC_SCENE_FLAG_ROBUST (embreex's `robust=True`). The
-BVH is built (committed, multi-threaded) before timing; only the traversal
-call is timed, and the CPU time it used is reported to show it ran on one
-core.
+Embree: the native tool (Embree 3 C API, -O3 -march=native) calls
+rtcIntersect1 once per ray (single-ray API, no packets or streams, one
+thread), with tnear = 0 and tfar = +inf, default scene flags; it builds the
+BVH (one thread, high quality) before timing and reports the best of
+--repeat traversals. The Python `embreex` bindings used before paid per-call
+overhead and understated Embree; `benches/embree_table.py` has the speed
+comparison of every workload (packets, AO, build), this script the
+exactness of hits. Without the tool (libembree-dev, g++) it says so and
+exits 0.
 
 Checks (each model x ray set x device): hit/miss agreement >= 99.99 % and
 relative t error at the 99.9th percentile <= 1e-4. Exit code 1 if any check
@@ -37,7 +39,7 @@ error is ill-conditioned for hits just in front of the origin and for grazing
 hits), and, with several devices, how many hits differ bit for bit between
 them. A device other than cpu that fails (no adapter) is reported as skipped.
 
-Only numpy and embreex are needed. Commands run are printed to stderr, the
+Only numpy and the native tool are needed. Commands run are printed to stderr, the
 Markdown table to stdout; --json writes every number.
 """
 
@@ -183,46 +185,51 @@ def primary_rays(lo: np.ndarray, hi: np.ndarray, w: int, h: int) -> np.ndarray:
 # --------------------------------------------------------------------------
 
 
-class Embree:
-    def __init__(self, v: np.ndarray, t: np.ndarray):
-        from embreex import rtcore as rtc
-        from embreex import rtcore_scene as rtcs
-        from embreex.mesh_construction import TriangleMesh
+TOOL_DIR = Path(os.environ.get("EMBREE_BENCH_DIR", REPO.parent / "shared" / "tools" / "embree_bench"))
+TOOL = REPO / "target" / "embree_bench" / "embree_bench"
 
-        self.device = rtc.EmbreeDevice()
-        self.scene = rtcs.EmbreeScene(self.device, robust=True)
-        self.flags = "RTC_SCENE_FLAG_ROBUST"
-        self.mesh = TriangleMesh(self.scene, np.ascontiguousarray(v, dtype=np.float32),
-                                 np.ascontiguousarray(t, dtype=np.int32))
-        # The first run() commits the scene (builds the BVH); do it untimed.
-        start = time.perf_counter()
-        self.scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32),
-                       dists=np.full(1, np.inf, np.float32), output=1)
-        self.build_ms = (time.perf_counter() - start) * 1e3
+
+def embree_tool() -> Path | None:
+    """The native embree_bench (built with its build.sh if needed), or None."""
+    if not TOOL.is_file() and (TOOL_DIR / "build.sh").is_file() \
+            and Path("/usr/include/embree3/rtcore.h").is_file():
+        subprocess.run(["sh", str(TOOL_DIR / "build.sh")], env=dict(os.environ, OUT=str(TOOL.parent)),
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    return TOOL if TOOL.is_file() else None
+
+
+class Embree:
+    """Native Embree through `embree_bench --modes rays` (rtcIntersect1 per
+    ray, one thread, tnear 0, tfar +inf), on the mesh file itself: the tool
+    reads the OBJ with penumbra's triangle order and writes hits in
+    penumbra's format. It replaced the Python `embreex` bindings, whose
+    per-call overhead understated Embree."""
+
+    def __init__(self, mesh: Path, work: Path):
+        self.tool = embree_tool()
+        if self.tool is None:
+            raise RuntimeError("embree_bench is not available (apt-get install -y libembree-dev g++)")
+        self.mesh, self.work = mesh, work
+        self.flags = "default scene flags"
+        self.build_ms = float("nan")
+        self.version = "?"
 
     def trace(self, rays: np.ndarray, repeat: int = 1) -> dict:
         """Closest hits; the time is the fastest of `repeat` runs."""
-        o = np.ascontiguousarray(rays[:, :3])
-        d = np.ascontiguousarray(rays[:, 3:])
-        wall = cpu = float("inf")
-        for _ in range(max(1, repeat)):
-            tfar = np.full(len(rays), np.inf, dtype=np.float32)  # run() writes hits' t here
-            cpu0 = time.process_time()
-            wall0 = time.perf_counter()
-            res = self.scene.run(o, d, dists=tfar, query="INTERSECT", output=1)
-            w = time.perf_counter() - wall0
-            c = time.process_time() - cpu0
-            if w < wall:
-                wall, cpu = w, c
-        prim = np.asarray(res["primID"]).astype(np.int64)
-        geom = np.asarray(res["geomID"]).astype(np.int64)
-        hit = (geom >= 0) & (geom != MISS) & (prim >= 0) & (prim != MISS)
-        return {
-            "t": np.where(hit, np.asarray(res["tfar"], dtype=np.float32), np.float32(np.inf)),
-            "tri": np.where(hit, prim, MISS).astype(np.uint32),
-            "seconds": wall,
-            "cpu_seconds": cpu,
-        }
+        rays_path = self.work / "embree.rays.f32"
+        hits_path = self.work / "embree.hits.bin"
+        rays.astype("<f4").tofile(rays_path)
+        cmd = [str(self.tool), str(self.mesh), "--modes", "rays", "--rays", str(rays_path),
+               "--hits", str(hits_path), "--reps", str(max(1, repeat))]
+        log("$ " + shlex.join(cmd))
+        out = subprocess.run(cmd, check=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True).stdout
+        lines = [json.loads(l) for l in out.splitlines() if l.startswith("{")]
+        build = next(l for l in lines if l["mode"] == "build")
+        run = next(l for l in lines if l["mode"] == "rays")
+        self.build_ms, self.version = build["build_ms"], build["embree"]
+        hits = np.fromfile(hits_path, dtype=np.dtype([("t", "<f4"), ("tri", "<u4")]))
+        seconds = run["best_ms"] / 1e3
+        return {"t": hits["t"].copy(), "tri": hits["tri"].copy(), "seconds": seconds, "cpu_seconds": seconds}
 
 
 # --------------------------------------------------------------------------
@@ -424,8 +431,7 @@ def packets_speed(args, exe: Path) -> int:
         subprocess.run(base + ["--dump-rays", str(rays_path), "--threads", "1"], check=True,
                        stdout=subprocess.PIPE, stderr=subprocess.PIPE)
         rays = np.fromfile(rays_path, dtype="<f4").reshape(-1, 6)
-        v, tris = load_obj(model)
-        embree = Embree(v, tris)
+        embree = Embree(model, work)
         best = {}
         emb_s = float("inf")
         for _ in range(max(1, args.repeat)):
@@ -487,15 +493,13 @@ def main(argv=None) -> int:
         if not m.is_file():
             log(f"error: model {m} not found (set PENUMBRA_DATA or pass --models)")
             return 2
+    if embree_tool() is None:
+        log("skipped: native embree_bench is not available (apt-get install -y libembree-dev g++; "
+            f"its source is looked for in {TOOL_DIR}, or set EMBREE_BENCH_DIR)")
+        return 0
     if args.packets:
         return packets_speed(args, exe)
 
-    try:
-        import embreex
-        version = getattr(embreex, "__version__", "?")
-    except ImportError:
-        log("error: embreex is not installed (pip install embreex)")
-        return 2
 
     tmp = None
     if args.workdir is None:
@@ -505,6 +509,7 @@ def main(argv=None) -> int:
         work = args.workdir
         work.mkdir(parents=True, exist_ok=True)
 
+    version = "?"
     results = []
     skipped = []
     failed = False
@@ -516,8 +521,7 @@ def main(argv=None) -> int:
             lo, hi = used_bounds(v, tris)
             diag = float(np.linalg.norm(hi - lo)) or 1.0
             log(f"   {len(v)} vertices, {len(tris)} triangles, bounds {lo.tolist()} .. {hi.tolist()}")
-            embree = Embree(v, tris)
-            log(f"   Embree BVH build (commit, multi-threaded, untimed in results): {embree.build_ms:.1f} ms")
+            embree = Embree(model, work)
 
             sets = []
             if args.rays > 0:
@@ -530,6 +534,7 @@ def main(argv=None) -> int:
                 tag = set_name.split()[0]
                 log(f"-- {name} / {set_name}: {len(rays)} rays; Embree (rtcIntersect1, 1 thread)")
                 emb = embree.trace(rays, args.repeat)
+                version = embree.version
                 emb_mrays = len(rays) / emb["seconds"] / 1e6
                 log(f"   Embree: {emb['seconds'] * 1e3:.1f} ms wall, {emb['cpu_seconds'] * 1e3:.1f} ms CPU, "
                     f"{emb_mrays:.3f} Mrays/s")
@@ -644,7 +649,7 @@ def main(argv=None) -> int:
         if tmp is not None:
             tmp.cleanup()
 
-    print(f"Embree {version} via embreex (rtcIntersect1 per ray, 1 thread, {('RTC_SCENE_FLAG_ROBUST')}); "
+    print(f"Embree {version} native (embree_bench, rtcIntersect1 per ray, 1 thread); "
           f"penumbra CPU runs use --threads 1.\n")
     print("| model | rays | device | agreement % | p-only / E-only | t err p99.9 | t err max | tri differs % "
           "| penumbra Mrays/s | Embree Mrays/s | ratio | checks |")
@@ -668,8 +673,8 @@ def main(argv=None) -> int:
         doc = {
             "embree": {
                 "version": version,
-                "api": "rtcIntersect1 per ray (embreex EmbreeScene.run), single thread",
-                "scene_flags": "RTC_SCENE_FLAG_ROBUST",
+                "api": "rtcIntersect1 per ray (native embree_bench --modes rays), single thread",
+                "scene_flags": "default",
                 "tnear": 0.0,
                 "tfar": "inf",
             },

@@ -14,10 +14,12 @@ use rayon::prelude::*;
 
 use super::build::DisplacementField;
 use super::lookup::{FieldTrace, Positional};
+use super::query::FieldQuery;
 use crate::ao::{AoPoint, AoSettings, PointDirections, VisibilityMasks};
 use crate::progress::Progress;
 use crate::sampling::SampleSequence;
 use crate::scene::Transform;
+use glam::Quat;
 
 /// One caster instance: its mesh's field and its placement.
 #[derive(Debug, Clone, Copy)]
@@ -56,6 +58,42 @@ impl FieldCaster<'_> {
     }
 }
 
+/// A caster made ready for the AO loop: its field's frames tabulated and
+/// its inverse rotation computed once, so that a point moves its origin
+/// into the caster's space once for all its rays and a ray only rotates its
+/// direction. The arithmetic is `FieldCaster::trace`'s, step for step.
+struct ReadyCaster<'f> {
+    query: FieldQuery<'f>,
+    transform: Transform,
+    inverse_rotation: Quat,
+    instance: u32,
+}
+
+impl<'f> ReadyCaster<'f> {
+    fn new(c: &FieldCaster<'f>) -> Self {
+        ReadyCaster {
+            query: FieldQuery::new(c.field),
+            transform: c.transform,
+            inverse_rotation: c.transform.rotation.inverse(),
+            instance: c.instance,
+        }
+    }
+
+    /// The ray from `o_obj` (the point's origin in the caster's space) along
+    /// world direction `d`.
+    #[inline]
+    fn trace(&self, o_obj: Vec3, d: Vec3, positional: Positional) -> FieldTrace {
+        let d_obj = (self.inverse_rotation * d).normalize();
+        match self.query.trace(o_obj, d_obj, positional) {
+            FieldTrace::Hit { t, inside } => FieldTrace::Hit {
+                t: t * self.transform.scale,
+                inside,
+            },
+            other => other,
+        }
+    }
+}
+
 /// Visibility of `rays_per_point` rays per point through the casters'
 /// fields; `owners[i]` is point i's instance (or `NO_OWNER`). The CPU twin
 /// of `wgsl/field_ao.wgsl`.
@@ -73,14 +111,23 @@ pub fn field_ao(
     let mut bits = vec![0u32; points.len() * words];
     let mut inside = vec![0u32; points.len() * words];
     let mut hidden = vec![0u32; points.len() * words];
+    let ready: Vec<ReadyCaster> = casters.iter().map(ReadyCaster::new).collect();
     bits.par_chunks_mut(words)
         .zip(inside.par_chunks_mut(words))
         .zip(hidden.par_chunks_mut(words))
         .zip(points.par_iter().zip(owners.par_iter()))
         .with_min_len(16)
-        .for_each(|(((mask, inside), hidden), (point, &owner))| {
+        .for_each_init(Vec::new, |origins, (((mask, inside), hidden), (point, &owner))| {
             let normal = Vec3::from_array(point.normal);
             let origin = Vec3::from_array(point.origin);
+            // The point's origin in each caster's space, once for all its rays.
+            origins.clear();
+            origins.extend(
+                ready
+                    .iter()
+                    .filter(|c| c.instance != owner)
+                    .map(|c| (c, c.transform.inverse_point(origin))),
+            );
             let dirs = PointDirections::new(&seq, point.stream, normal);
             for j in 0..settings.rays_per_point {
                 let bit = 1u32 << (j % 32);
@@ -91,8 +138,8 @@ pub fn field_ao(
                 }
                 let dir = dirs.direction(j);
                 let mut visible = true;
-                for c in casters.iter().filter(|c| c.instance != owner) {
-                    let trace = c.trace(origin, dir, positional);
+                for &(c, o_obj) in origins.iter() {
+                    let trace = c.trace(o_obj, dir, positional);
                     if trace.inside() {
                         inside[w] |= bit;
                     }

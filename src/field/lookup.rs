@@ -35,6 +35,8 @@ use glam::Vec3;
 use serde::Serialize;
 
 use super::build::{DisplacementField, map_frame};
+use super::storage::FieldData;
+use crate::sampling::Frame;
 
 /// How the positional samples around an entry point are combined.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
@@ -84,6 +86,18 @@ pub fn sphere_interval(center: Vec3, radius: f32, o: Vec3, d: Vec3) -> Option<(f
     Some((-b - q, -b + q))
 }
 
+/// The normalised distance of each 8-bit texel value, `q as f32 / 255.0`
+/// (as `FieldData::value` computes it).
+static U8_DISTANCE: [f32; 256] = {
+    let mut table = [0.0f32; 256];
+    let mut q = 0;
+    while q < 256 {
+        table[q] = q as f32 / 255.0;
+        q += 1;
+    }
+    table
+};
+
 /// What a lookup reads: the share of the interpolation weight carried by
 /// taps that hit, and their weighted distances' sum.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -109,47 +123,103 @@ impl DisplacementField {
     /// Map m read at local direction `local` (z up = inward normal): the
     /// four texels around it, bilinearly weighted.
     pub fn map_sample(&self, m: u32, local: Vec3) -> Sample {
+        self.read_taps(m, &self.map_taps(local))
+    }
+
+    /// The four texels of a map around local direction `local` (indices in
+    /// the map) with their bilinear weights.
+    #[inline]
+    fn map_taps(&self, local: Vec3) -> [(u32, f32); 4] {
         let [s, t] = self.params.directions.locate(local);
         let res = self.params.res;
         let r = res as f32;
         let x = (s * r - 0.5).clamp(0.0, r - 1.0);
         let y = (t * r - 0.5).clamp(0.0, r - 1.0);
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let (a0, b0) = (x0 as u32, y0 as u32);
+        // x, y >= 0: truncation is their floor, without the libm call that
+        // `floor` is on x86-64's baseline (no SSE4.1 rounding).
+        let (a0, b0) = (x as u32, y as u32);
+        let (fx, fy) = (x - a0 as f32, y - b0 as f32);
         let (a1, b1) = ((a0 + 1).min(res - 1), (b0 + 1).min(res - 1));
+        [
+            (b0 * res + a0, (1.0 - fx) * (1.0 - fy)),
+            (b0 * res + a1, fx * (1.0 - fy)),
+            (b1 * res + a0, (1.0 - fx) * fy),
+            (b1 * res + a1, fx * fy),
+        ]
+    }
+
+    /// Map m's vote at `taps`.
+    #[inline]
+    fn read_taps(&self, m: u32, taps: &[(u32, f32); 4]) -> Sample {
         let mut out = Sample::default();
-        for (a, b, w) in [
-            (a0, b0, (1.0 - fx) * (1.0 - fy)),
-            (a1, b0, fx * (1.0 - fy)),
-            (a0, b1, (1.0 - fx) * fy),
-            (a1, b1, fx * fy),
-        ] {
-            let d = self.texel(m, a, b);
-            if d < 1.0 {
-                out.coverage += w;
-                out.weighted_distance += w * d;
+        let mut vote = |w: f32, d: f32| {
+            out.coverage += w;
+            out.weighted_distance += w * d;
+        };
+        match &self.data {
+            // 8-bit maps vote on the byte (a miss is 255), with the distance
+            // from a table of the very quotients q / 255. The vote is a
+            // select, not a branch: the texel loads miss the caches (4 MB of
+            // maps, scattered taps), and a branch on each load's value would
+            // stall the next map's work behind it; a miss adds +0.
+            FieldData::U8(v) => {
+                let texels = self.params.texels_per_map();
+                let map = &v[m as usize * texels..][..texels];
+                for &(i, w) in taps {
+                    let q = map[i as usize];
+                    let w = if q < 255 { w } else { 0.0 };
+                    vote(w, U8_DISTANCE[q as usize]);
+                }
+            }
+            data => {
+                for &(i, w) in taps {
+                    let d = data.value(&self.params, m as usize, i as usize);
+                    if d < 1.0 {
+                        vote(w, d);
+                    }
+                }
             }
         }
         out
     }
 
-    /// Map m read for object-space direction `d`.
-    fn map_sample_world(&self, m: u32, d: Vec3) -> Sample {
-        let f = map_frame(&self.params, m);
+    /// Map m read for object-space direction `d`, in the map's frame `f`.
+    #[inline]
+    fn map_sample_world(&self, m: u32, f: &Frame, d: Vec3) -> Sample {
         self.map_sample(m, Vec3::new(d.dot(f.t), d.dot(f.b), d.dot(f.n)))
     }
 
     /// The lookup for a ray entering the sphere at unit position `p`
     /// (relative to the centre) along unit direction `d`.
     pub fn sample(&self, p: Vec3, d: Vec3, positional: Positional) -> Sample {
+        self.sample_in(p, d, positional, |m| map_frame(&self.params, m))
+    }
+
+    /// `sample` with the maps' frames from `frame` (computed, or read from a
+    /// `FieldQuery`'s table: the same values either way).
+    #[inline]
+    pub(super) fn sample_in(&self, p: Vec3, d: Vec3, positional: Positional, frame: impl Fn(u32) -> Frame) -> Sample {
         match positional {
-            Positional::Nearest => self.map_sample_world(self.params.grid.nearest(p), d),
+            Positional::Nearest => {
+                let m = self.params.grid.nearest(p);
+                self.map_sample_world(m, &frame(m), d)
+            }
+            // All four maps' taps first, then their reads: the reads are
+            // then independent loads the core overlaps (they miss the
+            // caches), instead of each waiting behind the next map's
+            // arithmetic. Same votes, summed in the same order.
             Positional::Bilinear => {
+                let maps = self.params.grid.bilinear(p);
+                let taps = maps.map(|(m, w)| {
+                    (w > 0.0).then(|| {
+                        let f = frame(m);
+                        self.map_taps(Vec3::new(d.dot(f.t), d.dot(f.b), d.dot(f.n)))
+                    })
+                });
                 let mut out = Sample::default();
-                for (m, w) in self.params.grid.bilinear(p) {
-                    if w > 0.0 {
-                        out.add(w, self.map_sample_world(m, d));
+                for ((m, w), taps) in maps.into_iter().zip(taps) {
+                    if let Some(taps) = taps {
+                        out.add(w, self.read_taps(m, &taps));
                     }
                 }
                 out
@@ -173,11 +243,23 @@ impl DisplacementField {
 
     /// Traces the object-space ray o + s d (d unit).
     pub fn trace(&self, o: Vec3, d: Vec3, positional: Positional) -> FieldTrace {
+        self.trace_in(o, d, positional, |m| map_frame(&self.params, m))
+    }
+
+    /// `trace` with the maps' frames from `frame` (see `sample_in`).
+    #[inline]
+    pub(super) fn trace_in(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        positional: Positional,
+        frame: impl Fn(u32) -> Frame,
+    ) -> FieldTrace {
         let Some((p, s0, s1)) = self.entry(o, d) else {
             return FieldTrace::Outside;
         };
         let inside = s0 < 0.0;
-        let Some(distance) = self.sample(p, d, positional).distance() else {
+        let Some(distance) = self.sample_in(p, d, positional, frame).distance() else {
             return FieldTrace::Miss { inside, hidden: false };
         };
         let t = s0 + distance * 2.0 * self.radius;

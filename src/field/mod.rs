@@ -16,6 +16,7 @@
 //!   Malley, polar, rejection) and inverses;
 //! - `storage`: 32-bit, 8-bit and 1-bit maps;
 //! - `file`: the `.dfield` format;
+//! - `query`: a field made ready for many lookups (frames tabulated);
 //! - `runner`: AO of a scene's receivers through its casters' fields, on
 //!   any device (`ao --method field`).
 
@@ -28,6 +29,7 @@ pub mod gpu;
 pub mod lookup;
 pub mod options;
 pub mod positions;
+pub mod query;
 pub mod reach;
 pub mod report;
 pub mod runner;
@@ -38,4 +40,5 @@ pub use build::{BuildStats, DisplacementField, FieldSummary, bounding_sphere};
 pub use directions::DirectionMapping;
 pub use lookup::{FieldTrace, Positional, Sample, field_probe};
 pub use positions::OctahedralGrid;
+pub use query::FieldQuery;
 pub use storage::{FieldData, FieldParams, Storage};

@@ -60,6 +60,16 @@ pub fn sphere_to_square(d: Vec3) -> [f32; 2] {
     [u.copysign(d.x), v.copysign(d.y)]
 }
 
+/// `x.floor()` for |x| < 2^31 without the libm call it is on x86-64's
+/// baseline (no SSE4.1 rounding); the lookups floor per ray. NaN gives 0
+/// where `floor` gives NaN: both cast to index 0, and the fraction x - floor
+/// is NaN either way.
+#[inline]
+fn floor(x: f32) -> f32 {
+    let t = x as i32 as f32;
+    if t > x { t - 1.0 } else { t }
+}
+
 impl OctahedralGrid {
     /// The grid whose sample count is nearest `positions` (at least 1).
     pub fn with_count(positions: u32) -> OctahedralGrid {
@@ -91,8 +101,8 @@ impl OctahedralGrid {
         let [gx, gy] = self.grid_coordinates(d);
         let last = self.side as i32 - 1;
         // floor(x + 0.5), not round(): WGSL's round() goes to even at .5.
-        let i = ((gx + 0.5).floor() as i32).clamp(0, last) as u32;
-        let j = ((gy + 0.5).floor() as i32).clamp(0, last) as u32;
+        let i = (floor(gx + 0.5) as i32).clamp(0, last) as u32;
+        let j = (floor(gy + 0.5) as i32).clamp(0, last) as u32;
         i + j * self.side
     }
 
@@ -117,7 +127,7 @@ impl OctahedralGrid {
     /// The four samples around `d` and their bilinear weights (summing to 1).
     pub fn bilinear(&self, d: Vec3) -> [(u32, f32); 4] {
         let [gx, gy] = self.grid_coordinates(d);
-        let (x0, y0) = (gx.floor(), gy.floor());
+        let (x0, y0) = (floor(gx), floor(gy));
         let (fx, fy) = (gx - x0, gy - y0);
         let (i, j) = (x0 as i32, y0 as i32);
         [

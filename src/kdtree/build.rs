@@ -17,9 +17,13 @@
 //!    times the scene box's is not split further.
 //!
 //! Candidate planes come from the triangles' bounds clipped to the cell
-//! ("perfect splits"). Cells with many triangles evaluate the SAH on a binned
-//! grid of planes (O(N) per cell); smaller cells sweep every event exactly
-//! (Wald and Havran 2006). The two children are built in parallel with rayon.
+//! ("perfect splits"). Cells with more than a few triangles evaluate the SAH
+//! on a binned grid of planes (O(N) per cell) and then sweep exactly only
+//! the events in the two bins around the best boundary; the smallest cells
+//! sweep every event exactly (Wald and Havran 2006). The rules above come
+//! first and are not binned. The two children of large cells are built in
+//! parallel with rayon; a split allocates only its above side (the below side
+//! is compacted in place) and the sweep's events live in a reused scratch.
 
 use glam::Vec3;
 
@@ -48,9 +52,14 @@ pub struct KdTreeParams {
     /// Maximum depth; `None` picks `8 + 1.3 log2(N)` (capped at
     /// `MAX_TREE_DEPTH`, the traversal stack size).
     pub max_depth: Option<usize>,
-    /// Cells with more triangles than this use binned SAH.
+    /// Cells with more triangles than this use binned SAH refined by an
+    /// exact sweep of the two bins around the best boundary; smaller cells
+    /// sweep all their events. 16 with 32 bins builds the bunny about 10%
+    /// faster (304 -> 273 ms, one thread) than sweeping every cell of up to
+    /// 1024 triangles, with the same trace speed (bunny and dragon100k
+    /// primary rays within noise); 2 or 6 was slower than 16.
     pub exact_sah_below: usize,
-    /// Number of bins per axis for binned SAH.
+    /// Number of bins per axis for binned SAH (2 to `MAX_BINS`).
     pub bins: usize,
 }
 
@@ -64,8 +73,8 @@ impl Default for KdTreeParams {
             coplanar_rule: true,
             min_cell_area: 1e-7,
             max_depth: None,
-            exact_sah_below: 1024,
-            bins: 64,
+            exact_sah_below: 16,
+            bins: 32,
         }
     }
 }
@@ -126,6 +135,8 @@ pub(super) struct Output {
     pub nodes: Vec<KdNode>,
     pub leaf_triangles: Vec<u32>,
     pub stats: BuildStats,
+    /// Scratch for the SAH sweep's events, reused from cell to cell.
+    events: Vec<u64>,
 }
 
 impl Output {
@@ -211,6 +222,39 @@ impl Sah {
     }
 }
 
+/// Most bins `binned_split` uses (the counts live on the stack).
+pub const MAX_BINS: usize = 256;
+
+/// The events an exact sweep looks at: all, or those in bins `first..=last`
+/// of a binning (`first`, `last`, the cell's low end, bins per length, bin
+/// count), with the below/above counts of the triangles left of them.
+#[derive(Clone, Copy)]
+struct Window {
+    bins: Option<(usize, usize, f32, f32, usize)>,
+    counts_before: (usize, usize),
+}
+
+impl Window {
+    /// Every event of a cell of `n` triangles.
+    fn all(n: usize) -> Window {
+        Window {
+            bins: None,
+            counts_before: (0, n),
+        }
+    }
+
+    #[inline]
+    fn contains(&self, x: f32) -> bool {
+        match self.bins {
+            None => true,
+            Some((first, last, lo, scale, bins)) => {
+                let b = (((x - lo) * scale) as usize).min(bins - 1);
+                b >= first && b <= last
+            }
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug)]
 struct Split {
     axis: usize,
@@ -293,7 +337,7 @@ impl<'a> Builder<'a> {
         let split = self
             .empty_cut(&prims, &cell)
             .or_else(|| self.covered_plane(&prims, &cell))
-            .or_else(|| self.best_sah_split(&prims, &cell));
+            .or_else(|| self.best_sah_split(&prims, &cell, &mut out.events));
         let leaf_cost = self.params.intersection_cost * prims.len() as f32;
         match split.filter(|s| s.kind != SplitKind::Sah || s.cost < leaf_cost) {
             Some(split) => self.split_cell(prims, cell, at, split, out),
@@ -462,25 +506,33 @@ impl<'a> Builder<'a> {
         }
     }
 
-    fn best_sah_split(&self, prims: &[Prim], cell: &Aabb) -> Option<Split> {
+    fn best_sah_split(&self, prims: &[Prim], cell: &Aabb, events: &mut Vec<u64>) -> Option<Split> {
         if cell.surface_area_in(self.frame) <= 0.0 {
             return None;
         }
-        let mut events = Vec::new();
         (0..3)
             .filter(|&axis| cell.extent()[axis] > 0.0)
             .filter_map(|axis| {
                 if prims.len() > self.params.exact_sah_below {
-                    self.binned_split(prims, cell, axis)
+                    self.binned_split(prims, cell, axis, events)
                 } else {
-                    self.swept_split(prims, cell, axis, &mut events)
+                    self.swept_split(prims, cell, axis, events, Window::all(prims.len()))
                 }
             })
             .min_by(|a, b| a.cost.total_cmp(&b.cost))
     }
 
-    /// Exact SAH: sweep the sorted start, end and planar events of one axis.
-    fn swept_split(&self, prims: &[Prim], cell: &Aabb, axis: usize, events: &mut Vec<u64>) -> Option<Split> {
+    /// Exact SAH: sweep the sorted start, end and planar events of one axis
+    /// that fall in `window` (all of them, or those of a few bins, see
+    /// `binned_split`).
+    fn swept_split(
+        &self,
+        prims: &[Prim],
+        cell: &Aabb,
+        axis: usize,
+        events: &mut Vec<u64>,
+        window: Window,
+    ) -> Option<Split> {
         const END: u64 = 0;
         const PLANAR: u64 = 1;
         const START: u64 = 2;
@@ -488,17 +540,25 @@ impl<'a> Builder<'a> {
         for p in prims {
             let (lo, hi) = (p.bounds.min[axis], p.bounds.max[axis]);
             if lo == hi {
-                events.push(sort_key(lo) << 2 | PLANAR);
+                if window.contains(lo) {
+                    events.push(sort_key(lo) << 2 | PLANAR);
+                }
             } else {
-                events.push(sort_key(lo) << 2 | START);
-                events.push(sort_key(hi) << 2 | END);
+                if window.contains(lo) {
+                    events.push(sort_key(lo) << 2 | START);
+                }
+                if window.contains(hi) {
+                    events.push(sort_key(hi) << 2 | END);
+                }
             }
         }
         events.sort_unstable();
         let (lo, hi) = (cell.min[axis], cell.max[axis]);
         let sah = self.sah(cell, axis);
         let mut best: Option<Split> = None;
-        let (mut n_below, mut n_above) = (0usize, prims.len());
+        // Counts left of the window: triangles starting before it are below,
+        // those ending before it are not above.
+        let (mut n_below, mut n_above) = window.counts_before;
         let mut i = 0;
         while i < events.len() {
             let key = events[i] >> 2;
@@ -537,74 +597,106 @@ impl<'a> Builder<'a> {
         best
     }
 
-    /// Binned SAH over `bins` evenly spaced planes; the partition that follows
-    /// is exact, so binning only affects which plane is chosen.
-    fn binned_split(&self, prims: &[Prim], cell: &Aabb, axis: usize) -> Option<Split> {
-        let bins = self.params.bins.max(2);
+    /// Binned SAH over `bins` evenly spaced planes (O(N), Wald 2007), then an
+    /// exact sweep of the events inside the two bins around the best
+    /// boundary, so that the chosen plane is a triangle's bound as in the
+    /// exact sweep (Wald and Havran 2006) at the cost of sorting a few events
+    /// instead of all of them. The partition that follows is exact, so
+    /// binning only affects which plane is chosen.
+    fn binned_split(&self, prims: &[Prim], cell: &Aabb, axis: usize, events: &mut Vec<u64>) -> Option<Split> {
+        let bins = self.params.bins.clamp(2, MAX_BINS);
         let (lo, extent) = (cell.min[axis], cell.extent()[axis]);
         let scale = bins as f32 / extent;
+        // Monotone in x, so the events of a run of bins are a run of
+        // positions. A planar triangle counts as a start and an end in its bin.
         let bin = |x: f32| (((x - lo) * scale) as usize).min(bins - 1);
-        let mut starts = vec![0usize; bins];
-        let mut ends = vec![0usize; bins];
+        let mut starts = [0usize; MAX_BINS];
+        let mut ends = [0usize; MAX_BINS];
         for p in prims {
             starts[bin(p.bounds.min[axis])] += 1;
             ends[bin(p.bounds.max[axis])] += 1;
         }
         let sah = self.sah(cell, axis);
-        let mut best: Option<Split> = None;
+        let mut best: Option<(usize, Split)> = None;
         let mut n_below = starts[0];
         let mut n_above = prims.len();
         for k in 1..bins {
             n_above -= ends[k - 1];
             let pos = lo + extent * (k as f32 / bins as f32);
             let cost = sah.cost(pos, n_below, n_above);
-            if best.is_none_or(|b| cost < b.cost) {
-                best = Some(Split {
+            if best.is_none_or(|(_, b)| cost < b.cost) {
+                let split = Split {
                     axis,
                     pos,
                     planar_below: true,
                     kind: SplitKind::Sah,
                     cost,
-                });
+                };
+                best = Some((k, split));
             }
             n_below += starts[k];
         }
-        best
+        let (k, binned) = best?;
+        // Bins k-1 and k, and the counts of the triangles left of them.
+        let first = k - 1;
+        let counts_before = (
+            starts[..first].iter().sum::<usize>(),
+            prims.len() - ends[..first].iter().sum::<usize>(),
+        );
+        let window = Window {
+            bins: Some((first, k, lo, scale, bins)),
+            counts_before,
+        };
+        let swept = self.swept_split(prims, cell, axis, events, window);
+        match swept {
+            Some(s) if s.cost <= binned.cost => Some(s),
+            _ => Some(binned),
+        }
     }
 
     /// Sends each triangle to the children it overlaps, clipping the bounds of
-    /// those that straddle the plane.
-    fn partition(&self, prims: Vec<Prim>, cell: &Aabb, s: &Split) -> (Vec<Prim>, Aabb, Vec<Prim>, Aabb) {
+    /// those that straddle the plane. The below side is compacted in place in
+    /// `prims` (each triangle read yields at most one below), so a split
+    /// allocates only the above side's vector.
+    fn partition(&self, mut prims: Vec<Prim>, cell: &Aabb, s: &Split) -> (Vec<Prim>, Aabb, Vec<Prim>, Aabb) {
         let (a, pos) = (s.axis, s.pos);
         let mut below_cell = *cell;
         below_cell.max[a] = pos;
         let mut above_cell = *cell;
         above_cell.min[a] = pos;
-        let mut below = Vec::with_capacity(prims.len() / 2 + 1);
         let mut above = Vec::with_capacity(prims.len() / 2 + 1);
-        for p in prims {
+        let mut kept = 0;
+        for i in 0..prims.len() {
+            let p = prims[i];
             let (lo, hi) = (p.bounds.min[a], p.bounds.max[a]);
-            if lo == pos && hi == pos {
+            let below = if lo == pos && hi == pos {
                 if s.planar_below {
-                    below.push(p);
+                    Some(p)
                 } else {
                     above.push(p);
+                    None
                 }
             } else if hi <= pos {
-                below.push(p);
+                Some(p)
             } else if lo >= pos {
                 above.push(p);
+                None
             } else {
                 let tri = &self.triangles[p.tri as usize];
-                for (cell, side) in [(&below_cell, &mut below), (&above_cell, &mut above)] {
-                    let bounds = clipped_bounds(tri, cell);
-                    if !bounds.is_empty() {
-                        side.push(Prim { bounds, tri: p.tri });
-                    }
+                let bounds = clipped_bounds(tri, &above_cell);
+                if !bounds.is_empty() {
+                    above.push(Prim { bounds, tri: p.tri });
                 }
+                let bounds = clipped_bounds(tri, &below_cell);
+                (!bounds.is_empty()).then_some(Prim { bounds, tri: p.tri })
+            };
+            if let Some(b) = below {
+                prims[kept] = b;
+                kept += 1;
             }
         }
-        (below, below_cell, above, above_cell)
+        prims.truncate(kept);
+        (prims, below_cell, above, above_cell)
     }
 }
 

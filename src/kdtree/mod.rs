@@ -89,6 +89,7 @@ impl KdTree {
             nodes,
             leaf_triangles,
             mut stats,
+            ..
         } = out;
         stats.triangles = triangles.len();
         stats.depth_limit = params.depth_limit(triangles.len());
@@ -222,8 +223,11 @@ fn validate_params(p: &KdTreeParams) -> Result<()> {
             format!("must be between 1 and {MAX_TREE_DEPTH}"),
         ));
     }
-    if p.bins < 2 {
-        return Err(Error::param("kd-tree bins", "must be at least 2"));
+    if p.bins < 2 || p.bins > build::MAX_BINS {
+        return Err(Error::param(
+            "kd-tree bins",
+            format!("must be between 2 and {}", build::MAX_BINS),
+        ));
     }
     Ok(())
 }
