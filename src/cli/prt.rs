@@ -168,6 +168,7 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     let env = EnvironmentMap::load(&args.env)?;
     let scene = args.motion.scene(args.mesh.as_deref(), args.animated.as_deref())?;
     playback.fit_clip(scene.meshes[0].clip(), args.frames.is_some(), args.dt.is_some())?;
+    scene.warnings.iter().for_each(|w| super::io::note(w));
     let device = args.common.open_device()?;
     let mesh = &scene.meshes[0];
     let triangles = &mesh.mesh.triangles;

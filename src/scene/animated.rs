@@ -105,6 +105,14 @@ impl Animation {
         }
     }
 
+    /// Problems met while reading a user's animation that did not stop it.
+    pub fn warnings(&self) -> Vec<String> {
+        match &self.kind {
+            Kind::User(d) => d.warnings(),
+            _ => Vec::new(),
+        }
+    }
+
     /// What the animation is, for reports (`prt --json`'s `animation`).
     pub fn source(&self) -> AnimationSource {
         match &self.kind {

@@ -158,7 +158,9 @@ impl SkinnedModel {
             model.joints.push(j);
             model.weights.push(w);
         };
-        let bottom = -0.6 * r_at(0.0);
+        // Round-ish ends: poles beyond the end rings by 0.6 of the thinner radius.
+        let pole = |s: f64| 0.6 * r_at(s) * sx.min(sz);
+        let bottom = -pole(0.0);
         push(self, base + d * bottom, bottom.max(0.0));
         for k in 0..=rings {
             let s = length * k as f64 / rings as f64;
@@ -168,7 +170,7 @@ impl SkinnedModel {
                 push(self, p, s);
             }
         }
-        let top = length + 0.6 * r_at(length);
+        let top = length + pole(length);
         push(self, base + d * top, length);
         let ring = |k: u32, j: u32| first + 1 + k * segments + j % segments;
         let pole_top = first + 1 + (rings + 1) * segments;
@@ -403,7 +405,7 @@ pub fn hand() -> SkinnedModel {
         let axis = d.cross(DVec3::Z).normalize();
         let curl = |t: f64, k: usize| {
             let x = (PI * t - 0.35 * f as f64).sin().max(0.0);
-            [45.0, 70.0, 60.0][k] * x * x
+            [30.0, 40.0, 30.0][k] * x * x
         };
         for k in 0..3 {
             tracks.push(Track {

@@ -14,6 +14,10 @@ pub trait Deformation: Send + Sync + std::fmt::Debug {
     fn positions_at(&self, seconds: f32, out: &mut Vec<Vec3>);
     fn clip(&self) -> Clip;
     fn source(&self) -> AnimationSource;
+    /// Problems met while reading that did not stop it (normalised weights...).
+    fn warnings(&self) -> Vec<String> {
+        Vec::new()
+    }
 }
 
 /// The length of an animation and the frames it was made with: a sequence

@@ -245,6 +245,7 @@ impl Scene {
             animation: None,
             shading: None,
         });
+        scene.warnings = animation.warnings();
         scene.meshes[0].animation = Some(animation);
         Ok(scene)
     }

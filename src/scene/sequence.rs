@@ -248,15 +248,14 @@ fn frame_number(path: &Path) -> Option<u64> {
 }
 
 /// Where every file numbers its frame, the numbers must step evenly (by
-/// the first two files' step): a gap is a missing frame, named.
+/// the smallest step between neighbours): a gap is a missing frame, named.
 fn check_numbering(files: &[PathBuf]) -> Result<()> {
     let Some(numbers) = files.iter().map(|f| frame_number(f)).collect::<Option<Vec<u64>>>() else {
         return Ok(());
     };
-    if numbers.len() < 2 || numbers[1] <= numbers[0] {
+    let Some(step) = numbers.windows(2).filter(|w| w[1] > w[0]).map(|w| w[1] - w[0]).min() else {
         return Ok(());
-    }
-    let step = numbers[1] - numbers[0];
+    };
     for (i, w) in numbers.windows(2).enumerate() {
         if w[1] != w[0] + step {
             let missing = w[0] + step;

@@ -144,6 +144,7 @@ pub struct Rig {
     channels: Vec<Channel>,
     start: f32,
     end: f32,
+    warnings: Vec<String>,
 }
 
 impl Rig {
@@ -251,6 +252,10 @@ impl Deformation for Rig {
             duration,
             frames: (duration * Clip::DEFAULT_FPS).round() as usize + 1,
         }
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        self.warnings.clone()
     }
 
     fn source(&self) -> AnimationSource {
@@ -631,6 +636,7 @@ impl Reader<'_> {
             channels,
             start,
             end,
+            warnings: self.out.warnings.clone(),
         }))
     }
 }
