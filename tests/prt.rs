@@ -66,7 +66,7 @@ fn gpu_transfer_matches_cpu() {
             ..PrtSettings::default()
         };
         let prt = Prt::new(&pos, &anim.triangles, &settings).unwrap();
-        let eye = Some(anim.camera.0);
+        let eye = Some(anim.camera.expect("built-in animations have a camera").0);
         let light = lighting(bands, 7 + bands as u64);
         let mut cpu = FrameOutput::default();
         prt.frame(&pos, eye, &light, false, true, &mut cpu).unwrap();
@@ -139,7 +139,7 @@ fn cloth_transfer_is_within_three_percent_of_ray_tracing() {
     let mut pos = Vec::new();
     anim.positions_at(0.0, &mut pos);
     let prt = Prt::new(&pos, &anim.triangles, &PrtSettings::default()).unwrap();
-    let eye = Some(anim.camera.0);
+    let eye = Some(anim.camera.expect("built-in animations have a camera").0);
     let light = lighting(5, 3);
     let floor = 0.01 * prt.tables.unoccluded.iter().map(|v| v * v).sum::<f32>().sqrt();
     for time in [0.0, 1.5] {
@@ -166,7 +166,7 @@ fn shadows_change_the_transfer() {
     let anim = animation("character");
     let mut pos = Vec::new();
     anim.positions_at(0.4, &mut pos);
-    let eye = Some(anim.camera.0);
+    let eye = Some(anim.camera.expect("built-in animations have a camera").0);
     let light = lighting(5, 3);
     let with = Prt::new(&pos, &anim.triangles, &PrtSettings::default()).unwrap();
     let without = Prt::new(

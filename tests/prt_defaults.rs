@@ -69,7 +69,7 @@ fn animated(name: &str, times: &[f32]) -> Case {
         rest: pose(0.0),
         poses: times.iter().map(|&t| pose(t)).collect(),
         triangles: anim.triangles.clone(),
-        eye: anim.camera.0,
+        eye: anim.camera.expect("built-in animations have a camera").0,
     }
 }
 

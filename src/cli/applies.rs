@@ -114,7 +114,13 @@ fn prt_rules(a: &super::prt::PrtArgs) -> Vec<Rule> {
             &["self_check_threshold"],
             "--self-check on",
         ),
-        rule(a.animated.is_some(), &["start", "dt"], "--animated"),
+        rule(
+            a.motion.may_animate(a.mesh.as_deref(), a.animated.is_some()),
+            &["start", "dt"],
+            "an animation",
+        ),
+        rule(a.motion.mesh_sequence.is_some(), &["sequence_fps"], "--mesh-sequence"),
+        rule(a.mesh.is_some(), &["animation"], "--mesh (a glTF file)"),
         rule(a.per_vertex.is_some(), &["per_vertex_transfer"], "--per-vertex"),
         rule(
             a.out.is_some() || a.out_frames.is_some(),

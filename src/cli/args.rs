@@ -60,7 +60,7 @@ pub use crate::options::init_thread_pool;
 pub use crate::options::{CameraOptions as CameraArgs, OnOff, positive};
 pub(crate) use crate::scene::parse_vec3;
 
-pub use crate::scene::{file_stem as stem, load_input, load_shaded_input};
+pub use crate::scene::{load_input, load_shaded_input};
 
 pub use crate::output::{check_output, check_outputs};
 

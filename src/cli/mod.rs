@@ -65,7 +65,7 @@ enum Command {
     Raytrace(raytrace::RaytraceArgs),
     /// Time and error of every setting of a grid of a method's knobs on your scene.
     Sweep(sweep::SweepArgs),
-    /// Write the procedural scenes (corner, closed box, well, ...) as OBJ files, and the ray tracer's scenes (OBJ, MTL, scene files) into OUT/raytrace.
+    /// Write the procedural scenes (corner, closed box, well, ...) as OBJ files, the ray tracer's scenes (OBJ, MTL, scene files) into OUT/raytrace and example animations into OUT/animations.
     GenAssets(GenAssetsArgs),
 }
 
@@ -132,6 +132,9 @@ fn dispatch(command: Command) -> Result<()> {
         Command::GenAssets(a) => {
             let mut written = crate::scene::procedural::write_assets(&a.out)?;
             written.extend(crate::raytrace::scenes::write_scenes(&a.out.join("raytrace"))?);
+            written.extend(crate::scene::animation_assets::write_animation_assets(
+                &a.out.join("animations"),
+            )?);
             let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
             emit(a.json, serde_json::json!({ "files": files }))
         }

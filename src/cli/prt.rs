@@ -8,25 +8,24 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use serde_json::{Value, json};
 
-use super::args::{CameraArgs, Common, OnOff, check_outputs, parse_vec3, positive, stem};
+use super::args::{CameraArgs, Common, OnOff, check_outputs, parse_vec3, positive};
 use crate::error::{Error, Result};
 use crate::image_out::{ImageFormat, write_radiance};
 use crate::output::frame_path;
 use crate::progress::Bars;
 use crate::prt::budget::choose_cached;
-use crate::prt::options::PrtOptions;
+use crate::prt::options::{AnimationOptions, PrtOptions};
 use crate::prt::pipeline::PrtSettings;
 use crate::prt::render::{auto_exposure, render_radiance};
 use crate::prt::runner::{Playback, PrtRunner, PvsSampling, RayTraced, Shadows, animate};
 use crate::prt::selfcheck::SelfCheck;
 use crate::prt::sh_out::write_sh_json;
-use crate::scene::animated::AnimatedScene;
-use crate::scene::{EnvironmentMap, Scene, View, load_mesh, used_bounds};
+use crate::scene::{EnvironmentMap, View, used_bounds};
 
 #[derive(clap::Args)]
 pub struct PrtArgs {
     /// Mesh: OBJ, PLY or glTF (static: the transfer is still recomputed every frame).
-    #[arg(long, required_unless_present = "animated")]
+    #[arg(long, required_unless_present_any = ["animated", "mesh_sequence"])]
     pub mesh: Option<PathBuf>,
     /// A built-in animation instead of --mesh: cloth or character.
     #[arg(long, conflicts_with = "mesh")]
@@ -34,15 +33,15 @@ pub struct PrtArgs {
     /// Radiance .hdr latitude-longitude light probe.
     #[arg(long)]
     pub env: PathBuf,
-    /// Frames to compute.
-    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
-    pub frames: i64,
+    /// Frames to compute [default: 1; an animation's own frames].
+    #[arg(long, allow_negative_numbers = true)]
+    pub frames: Option<i64>,
     /// Animation time of the first frame, seconds.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub start: f32,
-    /// Animation time between frames, seconds.
-    #[arg(long, default_value_t = 1.0 / 30.0, allow_negative_numbers = true)]
-    pub dt: f32,
+    /// Animation time between frames, seconds [default: 1/30; a clip's span / (--frames - 1)].
+    #[arg(long, allow_negative_numbers = true)]
+    pub dt: Option<f32>,
     /// Potentially visible sets from sampled animation frames.
     #[arg(long, value_enum, default_value_t = OnOff::Off)]
     pub pvs: OnOff,
@@ -54,6 +53,8 @@ pub struct PrtArgs {
     pub pvs_span: Option<f32>,
     #[command(flatten)]
     pub knobs: PrtOptions,
+    #[command(flatten)]
+    pub motion: AnimationOptions,
     /// Where visibility comes from.
     #[arg(long, value_enum, default_value_t = Shadows::On)]
     pub shadows: Shadows,
@@ -119,14 +120,14 @@ pub struct PrtArgs {
 /// The checked knobs: the method's settings, how the animation is played,
 /// the reference's rays.
 fn knobs(a: &PrtArgs) -> Result<(PrtSettings, Playback, RayTraced)> {
-    let frames = positive("--frames", a.frames)?;
+    let frames = positive("--frames", a.frames.unwrap_or(1))?;
     let check_rays = positive("--check-rays", a.check_rays)?;
     let check_frames = positive("--check-frames", a.check_frames)?;
     let pvs_frames = positive("--pvs-frames", a.pvs_frames)?;
     let playback = Playback {
         frames,
         start: a.start,
-        dt: a.dt,
+        dt: a.dt.unwrap_or(1.0 / 30.0),
         env_spin: a.env_spin,
         pvs: a.pvs.on().then_some(PvsSampling {
             frames: pvs_frames,
@@ -159,13 +160,15 @@ fn knobs(a: &PrtArgs) -> Result<(PrtSettings, Playback, RayTraced)> {
 
 pub fn run(args: &PrtArgs) -> Result<Value> {
     let threads = args.common.init_threads()?;
-    let (mut settings, playback, reference) = knobs(args)?;
+    let (mut settings, mut playback, reference) = knobs(args)?;
     let view = View::new(args.camera.spec(), args.width, args.height)?;
     let out_png = checked_outputs(args)?;
     settings.validate()?;
     // Inputs: the probe first (a bad file fails before any work).
     let env = EnvironmentMap::load(&args.env)?;
-    let scene = scene_of(args)?;
+    let scene = args.motion.scene(args.mesh.as_deref(), args.animated.as_deref())?;
+    playback.fit_clip(scene.meshes[0].clip(), args.frames.is_some(), args.dt.is_some())?;
+    scene.warnings.iter().for_each(|w| super::io::note(w));
     let device = args.common.open_device()?;
     let mesh = &scene.meshes[0];
     let triangles = &mesh.mesh.triangles;
@@ -176,7 +179,9 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     let choice = match args.max_error {
         Some(e) => {
             let files: Vec<&Path> = args.mesh.iter().map(PathBuf::as_path).collect();
-            let source = (&*format!("{:?}", args.animated), &files[..]);
+            // The rest pose itself keys the cache: sequences and clips have no one file.
+            let pose_crc = crc32fast::hash(bytemuck::cast_slice(&rest));
+            let source = (&*format!("{:?}|{pose_crc:08x}", args.animated), &files[..]);
             let (seed, pose) = (args.common.seed, (&rest[..], &triangles[..]));
             let choice = choose_cached(&device, pose, &mut settings, camera.eye, source, seed, e, Bars::Stderr)?;
             super::io::note_choice(&choice);
@@ -262,13 +267,4 @@ fn checked_outputs(args: &PrtArgs) -> Result<Option<&Path>> {
         ));
     }
     Ok(out)
-}
-
-/// The one-mesh scene of `--mesh` or `--animated`.
-fn scene_of(args: &PrtArgs) -> Result<Scene> {
-    match (&args.mesh, &args.animated) {
-        (Some(path), None) => Ok(Scene::from_mesh(&stem(path), path, load_mesh(path)?)),
-        (None, Some(name)) => Ok(Scene::from_animation(AnimatedScene::parse(name)?.build())),
-        _ => Err(Error::param("--mesh", "give --mesh FILE or --animated cloth|character")),
-    }
 }

@@ -1,13 +1,18 @@
 //! Hemispherical rasterisation's knobs as command-line options (see
 //! `crate::options`).
 
+use std::path::Path;
+
 use clap::Args;
 
 use super::hierarchy::{DEFAULT_TOLERANCE, HierarchySettings, NearField};
 use super::pipeline::{PrtSettings, Toggle};
 use super::transfer::{Brdf, BrdfKind, Integration};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::options::{Applies, OnOff, applies, positive};
+use crate::scene::animated::AnimatedScene;
+use crate::scene::sequence::MeshSequence;
+use crate::scene::{MeshFormat, Scene, load_gltf_animation, load_mesh};
 
 #[derive(Args, Clone, Debug)]
 pub struct PrtOptions {
@@ -95,4 +100,86 @@ impl PrtOptions {
         };
         Ok(settings)
     }
+}
+
+/// Users' animations (issue 15 item 3): a mesh sequence, or the clip of an
+/// animated glTF `--mesh`.
+#[derive(Args, Clone, Debug, Default)]
+pub struct AnimationOptions {
+    /// An animation as one mesh file per frame (OBJ, PLY or glTF; one
+    /// topology), e.g. 'frames/*.obj' quoted: `*` and `?` in the file name,
+    /// natural order (f2 before f10). Frame 0 is the rest pose.
+    #[arg(long, conflicts_with_all = ["mesh", "animated"])]
+    pub mesh_sequence: Option<String>,
+    /// Frames per second of --mesh-sequence (frame k plays at time k / fps).
+    #[arg(long, default_value_t = 30.0, allow_negative_numbers = true)]
+    pub sequence_fps: f32,
+    /// The animation of a glTF --mesh to play: its name or index [default:
+    /// the first], or `none` for the rest pose. Skins and morph targets
+    /// are applied.
+    #[arg(long)]
+    pub animation: Option<String>,
+}
+
+impl AnimationOptions {
+    /// The one-mesh scene of `--mesh`, `--animated` or `--mesh-sequence`:
+    /// a glTF mesh with an animation plays it (unless `--animation none`).
+    pub fn scene(&self, mesh: Option<&Path>, animated: Option<&str>) -> Result<Scene> {
+        match (mesh, animated, &self.mesh_sequence) {
+            (None, None, Some(pattern)) => {
+                let sequence = MeshSequence::load(pattern, self.sequence_fps)?;
+                let name = Path::new(pattern)
+                    .parent()
+                    .and_then(|d| d.file_name())
+                    .map_or_else(|| "sequence".to_string(), |d| d.to_string_lossy().into_owned());
+                Scene::from_user_animation(Path::new(pattern), sequence.into_animation(&name))
+            }
+            (Some(path), None, None) => {
+                let selector = self.animation.as_deref();
+                let gltf = load_mesh_format(path)?.is_some_and(|f| matches!(f, MeshFormat::Gltf | MeshFormat::Glb));
+                if gltf
+                    && selector != Some("none")
+                    && let Some(animation) = load_gltf_animation(path, selector)?
+                {
+                    return Scene::from_user_animation(path, animation);
+                }
+                if selector.is_some_and(|s| s != "none") && !gltf {
+                    return Err(Error::param(
+                        "--animation",
+                        format!(
+                            "{} is not a glTF file; only glTF meshes hold animations",
+                            path.display()
+                        ),
+                    ));
+                }
+                let name = path
+                    .file_stem()
+                    .map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
+                Ok(Scene::from_mesh(&name, path, load_mesh(path)?))
+            }
+            (None, Some(name), None) => Ok(Scene::from_animation(AnimatedScene::parse(name)?.build())),
+            _ => Err(Error::param(
+                "--mesh",
+                "give one of --mesh FILE, --animated cloth|character or --mesh-sequence PATTERN",
+            )),
+        }
+    }
+
+    /// Whether the scene may move (`--start` and `--dt` apply).
+    pub fn may_animate(&self, mesh: Option<&Path>, animated: bool) -> bool {
+        let gltf = mesh.and_then(|m| m.extension()).is_some_and(|e| {
+            let e = e.to_string_lossy().to_ascii_lowercase();
+            e == "gltf" || e == "glb"
+        });
+        animated || self.mesh_sequence.is_some() || (gltf && self.animation.as_deref() != Some("none"))
+    }
+}
+
+/// The format of a mesh file by its content, if it can be read at all
+/// (the loader reports unreadable files).
+fn load_mesh_format(path: &Path) -> Result<Option<MeshFormat>> {
+    let Ok(bytes) = std::fs::read(path) else {
+        return Ok(None);
+    };
+    Ok(MeshFormat::detect(path, &bytes).ok())
 }

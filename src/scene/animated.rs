@@ -10,10 +10,12 @@
 //! the rest pose (t = 0) is what the hierarchy and its simplification see.
 
 use std::f32::consts::{PI, TAU};
+use std::sync::Arc;
 
 use glam::{Mat4, Vec3};
 
 use super::Mesh;
+pub use super::deform::{AnimationSource, Clip, Deformation};
 use crate::error::{Error, Result};
 
 /// Which built-in animation.
@@ -54,24 +56,70 @@ impl AnimatedScene {
 /// A mesh whose vertices move with time.
 #[derive(Debug, Clone)]
 pub struct Animation {
-    pub name: &'static str,
+    pub name: String,
     pub triangles: Vec<[u32; 3]>,
     kind: Kind,
-    /// A camera that frames the whole animation: (eye, target, fov degrees).
-    pub camera: (Vec3, Vec3, f32),
+    /// A camera that frames the whole animation: (eye, target, fov degrees)
+    /// (the built-in ones; a user's animation is framed like a mesh).
+    pub camera: Option<(Vec3, Vec3, f32)>,
 }
 
 #[derive(Debug, Clone)]
 enum Kind {
-    Cloth { n: usize },
-    Character { rig: Rig },
+    Cloth {
+        n: usize,
+    },
+    Character {
+        rig: Rig,
+    },
+    /// A user's animation: a mesh sequence or a glTF clip (`scene::deform`).
+    User(Arc<dyn Deformation>),
 }
 
 impl Animation {
+    /// A user's animation of `triangles` (checked by the caller to index
+    /// `deformation`'s vertices).
+    pub fn user(name: &str, triangles: Vec<[u32; 3]>, deformation: Arc<dyn Deformation>) -> Animation {
+        Animation {
+            name: name.into(),
+            triangles,
+            kind: Kind::User(deformation),
+            camera: None,
+        }
+    }
+
     pub fn vertex_count(&self) -> usize {
         match &self.kind {
             Kind::Cloth { n } => n * n,
             Kind::Character { rig } => rig.verts.len(),
+            Kind::User(d) => d.vertex_count(),
+        }
+    }
+
+    /// The frames the animation was made with, if it has a length (the
+    /// built-in ones are closed-form and endless).
+    pub fn clip(&self) -> Option<Clip> {
+        match &self.kind {
+            Kind::User(d) => Some(d.clip()),
+            _ => None,
+        }
+    }
+
+    /// Problems met while reading a user's animation that did not stop it.
+    pub fn warnings(&self) -> Vec<String> {
+        match &self.kind {
+            Kind::User(d) => d.warnings(),
+            _ => Vec::new(),
+        }
+    }
+
+    /// What the animation is, for reports (`prt --json`'s `animation`).
+    pub fn source(&self) -> AnimationSource {
+        match &self.kind {
+            Kind::User(d) => d.source(),
+            _ => AnimationSource::BuiltIn {
+                name: self.name.clone(),
+            },
         }
     }
 
@@ -81,6 +129,7 @@ impl Animation {
         match &self.kind {
             Kind::Cloth { n } => cloth_positions(*n, t, out),
             Kind::Character { rig } => rig.pose(t, out),
+            Kind::User(d) => d.positions_at(t, out),
         }
     }
 
@@ -89,7 +138,7 @@ impl Animation {
         let mut p = Vec::new();
         self.positions_at(t, &mut p);
         let mut m = Mesh::new(p, self.triangles.clone()).expect("animated meshes are valid");
-        m.objects[0].name = self.name.into();
+        m.objects[0].name = self.name.clone();
         m
     }
 }
@@ -125,10 +174,10 @@ pub fn cloth() -> Animation {
         }
     }
     Animation {
-        name: "cloth",
+        name: "cloth".into(),
         triangles,
         kind: Kind::Cloth { n },
-        camera: (Vec3::new(1.45, 1.55, 2.1), Vec3::new(0.0, 0.05, 0.0), 45.0),
+        camera: Some((Vec3::new(1.45, 1.55, 2.1), Vec3::new(0.0, 0.05, 0.0), 45.0)),
     }
 }
 
@@ -259,10 +308,10 @@ pub fn character() -> Animation {
         capsule(part, r, l1, l2, 16, 26, 5, base, &mut verts, &mut triangles);
     }
     Animation {
-        name: "character",
+        name: "character".into(),
         triangles,
         kind: Kind::Character { rig: Rig { verts } },
-        camera: (Vec3::new(2.2, 1.7, 3.3), Vec3::new(0.0, 1.05, 0.0), 40.0),
+        camera: Some((Vec3::new(2.2, 1.7, 3.3), Vec3::new(0.0, 1.05, 0.0), 40.0)),
     }
 }
 

@@ -26,13 +26,16 @@
 //! without them is flat, as glTF says. `pbrMetallicRoughness.
 //! baseColorFactor` is a material's diffuse colour, `emissiveFactor` (times
 //! `KHR_materials_emissive_strength`) its emission; textures, metalness,
-//! roughness and transparency are not used (a warning says so). Skins and
-//! morph targets are not applied: the rest pose is read.
+//! roughness and transparency are not used (a warning says so). A mesh
+//! read as a mesh is its rest pose (skins and morph targets not applied);
+//! `load_gltf_animation` reads its animation (`rig`: linear blend skinning,
+//! morph targets, node animation).
 
 mod accessor;
 mod container;
 mod nodes;
 mod out;
+mod rig;
 
 use std::path::Path;
 
@@ -40,6 +43,7 @@ use ::gltf::mesh::Mode;
 use ::gltf::{Document, Semantic};
 use glam::{DMat4, Vec3};
 
+use super::animated::Animation;
 use super::mesh::MeshObject;
 use super::mtl::Material;
 use super::obj::ObjFile;
@@ -59,6 +63,21 @@ pub fn load_gltf(path: &Path) -> Result<ObjFile> {
 /// name `path` (also for problems in the buffers it names) and the JSON
 /// path, mesh, primitive, accessor or node at fault.
 pub(super) fn gltf_from_bytes(path: &Path, bytes: &[u8], glb: bool) -> Result<ObjFile> {
+    read(path, bytes, glb, None).map(|(file, _)| file)
+}
+
+/// A glTF file's animation, if it has one (`rig`): `selector` names the
+/// clip (its name or index; default the first). None for a file without
+/// animations (its rest pose is `load_mesh`'s). Errors name the file and
+/// the field at fault.
+pub fn load_gltf_animation(path: &Path, selector: Option<&str>) -> Result<Option<Animation>> {
+    let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
+    let (_, rig) = read(path, &bytes, is_glb(&bytes), Some(selector))?;
+    Ok(rig.map(|r| r.into_animation()))
+}
+
+/// The mesh and, when `rig` asks (with its clip selector), the animation.
+fn read(path: &Path, bytes: &[u8], glb: bool, rig: Option<Option<&str>>) -> Result<(ObjFile, Option<rig::Rig>)> {
     let (json, bin, what) = if glb {
         let (json, bin) = container::split_glb(bytes).map_err(|e| e.in_file(path))?;
         (json, bin, "GLB JSON chunk ")
@@ -82,12 +101,23 @@ pub(super) fn gltf_from_bytes(path: &Path, bytes: &[u8], glb: bool) -> Result<Ob
         bin,
         buffers: vec![None; document.buffers().len()],
         out: Out::default(),
+        rig: rig.is_some(),
+        pieces: Vec::new(),
     };
     reader.out.warnings.append(&mut warnings);
     for instance in instances(path, &document)? {
         reader.instance(&instance)?;
     }
-    reader.out.finish().map_err(|e| e.in_file(path))
+    let rig = match rig {
+        Some(selector) => reader.rig(selector)?,
+        None => None,
+    };
+    let file = reader.out.finish().map_err(|e| e.in_file(path))?;
+    let rig = rig.map(|mut r| {
+        r.triangles = file.mesh.triangles.clone();
+        r
+    });
+    Ok((file, rig))
 }
 
 /// Refuses what the document model would misread: other glTF versions,
@@ -176,6 +206,10 @@ struct Reader<'a> {
     bin: Option<&'a [u8]>,
     buffers: Vec<Option<Vec<u8>>>,
     out: Out,
+    /// Whether skins, morph targets and animations are read (`rig`), and
+    /// each primitive's part of the mesh for them.
+    rig: bool,
+    pieces: Vec<rig::Piece>,
 }
 
 impl Reader<'_> {
@@ -191,13 +225,19 @@ impl Reader<'_> {
                 mesh.name().map_or_else(String::new, |n| format!(" '{n}'")),
                 primitive.index()
             );
-            self.primitive(&field, &primitive, instance.world)?;
+            let first = self.out.positions.len();
+            if let Some(base) = self.primitive(&field, &primitive, instance.world)?
+                && self.rig
+            {
+                let piece = self.piece(&field, instance, &primitive, first, base)?;
+                self.pieces.push(piece);
+            }
         }
-        if instance.skinned {
+        if instance.skin.is_some() && !self.rig {
             self.out
                 .warn(format!("'{}' has a skin: the rest pose is read", instance.name));
         }
-        if mesh.weights().is_some() || mesh.primitives().any(|p| p.morph_targets().len() > 0) {
+        if !self.rig && (mesh.weights().is_some() || mesh.primitives().any(|p| p.morph_targets().len() > 0)) {
             self.out.warn(format!(
                 "meshes[{}] has morph targets: the base shape is read",
                 mesh.index()
@@ -232,14 +272,16 @@ impl Reader<'_> {
         Ok(self.buffers[i].as_deref().unwrap_or(&[]))
     }
 
-    fn primitive(&mut self, field: &str, p: &::gltf::Primitive, world: DMat4) -> Result<()> {
+    /// Appends a primitive; returns its positions as the file holds them
+    /// (None where it is skipped).
+    fn primitive(&mut self, field: &str, p: &::gltf::Primitive, world: DMat4) -> Result<Option<Vec<Vec3>>> {
         let path = self.path;
         let fail = |problem: String| Error::file(path, field, problem);
         let mode = p.mode();
         if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
             self.out
                 .warn(format!("{field}: mode {mode:?} is not a surface; skipped"));
-            return Ok(());
+            return Ok(None);
         }
         let Some(position) = p.get(&Semantic::Positions) else {
             return Err(fail("has no POSITION attribute".into()));
@@ -289,7 +331,8 @@ impl Reader<'_> {
         let material = self.material(p.material())?;
         self.out
             .append(&positions, normals.as_deref(), &triangles, world, material)
-            .map_err(fail)
+            .map_err(fail)?;
+        Ok(Some(positions))
     }
 
     /// Our index of a primitive's material: 0 for glTF's default material.

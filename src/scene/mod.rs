@@ -10,8 +10,10 @@
 //! `mesh` for everyone.
 
 pub mod animated;
+pub mod animation_assets;
 mod camera;
 mod camera_path;
+pub mod deform;
 pub mod environment;
 mod gltf;
 mod input;
@@ -22,6 +24,7 @@ mod obj;
 mod ply;
 pub mod procedural;
 mod scene_file;
+pub mod sequence;
 mod shading;
 mod transform;
 
@@ -33,7 +36,7 @@ use serde::Deserialize;
 pub use camera::{Camera, CameraSpec, MAX_PIXELS, View, check_image_size, parse_vec3};
 pub use camera_path::CameraPath;
 pub use environment::EnvironmentMap;
-pub use gltf::load_gltf;
+pub use gltf::{load_gltf, load_gltf_animation};
 pub use input::{file_stem, load_input, load_shaded_input};
 pub use mesh::{Mesh, MeshObject, ORIGIN_OFFSET, used_bounds, vertex_normals};
 pub use mesh_file::{MeshFormat, companion_files, load_mesh, load_mesh_file};
@@ -91,6 +94,12 @@ impl SceneMesh {
             animation: None,
             shading: None,
         }
+    }
+
+    /// The length and frames of the mesh's animation, where it has one
+    /// (a sequence, a glTF clip; the built-in animations are endless).
+    pub fn clip(&self) -> Option<deform::Clip> {
+        self.animation.as_ref().and_then(|a| a.clip())
     }
 
     /// The vertex positions at `seconds` of the mesh's animation (a static
@@ -206,22 +215,41 @@ impl Scene {
     /// A scene of one deforming mesh (its rest pose at time 0), framed by
     /// the animation's camera.
     pub fn from_animation(animation: animated::Animation) -> Scene {
-        let name = animation.name;
+        let name = animation.name.clone();
         let mut scene = Self::of(SceneMesh {
-            name: name.into(),
+            name: name.clone(),
             path: PathBuf::from(format!("<{name} animation>")),
             mesh: animation.mesh_at(0.0),
             animation: None,
             shading: None,
         });
-        let (eye, target, fov_degrees) = animation.camera;
-        scene.camera = Some(Camera {
+        scene.camera = animation.camera.map(|(eye, target, fov_degrees)| Camera {
             eye,
             target,
             fov_degrees,
         });
         scene.meshes[0].animation = Some(animation);
         scene
+    }
+
+    /// A scene of a user's animation read from `path` (a glTF file, a
+    /// sequence's pattern): its rest pose the clip's first frame, framed
+    /// like a mesh (no camera of its own).
+    pub fn from_user_animation(path: &Path, animation: animated::Animation) -> crate::error::Result<Scene> {
+        let mut rest = Vec::new();
+        animation.positions_at(animation.clip().map_or(0.0, |c| c.start), &mut rest);
+        let mut mesh = Mesh::new(rest, animation.triangles.clone()).map_err(|e| e.in_file(path))?;
+        mesh.objects[0].name = animation.name.clone();
+        let mut scene = Self::of(SceneMesh {
+            name: animation.name.clone(),
+            path: path.to_path_buf(),
+            mesh,
+            animation: None,
+            shading: None,
+        });
+        scene.warnings = animation.warnings();
+        scene.meshes[0].animation = Some(animation);
+        Ok(scene)
     }
 
     fn of(mesh: SceneMesh) -> Scene {

@@ -141,3 +141,70 @@ pub fn indices(a: &Accessor, buffer: &[u8]) -> Result<Vec<u32>> {
         })
         .collect())
 }
+
+/// The components of each element of a float accessor of `dimensions`
+/// (skins' matrices, animations' keyframes, weights), flattened: FLOAT, or
+/// a normalized integer type mapped to [0, 1] or [-1, 1] as glTF 2.0
+/// section 3.11 says. Every value is checked finite.
+pub fn floats(a: &Accessor, buffer: &[u8], dimensions: Dimensions) -> Result<Vec<f32>> {
+    let width = dimensions.multiplicity();
+    let component = match (a.data_type(), a.normalized()) {
+        (DataType::F32, _) => 4,
+        (DataType::U8 | DataType::I8, true) => 1,
+        (DataType::U16 | DataType::I16, true) => 2,
+        _ => 0,
+    };
+    if a.dimensions() != dimensions || component == 0 {
+        return Err(format!(
+            "accessor {} is {}{}; FLOAT (or a normalized integer) {dimensions:?} is read here",
+            a.index(),
+            described(a),
+            if a.normalized() { " normalized" } else { "" }
+        ));
+    }
+    let l = layout(a, component * width, buffer)?;
+    let mut out = Vec::with_capacity(l.count * width);
+    for i in 0..l.count {
+        let e = &l.bytes[i * l.stride..];
+        for c in 0..width {
+            let b = &e[c * component..];
+            let v = match a.data_type() {
+                DataType::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+                DataType::U8 => b[0] as f32 / 255.0,
+                DataType::I8 => (b[0] as i8 as f32 / 127.0).max(-1.0),
+                DataType::U16 => u16::from_le_bytes([b[0], b[1]]) as f32 / 65535.0,
+                _ => (i16::from_le_bytes([b[0], b[1]]) as f32 / 32767.0).max(-1.0),
+            };
+            if !v.is_finite() {
+                return Err(format!("accessor {}: element {i} is not finite ({v})", a.index()));
+            }
+            out.push(v);
+        }
+    }
+    Ok(out)
+}
+
+/// A JOINTS accessor: UNSIGNED_BYTE or UNSIGNED_SHORT VEC4, not normalized.
+pub fn joints(a: &Accessor, buffer: &[u8]) -> Result<Vec<[u32; 4]>> {
+    let size = match (a.data_type(), a.dimensions(), a.normalized()) {
+        (DataType::U8, Dimensions::Vec4, false) => 1,
+        (DataType::U16, Dimensions::Vec4, false) => 2,
+        _ => {
+            return Err(format!(
+                "accessor {} is {}; joints are UNSIGNED_BYTE or UNSIGNED_SHORT VEC4",
+                a.index(),
+                described(a)
+            ));
+        }
+    };
+    let l = layout(a, 4 * size, buffer)?;
+    Ok((0..l.count)
+        .map(|i| {
+            let e = &l.bytes[i * l.stride..];
+            std::array::from_fn(|c| match size {
+                1 => e[c] as u32,
+                _ => u16::from_le_bytes([e[2 * c], e[2 * c + 1]]) as u32,
+            })
+        })
+        .collect())
+}

@@ -10,8 +10,10 @@ use crate::error::{Error, Result};
 /// A mesh placed in the world: by a node, or (no scenes) by itself.
 pub struct Instance {
     pub mesh: usize,
-    /// Whether the node has a skin (not applied).
-    pub skinned: bool,
+    /// The node placing it (none without scenes) and its skin, if any
+    /// (applied by `rig` when the file is animated).
+    pub node: Option<usize>,
+    pub skin: Option<usize>,
     /// The node's name, else the mesh's, else `mesh N`.
     pub name: String,
     pub world: DMat4,
@@ -31,7 +33,8 @@ pub fn instances(path: &Path, document: &Document) -> Result<Vec<Instance>> {
                 .meshes()
                 .map(|m| Instance {
                     mesh: m.index(),
-                    skinned: false,
+                    node: None,
+                    skin: None,
                     name: mesh_name(m),
                     world: DMat4::IDENTITY,
                 })
@@ -61,7 +64,8 @@ pub fn instances(path: &Path, document: &Document) -> Result<Vec<Instance>> {
             let name = node.name().map_or_else(|| mesh_name(mesh.clone()), str::to_string);
             out.push(Instance {
                 mesh: mesh.index(),
-                skinned: node.skin().is_some(),
+                node: Some(i),
+                skin: node.skin().map(|s| s.index()),
                 name,
                 world,
             });
@@ -74,7 +78,7 @@ pub fn instances(path: &Path, document: &Document) -> Result<Vec<Instance>> {
 
 /// A node's local transform in f64 (from its matrix, or from translation,
 /// rotation and scale).
-fn local_transform(path: &Path, node: &::gltf::Node) -> Result<DMat4> {
+pub fn local_transform(path: &Path, node: &::gltf::Node) -> Result<DMat4> {
     let m = match node.transform() {
         ::gltf::scene::Transform::Matrix { matrix } => DMat4::from_cols_array_2d(&matrix.map(|c| c.map(f64::from))),
         ::gltf::scene::Transform::Decomposed {
