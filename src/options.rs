@@ -118,3 +118,15 @@ pub fn refuse_unused(rules: &[Applies], matches: &clap::ArgMatches) -> Result<()
     }
     Ok(())
 }
+
+/// `--width/--height`: every command that draws an image has the same
+/// defaults (`sweep` its own smaller ones: it runs every setting many times).
+#[derive(Args, Clone, Copy, Debug)]
+pub struct ImageSize {
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 800, allow_negative_numbers = true)]
+    pub width: u32,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 600, allow_negative_numbers = true)]
+    pub height: u32,
+}

@@ -1207,3 +1207,25 @@ fn gpu_trace_packets_match_cpu() {
         );
     }
 }
+
+/// Every option a "does not apply" rule names is an option of its
+/// subcommand (a misspelt id would never be given, so its rule could never fire).
+#[test]
+fn every_rule_names_a_real_option() {
+    let lines = [
+        "p ao --mesh m --method raycast --rays 1",
+        "p raytrace --method whitted --mesh m",
+        "p trace --mesh m --mlrta off",
+        "p ssao --mesh m --estimator sphere --spp 1 --radius 1",
+        "p prt --mesh m --env e",
+        "p sweep field --mesh m --out d",
+    ];
+    for line in lines {
+        let args: Vec<&str> = line.split_whitespace().collect();
+        let options = penumbra::cli::rule_options(&args);
+        assert!(options.len() > 3, "{line}: {options:?}");
+        for (id, exists) in options {
+            assert!(exists, "{line}: no option {id}");
+        }
+    }
+}

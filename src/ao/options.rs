@@ -8,6 +8,7 @@ use super::AoSettings;
 use crate::error::{Error, Result};
 use crate::field::Positional;
 use crate::field::runner::MAX_FRAMES;
+use crate::options::{Applies, applies};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum AoMethod {
@@ -49,6 +50,12 @@ pub struct AoOptions {
 }
 
 impl AoOptions {
+    /// The field runner's options apply only with `--method field`.
+    pub fn applies(&self) -> Applies {
+        let ids = &["positional", "frames", "reference", "max_error"];
+        applies(self.method == AoMethod::Field, ids, "--method field")
+    }
+
     /// The checked settings (`seed`: the sample sequence's).
     pub fn settings(&self, seed: u32) -> Result<AoSettings> {
         let settings = AoSettings {

@@ -7,7 +7,7 @@ use super::runner::DEFAULT_FLOOR;
 use super::sequence::Measures;
 use super::{BoundKind, BoundedSettings, SplitKind};
 use crate::error::{Error, Result};
-use crate::options::OnOff;
+use crate::options::{Applies, OnOff, applies};
 use crate::raytrace::WhittedSettings;
 
 #[derive(Args, Clone, Debug)]
@@ -64,6 +64,23 @@ impl BoundedOptions {
         };
         s.validate()?;
         Ok(s)
+    }
+
+    /// The options that apply only to the bounded renderer (`bounded`: it is the one used).
+    pub fn applies(bounded: bool) -> Applies {
+        let ids = &[
+            "epsilon",
+            "floor",
+            "bound",
+            "split",
+            "reproject",
+            "span",
+            "memory_mb",
+            "min_pixels",
+            "reference",
+            "check",
+        ];
+        applies(bounded, ids, "--method bounded")
     }
 
     /// What each frame is measured against (`seed`: the check's lines').

@@ -13,11 +13,10 @@ use crate::ao::options::AoOptions;
 use crate::ao::report::{AoOutputs, RaycastReport};
 use crate::ao::runner::{AoRequest, raycast};
 use crate::error::{Error, Result};
-use crate::field::budget::{Fixed, choose_cached};
+use crate::field::budget::{Fixed, fields_for};
 use crate::field::options::FieldOptions;
 use crate::field::reach::Reach;
 use crate::field::report::FieldRunReport;
-use crate::field::runner::FieldAo;
 use crate::image_out::GreyImageOptions;
 use crate::progress::Bars;
 use crate::scene::{Scene, View};
@@ -43,12 +42,8 @@ pub struct AoArgs {
     pub image: Option<PathBuf>,
     #[command(flatten)]
     pub grey: GreyImageOptions,
-    /// Image width in pixels.
-    #[arg(long, default_value_t = 512, allow_negative_numbers = true)]
-    pub width: u32,
-    /// Image height in pixels.
-    #[arg(long, default_value_t = 512, allow_negative_numbers = true)]
-    pub height: u32,
+    #[command(flatten)]
+    pub size: crate::options::ImageSize,
     /// --method field: the caster's precomputed field (else it is built
     /// with --positions/--res/--bits/--directions).
     #[arg(long, conflicts_with = "max_error")]
@@ -100,7 +95,7 @@ fn request(args: &AoArgs, settings: crate::ao::AoSettings) -> Result<(AoOutputs<
     let style = args.grey.style();
     outputs[1].map(|p| style.check(p, "--image")).transpose()?;
     let image = match outputs[1] {
-        Some(_) => Some(View::new(args.camera.spec(), args.width, args.height)?),
+        Some(_) => Some(View::new(args.camera.spec(), args.size.width, args.size.height)?),
         None => None,
     };
     let vertices = outputs[0].is_some();
@@ -143,28 +138,26 @@ fn field(args: &AoArgs, outputs: AoOutputs, request: &AoRequest) -> Result<(Fiel
         radius: request.settings.radius,
         frames,
     };
-    let (mut fields, choice) = match args.knobs.max_error {
-        Some(e) => {
-            let fixed = Fixed {
-                directions: args.field_options.directions,
-                positional: args.knobs.positional,
-                reach,
-            };
-            let files: Vec<&Path> = [&args.mesh, &args.receiver, &args.scene]
-                .into_iter()
-                .flatten()
-                .map(PathBuf::as_path)
-                .collect();
-            let (choice, fields) = choose_cached(&device, (&scene, &files), request, fixed, e, Bars::Stderr)?;
-            note_choice(&choice);
-            (fields, Some(choice))
-        }
-        None => {
-            let mut fields = FieldAo::new(&scene, &params, args.knobs.positional, reach, Bars::Stderr)?;
-            fields.upload(&device)?;
-            (fields, None)
-        }
+    let fixed = Fixed {
+        directions: args.field_options.directions,
+        positional: args.knobs.positional,
+        reach,
     };
+    let files: Vec<&Path> = [&args.mesh, &args.receiver, &args.scene]
+        .into_iter()
+        .flatten()
+        .map(PathBuf::as_path)
+        .collect();
+    let inputs = (&scene, &files[..]);
+    let (mut fields, choice) = fields_for(
+        &device,
+        inputs,
+        request,
+        (fixed, &params),
+        args.knobs.max_error,
+        Bars::Stderr,
+    )?;
+    choice.iter().for_each(note_choice);
     let runs = args.common.runs.runs(1)?;
     let once = || fields.run(request, frames, args.knobs.reference);
     let (run, times) = runs.run("ao_ms", once, |r| r.frame_ao_ms.last().copied().unwrap_or(0.0))?;

@@ -7,34 +7,12 @@
 use clap::ArgMatches;
 
 use super::Command;
-use super::args::OnOff;
+use crate::bounded::options::BoundedOptions;
 use crate::error::Result;
+use crate::field::options::FieldOptions;
 use crate::options::{Applies as Rule, applies as rule};
 
 const CAMERA_AND_SIZE: &[&str] = &["width", "height", "eye", "target", "fov"];
-const FIELD_ONLY: &[&str] = &[
-    "field",
-    "positions",
-    "res",
-    "bits",
-    "directions",
-    "positional",
-    "frames",
-    "reference",
-];
-const BOUNDED_ONLY: &[&str] = &[
-    "epsilon",
-    "floor",
-    "bound",
-    "split",
-    "reproject",
-    "span",
-    "memory_mb",
-    "min_pixels",
-    "reference",
-    "check",
-    "error_image",
-];
 const PRT_IMAGE: &[&str] = &["width", "height", "eye", "target", "fov", "exposure", "albedo"];
 
 fn is_png(path: &Option<std::path::PathBuf>) -> bool {
@@ -42,7 +20,8 @@ fn is_png(path: &Option<std::path::PathBuf>) -> bool {
     path.as_ref().and_then(png) == Some(crate::image_out::ImageFormat::Png)
 }
 
-fn rules(command: &Command) -> Vec<Rule> {
+/// The rules of `command`'s options.
+pub fn rules(command: &Command) -> Vec<Rule> {
     match command {
         Command::Ao(a) => ao_rules(a),
         Command::Raytrace(a) => raytrace_rules(a),
@@ -55,8 +34,11 @@ fn rules(command: &Command) -> Vec<Rule> {
 }
 
 fn ao_rules(a: &super::ao::AoArgs) -> Vec<Rule> {
+    use super::ao::Method;
     vec![
-        rule(a.knobs.method == super::ao::Method::Field, FIELD_ONLY, "--method field"),
+        a.knobs.applies(),
+        FieldOptions::applies(a.knobs.method == Method::Field, "--method field"),
+        rule(a.knobs.method == Method::Field, &["field"], "--method field"),
         rule(a.image.is_some(), CAMERA_AND_SIZE, "--image"),
         rule(a.image.is_some(), &["background"], "--image"),
         rule(is_png(&a.image), &["png_bits"], "--image FILE.png"),
@@ -66,7 +48,8 @@ fn ao_rules(a: &super::ao::AoArgs) -> Vec<Rule> {
 fn raytrace_rules(a: &super::raytrace::RaytraceArgs) -> Vec<Rule> {
     use super::raytrace::Method;
     vec![
-        rule(a.knobs.method == Method::Bounded, BOUNDED_ONLY, "--method bounded"),
+        BoundedOptions::applies(a.knobs.method == Method::Bounded),
+        rule(a.knobs.method == Method::Bounded, &["error_image"], "--method bounded"),
         rule(a.knobs.method == Method::Whitted, &["ray_tree"], "--method whitted"),
         // The bounded renderer's cells carry over from run to run.
         rule(
@@ -101,18 +84,14 @@ fn ssao_rules(a: &super::ssao::SsaoArgs) -> Vec<Rule> {
 }
 
 fn prt_rules(a: &super::prt::PrtArgs) -> Vec<Rule> {
-    use crate::prt::runner::Shadows;
-    let raytraced = a.check || a.shadows == Shadows::Raytraced;
     let mut rules = a.knobs.applies();
+    rules.extend(a.play.applies());
     rules.extend([
-        rule(a.pvs == OnOff::On, &["pvs_frames", "pvs_span"], "--pvs on"),
-        rule(raytraced, &["check_rays"], "--check or --shadows raytraced"),
-        rule(a.check, &["check_frames"], "--check"),
-        rule(a.shadows == Shadows::On, &["self_check"], "--shadows on"),
+        // Every frame is a measured run (frame_ms has min, median and max).
         rule(
-            a.shadows == Shadows::On && a.self_check == OnOff::On,
-            &["self_check_threshold"],
-            "--self-check on",
+            false,
+            &["warmup", "repeat"],
+            "commands other than prt (prt times every frame: give --frames)",
         ),
         rule(
             a.motion.may_animate(a.mesh.as_deref(), a.animated.is_some()),
@@ -159,45 +138,4 @@ fn sweep_rules(a: &super::sweep::SweepArgs) -> Vec<Rule> {
 /// subcommand's.
 pub fn refuse_unused(command: &Command, matches: &ArgMatches) -> Result<()> {
     crate::options::refuse_unused(&rules(command), matches)
-}
-
-#[cfg(test)]
-mod tests {
-    use clap::{CommandFactory, Parser};
-
-    use super::*;
-
-    /// Every id a rule names is an option of its subcommand (a misspelt id
-    /// would never be given, so its rule could never fire).
-    #[test]
-    fn every_rule_names_a_real_option() {
-        let cli = super::super::Cli::command();
-        let parse = |line: &str| {
-            super::super::Cli::try_parse_from(line.split_whitespace())
-                .unwrap()
-                .command
-        };
-        let commands = [
-            ("ao", parse("p ao --mesh m --method raycast --rays 1")),
-            (
-                "raytrace",
-                parse("p raytrace --method whitted --mesh m --width 1 --height 1"),
-            ),
-            ("trace", parse("p trace --mesh m --width 1 --height 1 --mlrta off")),
-            (
-                "ssao",
-                parse("p ssao --mesh m --estimator sphere --spp 1 --radius 1 --width 1 --height 1"),
-            ),
-            ("prt", parse("p prt --mesh m --env e")),
-            ("sweep", parse("p sweep field --mesh m --out d")),
-        ];
-        for (name, command) in &commands {
-            let sub = cli.find_subcommand(name).unwrap();
-            for r in rules(command) {
-                for id in r.options {
-                    assert!(sub.get_arguments().any(|a| a.get_id() == *id), "{name}: no option {id}");
-                }
-            }
-        }
-    }
 }

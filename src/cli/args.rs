@@ -56,8 +56,8 @@ impl Common {
     }
 }
 
+pub use crate::options::CameraOptions as CameraArgs;
 pub use crate::options::init_thread_pool;
-pub use crate::options::{CameraOptions as CameraArgs, OnOff, positive};
 pub(crate) use crate::scene::parse_vec3;
 
 pub use crate::scene::{load_input, load_shaded_input};

@@ -46,11 +46,11 @@ pub fn of(command: &Command) -> Files {
         Command::Prt(a) => {
             f.mesh("--mesh", &a.mesh);
             f.input("--env", &Some(a.env.clone()));
-            f.frames("--out", &a.out, a.frames.unwrap_or(1).clamp(0, 100_000) as u32);
+            f.frames("--out", &a.out, a.play.frames.unwrap_or(1).clamp(0, 100_000) as u32);
             f.output("--sh-out", &a.sh_out);
             f.output("--per-vertex", &a.per_vertex);
             if let Some(dir) = &a.out_frames {
-                let frames = a.frames.unwrap_or(1).clamp(0, 100_000);
+                let frames = a.play.frames.unwrap_or(1).clamp(0, 100_000);
                 for i in 0..frames {
                     f.output("--out-frames", &Some(dir.join(format!("frame-{i:04}.png"))));
                 }

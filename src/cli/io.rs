@@ -7,21 +7,12 @@ use crate::error::{Error, Result};
 
 /// Says on stderr what `--max-error` chose, and warns when no setting met it.
 pub fn note_choice(c: &crate::sweep::budget::Choice) {
-    let how = if c.cached { "cached" } else { "checked" };
-    note(&format!(
-        "--max-error {}: {} (error {:.4}, at most {:.4} at 95% confidence; {how}, {:.0} ms)",
-        c.max_error,
-        c.chosen.label(),
-        c.estimate,
-        c.upper,
-        c.check_ms
-    ));
-    if !c.met {
-        note(&format!(
-            "warning: no setting tried is within --max-error {}; using the most accurate one",
-            c.max_error
-        ));
-    }
+    c.notes().iter().for_each(|n| note(n));
+}
+
+/// Each warning on stderr.
+pub fn warn(warnings: &[String]) {
+    warnings.iter().for_each(|w| note(&format!("warning: {w}")));
 }
 
 /// A runner's note on stderr, parameters named by their flags.

@@ -79,6 +79,21 @@ struct GenAssetsArgs {
     json: bool,
 }
 
+/// Every option a rule of `args`' subcommand names, with whether the
+/// subcommand has it (a misspelt id would never be given: its rule could
+/// never fire). For tests.
+pub fn rule_options(args: &[&str]) -> Vec<(&'static str, bool)> {
+    let cli = Cli::try_parse_from(args).expect("a valid command line");
+    let command = Cli::command();
+    let sub = command.find_subcommand(args[1]).expect("a subcommand");
+    let has = |id: &str| sub.get_arguments().any(|a| a.get_id() == id);
+    let rules = applies::rules(&cli.command);
+    rules
+        .iter()
+        .flat_map(|r| r.options.iter().map(|&id| (id, has(id))))
+        .collect()
+}
+
 /// Runs the command line; returns the process exit code.
 pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
     let parsed = Cli::command()
@@ -130,11 +145,7 @@ fn dispatch(command: Command) -> Result<()> {
         Command::Raytrace(a) => emit(a.common.json, raytrace::run(&a)?),
         Command::Sweep(a) => emit(a.common.json, sweep::run(&a)?),
         Command::GenAssets(a) => {
-            let mut written = crate::scene::procedural::write_assets(&a.out)?;
-            written.extend(crate::raytrace::scenes::write_scenes(&a.out.join("raytrace"))?);
-            written.extend(crate::scene::animation_assets::write_animation_assets(
-                &a.out.join("animations"),
-            )?);
+            let written = crate::raytrace::scenes::write_every_asset(&a.out)?;
             let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
             emit(a.json, serde_json::json!({ "files": files }))
         }

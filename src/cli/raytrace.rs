@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use serde_json::{Value, json};
 
 use super::args::{CameraArgs, Common, check_output, load_shaded_input};
-use super::io::{merged, note};
+use super::io::{merged, warn};
 use crate::bounded::options::BoundedOptions;
 use crate::error::Result;
 use crate::image_out::ImageFormat;
@@ -26,12 +26,8 @@ pub struct RaytraceArgs {
     /// A scene file instead of --mesh (meshes, materials, spheres, lights, camera).
     #[arg(long, conflicts_with = "mesh")]
     pub scene: Option<PathBuf>,
-    /// Image width in pixels.
-    #[arg(long, allow_negative_numbers = true)]
-    pub width: u32,
-    /// Image height in pixels.
-    #[arg(long, allow_negative_numbers = true)]
-    pub height: u32,
+    #[command(flatten)]
+    pub size: crate::options::ImageSize,
     #[command(flatten)]
     pub knobs: RaytraceOptions,
     #[command(flatten)]
@@ -67,18 +63,9 @@ pub(super) struct Setup {
 }
 
 impl Setup {
-    /// The camera of frame `f`.
-    pub fn camera(&self, f: u32, frames: u32) -> Camera {
-        if frames == 1 {
-            self.base
-        } else {
-            self.path.at(f, frames)
-        }
-    }
-
     /// The fields every report of the command has.
     pub fn report(&self, args: &RaytraceArgs, renderer: &WhittedRenderer, camera: Camera) -> Result<Value> {
-        let size = ((args.width, args.height), args.knobs.frames);
+        let size = ((args.size.width, args.size.height), args.knobs.frames);
         let fields = RenderReport::new(
             args.knobs.method,
             renderer,
@@ -94,7 +81,7 @@ impl Setup {
 fn setup(args: &RaytraceArgs) -> Result<(Setup, WhittedRenderer)> {
     let threads = args.common.init_threads()?;
     let settings = args.whitted.settings(args.common.seed)?;
-    crate::scene::check_image_size(args.width, args.height)?;
+    crate::scene::check_image_size(args.size.width, args.size.height)?;
     args.knobs.validate()?;
     if let Some(p) = &args.out {
         ImageFormat::check(p, "--out")?;
@@ -106,10 +93,9 @@ fn setup(args: &RaytraceArgs) -> Result<(Setup, WhittedRenderer)> {
         .transpose()?;
     let path = args.path.as_deref().map(CameraPath::load).transpose()?;
     let scene = load_shaded_input(args.mesh.as_deref(), args.scene.as_deref())?;
-    let warn = |w: &String| note(&format!("warning: {w}"));
-    scene.warnings.iter().for_each(warn);
+    warn(&scene.warnings);
     let render_scene = RenderScene::new(&scene, 0, &args.whitted.lighting())?;
-    render_scene.warnings.iter().for_each(warn);
+    warn(&render_scene.warnings);
     let device = args.common.open_device()?;
     let renderer = WhittedRenderer::new(&device, render_scene, Bars::Stderr)?;
     let base = args.camera.spec().resolve(scene.camera, &renderer.bounds())?;
@@ -121,7 +107,7 @@ fn setup(args: &RaytraceArgs) -> Result<(Setup, WhittedRenderer)> {
         path: path.unwrap_or(CameraPath::Walk(base)),
         images: FrameImages {
             out: args.out.clone(),
-            size: (args.width, args.height),
+            size: (args.size.width, args.size.height),
             exposure: args.knobs.exposure,
         },
         load_warnings: scene.warnings.len(),
@@ -138,14 +124,14 @@ pub fn run(args: &RaytraceArgs) -> Result<Value> {
 }
 
 fn whitted(args: &RaytraceArgs, setup: Setup, mut renderer: WhittedRenderer) -> Result<Value> {
-    let (size, frames) = ((args.width, args.height), args.knobs.frames);
+    let (size, frames) = ((args.size.width, args.size.height), args.knobs.frames);
     let runs = args.common.runs.runs(1)?;
     let pixels = (runs.warmup + runs.repeat) as u64 * frames as u64 * size.0 as u64 * size.1 as u64;
     let progress = Bars::Stderr.bar(pixels, "ray tracing");
     let once = || {
         renderer.render_sequence(
             frames,
-            |f| setup.camera(f, frames),
+            |f| setup.path.at(f, frames),
             size,
             &setup.settings,
             &progress,

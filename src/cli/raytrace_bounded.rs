@@ -21,12 +21,12 @@ pub(super) fn run(args: &RaytraceArgs, setup: Setup, whitted: WhittedRenderer) -
         .as_deref()
         .map(|p| check_output(p, "--error-image"))
         .transpose()?;
-    let (size, frames) = ((args.width, args.height), args.knobs.frames);
+    let (size, frames) = ((args.size.width, args.size.height), args.knobs.frames);
     let mut bounded = BoundedRenderer::new(whitted, settings)?;
     let progress = Bars::Stderr.bar(frames as u64, "bounded-error frames");
     let (sequence, last) = bounded.render_sequence(
         frames,
-        |f| setup.camera(f, frames),
+        |f| setup.path.at(f, frames),
         size,
         measures,
         &progress,

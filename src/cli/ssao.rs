@@ -9,7 +9,7 @@ use serde_json::Value;
 use super::args::{CameraArgs, Common, check_outputs, load_input, load_shaded_input};
 use super::io::note_choice;
 use crate::error::{Error, Result};
-use crate::image_out::{GreyImageOptions, ImageFormat, write_grey, write_radiance};
+use crate::image_out::{GreyImageOptions, ImageFormat};
 use crate::progress::Bars;
 use crate::scene::View;
 use crate::ssao::budget::choose_cached;
@@ -26,12 +26,8 @@ pub struct SsaoArgs {
     pub scene: Option<PathBuf>,
     #[command(flatten)]
     pub knobs: SsaoOptions,
-    /// Image width in pixels.
-    #[arg(long, default_value_t = 800, allow_negative_numbers = true)]
-    pub width: u32,
-    /// Image height in pixels.
-    #[arg(long, default_value_t = 600, allow_negative_numbers = true)]
-    pub height: u32,
+    #[command(flatten)]
+    pub size: crate::options::ImageSize,
     /// Accessibility per pixel: .png (linear grey), .exr or .pfm (float).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -50,12 +46,9 @@ pub struct SsaoArgs {
 }
 
 fn request(a: &SsaoArgs) -> Result<SsaoRequest> {
-    let view = View::new(a.camera.spec(), a.width, a.height)?;
-    a.run.request(
-        a.knobs.settings(a.common.seed)?,
-        view,
-        (a.image.is_some(), a.common.runs.runs(1)?),
-    )
+    let view = View::new(a.camera.spec(), a.size.width, a.size.height)?;
+    let (settings, runs) = (a.knobs.settings(a.common.seed)?, a.common.runs.runs(1)?);
+    a.run.request(settings, view, (a.image.is_some(), runs))
 }
 
 pub fn run(args: &SsaoArgs) -> Result<Value> {
@@ -70,16 +63,10 @@ pub fn run(args: &SsaoArgs) -> Result<Value> {
     let outputs = check_outputs(&[(&args.out, "--out"), (&args.image, "--image")])?;
     outputs[0].map(|p| args.grey.style().check(p, "--out")).transpose()?;
     outputs[1].map(|p| ImageFormat::check(p, "--image")).transpose()?;
-    let load = if args.image.is_some() {
-        load_shaded_input
-    } else {
-        load_input
-    };
+    // The shaded image needs the meshes' materials.
+    let load = [load_input, load_shaded_input][args.image.is_some() as usize];
     let scene = load(args.mesh.as_deref(), args.scene.as_deref())?;
-    scene
-        .warnings
-        .iter()
-        .for_each(|w| super::io::note(&format!("warning: {w}")));
+    super::io::warn(&scene.warnings);
     crate::ssao::gbuffer::validate_lights(&scene.lights)?;
     let bounds = scene.world_mesh(|_| true).bounds();
     request.view.camera = request.view.camera.resolve(scene.camera, &bounds)?.into();
@@ -95,14 +82,7 @@ pub fn run(args: &SsaoArgs) -> Result<Value> {
         None => None,
     };
     let ssao = run_ssao(&device, &scene, &request, Bars::Stderr)?;
-    let (w, h) = (args.width, args.height);
-    if let Some(p) = outputs[0] {
-        write_grey(p, w, h, &ssao.ao_image(), args.grey.style())?;
-    }
-    if let (Some(p), Some(image)) = (outputs[1], &ssao.frame.image) {
-        let radiance: Vec<glam::Vec3> = image.iter().map(|c| glam::Vec3::new(c[0], c[1], c[2])).collect();
-        write_radiance(p, w, h, &radiance, 1.0)?;
-    }
+    ssao.write_images(outputs[0], outputs[1], args.grey.style())?;
     let report = super::io::merged(args.common.report(&device, threads), &ssao.report)?;
     super::io::merged(report, serde_json::json!({ "max_error": choice }))
 }

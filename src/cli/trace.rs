@@ -22,12 +22,8 @@ pub struct TraceArgs {
     /// A scene file instead of --mesh (its camera is the default).
     #[arg(long, conflicts_with = "mesh")]
     pub scene: Option<PathBuf>,
-    /// Image width in pixels.
-    #[arg(long, allow_negative_numbers = true)]
-    pub width: u32,
-    /// Image height in pixels.
-    #[arg(long, allow_negative_numbers = true)]
-    pub height: u32,
+    #[command(flatten)]
+    pub size: crate::options::ImageSize,
     #[command(flatten)]
     pub knobs: TraceOptions,
     /// Image: |cos| between the ray and the hit triangle (shadowed hits at
@@ -53,19 +49,17 @@ pub struct TraceArgs {
 
 pub fn run(args: &TraceArgs) -> Result<Value> {
     let threads = args.common.init_threads()?;
-    let view = View::new(args.camera.spec(), args.width, args.height)?;
+    let view = View::new(args.camera.spec(), args.size.width, args.size.height)?;
     let mut request = args.knobs.request(view)?;
-    let [out, tiles, aa, dump] = check_outputs(&[
+    let (out, tiles, aa) = (
         (&args.out, "--out"),
         (&args.tiles_image, "--tiles-image"),
         (&args.aa_image, "--aa-image"),
-        (&args.dump_rays, "--dump-rays"),
-    ])?[..] else {
-        unreachable!("four outputs")
-    };
-    out.map(|p| ImageFormat::check(p, "--out")).transpose()?;
-    aa.map(|p| ImageFormat::check(p, "--aa-image")).transpose()?;
-    tiles.map(|p| ImageFormat::check_png(p, "--tiles-image")).transpose()?;
+    );
+    let o = check_outputs(&[out, tiles, aa, (&args.dump_rays, "--dump-rays")])?;
+    o[0].map(|p| ImageFormat::check(p, "--out")).transpose()?;
+    o[2].map(|p| ImageFormat::check(p, "--aa-image")).transpose()?;
+    o[1].map(|p| ImageFormat::check_png(p, "--tiles-image")).transpose()?;
     let scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
     let mesh = scene.world_mesh(|_| true);
     request.view.camera = request.view.camera.resolve(scene.camera, &mesh.bounds())?.into();
@@ -74,10 +68,10 @@ pub fn run(args: &TraceArgs) -> Result<Value> {
     let once = || trace_view(&device, &mesh, None, &request, Bars::Stderr);
     let (image, times) = runs.run("trace_ms", once, |i| i.stats.trace_ms)?;
     let images = TraceImages {
-        shading: out,
-        tiles,
-        aa_rays: aa,
-        rays: dump,
+        shading: o[0],
+        tiles: o[1],
+        aa_rays: o[2],
+        rays: o[3],
     };
     images.write(&image, &mesh)?;
     let report = super::io::merged(args.common.report(&device, threads), &image.stats)?;

@@ -144,6 +144,25 @@ pub fn fields_of<'s>(scene: &'s Scene, chosen: &Setting, fixed: Fixed, device: &
     Ok(fields)
 }
 
+/// The fields a run uses: with `max_error`, the cached or checked choice
+/// (`choose_cached`); else every caster's field read or built with `params`.
+pub fn fields_for<'s>(
+    device: &Device,
+    inputs: (&'s Scene, &[&std::path::Path]),
+    request: &AoRequest,
+    (fixed, params): (Fixed, &FieldParams),
+    max_error: Option<f64>,
+    bars: Bars,
+) -> Result<(FieldAo<'s>, Option<Choice>)> {
+    if let Some(e) = max_error {
+        let (choice, fields) = choose_cached(device, inputs, request, fixed, e, bars)?;
+        return Ok((fields, Some(choice)));
+    }
+    let mut fields = FieldAo::new(inputs.0, params, fixed.positional, fixed.reach, bars)?;
+    fields.upload(device)?;
+    Ok((fields, None))
+}
+
 /// `choose` through the `--max-error` cache (`sweep::budget::cached`, keyed
 /// on `files`' contents and every option that changes the answer): a
 /// cached choice only builds (or reads) the chosen fields.

@@ -3,6 +3,7 @@
 
 use super::{DirectionMapping, FieldParams};
 use crate::error::Result;
+use crate::options::{Applies, applies};
 
 /// The field's sampling and storage (`ao --method field` builds fields
 /// with them on the fly, without `--field`).
@@ -24,6 +25,11 @@ pub struct FieldOptions {
 }
 
 impl FieldOptions {
+    /// The options that apply only where fields are built (`used`).
+    pub fn applies(used: bool, needs: &'static str) -> Applies {
+        applies(used, &["positions", "res", "bits", "directions"], needs)
+    }
+
     pub fn params(&self) -> Result<FieldParams> {
         FieldParams::new(self.positions, self.res, self.bits, self.directions)
     }

@@ -28,6 +28,7 @@ pub mod clusters;
 pub mod geometry;
 pub mod gpu;
 pub mod hierarchy;
+pub mod images;
 pub mod level;
 pub mod lut;
 pub mod mask;

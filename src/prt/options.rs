@@ -7,6 +7,8 @@ use clap::Args;
 
 use super::hierarchy::{DEFAULT_TOLERANCE, HierarchySettings, NearField};
 use super::pipeline::{PrtSettings, Toggle};
+use super::runner::{Playback, PvsSampling, RayTraced, Shadows};
+use super::selfcheck::SelfCheck;
 use super::transfer::{Brdf, BrdfKind, Integration};
 use crate::error::{Error, Result};
 use crate::options::{Applies, OnOff, applies, positive};
@@ -182,4 +184,92 @@ fn load_mesh_format(path: &Path) -> Result<Option<MeshFormat>> {
         return Ok(None);
     };
     Ok(MeshFormat::detect(path, &bytes).ok())
+}
+
+/// How the animation is played and checked: frames and times, PVS,
+/// visibility's source, the ray-traced check and self-check, profiling.
+#[derive(Args, Clone, Debug)]
+pub struct PlaybackOptions {
+    /// Frames to compute [default: 1; an animation's own frames].
+    #[arg(long, allow_negative_numbers = true)]
+    pub frames: Option<i64>,
+    /// Animation time of the first frame, seconds.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub start: f32,
+    /// Animation time between frames, seconds [default: 1/30; a clip's span / (--frames - 1)].
+    #[arg(long, allow_negative_numbers = true)]
+    pub dt: Option<f32>,
+    /// Potentially visible sets from sampled animation frames.
+    #[arg(long, value_enum, default_value_t = OnOff::Off)]
+    pub pvs: OnOff,
+    /// Animation frames sampled for the PVS (spread over --pvs-span seconds).
+    #[arg(long, default_value_t = 8, allow_negative_numbers = true)]
+    pub pvs_frames: i64,
+    /// Animation time the PVS samples, seconds from --start [default: the frames' span, at least 2 s].
+    #[arg(long, allow_negative_numbers = true)]
+    pub pvs_span: Option<f32>,
+    /// Where visibility comes from.
+    #[arg(long, value_enum, default_value_t = Shadows::On)]
+    pub shadows: Shadows,
+    /// Compare the transfer with Monte Carlo ray-traced visibility.
+    #[arg(long)]
+    pub check: bool,
+    /// Rays per vertex of the reference.
+    #[arg(long, default_value_t = 4096, allow_negative_numbers = true)]
+    pub check_rays: i64,
+    /// Frames compared (evenly spread over the frames computed).
+    #[arg(long, default_value_t = 4, allow_negative_numbers = true)]
+    pub check_frames: i64,
+    /// Estimate the transfer error at setup by ray tracing a sample of vertices (`self_check` in --json).
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    pub self_check: OnOff,
+    /// Warn on stderr when the self-check's estimated error exceeds this.
+    #[arg(long, default_value_t = 0.03, allow_negative_numbers = true)]
+    pub self_check_threshold: f64,
+    /// Per-phase times (the paper's Table 2); adds a little overhead.
+    #[arg(long)]
+    pub profile: bool,
+    /// Turn the lighting about +y by this many degrees per frame.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub env_spin: f32,
+}
+
+impl PlaybackOptions {
+    /// The checked playback and the reference's rays (`seed`: theirs).
+    pub fn playback(&self, seed: u32) -> Result<(Playback, RayTraced)> {
+        let check_frames = positive("check_frames", self.check_frames)?;
+        let playback = Playback {
+            frames: positive("frames", self.frames.unwrap_or(1))?,
+            start: self.start,
+            dt: self.dt.unwrap_or(1.0 / 30.0),
+            env_spin: self.env_spin,
+            pvs: self.pvs.on().then_some(PvsSampling {
+                frames: positive("pvs_frames", self.pvs_frames)?,
+                span: self.pvs_span,
+            }),
+            check_frames: if self.check { check_frames } else { 0 },
+            profile: self.profile,
+            self_check: self.self_check.on().then_some(SelfCheck {
+                threshold: self.self_check_threshold,
+                ..SelfCheck::default()
+            }),
+        };
+        playback.validate()?;
+        let rays = positive("check_rays", self.check_rays)?;
+        let rays = u32::try_from(rays).map_err(|_| Error::param("check_rays", "is too large"))?;
+        Ok((playback, RayTraced { rays, seed }))
+    }
+
+    /// Which options apply to the chosen visibility, PVS and checks.
+    pub fn applies(&self) -> Vec<Applies> {
+        let on = self.shadows == Shadows::On;
+        let raytraced = self.check || self.shadows == Shadows::Raytraced;
+        vec![
+            applies(self.pvs == OnOff::On, &["pvs_frames", "pvs_span"], "--pvs on"),
+            applies(raytraced, &["check_rays"], "--check or --shadows raytraced"),
+            applies(self.check, &["check_frames"], "--check"),
+            applies(on, &["self_check"], "--shadows on"),
+            applies(on && self.self_check.on(), &["self_check_threshold"], "--self-check on"),
+        ]
+    }
 }

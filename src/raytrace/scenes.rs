@@ -488,3 +488,15 @@ pub fn write_scenes(dir: &Path) -> Result<Vec<PathBuf>> {
     }
     Ok(written)
 }
+
+/// Every asset `penumbra gen-assets` writes under `out`: the procedural
+/// scenes (OBJ), the ray tracer's scenes (`raytrace/`) and the example
+/// animations (`animations/`).
+pub fn write_every_asset(out: &Path) -> Result<Vec<std::path::PathBuf>> {
+    let mut written = crate::scene::procedural::write_assets(out)?;
+    written.extend(write_scenes(&out.join("raytrace"))?);
+    written.extend(crate::scene::animation_assets::write_animation_assets(
+        &out.join("animations"),
+    )?);
+    Ok(written)
+}

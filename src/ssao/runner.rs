@@ -217,6 +217,25 @@ fn skipped(request: &SsaoRequest, tree_unused: bool) -> Vec<Skipped> {
 }
 
 impl SsaoRun {
+    /// Writes the accessibility image (`ao`, grey in `style`) and the
+    /// shaded image (`image`, linear radiance) where asked.
+    pub fn write_images(
+        &self,
+        ao: Option<&std::path::Path>,
+        image: Option<&std::path::Path>,
+        style: crate::image_out::GreyStyle,
+    ) -> Result<()> {
+        let (w, h) = (self.gbuffer.width, self.gbuffer.height);
+        if let Some(p) = ao {
+            crate::image_out::write_grey(p, w, h, &self.ao_image(), style)?;
+        }
+        if let (Some(p), Some(pixels)) = (image, &self.frame.image) {
+            let radiance: Vec<glam::Vec3> = pixels.iter().map(|c| glam::Vec3::new(c[0], c[1], c[2])).collect();
+            crate::image_out::write_radiance(p, w, h, &radiance, 1.0)?;
+        }
+        Ok(())
+    }
+
     /// Final accessibility per pixel; `None` on the background.
     pub fn ao_image(&self) -> Vec<Option<f32>> {
         (0..self.gbuffer.pixels())

@@ -89,6 +89,28 @@ pub struct Choice {
 }
 
 impl Choice {
+    /// What a user is told of the choice (with `max_error` named in
+    /// backticks, for the caller's spelling): the setting, its error and
+    /// bound, and a warning when no setting met the budget.
+    pub fn notes(&self) -> Vec<String> {
+        let how = if self.cached { "cached" } else { "checked" };
+        let mut notes = vec![format!(
+            "`max_error` {}: {} (error {:.4}, at most {:.4} at 95% confidence; {how}, {:.0} ms)",
+            self.max_error,
+            self.chosen.label(),
+            self.estimate,
+            self.upper,
+            self.check_ms
+        )];
+        if !self.met {
+            notes.push(format!(
+                "warning: no setting tried is within `max_error` {}; using the most accurate one",
+                self.max_error
+            ));
+        }
+        notes
+    }
+
     /// The fastest candidate within `max_error`, else the one with the
     /// smallest bound; `None` with no candidates.
     pub fn pick(max_error: f64, measure: &str, mut candidates: Vec<Candidate>, check_ms: f64) -> Option<Choice> {
