@@ -24,6 +24,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use penumbra::gpu::GpuContext;
 use penumbra::kdtree::{KdTree, KdTreeParams};
+use penumbra::progress::Progress;
 use penumbra::scene::{Camera, load_obj};
 use penumbra::ssao::gbuffer::ScreenView;
 use penumbra::ssao::gpu::{GBufferSource, run_frame};
@@ -120,10 +121,10 @@ fn main() {
             &gb,
             base.measure,
             config.radius,
-            truth_rays,
-            base.seed,
+            (truth_rays, base.seed),
+            &Progress::hidden(),
         );
-        let reference = screen_reference(&gb, &view, &base, reference_spp);
+        let reference = screen_reference(&gb, &view, &base, reference_spp, &Progress::hidden());
         let ref_vs_truth = rmse(&gb, &reference.values, &truth.values);
         let mut rows = Vec::new();
         for estimator in Estimator::ALL {

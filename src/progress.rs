@@ -2,11 +2,86 @@
 //! take a `&Progress`; `Progress::hidden()` reports nothing. Runners, which
 //! make their own bars phase by phase, take `Bars`: the command line asks
 //! for bars on stderr, a host for none. Bars only appear after a second, so
-//! quick runs and CI logs stay clean.
+//! quick runs and CI logs stay clean. When stderr is not a terminal they are
+//! silent, unless `log_when_not_a_terminal` (the CLI's `--progress`) asks for
+//! them: then each bar writes a plain line about once a second.
 
+use std::io::IsTerminal;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle, TermLike};
+
+static LOG_LINES: AtomicBool = AtomicBool::new(false);
+
+/// Bars write plain progress lines to stderr when it is not a terminal
+/// (a CI log, a file); by default they are silent there.
+pub fn log_when_not_a_terminal(on: bool) {
+    LOG_LINES.store(on, Ordering::Relaxed);
+}
+
+/// How long work runs before its bar appears: a second, or
+/// `PENUMBRA_PROGRESS_DELAY_MS` (tests set 0).
+fn delay() -> Duration {
+    let ms = std::env::var("PENUMBRA_PROGRESS_DELAY_MS")
+        .ok()
+        .and_then(|v| v.parse().ok());
+    Duration::from_millis(ms.unwrap_or(1000))
+}
+
+/// Where a bar draws: the terminal, lines in a log, or nowhere.
+fn stderr_target() -> ProgressDrawTarget {
+    if std::io::stderr().is_terminal() {
+        ProgressDrawTarget::stderr()
+    } else if LOG_LINES.load(Ordering::Relaxed) {
+        ProgressDrawTarget::term_like(Box::new(LogLines::default()))
+    } else {
+        ProgressDrawTarget::hidden()
+    }
+}
+
+/// A "terminal" that cannot move its cursor: a redraw is a new line, at
+/// most one a second (the first at once), so a CI log stays readable.
+#[derive(Debug, Default)]
+struct LogLines {
+    last: std::sync::Mutex<Option<std::time::Instant>>,
+}
+
+impl TermLike for LogLines {
+    fn width(&self) -> u16 {
+        100
+    }
+    fn move_cursor_up(&self, _: usize) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn move_cursor_down(&self, _: usize) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn move_cursor_right(&self, _: usize) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn move_cursor_left(&self, _: usize) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn write_line(&self, s: &str) -> std::io::Result<()> {
+        let mut last = self.last.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let due = last.is_none_or(|t| t.elapsed() >= Duration::from_secs(1));
+        if due && !s.trim().is_empty() {
+            eprintln!("penumbra: progress: {}", s.trim());
+            *last = Some(std::time::Instant::now());
+        }
+        Ok(())
+    }
+    fn write_str(&self, s: &str) -> std::io::Result<()> {
+        self.write_line(s)
+    }
+    fn clear_line(&self) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn flush(&self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
 
 /// Whether a runner shows its phases' progress on stderr.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -48,7 +123,7 @@ impl Progress {
     /// A bar of `len` steps labelled `message` on stderr (hidden when stderr
     /// is not a terminal, as indicatif does).
     pub fn bar(len: u64, message: &str) -> Progress {
-        let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
+        let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::hidden());
         bar.set_style(
             ProgressStyle::with_template("{msg:>12} [{bar:40}] {pos}/{len} ({eta} left)")
                 .unwrap_or_else(|_| ProgressStyle::default_bar())
@@ -56,13 +131,14 @@ impl Progress {
         );
         bar.set_message(message.to_string());
         // Drawing starts only once the work has taken a second.
-        bar.set_draw_target(ProgressDrawTarget::hidden());
         let shown = bar.clone();
         std::thread::spawn(move || {
-            std::thread::sleep(Duration::from_secs(1));
+            std::thread::sleep(delay());
             if !shown.is_finished() {
-                shown.set_draw_target(ProgressDrawTarget::stderr());
+                shown.set_draw_target(stderr_target());
                 shown.enable_steady_tick(Duration::from_millis(200));
+                // Drawn at once, however long the work still runs.
+                shown.tick();
             }
         });
         Progress { bar: Some(bar) }

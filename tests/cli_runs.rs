@@ -77,6 +77,26 @@ fn every_computing_command_reports_its_measured_runs() {
     .ok()
     .json();
     check_runs(&j, "build_ms", 1, 2);
+    // prt: each play of the animation is a run; outputs are the last play's.
+    let probe = d.p("probe.hdr");
+    let pixels = vec![image::Rgb([0.8f32, 0.7, 0.6]); 16 * 8];
+    image::codecs::hdr::HdrEncoder::new(std::fs::File::create(&probe).unwrap())
+        .encode(&pixels, 16, 8)
+        .unwrap();
+    let csv = o("prt.csv");
+    let j = pen(
+        &format!("prt --animated cloth --env {probe} --frames 3 --self-check off --per-vertex {csv} {common}"),
+        &[],
+    )
+    .ok()
+    .json();
+    check_runs(&j, "animation_ms", 1, 3);
+    let rows = std::fs::read_to_string(&csv).unwrap().lines().count() - 1;
+    assert_eq!(
+        rows,
+        3 * j["vertices"].as_u64().unwrap() as usize,
+        "one play's frames in the CSV"
+    );
     // Without the options: one measured run, no warm-up.
     let j = pen(
         &format!("trace --mesh {mesh} --width 8 --height 8 --device cpu --json"),

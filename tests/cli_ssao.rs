@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::cli::{TempDir, asset_s, gpu_available, pen};
+use common::cli::{TempDir, asset_s, gpu_available, pen, run_env};
 
 const BASE: &str = "ssao --mesh {mesh} --estimator importance --spp 8 --radius 0.5 --width 64 --height 48 \
                     --truth-rays 16 --reference-spp 64";
@@ -294,4 +294,36 @@ fn only_the_kernels_and_truths_used_are_built() {
         assert_eq!(gpu["build_ms"], 0.0);
         assert_eq!(gpu["skipped"][0]["what"], "kd-tree");
     }
+}
+
+/// `--progress` logs the phases as plain lines when stderr is not a
+/// terminal (as in CI): the ray-traced truth and the screen reference show
+/// their progress; without it such a log stays clean.
+#[test]
+fn progress_lines_name_the_truth_and_the_reference_when_asked() {
+    let d = TempDir::new("ssao-progress");
+    let mesh = asset_s("sphere-on-plane.obj");
+    let line = format!(
+        "ssao --mesh {mesh} --estimator importance --spp 4 --radius 0.2 --width 200 --height 150 \
+         --truth-rays 64 --reference-spp 64 --device cpu --out {}",
+        d.p("ao.png")
+    );
+    let run = |extra: &str| {
+        let args: Vec<String> = format!("{line} {extra}").split_whitespace().map(String::from).collect();
+        run_env(&args, &[("PENUMBRA_PROGRESS_DELAY_MS", Some("0"))])
+            .ok()
+            .stderr
+            .clone()
+    };
+    let logged = run("--progress");
+    for phase in ["ray-traced truth", "screen-space reference"] {
+        assert!(
+            logged
+                .lines()
+                .any(|l| l.starts_with("penumbra: progress:") && l.contains(phase)),
+            "no progress line for {phase}:\n{logged}"
+        );
+    }
+    let quiet = run("");
+    assert!(!quiet.contains("progress:"), "progress without --progress:\n{quiet}");
 }

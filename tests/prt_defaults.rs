@@ -371,6 +371,7 @@ fn no_negative_radiance_under_any_probe() {
         check_frames: 0,
         profile: false,
         self_check: None,
+        bars: Default::default(),
     };
     let device = Device::cpu();
     for scene in &scenes {

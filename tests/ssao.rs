@@ -17,6 +17,7 @@ use common::{asset, data_model, gpu};
 use glam::Vec3;
 use penumbra::gpu::GpuContext;
 use penumbra::kdtree::{KdTree, KdTreeParams};
+use penumbra::progress::Progress;
 use penumbra::scene::procedural::all_scenes;
 use penumbra::scene::{Camera, Mesh, load_obj};
 use penumbra::ssao::gbuffer::{GBuffer, ScreenView, gbuffer};
@@ -345,9 +346,18 @@ fn open_plane_is_fully_accessible_for_truth_reference_and_estimators() {
     let gb = gbuffer(&tree, &mesh, &camera, &[], 64, 48);
     let view = ScreenView::new(&camera, 64, 48);
     let radius = 0.05 * b.diagonal();
-    let truth = raytraced(&tree, &camera, &view, &gb, Measure::Poly4, radius, 64, 1);
+    let truth = raytraced(
+        &tree,
+        &camera,
+        &view,
+        &gb,
+        Measure::Poly4,
+        radius,
+        (64, 1),
+        &Progress::hidden(),
+    );
     let s = SsaoSettings::new(Estimator::Importance, 16, radius);
-    let reference = screen_reference(&gb, &view, &s, 256);
+    let reference = screen_reference(&gb, &view, &s, 256, &Progress::hidden());
     for (what, v) in [("truth", &truth.values), ("reference", &reference.values)] {
         assert!(v.iter().all(|&a| a == 1.0), "{what}");
     }
@@ -367,7 +377,7 @@ fn estimators_converge_to_the_screen_reference() {
     let (gb, view) = sphere_scene();
     let radius = 0.5;
     let base = SsaoSettings::new(Estimator::Importance, 16, radius);
-    let reference = screen_reference(&gb, &view, &base, 2048);
+    let reference = screen_reference(&gb, &view, &base, 2048, &Progress::hidden());
     for estimator in Estimator::ALL {
         let errors: Vec<f64> = [4, 64]
             .iter()
@@ -393,8 +403,26 @@ fn ground_truth_noise_is_reported_and_shrinks() {
     let mesh = load_obj(&asset("sphere-on-plane.obj")).unwrap();
     let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
     let camera = Camera::default_for(&mesh.bounds());
-    let a = raytraced(&tree, &camera, &view, &gb, Measure::Step, 0.5, 16, 1);
-    let b = raytraced(&tree, &camera, &view, &gb, Measure::Step, 0.5, 256, 1);
+    let a = raytraced(
+        &tree,
+        &camera,
+        &view,
+        &gb,
+        Measure::Step,
+        0.5,
+        (16, 1),
+        &Progress::hidden(),
+    );
+    let b = raytraced(
+        &tree,
+        &camera,
+        &view,
+        &gb,
+        Measure::Step,
+        0.5,
+        (256, 1),
+        &Progress::hidden(),
+    );
     println!("truth noise: 16 rays {:.4}, 256 rays {:.4}", a.noise_rms, b.noise_rms);
     assert!(b.noise_rms < 0.5 * a.noise_rms && b.noise_rms > 0.0);
     // The estimate of the noise is honest: the 16-ray truth differs from

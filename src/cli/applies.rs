@@ -87,12 +87,6 @@ fn prt_rules(a: &super::prt::PrtArgs) -> Vec<Rule> {
     let mut rules = a.knobs.applies();
     rules.extend(a.play.applies());
     rules.extend([
-        // Every frame is a measured run (frame_ms has min, median and max).
-        rule(
-            false,
-            &["warmup", "repeat"],
-            "commands other than prt (prt times every frame: give --frames)",
-        ),
         rule(
             a.motion.may_animate(a.mesh.as_deref(), a.animated.is_some()),
             &["start", "dt"],

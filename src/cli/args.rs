@@ -26,11 +26,15 @@ pub struct Common {
     pub json: bool,
     #[command(flatten)]
     pub runs: crate::repeats::RepeatOptions,
+    /// Progress lines on stderr even when it is not a terminal (a CI log).
+    #[arg(long)]
+    pub progress: bool,
 }
 
 impl Common {
-    /// Sets up the rayon pool for `--threads`; returns the thread count.
+    /// Sets up `--progress` and the rayon pool for `--threads`; returns the thread count.
     pub fn init_threads(&self) -> Result<usize> {
+        crate::progress::log_when_not_a_terminal(self.progress);
         init_thread_pool(self.threads)
     }
 
@@ -56,13 +60,10 @@ impl Common {
     }
 }
 
-pub use crate::options::CameraOptions as CameraArgs;
-pub use crate::options::init_thread_pool;
-pub(crate) use crate::scene::parse_vec3;
-
-pub use crate::scene::{load_input, load_shaded_input};
-
+pub use crate::options::{CameraOptions as CameraArgs, init_thread_pool};
 pub use crate::output::{check_output, check_outputs};
+pub(crate) use crate::scene::parse_vec3;
+pub use crate::scene::{load_input, load_shaded_input};
 
 /// The command line's option for a library parameter name: the table's
 /// where the names differ, else `--name-with-dashes` where some subcommand

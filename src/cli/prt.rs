@@ -16,7 +16,7 @@ use crate::prt::budget::choose_cached;
 use crate::prt::images::FrameImages;
 use crate::prt::options::{AnimationOptions, PlaybackOptions, PrtOptions};
 use crate::prt::pipeline::PrtSettings;
-use crate::prt::runner::{Playback, PrtRunner, RayTraced, Shadows, animate};
+use crate::prt::runner::{Playback, PrtRunner, RayTraced, Shadows, animate_runs};
 use crate::prt::sh_out::write_sh_json;
 use crate::scene::{EnvironmentMap, View, used_bounds};
 
@@ -132,19 +132,14 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
         camera,
         written: 0,
     };
-    let report = animate(
-        &mut runner,
-        mesh,
-        &env,
-        Some(camera.eye),
-        &playback,
-        |f, positions, out| {
-            if let Some(csv) = csv.as_mut() {
-                csv.frame(f, &out.radiance, args.albedo.to_array(), &out.transfer)?;
-            }
-            images.frame((f, playback.frames), (positions, triangles), &out.radiance)
-        },
-    )?;
+    let (runs, eye) = (args.common.runs.runs(1)?, Some(camera.eye));
+    playback.bars = Bars::Stderr;
+    let (report, times) = animate_runs(&mut runner, (mesh, &env), eye, &playback, runs, |f, positions, out| {
+        if let Some(csv) = csv.as_mut() {
+            csv.frame(f, &out.radiance, args.albedo.to_array(), &out.transfer)?;
+        }
+        images.frame((f, playback.frames), (positions, triangles), &out.radiance)
+    })?;
     if let Some(w) = report.self_check.as_ref().and_then(|c| c.warning()) {
         super::io::note(&w);
     }
@@ -153,7 +148,7 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
         write_sh_json(p, &env, &args.env, settings.bands, args.play.env_spin)?;
     }
     let head = json!({ "scene": mesh.name, "images": images.written, "exposure": images.exposure, "camera": camera, "max_error": choice,
-                 "sh_out": args.sh_out, "per_vertex": args.per_vertex });
+                 "sh_out": args.sh_out, "per_vertex": args.per_vertex, "runs": times });
     let report = super::io::merged(head, &report)?;
     super::io::merged(report, args.common.report(runner.device(), threads))
 }

@@ -253,6 +253,7 @@ impl PlaybackOptions {
                 threshold: self.self_check_threshold,
                 ..SelfCheck::default()
             }),
+            bars: crate::progress::Bars::Hidden,
         };
         playback.validate()?;
         let rays = positive("check_rays", self.check_rays)?;

@@ -20,6 +20,8 @@ use super::transfer::{Brdf, Integration, radiance};
 use crate::device::{Device, OnDevice, elapsed_ms};
 use crate::error::{Error, Result};
 use crate::kdtree::{KdTree, KdTreeParams};
+use crate::progress::Bars;
+use crate::repeats::{Repeats, RunTimes};
 use crate::scene::deform::{AnimationSource, Clip};
 use crate::scene::{EnvironmentMap, SceneMesh};
 use crate::sh::window::{Deringing, nonnegative};
@@ -242,6 +244,8 @@ pub struct Playback {
     pub profile: bool,
     /// The ray-traced error estimate at setup (`selfcheck`; None: none).
     pub self_check: Option<SelfCheck>,
+    /// Progress of the PVS, the self-check and the frames (with their checks).
+    pub bars: Bars,
 }
 
 /// Poses a PVS is gathered from: `frames` over `span` seconds from the
@@ -313,6 +317,30 @@ impl Playback {
 
 /// Runs `animation` of `mesh` under `env`, seen from `eye`, calling
 /// `on_frame` with each frame's index, pose and results.
+/// `animate` played `runs.warmup` untimed times, then `runs.repeat`
+/// measured times (each play's measure: the sum of its frame times, setup
+/// and checks apart); `on_frame` sees only the last play's frames, and the
+/// report is the last play's.
+pub fn animate_runs(
+    runner: &mut PrtRunner,
+    (mesh, env): (&SceneMesh, &EnvironmentMap),
+    eye: Option<Vec3>,
+    animation: &Playback,
+    runs: Repeats,
+    mut on_frame: impl FnMut(usize, &[Vec3], &FrameOutput) -> Result<()>,
+) -> Result<(PrtReport, RunTimes)> {
+    let (plays, mut play) = (runs.warmup + runs.repeat, 0);
+    let once = || {
+        play += 1;
+        let last = play == plays;
+        animate(runner, mesh, env, eye, animation, |f, positions, out| match last {
+            true => on_frame(f, positions, out),
+            false => Ok(()),
+        })
+    };
+    runs.run("animation_ms", once, |r| r.frame_ms.mean * r.frames as f64)
+}
+
 pub fn animate(
     runner: &mut PrtRunner,
     mesh: &SceneMesh,
@@ -327,15 +355,28 @@ pub fn animate(
     // (`sh::window`; issue 15 item 6).
     let (lighting_world, deringing) = nonnegative(&project_environment(env, bands));
     let rotation = ShRotation::new(bands);
+    let bars = animation.bars;
     let pvs = match animation.pvs {
-        Some(sampling) => Some(gather_pvs(runner, mesh, animation, sampling)?),
+        Some(sampling) => {
+            let _shown = bars.spinner("gathering the PVS");
+            Some(gather_pvs(runner, mesh, animation, sampling)?)
+        }
         None => None,
     };
     let self_check = match animation.self_check {
-        Some(c) if runner.shadows == Shadows::On => Some(self_check(runner, mesh, eye, animation, &c)?),
+        Some(c) if runner.shadows == Shadows::On => {
+            let _shown = bars.spinner("self-check");
+            Some(self_check(runner, mesh, eye, animation, &c)?)
+        }
         _ => None,
     };
     let checked = animation.checked();
+    let label = if checked.is_empty() {
+        "frames"
+    } else {
+        "frames (ray-traced checks)"
+    };
+    let progress = bars.bar(animation.frames as u64, label);
     let mut check = CheckReport {
         rays: runner.reference.rays,
         frames: checked.clone(),
@@ -368,6 +409,7 @@ pub fn animate(
         phases.lighting += ms_between(posed, lit);
         phases.transfer += ms_between(lit, done);
         sum += &out.stats;
+        progress.inc(1);
         if checked.contains(&f) {
             let (e, counted, skipped) = runner.transfer_error(&positions, eye, &out)?;
             check.per_frame.push(e);

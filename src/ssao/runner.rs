@@ -171,20 +171,18 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: Bars) ->
             &caster_tree
         };
         let (measure, radius) = (settings.measure, settings.radius);
+        let progress = bars.bar(gb.pixels() as u64, "ray-traced truth");
+        let rays = (request.truth_rays, settings.seed);
         Some(raytraced(
-            occ_tree,
-            &camera,
-            &view,
-            &gb,
-            measure,
-            radius,
-            request.truth_rays,
-            settings.seed,
+            occ_tree, &camera, &view, &gb, measure, radius, rays, &progress,
         ))
     } else {
         None
     };
-    let reference = (request.reference_spp > 0).then(|| screen_reference(&gb, &view, settings, request.reference_spp));
+    let reference = (request.reference_spp > 0).then(|| {
+        let progress = bars.bar(gb.pixels() as u64, "screen-space reference");
+        screen_reference(&gb, &view, settings, request.reference_spp, &progress)
+    });
     let mut report = SsaoReport::new(request, &camera, &gb, &frame, &truth, &reference);
     report.build_ms = tree.get().map_or(0.0, |t| t.stats.build_ms);
     report.runs = Some(RunTimes::of("frame_ms", request.runs.warmup, runs_ms));

@@ -19,6 +19,7 @@
 //! average (A + B)/2 has a per-pixel standard deviation of about
 //! rms(A - B) / 2 (`Estimate::noise_rms`).
 
+use crate::progress::Progress;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -53,7 +54,13 @@ fn halves_of(samples: u32, seed: u32) -> (u32, [SampleSequence; 2]) {
     )
 }
 
-fn halves(gb: &GBuffer, samples: u32, seed: u32, f: impl Fn(u32, u32, &SampleSequence, u32) -> f32 + Sync) -> Estimate {
+/// `progress` advances by one per pixel.
+fn halves(
+    gb: &GBuffer,
+    (samples, seed): (u32, u32),
+    progress: &Progress,
+    f: impl Fn(u32, u32, &SampleSequence, u32) -> f32 + Sync,
+) -> Estimate {
     let start = std::time::Instant::now();
     let (half, seqs) = halves_of(samples, seed);
     let w = gb.width;
@@ -61,6 +68,7 @@ fn halves(gb: &GBuffer, samples: u32, seed: u32, f: impl Fn(u32, u32, &SampleSeq
         .into_par_iter()
         .with_min_len(16)
         .map(|i| {
+            progress.inc(1);
             if !gb.is_surface(i as usize) {
                 return (1.0, 1.0);
             }
@@ -94,11 +102,11 @@ pub fn raytraced(
     gb: &GBuffer,
     measure: Measure,
     radius: f32,
-    rays: u32,
-    seed: u32,
+    (rays, seed): (u32, u32),
+    progress: &Progress,
 ) -> Estimate {
     let traced = Traced::new(tree, camera, view, gb, measure, radius);
-    halves(gb, rays, seed, |x, y, seq, n| traced.at(x, y, seq, n))
+    halves(gb, (rays, seed), progress, |x, y, seq, n| traced.at(x, y, seq, n))
 }
 
 /// `raytraced`'s values at the pixels `pixels` only (indices y * width + x):
@@ -185,11 +193,17 @@ impl<'a> Traced<'a> {
 
 /// Dense quadrature of equation (1) over the depth buffer with `samples`
 /// points per pixel.
-pub fn screen_reference(gb: &GBuffer, view: &ScreenView, settings: &SsaoSettings, samples: u32) -> Estimate {
+pub fn screen_reference(
+    gb: &GBuffer,
+    view: &ScreenView,
+    settings: &SsaoSettings,
+    samples: u32,
+    progress: &Progress,
+) -> Estimate {
     let sc = view.constants();
     let bias = settings.bias_px * 2.0 * view.tan_half_y / view.height as f32;
     let (measure, radius) = (settings.measure, settings.radius);
-    halves(gb, samples, settings.seed ^ 0x3c6e_f372, |x, y, seq, n| {
+    halves(gb, (samples, settings.seed ^ 0x3c6e_f372), progress, |x, y, seq, n| {
         let Some((s, normal)) = shaded_point(gb, &sc, x, y) else {
             return 1.0;
         };
