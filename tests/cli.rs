@@ -1229,3 +1229,51 @@ fn every_rule_names_a_real_option() {
         }
     }
 }
+
+/// One word for "compare against the ground truth": `--reference` (with
+/// `--reference-rays`, `--reference-frames`) in prt, trace, ssao and sweep
+/// as in ao and raytrace; the old spellings still work, hidden from help,
+/// and give the same answers.
+#[test]
+fn the_reference_is_spelled_one_way_and_old_spellings_still_work() {
+    let help = |sub: &str| {
+        let args: Vec<String> = vec![sub.into(), "--help".into()];
+        run_env(&args, &[]).ok().stdout.clone()
+    };
+    for (sub, new, old) in [
+        ("prt", "--reference-rays", "--check-rays"),
+        ("prt", "--reference-frames", "--check-frames"),
+        ("trace", "--reference", "--aa-reference"),
+        ("ssao", "--reference-rays", "--truth-rays"),
+        ("ssao", "--screen-reference-spp", "--reference-spp "),
+        ("sweep", "--reference-rays", "--truth-rays"),
+    ] {
+        let text = help(sub);
+        assert!(text.contains(new), "{sub} --help lacks {new}");
+        assert!(!text.contains(old), "{sub} --help shows the old {old}");
+    }
+    let d = TempDir::new("reference-spelling");
+    let probe = d.p("probe.hdr");
+    let pixels = vec![image::Rgb([0.7f32, 0.6, 0.5]); 16 * 8];
+    image::codecs::hdr::HdrEncoder::new(std::fs::File::create(&probe).unwrap())
+        .encode(&pixels, 16, 8)
+        .unwrap();
+    let prt = "prt --animated cloth --env {env} --frames 2 --self-check off --device cpu --json";
+    let error = |extra: &str| {
+        let j = pen(&format!("{prt} {extra}"), &[("env", &probe)]).ok().json();
+        j["transfer_l2_error"].as_f64().unwrap()
+    };
+    let new = error("--reference --reference-rays 64 --reference-frames 1");
+    let old = error("--check --check-rays 64 --check-frames 1");
+    assert_eq!(new, old);
+    let mesh = asset_s("sphere-on-plane.obj");
+    let trace = "trace --mesh {mesh} --width 32 --height 24 --aa adaptive --device cpu --json";
+    let aa = |extra: &str| pen(&format!("{trace} {extra}"), &[("mesh", &mesh)]).ok().json()["aa"].clone();
+    let (new, old) = (aa("--reference"), aa("--aa-reference"));
+    assert!(
+        new["reference"]["rmse_edges"].is_number(),
+        "--reference adds the comparison: {new}"
+    );
+    assert_eq!(new["reference"], old["reference"]);
+    assert!(aa("")["reference"].is_null());
+}

@@ -190,7 +190,7 @@ fn bad_input_is_exit_code_two() {
         ),
         ("prt --animated cloth --env {env} --exposure 0", &["--exposure"]),
         ("prt --animated cloth --env {env} --dt nan", &["--dt"]),
-        ("prt --animated cloth --env {env} --check-rays 0", &["--check-rays"]),
+        ("prt --animated cloth --env {env} --check-rays 0", &["--reference-rays"]),
         (
             "prt --animated cloth --env {env} --coarse-tolerance -1",
             &["--coarse-tolerance"],

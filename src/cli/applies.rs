@@ -112,7 +112,7 @@ fn sweep_rules(a: &super::sweep::SweepArgs) -> Vec<Rule> {
         rule(matches!(m, Field | Ssao), &["radius"], "sweep field or ssao"),
         rule(
             matches!(m, Field | Ssao | Prt),
-            &["truth_rays"],
+            &["reference_rays"],
             "sweep field, ssao or prt",
         ),
         rule(

@@ -33,10 +33,10 @@ pub struct SweepArgs {
     /// Output folder (created if missing) for sweep.csv, sweep.json, sweep.png.
     #[arg(long)]
     pub out: PathBuf,
-    /// Rays per point of the truth (field: per vertex, as the methods; ssao:
-    /// per pixel; prt: per vertex) [default: field 64, ssao 256, prt 1024].
-    #[arg(long, allow_negative_numbers = true)]
-    pub truth_rays: Option<u32>,
+    /// Rays per point of the reference, the ground truth (field: per vertex; ssao: per
+    /// pixel; prt: per vertex) [default: field 64, ssao 256, prt 1024].
+    #[arg(long, alias = "truth-rays", allow_negative_numbers = true)]
+    pub reference_rays: Option<u32>,
     /// field and ssao: the AO radius [default: field infinite, ssao 5% of the scene's diagonal].
     #[arg(long, allow_negative_numbers = true)]
     pub radius: Option<f32>,
@@ -73,7 +73,7 @@ pub fn run(args: &SweepArgs) -> Result<Value> {
         scene: args.scene.as_deref(),
         receiver: args.receiver.as_deref(),
         view: View::new(args.camera.spec(), args.width, args.height)?,
-        truth_rays: args.truth_rays,
+        truth_rays: args.reference_rays,
         radius: args.radius,
         seed: args.common.seed,
     };

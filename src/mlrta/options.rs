@@ -44,15 +44,15 @@ pub struct TraceOptions {
     pub aa_samples: u32,
     /// Measure the anti-aliased image's error on edge pixels against 16 rays
     /// per pixel everywhere, and the rays uniform supersampling would use.
-    #[arg(long)]
-    pub aa_reference: bool,
+    #[arg(long, alias = "aa-reference")]
+    pub reference: bool,
 }
 
 impl TraceOptions {
     /// Tile knobs apply to packets, anti-aliasing knobs to --aa.
     pub fn applies(&self) -> Vec<Applies> {
         let tiles = &["tile", "min_tile", "split_factor"];
-        let aa = &["aa_samples", "aa_reference"];
+        let aa = &["aa_samples", "reference"];
         vec![
             applies(!self.single_ray, tiles, "packets (without --single-ray)"),
             applies(self.aa != AaMode::None, aa, "--aa adaptive or uniform"),
@@ -80,7 +80,7 @@ impl TraceOptions {
             aa: AaRequest {
                 mode: self.aa,
                 samples: self.aa_samples,
-                reference: self.aa_reference,
+                reference: self.reference,
             },
         };
         request.validate()?;

@@ -212,14 +212,14 @@ pub struct PlaybackOptions {
     #[arg(long, value_enum, default_value_t = Shadows::On)]
     pub shadows: Shadows,
     /// Compare the transfer with Monte Carlo ray-traced visibility.
-    #[arg(long)]
-    pub check: bool,
+    #[arg(long, alias = "check")]
+    pub reference: bool,
     /// Rays per vertex of the reference.
-    #[arg(long, default_value_t = 4096, allow_negative_numbers = true)]
-    pub check_rays: i64,
-    /// Frames compared (evenly spread over the frames computed).
-    #[arg(long, default_value_t = 4, allow_negative_numbers = true)]
-    pub check_frames: i64,
+    #[arg(long, alias = "check-rays", default_value_t = 4096, allow_negative_numbers = true)]
+    pub reference_rays: i64,
+    /// Frames compared, evenly spread over the frames computed.
+    #[arg(long, alias = "check-frames", default_value_t = 4, allow_negative_numbers = true)]
+    pub reference_frames: i64,
     /// Estimate the transfer error at setup by ray tracing a sample of vertices (`self_check` in --json).
     #[arg(long, value_enum, default_value_t = OnOff::On)]
     pub self_check: OnOff,
@@ -237,7 +237,7 @@ pub struct PlaybackOptions {
 impl PlaybackOptions {
     /// The checked playback and the reference's rays (`seed`: theirs).
     pub fn playback(&self, seed: u32) -> Result<(Playback, RayTraced)> {
-        let check_frames = positive("check_frames", self.check_frames)?;
+        let check_frames = positive("reference_frames", self.reference_frames)?;
         let playback = Playback {
             frames: positive("frames", self.frames.unwrap_or(1))?,
             start: self.start,
@@ -247,7 +247,7 @@ impl PlaybackOptions {
                 frames: positive("pvs_frames", self.pvs_frames)?,
                 span: self.pvs_span,
             }),
-            check_frames: if self.check { check_frames } else { 0 },
+            check_frames: if self.reference { check_frames } else { 0 },
             profile: self.profile,
             self_check: self.self_check.on().then_some(SelfCheck {
                 threshold: self.self_check_threshold,
@@ -256,19 +256,19 @@ impl PlaybackOptions {
             bars: crate::progress::Bars::Hidden,
         };
         playback.validate()?;
-        let rays = positive("check_rays", self.check_rays)?;
-        let rays = u32::try_from(rays).map_err(|_| Error::param("check_rays", "is too large"))?;
+        let rays = positive("reference_rays", self.reference_rays)?;
+        let rays = u32::try_from(rays).map_err(|_| Error::param("reference_rays", "is too large"))?;
         Ok((playback, RayTraced { rays, seed }))
     }
 
     /// Which options apply to the chosen visibility, PVS and checks.
     pub fn applies(&self) -> Vec<Applies> {
         let on = self.shadows == Shadows::On;
-        let raytraced = self.check || self.shadows == Shadows::Raytraced;
+        let raytraced = self.reference || self.shadows == Shadows::Raytraced;
         vec![
             applies(self.pvs == OnOff::On, &["pvs_frames", "pvs_span"], "--pvs on"),
-            applies(raytraced, &["check_rays"], "--check or --shadows raytraced"),
-            applies(self.check, &["check_frames"], "--check"),
+            applies(raytraced, &["reference_rays"], "--reference or --shadows raytraced"),
+            applies(self.reference, &["reference_frames"], "--reference"),
             applies(on, &["self_check"], "--shadows on"),
             applies(on && self.self_check.on(), &["self_check_threshold"], "--self-check on"),
         ]

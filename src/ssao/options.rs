@@ -102,12 +102,13 @@ pub struct SsaoRunOptions {
     /// Ambient radiance La of the shaded image.
     #[arg(long, default_value_t = 0.5, allow_negative_numbers = true)]
     pub ambient: f32,
-    /// Rays per pixel of the ray-traced truth (0: skip it, rmse_vs_raytraced is null).
-    #[arg(long, default_value_t = 256, allow_negative_numbers = true)]
-    pub truth_rays: u32,
+    /// Rays per pixel of the ray-traced reference, the ground truth (0: skip
+    /// it, rmse_vs_raytraced is null).
+    #[arg(long, alias = "truth-rays", default_value_t = 256, allow_negative_numbers = true)]
+    pub reference_rays: u32,
     /// Samples per pixel of the screen-space reference (0: skip it).
-    #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
-    pub reference_spp: u32,
+    #[arg(long, alias = "reference-spp", default_value_t = 1024, allow_negative_numbers = true)]
+    pub screen_reference_spp: u32,
 }
 
 impl SsaoRunOptions {
@@ -120,8 +121,8 @@ impl SsaoRunOptions {
             settings,
             view,
             shade: (self.indirect || image).then_some(shade),
-            truth_rays: self.truth_rays,
-            reference_spp: self.reference_spp,
+            truth_rays: self.reference_rays,
+            reference_spp: self.screen_reference_spp,
             runs,
         };
         request.validate()?;

@@ -206,10 +206,10 @@ fn skipped(request: &SsaoRequest, tree_unused: bool) -> Vec<Skipped> {
         skipped.push(Skipped::new("kd-tree", why));
     }
     if request.truth_rays == 0 {
-        skipped.push(Skipped::new("ray-traced truth", "--truth-rays 0"));
+        skipped.push(Skipped::new("ray-traced truth", "--reference-rays 0"));
     }
     if request.reference_spp == 0 {
-        skipped.push(Skipped::new("screen-space reference", "--reference-spp 0"));
+        skipped.push(Skipped::new("screen-space reference", "--screen-reference-spp 0"));
     }
     skipped
 }

@@ -107,7 +107,7 @@ impl SsaoSweep {
         };
         base.validate()?;
         if truth_rays == 0 {
-            return Err(Error::param("truth_rays", "must be at least 1"));
+            return Err(Error::param("reference_rays", "must be at least 1"));
         }
         Ok(SsaoSweep {
             device,
