@@ -1253,11 +1253,7 @@ fn the_reference_is_spelled_one_way_and_old_spellings_still_work() {
         assert!(!text.contains(old), "{sub} --help shows the old {old}");
     }
     let d = TempDir::new("reference-spelling");
-    let probe = d.p("probe.hdr");
-    let pixels = vec![image::Rgb([0.7f32, 0.6, 0.5]); 16 * 8];
-    image::codecs::hdr::HdrEncoder::new(std::fs::File::create(&probe).unwrap())
-        .encode(&pixels, 16, 8)
-        .unwrap();
+    let probe = common::cli::write_probe(&d, common::cli::SKY, common::cli::GROUND);
     let prt = "prt --animated cloth --env {env} --frames 2 --self-check off --device cpu --json";
     let error = |extra: &str| {
         let j = pen(&format!("{prt} {extra}"), &[("env", &probe)]).ok().json();

@@ -255,8 +255,8 @@ fn options_that_do_not_apply_are_refused() {
         ),
         (
             "prt --mesh {mesh} --env {mesh} --check-rays 64".to_string(),
-            "--check-rays",
-            "--check",
+            "--reference-rays",
+            "--reference or --shadows raytraced",
         ),
         (
             "prt --mesh {mesh} --env {mesh} --width 64".to_string(),

@@ -172,23 +172,8 @@ fn obj_text(positions: &[glam::Vec3], triangles: &[[u32; 3]]) -> String {
 
 #[test]
 fn prt_picks_the_fastest_mask_and_hierarchy_within_the_budget() {
-    use image::Rgb;
-    use image::codecs::hdr::HdrEncoder;
     let dir = TempDir::new("max-error-prt");
-    let (w, h) = (32usize, 16usize);
-    let sky: Vec<Rgb<f32>> = (0..w * h)
-        .map(|i| {
-            if i / w < h / 2 {
-                Rgb([2.0, 1.8, 1.5])
-            } else {
-                Rgb([0.2, 0.2, 0.25])
-            }
-        })
-        .collect();
-    let env = dir.p("probe.hdr");
-    HdrEncoder::new(std::io::BufWriter::new(std::fs::File::create(&env).unwrap()))
-        .encode(&sky, w, h)
-        .unwrap();
+    let env = common::cli::write_probe(&dir, common::cli::SKY, common::cli::GROUND);
     let mesh = asset_s("sphere-on-plane.obj");
     let base = "prt --mesh {mesh} --env {env} --check --check-rays 1024 --device cpu --json";
     let vars = [("mesh", mesh.as_str()), ("env", env.as_str())];

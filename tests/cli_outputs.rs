@@ -6,10 +6,8 @@
 
 mod common;
 
-use common::cli::{TempDir, asset_s, cmd, pen, run};
+use common::cli::{TempDir, asset_s, cmd, pen, run, write_probe};
 use glam::{DVec3, Vec3};
-use image::Rgb;
-use image::codecs::hdr::HdrEncoder;
 use penumbra::color::srgb8;
 use penumbra::image_out::read_pfm;
 use penumbra::scene::{load_mesh, load_ply};
@@ -317,21 +315,6 @@ fn ssao_and_trace_float_images_match_their_pngs() {
             assert_eq!(f.x, 0.0, "no surface: 0 in the PFM");
         }
     }
-}
-
-/// A probe: `sky` above the horizon (+y), `ground` below; 32 x 16 texels,
-/// so the horizon lies on a texel boundary.
-fn write_probe(dir: &TempDir, sky: [f32; 3], ground: [f32; 3]) -> String {
-    let (w, h) = (32usize, 16usize);
-    let pixels: Vec<Rgb<f32>> = (0..w * h)
-        .map(|i| if i / w < h / 2 { Rgb(sky) } else { Rgb(ground) })
-        .collect();
-    let path = dir.p("probe.hdr");
-    let file = std::fs::File::create(&path).unwrap();
-    HdrEncoder::new(std::io::BufWriter::new(file))
-        .encode(&pixels, w, h)
-        .unwrap();
-    path
 }
 
 /// The SH coefficients of a probe that is `sky` for y > 0 and `ground`

@@ -4,37 +4,14 @@
 
 mod common;
 
-use common::cli::{TempDir, asset_s, gpu_available, pen};
-use image::Rgb;
-use image::codecs::hdr::HdrEncoder;
-
-/// A small latitude-longitude probe: a bright sky above, a dim ground.
-fn write_probe(dir: &TempDir) -> String {
-    let (w, h) = (32usize, 16usize);
-    let pixels: Vec<Rgb<f32>> = (0..w * h)
-        .map(|i| {
-            let row = i / w;
-            if row < h / 2 {
-                Rgb([2.0, 1.8, 1.5])
-            } else {
-                Rgb([0.2, 0.2, 0.25])
-            }
-        })
-        .collect();
-    let path = dir.p("probe.hdr");
-    let file = std::fs::File::create(&path).unwrap();
-    HdrEncoder::new(std::io::BufWriter::new(file))
-        .encode(&pixels, w, h)
-        .unwrap();
-    path
-}
+use common::cli::{GROUND, SKY, TempDir, asset_s, gpu_available, pen, write_probe};
 
 const CLOTH: &str = "prt --animated cloth --env {env} --frames 3 --width 64 --height 48";
 
 #[test]
 fn cloth_runs_and_reports_table_one_fields() {
     let dir = TempDir::new("prt-cloth");
-    let env = write_probe(&dir);
+    let env = write_probe(&dir, SKY, GROUND);
     let out = dir.p("cloth.png");
     let r = pen(
         &format!("{CLOTH} --device cpu --check --check-rays 256 --check-frames 2 --profile --out {{out}} --json"),
@@ -68,7 +45,7 @@ fn gpu_and_cpu_render_the_same_frame() {
         return;
     }
     let dir = TempDir::new("prt-devices");
-    let env = write_probe(&dir);
+    let env = write_probe(&dir, SKY, GROUND);
     for extra in [
         "--animated cloth",
         "--animated cloth --brdf phong --integration cells",
@@ -104,7 +81,7 @@ fn gpu_and_cpu_render_the_same_frame() {
 #[test]
 fn knobs_run_on_a_static_mesh() {
     let dir = TempDir::new("prt-knobs");
-    let env = write_probe(&dir);
+    let env = write_probe(&dir, SKY, GROUND);
     let mesh = asset_s("sphere-on-plane.obj");
     for knobs in [
         "--mask 16 --lut 64",
@@ -133,7 +110,7 @@ fn knobs_run_on_a_static_mesh() {
 #[test]
 fn self_check_reports_and_warns() {
     let dir = TempDir::new("prt-self-check");
-    let env = write_probe(&dir);
+    let env = write_probe(&dir, SKY, GROUND);
     let base = "prt --animated cloth --env {env} --device cpu --json";
     let r = pen(base, &[("env", &env)]);
     let j = r.ok().json();
@@ -161,7 +138,7 @@ fn self_check_reports_and_warns() {
 #[test]
 fn bad_input_is_exit_code_two() {
     let dir = TempDir::new("prt-bad");
-    let env = write_probe(&dir);
+    let env = write_probe(&dir, SKY, GROUND);
     let text = dir.write("text.hdr", "not a Radiance file\n");
     let nan = dir.write("nan.obj", "v 0 0 0\nv 1 0 0\nv 0 nan 0\nf 1 2 3\n");
     let empty = dir.write("empty.obj", "# nothing\n");

@@ -78,11 +78,7 @@ fn every_computing_command_reports_its_measured_runs() {
     .json();
     check_runs(&j, "build_ms", 1, 2);
     // prt: each play of the animation is a run; outputs are the last play's.
-    let probe = d.p("probe.hdr");
-    let pixels = vec![image::Rgb([0.8f32, 0.7, 0.6]); 16 * 8];
-    image::codecs::hdr::HdrEncoder::new(std::fs::File::create(&probe).unwrap())
-        .encode(&pixels, 16, 8)
-        .unwrap();
+    let probe = common::cli::write_probe(&d, common::cli::SKY, common::cli::GROUND);
     let csv = o("prt.csv");
     let j = pen(
         &format!("prt --animated cloth --env {probe} --frames 3 --self-check off --per-vertex {csv} {common}"),

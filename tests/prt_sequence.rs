@@ -6,35 +6,13 @@
 
 mod common;
 
-use common::cli::{TempDir, asset_s, pen};
+use common::cli::{GROUND, SKY, TempDir, asset_s, pen, write_probe};
 use glam::{DMat4, DQuat, DVec3, Vec3};
 use penumbra::scene::animated::AnimatedScene;
 use penumbra::scene::animation_assets::{FLAG_FRAMES, bending_tube, hand};
 use penumbra::scene::load_gltf_animation;
 use penumbra::scene::procedural::uv_sphere;
 use penumbra::scene::{Mesh, write_obj};
-
-/// A small probe: a bright sky, a dim ground (as tests/cli_prt.rs).
-fn write_probe(dir: &TempDir) -> String {
-    use image::Rgb;
-    use image::codecs::hdr::HdrEncoder;
-    let (w, h) = (32usize, 16usize);
-    let pixels: Vec<Rgb<f32>> = (0..w * h)
-        .map(|i| {
-            if i / w < h / 2 {
-                Rgb([2.0, 1.8, 1.5])
-            } else {
-                Rgb([0.2, 0.2, 0.25])
-            }
-        })
-        .collect();
-    let path = dir.p("probe.hdr");
-    let file = std::fs::File::create(&path).unwrap();
-    HdrEncoder::new(std::io::BufWriter::new(file))
-        .encode(&pixels, w, h)
-        .unwrap();
-    path
-}
 
 const FAST: &str = "--device cpu --json --self-check off --order 3 --mask 16";
 
@@ -49,7 +27,7 @@ fn write_frames(dir: &TempDir, sub: &str, frames: &[Mesh]) -> String {
 #[test]
 fn shipped_flag_sequence_plays_every_frame() {
     let dir = TempDir::new("seq-flag");
-    let env = write_probe(&dir);
+    let env = write_probe(&dir, SKY, GROUND);
     let pattern = format!("{}/flag/*.obj", asset_s("animations"));
     let j = pen(
         &format!("prt --mesh-sequence {{p}} --env {{env}} {FAST}"),
@@ -80,7 +58,7 @@ fn shipped_flag_sequence_plays_every_frame() {
 #[test]
 fn sequence_of_the_cloth_matches_the_built_in_cloth() {
     let dir = TempDir::new("seq-cloth");
-    let env = write_probe(&dir);
+    let env = write_probe(&dir, SKY, GROUND);
     let cloth = AnimatedScene::Cloth.build();
     let frames: Vec<Mesh> = (0..4).map(|k| cloth.mesh_at(k as f32 * (1.0 / 30.0))).collect();
     let pattern = write_frames(&dir, "cloth", &frames);
@@ -104,7 +82,7 @@ fn sequence_of_the_cloth_matches_the_built_in_cloth() {
 #[test]
 fn bad_sequences_exit_2_naming_the_frame() {
     let dir = TempDir::new("seq-bad");
-    let env = write_probe(&dir);
+    let env = write_probe(&dir, SKY, GROUND);
     let flag = penumbra::scene::animation_assets::flag_frames(3);
     let run = |pattern: &str| {
         pen(
@@ -149,7 +127,7 @@ fn bad_sequences_exit_2_naming_the_frame() {
 #[test]
 fn gltf_skins_and_morphs_animate_and_bad_ones_exit_2() {
     let dir = TempDir::new("seq-gltf");
-    let env = write_probe(&dir);
+    let env = write_probe(&dir, SKY, GROUND);
     let tube = format!("{}/bending-tube.glb", asset_s("animations"));
     let blob = format!("{}/morph-blob.glb", asset_s("animations"));
     let run = |mesh: &str, extra: &str| {

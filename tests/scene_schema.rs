@@ -150,11 +150,7 @@ fn every_shipped_scene_is_valid_and_loads() {
 
 /// A scene using every section, with files that exist.
 fn full_scene(d: &TempDir) -> Value {
-    let probe = d.p("probe.hdr");
-    let pixels = vec![image::Rgb([0.5f32, 0.5, 0.5]); 8 * 4];
-    image::codecs::hdr::HdrEncoder::new(std::fs::File::create(&probe).unwrap())
-        .encode(&pixels, 8, 4)
-        .unwrap();
+    let probe = common::cli::write_probe(d, common::cli::SKY, common::cli::GROUND);
     let corner = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/corner.obj");
     json!({
         "meshes": { "c": corner.display().to_string() },

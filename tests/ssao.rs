@@ -403,26 +403,19 @@ fn ground_truth_noise_is_reported_and_shrinks() {
     let mesh = load_obj(&asset("sphere-on-plane.obj")).unwrap();
     let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
     let camera = Camera::default_for(&mesh.bounds());
-    let a = raytraced(
-        &tree,
-        &camera,
-        &view,
-        &gb,
-        Measure::Step,
-        0.5,
-        (16, 1),
-        &Progress::hidden(),
-    );
-    let b = raytraced(
-        &tree,
-        &camera,
-        &view,
-        &gb,
-        Measure::Step,
-        0.5,
-        (256, 1),
-        &Progress::hidden(),
-    );
+    let truth = |rays| {
+        raytraced(
+            &tree,
+            &camera,
+            &view,
+            &gb,
+            Measure::Step,
+            0.5,
+            (rays, 1),
+            &Progress::hidden(),
+        )
+    };
+    let (a, b) = (truth(16), truth(256));
     println!("truth noise: 16 rays {:.4}, 256 rays {:.4}", a.noise_rms, b.noise_rms);
     assert!(b.noise_rms < 0.5 * a.noise_rms && b.noise_rms > 0.0);
     // The estimate of the noise is honest: the 16-ray truth differs from

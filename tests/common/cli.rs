@@ -174,3 +174,22 @@ pub fn gpu_available() -> bool {
         }
     }
 }
+
+/// The sky and ground of the probe most PRT tests light with.
+pub const SKY: [f32; 3] = [2.0, 1.8, 1.5];
+pub const GROUND: [f32; 3] = [0.2, 0.2, 0.25];
+
+/// A Radiance probe `probe.hdr` in `dir`: `sky` above the horizon (+y),
+/// `ground` below; 32 x 16 texels, so the horizon lies on a texel boundary.
+pub fn write_probe(dir: &TempDir, sky: [f32; 3], ground: [f32; 3]) -> String {
+    let (w, h) = (32usize, 16usize);
+    let pixels: Vec<image::Rgb<f32>> = (0..w * h)
+        .map(|i| image::Rgb(if i / w < h / 2 { sky } else { ground }))
+        .collect();
+    let path = dir.p("probe.hdr");
+    let file = std::fs::File::create(&path).unwrap();
+    image::codecs::hdr::HdrEncoder::new(std::io::BufWriter::new(file))
+        .encode(&pixels, w, h)
+        .unwrap();
+    path
+}
