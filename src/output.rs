@@ -157,6 +157,13 @@ where
     }
 }
 
+/// Where frame `frame` of an animation goes (`last`: it is the last
+/// frame): every frame to its own file where `template` holds `{}`, else
+/// only the last frame, to `template` itself.
+pub fn frame_output(template: &Path, frame: u32, last: bool) -> Option<PathBuf> {
+    frame_path(template, frame).or_else(|| last.then(|| template.to_path_buf()))
+}
+
 /// The output file of frame `frame`: the template with `{}` or `{:0N}`
 /// replaced by the frame number, if it holds one.
 pub fn frame_path(template: &Path, frame: u32) -> Option<PathBuf> {

@@ -135,12 +135,11 @@ fn whitted(args: &RaytraceArgs, setup: Setup, mut renderer: WhittedRenderer) -> 
             size,
             &setup.settings,
             &progress,
-            |f, image| setup.images.frame(f, &image.radiance()),
+            |f, image| setup.images.frame((f, frames), &image.radiance()),
         )
     };
     let ((sequence, last), times) = runs.run("render_ms", once, |(s, _)| s.render_ms)?;
     progress.finish();
-    setup.images.last(&last.radiance())?;
     let mut report = merged(setup.report(args, &renderer, last.camera)?, &sequence)?;
     report["timing"] = json!(last.stats.timing);
     report["path"] = json!(last.stats.path);

@@ -30,10 +30,9 @@ pub(super) fn run(args: &RaytraceArgs, setup: Setup, whitted: WhittedRenderer) -
         size,
         measures,
         &progress,
-        |f, frame| setup.images.frame(f, &frame.radiance),
+        |f, frame| setup.images.frame((f, frames), &frame.radiance),
     )?;
     progress.finish();
-    setup.images.last(&last.radiance)?;
     if let Some(path) = error_image {
         let colours: Vec<[u8; 3]> = last.paths.iter().map(|&p| path_colour(p)).collect();
         write_rgb_png(path, size.0, size.1, &colours)?;

@@ -63,9 +63,11 @@ pub fn run(args: &SsaoArgs) -> Result<Value> {
     let outputs = check_outputs(&[(&args.out, "--out"), (&args.image, "--image")])?;
     outputs[0].map(|p| args.grey.style().check(p, "--out")).transpose()?;
     outputs[1].map(|p| ImageFormat::check(p, "--image")).transpose()?;
-    // The shaded image needs the meshes' materials.
-    let load = [load_input, load_shaded_input][args.image.is_some() as usize];
-    let scene = load(args.mesh.as_deref(), args.scene.as_deref())?;
+    let (mesh, scene) = (args.mesh.as_deref(), args.scene.as_deref());
+    let scene = match args.image {
+        Some(_) => load_shaded_input(mesh, scene)?, // the shaded image needs the materials
+        None => load_input(mesh, scene)?,
+    };
     super::io::warn(&scene.warnings);
     crate::ssao::gbuffer::validate_lights(&scene.lights)?;
     let bounds = scene.world_mesh(|_| true).bounds();

@@ -51,12 +51,12 @@ pub fn run(args: &TraceArgs) -> Result<Value> {
     let threads = args.common.init_threads()?;
     let view = View::new(args.camera.spec(), args.size.width, args.size.height)?;
     let mut request = args.knobs.request(view)?;
-    let (out, tiles, aa) = (
+    let o = check_outputs(&[
         (&args.out, "--out"),
         (&args.tiles_image, "--tiles-image"),
         (&args.aa_image, "--aa-image"),
-    );
-    let o = check_outputs(&[out, tiles, aa, (&args.dump_rays, "--dump-rays")])?;
+        (&args.dump_rays, "--dump-rays"),
+    ])?;
     o[0].map(|p| ImageFormat::check(p, "--out")).transpose()?;
     o[2].map(|p| ImageFormat::check(p, "--aa-image")).transpose()?;
     o[1].map(|p| ImageFormat::check_png(p, "--tiles-image")).transpose()?;

@@ -11,7 +11,7 @@ use glam::Vec3;
 use super::render::{auto_exposure, render_radiance};
 use crate::error::{Error, Result};
 use crate::image_out::write_radiance;
-use crate::output::frame_path;
+use crate::output::frame_output;
 use crate::scene::{Camera, EnvironmentMap};
 
 pub struct FrameImages<'a> {
@@ -54,8 +54,7 @@ impl FrameImages<'_> {
         let last = f + 1 == frames;
         let paths: Vec<PathBuf> = [
             self.folder.map(|d| d.join(format!("frame-{f:04}.png"))),
-            self.out
-                .and_then(|p| frame_path(p, f as u32).or_else(|| last.then(|| p.to_path_buf()))),
+            self.out.and_then(|p| frame_output(p, f as u32, last)),
         ]
         .into_iter()
         .flatten()

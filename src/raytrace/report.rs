@@ -2,7 +2,7 @@
 //! `raytrace` report has, a pixel's ray tree, and the frames' images
 //! (every frame where the output name holds `{}`, else the last).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use glam::Vec3;
 use serde::Serialize;
@@ -12,7 +12,7 @@ use super::ray_tree::RayNode;
 use super::runner::{WhittedRenderer, WhittedSettings};
 use crate::error::Result;
 use crate::image_out::write_radiance;
-use crate::output::frame_path;
+use crate::output::frame_output;
 use crate::scene::Camera;
 
 /// The fields of every `raytrace` report.
@@ -111,23 +111,11 @@ pub struct FrameImages {
 }
 
 impl FrameImages {
-    /// Writes frame `f` where every frame is asked for.
-    pub fn frame(&self, f: u32, radiance: &[Vec3]) -> Result<()> {
-        match self.out.as_deref().and_then(|t| frame_path(t, f)) {
-            Some(p) => self.write(&p, radiance),
+    /// Writes frame `f` of `frames` where an image of it is asked for.
+    pub fn frame(&self, (f, frames): (u32, u32), radiance: &[Vec3]) -> Result<()> {
+        match self.out.as_deref().and_then(|t| frame_output(t, f, f + 1 == frames)) {
+            Some(p) => write_radiance(&p, self.size.0, self.size.1, radiance, self.exposure),
             None => Ok(()),
         }
-    }
-
-    /// Writes the last frame where one file is asked for.
-    pub fn last(&self, radiance: &[Vec3]) -> Result<()> {
-        match self.out.as_deref().filter(|p| frame_path(p, 0).is_none()) {
-            Some(p) => self.write(p, radiance),
-            None => Ok(()),
-        }
-    }
-
-    fn write(&self, path: &Path, radiance: &[Vec3]) -> Result<()> {
-        write_radiance(path, self.size.0, self.size.1, radiance, self.exposure)
     }
 }
