@@ -1,4 +1,4 @@
-//! The README's SSAO tables and error-against-time plots, in one command:
+//! The SSAO tables of docs/results/ssao.md and error-against-time plots, in one command:
 //!
 //! ```sh
 //! PENUMBRA_DATA=../shared/data cargo bench --bench ssao_table

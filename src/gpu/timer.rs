@@ -80,6 +80,12 @@ impl PassTimer {
             .collect())
     }
 
+    /// Starts over at the first pass, the earlier ones read (`total_ms`):
+    /// a timer of one batch's passes serves every batch.
+    pub fn restart(&mut self) {
+        self.used = 0;
+    }
+
     /// Records the resolve and copy; call once after the last pass.
     pub fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
         if self.used == 0 {
@@ -101,6 +107,9 @@ impl PassTimer {
 
     /// Sum of the passes' durations in milliseconds (after submission).
     pub fn total_ms(&self, device: &wgpu::Device) -> Result<f64> {
+        if self.used == 0 {
+            return Ok(0.0);
+        }
         let stamps: Vec<u64> = read_back(device, &self.readback, 2 * self.used as usize)?;
         let ticks: u64 = stamps.chunks(2).map(|p| p[1].saturating_sub(p[0])).sum();
         Ok(ticks as f64 * self.period_ns as f64 * 1e-6)

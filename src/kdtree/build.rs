@@ -31,7 +31,7 @@ use super::clip::{clip_triangle, clipped_bounds};
 use super::node::{KdNode, MAX_LEAF_TRIANGLES, MAX_TREE_DEPTH};
 use crate::aabb::Aabb;
 
-/// Knobs of the builder. `Default` gives the settings the README's numbers
+/// Knobs of the builder. `Default` gives the settings docs/results' numbers
 /// were measured with.
 #[derive(Debug, Clone, PartialEq)]
 pub struct KdTreeParams {

@@ -157,7 +157,7 @@ impl Measure {
     /// 2 (1 - (1 - e^{-s}) / s) / (1 - e^{-s}) for the truncated exponential.
     /// `estimators` divides by this constant so that an open point is 1;
     /// the approximation's remaining bias (partially occluded points) is
-    /// measured in the README.
+    /// measured in docs/results/ssao.md.
     pub fn tangent_sphere_open_value(&self, radius: f32) -> f64 {
         match *self {
             Measure::Step => 0.0,
