@@ -1273,3 +1273,19 @@ fn the_reference_is_spelled_one_way_and_old_spellings_still_work() {
     assert_eq!(new["reference"], old["reference"]);
     assert!(aa("")["reference"].is_null());
 }
+
+/// `--shadows` takes on/off as prt spells it; the bare flag still means on.
+#[test]
+fn trace_shadows_are_spelled_as_in_prt() {
+    let mesh = asset_s("sphere-on-plane.obj");
+    let trace = "trace --mesh {mesh} --width 32 --height 24 --device cpu --json";
+    let shadows = |extra: &str| pen(&format!("{trace} {extra}"), &[("mesh", &mesh)]).ok().json()["shadows"].clone();
+    let (bare, on) = (shadows("--shadows"), shadows("--shadows on"));
+    assert!(
+        bare["shadow_rays"].as_u64() > Some(0),
+        "--shadows traces shadow rays: {bare}"
+    );
+    assert_eq!(bare, on);
+    assert!(shadows("--shadows off").is_null());
+    assert!(shadows("").is_null());
+}

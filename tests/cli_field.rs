@@ -211,6 +211,38 @@ fn ao_method_field_over_animation_frames() {
     // One field serves both instances of the cube.
     assert_eq!(json["fields"].as_array().unwrap().len(), 1);
     assert_eq!(json["casters"]["instances"], 2);
+
+    // `{:04}`/`{}` in an output's name: a file per frame, each what a run
+    // ending at that frame writes; a plain name gets the last frame.
+    let run = |frames: u32, csv: &str, image: &str| {
+        let mut args = common::cli::cmd(
+            &format!("ao --scene {{s}} --method field --rays 16 --positions 100 --res 8 --frames {frames}"),
+            &[("s", &scene)],
+        );
+        args.extend(["--per-vertex", csv, "--image", image].map(String::from));
+        args.extend("--width 48 --height 32 --device cpu".split(' ').map(String::from));
+        common::cli::run(&args).ok();
+    };
+    run(3, &d.p("v_{}.csv"), &d.p("f_{:04}.png"));
+    for frame in 0..3 {
+        run(frame + 1, &d.p("alone.csv"), &d.p("alone.png"));
+        let read = |name: String| std::fs::read(d.p(&name)).unwrap();
+        assert_eq!(
+            read(format!("v_{frame}.csv")),
+            read("alone.csv".into()),
+            "frame {frame}"
+        );
+        assert_eq!(
+            read(format!("f_{frame:04}.png")),
+            read("alone.png".into()),
+            "frame {frame}"
+        );
+    }
+    assert_ne!(
+        std::fs::read(d.p("v_0.csv")).unwrap(),
+        std::fs::read(d.p("v_2.csv")).unwrap()
+    );
+    assert!(!std::path::Path::new(&d.p("v_3.csv")).exists());
 }
 
 #[test]

@@ -34,8 +34,9 @@ pub struct AoOptions {
     #[arg(long, value_enum, default_value_t = Positional::Bilinear)]
     pub positional: Positional,
     /// --method field: animation frames; instances with a "motion" in the
-    /// scene file move between them, fields are reused. CSV and image show
-    /// the last frame.
+    /// scene file move between them, fields are reused. --per-vertex and
+    /// --image get every frame where their name holds {} or {:04}, else the
+    /// last frame.
     #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
     pub frames: i64,
     /// --method field: also cast the same rays against the casters' geometry

@@ -11,6 +11,7 @@ use super::AoSettings;
 use super::runner::{PixelAo, RaycastAo, VertexAo, mean, near_zero_warning, write_vertex_ao};
 use crate::error::Result;
 use crate::image_out::{GreyStyle, write_grey};
+use crate::output::{frame_output, frame_path};
 use crate::repeats::RunTimes;
 use crate::scene::{Camera, Scene};
 
@@ -98,6 +99,35 @@ impl AoOutputs<'_> {
             written.image = Some(ImageSummary::of(path, image));
         }
         Ok(written)
+    }
+
+    /// `write` for frame `frame` of an animation (`last`: its last frame):
+    /// an output whose name holds `{}` or `{:04}` gets a file per frame,
+    /// any other only the last frame.
+    pub fn write_frame(
+        &self,
+        scene: &Scene,
+        (frame, last): (u32, bool),
+        radius: f32,
+        vertices: Option<&VertexAo>,
+        image: Option<&PixelAo>,
+    ) -> Result<Written> {
+        let per_vertex = self.per_vertex.and_then(|p| frame_output(p, frame, last));
+        let image_file = self.image.and_then(|p| frame_output(p, frame, last));
+        let outputs = AoOutputs {
+            per_vertex: per_vertex.as_deref(),
+            image: image_file.as_deref(),
+            style: self.style,
+        };
+        outputs.write(scene, frame, radius, vertices, image)
+    }
+
+    /// Whether an output is a file per frame (its name holds `{}`).
+    pub fn per_frame(&self) -> bool {
+        [self.per_vertex, self.image]
+            .into_iter()
+            .flatten()
+            .any(|p| frame_path(p, 0).is_some())
     }
 }
 

@@ -159,10 +159,19 @@ fn field(args: &AoArgs, outputs: AoOutputs, request: &AoRequest) -> Result<(Fiel
     )?;
     choice.iter().for_each(note_choice);
     let runs = args.common.runs.runs(1)?;
-    let once = || fields.run(request, frames, args.knobs.reference);
-    let (run, times) = runs.run("ao_ms", once, |r| r.frame_ao_ms.last().copied().unwrap_or(0.0))?;
     let radius = request.settings.radius;
-    let written = outputs.write(&scene, frames - 1, radius, run.vertices.as_ref(), run.image.as_ref())?;
+    let mut write = |f, v: Option<&_>, i: Option<&_>| outputs.write_frame(&scene, (f, false), radius, v, i).map(drop);
+    let mut once = || {
+        fields.run_frames(
+            request,
+            frames,
+            args.knobs.reference,
+            outputs.per_frame().then_some(&mut write),
+        )
+    };
+    let (run, times) = runs.run("ao_ms", &mut once, |r| r.frame_ao_ms.last().copied().unwrap_or(0.0))?;
+    let (vertices, image) = (run.vertices.as_ref(), run.image.as_ref());
+    let written = outputs.write_frame(&scene, (frames - 1, true), radius, vertices, image)?;
     written.notes.iter().for_each(|n| note(n));
     let mut report = FieldRunReport::new(&fields, run, &request.settings, written);
     report.max_error = choice;

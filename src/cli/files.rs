@@ -22,8 +22,9 @@ pub fn of(command: &Command) -> Files {
             f.mesh("--receiver", &a.receiver);
             f.input("--field", &a.field);
             f.scene(&a.scene);
-            f.output("--per-vertex", &a.per_vertex);
-            f.output("--image", &a.image);
+            let frames = a.knobs.frames().unwrap_or(1);
+            f.frames("--per-vertex", &a.per_vertex, frames);
+            f.frames("--image", &a.image, frames);
         }
         Command::Trace(a) => {
             f.mesh("--mesh", &a.mesh);

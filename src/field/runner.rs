@@ -233,6 +233,19 @@ impl<'s> FieldAo<'s> {
     /// AO of `request` over `frames` animation frames (instances with a
     /// motion move, fields are reused); the outputs are the last frame's.
     pub fn run(&mut self, request: &AoRequest, frames: u32, reference: bool) -> Result<FieldAoRun> {
+        self.run_frames(request, frames, reference, None)
+    }
+
+    /// `run`, also handing every frame before the last to `each` (its
+    /// number, its vertex AO and image as `request` asks): what writes an
+    /// animation's every frame (`--image 'f_{:04}.png'`).
+    pub fn run_frames(
+        &mut self,
+        request: &AoRequest,
+        frames: u32,
+        reference: bool,
+        mut each: Option<FrameSink<'_>>,
+    ) -> Result<FieldAoRun> {
         let settings = &request.settings;
         settings.validate()?;
         if !(1..=MAX_FRAMES).contains(&frames) {
@@ -276,17 +289,17 @@ impl<'s> FieldAo<'s> {
             let traced = self.visibility(frame, &points, &owners, settings, &progress)?;
             progress.finish();
             frame_ms.push(traced.ms);
+            if let Some(each) = each.as_mut()
+                && frame + 1 < frames
+            {
+                let masks = combined(&traced.value.0, own.as_ref());
+                let (vertices, image) = self.outputs(request, frame, &points, &masks, settings)?;
+                each(frame, vertices.as_ref(), image.as_ref())?;
+            }
             last = Some((points, traced.value));
         }
         let (points, (field_masks, classes)) = last.expect("at least one frame");
-        let masks = match &own {
-            Some(own) => VisibilityMasks {
-                bits: field_masks.bits.iter().zip(&own.bits).map(|(a, b)| a & b).collect(),
-                ..field_masks.clone()
-            },
-            None => field_masks.clone(),
-        };
-        let ao = masks.accessibility();
+        let masks = combined(&field_masks, own.as_ref());
         let last_frame = frames - 1;
         let reference = if reference {
             let device = self.device.clone();
@@ -301,24 +314,39 @@ impl<'s> FieldAo<'s> {
         } else {
             None
         };
-        let image = match &request.image {
-            Some(view) => Some(self.image(last_frame, view, settings)?),
-            None => None,
-        };
+        let (vertices, image) = self.outputs(request, last_frame, &points, &masks, settings)?;
         Ok(FieldAoRun {
             self_occlusion_ms: own.as_ref().map(|_| self_ms),
             frame_ao_ms: frame_ms,
-            vertices: request.vertices.then(|| VertexAo {
-                without_normal: crate::ao::points::points_without_hemisphere(&points),
-                ao,
-                ms: 0.0,
-            }),
+            vertices,
             points: points.len(),
             rays_inside_sphere: count(&classes.inside),
             rays_hidden: count(&classes.hidden),
             reference,
             image,
         })
+    }
+
+    /// What `request` asks of `frame`: the receivers' vertex AO from their
+    /// combined `masks`, and the image.
+    fn outputs(
+        &mut self,
+        request: &AoRequest,
+        frame: u32,
+        points: &[AoPoint],
+        masks: &VisibilityMasks,
+        settings: &AoSettings,
+    ) -> Result<(Option<VertexAo>, Option<PixelAo>)> {
+        let vertices = request.vertices.then(|| VertexAo {
+            without_normal: crate::ao::points::points_without_hemisphere(points),
+            ao: masks.accessibility(),
+            ms: 0.0,
+        });
+        let image = match &request.image {
+            Some(view) => Some(self.image(frame, view, settings)?),
+            None => None,
+        };
+        Ok((vertices, image))
     }
 
     /// Per-pixel AO through the fields at `frame`: the pixels the camera
@@ -341,6 +369,21 @@ impl<'s> FieldAo<'s> {
             .bar(seen.points.len() as u64, &format!("field AO, frame {frame}"));
         let traced = self.visibility(frame, &seen.points, &owners, settings, &progress)?;
         Ok(seen.image(&traced.value.0.accessibility(), traced.ms))
+    }
+}
+
+/// Takes a frame's results (`FieldAo::run_frames`).
+pub type FrameSink<'a> = &'a mut dyn FnMut(u32, Option<&VertexAo>, Option<&PixelAo>) -> Result<()>;
+
+/// The receivers' visibility: the fields' rays that also escape their own
+/// object (`own`, where objects cast and receive).
+fn combined(fields: &VisibilityMasks, own: Option<&VisibilityMasks>) -> VisibilityMasks {
+    match own {
+        Some(own) => VisibilityMasks {
+            bits: fields.bits.iter().zip(&own.bits).map(|(a, b)| a & b).collect(),
+            ..fields.clone()
+        },
+        None => fields.clone(),
     }
 }
 

@@ -33,9 +33,10 @@ pub struct TraceOptions {
     /// Point light "X,Y,Z": adds a shadow ray per hit (Table 3's statistics).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub light: Option<Vec3>,
-    /// Shadow rays to the default light (above the scene) when --light is not given.
-    #[arg(long)]
-    pub shadows: bool,
+    /// Shadow rays to the default light (above the scene) when --light is
+    /// not given: `--shadows` or `--shadows on`, as prt spells it.
+    #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "on")]
+    pub shadows: Option<OnOff>,
     /// Anti-aliasing: extra rays in tiles whose entry point shows complex geometry.
     #[arg(long, value_enum, default_value_t = AaMode::None)]
     pub aa: AaMode,
@@ -72,7 +73,7 @@ impl TraceOptions {
                 // The rays are the camera's.
                 corner_frusta: true,
             },
-            light: match (self.light, self.shadows) {
+            light: match (self.light, self.shadows.is_some_and(OnOff::on)) {
                 (Some(p), _) => ShadowLight::At(p),
                 (None, true) => ShadowLight::AboveScene,
                 (None, false) => ShadowLight::None,
