@@ -114,7 +114,8 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
         }
         None => None,
     };
-    let mut runner = PrtRunner::new(&device, &rest, triangles, &settings, args.play.shadows, reference)?;
+    let poses = playback.poses(mesh, settings.hierarchy.poses);
+    let mut runner = PrtRunner::new_posed(&device, &poses, triangles, &settings, args.play.shadows, reference)?;
     runner.notes().iter().for_each(|n| super::io::note(n));
     let transfer = args.per_vertex_transfer as usize * crate::sh::coefficient_count(settings.bands);
     let mut csv = args

@@ -85,7 +85,14 @@ pub struct HierarchySettings {
     /// surface may subtend at a vertex before the vertex draws the fine
     /// triangles instead (`proxy`); 0 keeps the paper's plain two levels.
     pub tolerance: f32,
+    /// Poses of an animation the proxy check covers, spread over the
+    /// frames played (1: the rest pose only; `Playback::poses`).
+    pub poses: usize,
 }
+
+/// Poses the proxy check covers by default: enough that a joint bending
+/// over a clip is seen part way and fully bent.
+pub const DEFAULT_POSES: usize = 8;
 
 impl Default for HierarchySettings {
     fn default() -> Self {
@@ -96,6 +103,7 @@ impl Default for HierarchySettings {
             coarse_triangles: None,
             group_size: 16,
             tolerance: DEFAULT_TOLERANCE,
+            poses: DEFAULT_POSES,
         }
     }
 }
@@ -139,6 +147,18 @@ pub struct Hierarchy {
 impl Hierarchy {
     /// Builds the hierarchy from the rest pose.
     pub fn build(rest: &[Vec3], triangles: &[[u32; 3]], s: &HierarchySettings) -> Result<Hierarchy> {
+        Self::build_posed(&[rest], triangles, s)
+    }
+
+    /// Builds the hierarchy from the rest pose `poses[0]`, checking the
+    /// coarse level against the fine one on every pose (`level::coarse_level`).
+    pub fn build_posed(poses: &[&[Vec3]], triangles: &[[u32; 3]], s: &HierarchySettings) -> Result<Hierarchy> {
+        let rest = *poses
+            .first()
+            .ok_or_else(|| Error::param("poses", "needs the rest pose"))?;
+        if let Some(i) = poses.iter().position(|p| p.len() != rest.len()) {
+            return Err(Error::param("poses", format!("pose {i} has another vertex count")));
+        }
         if !(1..=2).contains(&s.ring) {
             return Err(Error::param("ring", format!("must be 1 or 2, got {}", s.ring)));
         }
@@ -163,8 +183,9 @@ impl Hierarchy {
         // unit size by a power of two (exact; what is built is topology).
         let extent = used_bounds(rest, triangles);
         let k = crate::kdtree::watertight::frame_scale((extent.max - extent.min).max_element());
-        let unit_rest: Vec<Vec3> = rest.iter().map(|p| *p * k).collect();
-        let rest = unit_rest.as_slice();
+        let unit: Vec<Vec<Vec3>> = poses.iter().map(|pose| pose.iter().map(|p| *p * k).collect()).collect();
+        let unit: Vec<&[Vec3]> = unit.iter().map(Vec::as_slice).collect();
+        let rest = unit[0];
         let nv = rest.len();
         let vertex_triangles = Csr::from_lists(
             nv,
@@ -174,7 +195,7 @@ impl Hierarchy {
                 .flat_map(|(t, tri)| tri.map(|v| (v as usize, t as u32))),
         );
         let level = if s.enabled {
-            coarse_level(rest, triangles, s)
+            coarse_level(&unit, triangles, s)
         } else {
             None
         };

@@ -94,4 +94,33 @@ impl Csr {
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
+
+    /// Each list merged with `other`'s, sorted and without repeats.
+    pub fn union(&self, other: &Csr) -> Csr {
+        let lists: Vec<Vec<u32>> = (0..self.len().max(other.len()))
+            .map(|i| {
+                let of = |c: &Csr| if i < c.len() { c.get(i).to_vec() } else { Vec::new() };
+                let mut l = of(self);
+                l.extend(of(other));
+                l.sort_unstable();
+                l.dedup();
+                l
+            })
+            .collect();
+        Csr::from_vecs(&lists)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Csr;
+
+    #[test]
+    fn union_merges_each_list_sorted_without_repeats() {
+        let a = Csr::from_vecs(&[vec![1, 4], vec![], vec![7]]);
+        let b = Csr::from_vecs(&[vec![4, 2], vec![3], vec![7], vec![9]]);
+        let u = a.union(&b);
+        let lists: Vec<&[u32]> = (0..u.len()).map(|i| u.get(i)).collect();
+        assert_eq!(lists, [&[1, 2, 4][..], &[3], &[7], &[9]]);
+    }
 }

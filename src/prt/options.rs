@@ -5,7 +5,7 @@ use std::path::Path;
 
 use clap::Args;
 
-use super::hierarchy::{DEFAULT_TOLERANCE, HierarchySettings, NearField};
+use super::hierarchy::{DEFAULT_POSES, DEFAULT_TOLERANCE, HierarchySettings, NearField};
 use super::pipeline::{PrtSettings, Toggle};
 use super::runner::{Playback, PvsSampling, RayTraced, Shadows};
 use super::selfcheck::SelfCheck;
@@ -55,6 +55,9 @@ pub struct PrtOptions {
     /// Angle (radians) a coarse triangle's distance from the fine surface may subtend at a vertex before the vertex draws the fine triangles instead (0: the paper's plain two levels).
     #[arg(long, default_value_t = DEFAULT_TOLERANCE, allow_negative_numbers = true)]
     pub coarse_tolerance: f32,
+    /// Poses of an animation the coarse level is checked on, spread over the frames played (1: the first frame only).
+    #[arg(long, default_value_t = DEFAULT_POSES as i64, allow_negative_numbers = true)]
+    pub coarse_poses: i64,
     /// Far triangles per culling group.
     #[arg(long, default_value_t = 16, allow_negative_numbers = true)]
     pub group_size: i64,
@@ -72,7 +75,7 @@ pub struct PrtOptions {
 impl PrtOptions {
     /// Which knobs apply to the chosen BRDF and hierarchy.
     pub fn applies(&self) -> Vec<Applies> {
-        let hierarchy = &["near", "ring", "coarse", "coarse_tolerance"];
+        let hierarchy = &["near", "ring", "coarse", "coarse_tolerance", "coarse_poses"];
         vec![
             applies(self.brdf == BrdfKind::Phong, &["shininess", "specular"], "--brdf phong"),
             applies(self.hierarchy == OnOff::On, hierarchy, "--hierarchy on"),
@@ -94,6 +97,7 @@ impl PrtOptions {
                 coarse_triangles: self.coarse.map(|c| positive("--coarse", c)).transpose()?,
                 group_size: positive("--group-size", self.group_size)?,
                 tolerance: self.coarse_tolerance,
+                poses: positive("--coarse-poses", self.coarse_poses)?,
             },
             group_culling: self.group_culling.on(),
             backface: self.backface,

@@ -281,12 +281,23 @@ struct FrameShared<'a> {
 impl Prt {
     /// Builds the tables and hierarchy for a mesh given its rest pose.
     pub fn new(rest: &[Vec3], triangles: &[[u32; 3]], settings: &PrtSettings) -> Result<Prt> {
+        Self::new_posed(&[rest], triangles, settings)
+    }
+
+    /// `new` for an animated mesh: `poses[0]` is the rest pose, the others
+    /// poses of the animation its coarse level is checked on as well.
+    pub fn new_posed(poses: &[&[Vec3]], triangles: &[[u32; 3]], settings: &PrtSettings) -> Result<Prt> {
+        let rest = *poses
+            .first()
+            .ok_or_else(|| Error::param("poses", "needs the rest pose"))?;
         settings.validate()?;
         if triangles.is_empty() {
             return Err(Error::input("mesh", "has no triangles"));
         }
-        if let Some(i) = rest.iter().position(|p| !p.is_finite()) {
-            return Err(Error::input(format!("vertex {}", i + 1), "has a non-finite coordinate"));
+        for pose in poses {
+            if let Some(i) = pose.iter().position(|p| !p.is_finite()) {
+                return Err(Error::input(format!("vertex {}", i + 1), "has a non-finite coordinate"));
+            }
         }
         let nv = rest.len() as u32;
         if let Some((t, _)) = triangles.iter().enumerate().find(|(_, t)| t.iter().any(|&v| v >= nv)) {
@@ -299,7 +310,7 @@ impl Prt {
         let lut_ms = elapsed_ms(t);
         let tables = CellTables::with_integration(&grid, settings.bands, settings.integration);
         let rotation = ShRotation::new(settings.bands);
-        let hierarchy = Hierarchy::build(rest, triangles, &settings.hierarchy)?;
+        let hierarchy = Hierarchy::build_posed(poses, triangles, &settings.hierarchy)?;
         let sides = super::sides::decide(rest, triangles, settings.backface.forced(), settings.two_sided.forced())?;
         let (cull_backfaces, two_sided) = (sides.backface_culling, sides.two_sided);
         let scale = used_bounds(rest, triangles).diagonal().max(f32::MIN_POSITIVE);

@@ -70,6 +70,30 @@ impl PrtRunner {
         shadows: Shadows,
         reference: RayTraced,
     ) -> Result<PrtRunner> {
+        Self::build(device, &[rest], triangles, settings, (shadows, reference))
+    }
+
+    /// `new` for an animated mesh: `poses[0]` is the rest pose, the others
+    /// poses its coarse level is checked on too (`Playback::poses`).
+    pub fn new_posed(
+        device: &Device,
+        poses: &[Vec<Vec3>],
+        triangles: &[[u32; 3]],
+        settings: &PrtSettings,
+        shadows: Shadows,
+        reference: RayTraced,
+    ) -> Result<PrtRunner> {
+        let poses: Vec<&[Vec3]> = poses.iter().map(Vec::as_slice).collect();
+        Self::build(device, &poses, triangles, settings, (shadows, reference))
+    }
+
+    fn build(
+        device: &Device,
+        poses: &[&[Vec3]],
+        triangles: &[[u32; 3]],
+        settings: &PrtSettings,
+        (shadows, reference): (Shadows, RayTraced),
+    ) -> Result<PrtRunner> {
         let settings = PrtSettings {
             shadows: shadows == Shadows::On,
             ..settings.clone()
@@ -84,7 +108,7 @@ impl PrtRunner {
             ));
             device = device.cpu_instead();
         }
-        let prt = Prt::new(rest, triangles, &settings)?;
+        let prt = Prt::new_posed(poses, triangles, &settings)?;
         // Ray-traced shadows need no kernel: the GPU integrates masks only.
         let gpu = match shadows {
             Shadows::Raytraced => OnDevice::Cpu,
@@ -307,6 +331,22 @@ impl Playback {
     }
 
     /// `k` frames evenly spread over the run (fewer if there are fewer).
+    /// The poses a runner for `mesh` is built on: the first frame's (the
+    /// rest pose), then, for an animated mesh, those of `k` frames spread
+    /// over the playback, the rest pose's repeat left out.
+    pub fn poses(&self, mesh: &SceneMesh, k: usize) -> Vec<Vec<Vec3>> {
+        let at = |f: usize| {
+            let mut p = Vec::new();
+            mesh.positions_at(self.time(f), &mut p);
+            p
+        };
+        let mut poses = vec![at(0)];
+        if mesh.animation.is_some() {
+            poses.extend(self.spread(k).into_iter().filter(|&f| f > 0).map(at));
+        }
+        poses
+    }
+
     fn spread(&self, k: usize) -> Vec<usize> {
         let k = k.min(self.frames);
         (0..k)

@@ -136,6 +136,7 @@ impl PrtSweep {
                 coarse_triangles: s.get("coarse")?.or(h.coarse_triangles),
                 group_size: s.get("group-size")?.unwrap_or(h.group_size),
                 tolerance: s.get("coarse-tolerance")?.unwrap_or(h.tolerance),
+                poses: s.get("coarse-poses")?.unwrap_or(h.poses),
             },
             group_culling: s.get_on_off("group-culling")?.unwrap_or(base.group_culling),
             backface: s.get_enum::<Toggle>("backface")?.unwrap_or(base.backface),
