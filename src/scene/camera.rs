@@ -1,7 +1,7 @@
 //! Pinhole camera, the command-line contract's default camera, and images
 //! asked of a scene (`View`: a camera given in part, and a size).
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 use crate::aabb::Aabb;
 use crate::error::{Error, Result};
@@ -18,34 +18,37 @@ pub struct Camera {
 
 /// A camera given in part (the command line's `--eye/--target/--fov`):
 /// what is missing comes from the scene's camera, else from the contract's
-/// default camera for the scene's bounds.
+/// default camera for the scene's bounds. Points are in world coordinates,
+/// in f64 (an eye 1e6 sizes off keeps its digits); `resolve` moves them
+/// into the scene's frame (`scene::frame`).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct CameraSpec {
-    pub eye: Option<Vec3>,
-    pub target: Option<Vec3>,
+    pub eye: Option<DVec3>,
+    pub target: Option<DVec3>,
     pub fov_degrees: Option<f32>,
 }
 
 impl CameraSpec {
-    /// The whole camera: `base` (a scene's) or the default for `bounds`,
-    /// with each given part replacing its own. Validated.
-    pub fn resolve(&self, base: Option<Camera>, bounds: &Aabb) -> Result<Camera> {
+    /// The whole camera in the frame whose origin is `origin` (the scene's):
+    /// `base` (a scene's camera, in that frame) or the default for
+    /// `bounds`, with each given part replacing its own. Validated.
+    pub fn resolve(&self, base: Option<Camera>, bounds: &Aabb, origin: DVec3) -> Result<Camera> {
         let base = base.unwrap_or_else(|| Camera::default_for(bounds));
+        let local = |p: DVec3| super::frame::to_local(origin, p);
         let camera = Camera {
-            eye: self.eye.unwrap_or(base.eye),
-            target: self.target.unwrap_or(base.target),
+            eye: self.eye.map_or(base.eye, local),
+            target: self.target.map_or(base.target, local),
             fov_degrees: self.fov_degrees.unwrap_or(base.fov_degrees),
         };
         camera.validate()?;
         Ok(camera)
     }
-}
 
-impl From<Camera> for CameraSpec {
-    fn from(c: Camera) -> CameraSpec {
+    /// The whole of `c`, a camera in the frame whose origin is `origin`.
+    pub fn world(c: Camera, origin: DVec3) -> CameraSpec {
         CameraSpec {
-            eye: Some(c.eye),
-            target: Some(c.target),
+            eye: Some(super::frame::to_world(origin, c.eye)),
+            target: Some(super::frame::to_world(origin, c.target)),
             fov_degrees: Some(c.fov_degrees),
         }
     }

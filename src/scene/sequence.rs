@@ -36,6 +36,19 @@ pub struct MeshSequence {
     pub fps: f32,
 }
 
+/// `mesh`'s positions in the frame whose origin is `origin`.
+fn in_frame(mesh: &crate::scene::Mesh, origin: glam::DVec3) -> Vec<Vec3> {
+    let shift = mesh.origin - origin;
+    match shift == glam::DVec3::ZERO {
+        true => mesh.positions.clone(),
+        false => mesh
+            .positions
+            .iter()
+            .map(|p| (p.as_dvec3() + shift).as_vec3())
+            .collect(),
+    }
+}
+
 impl MeshSequence {
     /// Reads every file `pattern` matches, checks their topology and
     /// numbering (errors name the option, the file and what differs).
@@ -64,7 +77,9 @@ impl MeshSequence {
         let triangles = first.triangles.clone();
         Ok(MeshSequence {
             pattern: pattern.into(),
-            frames: meshes.into_iter().map(|m| m.positions).collect(),
+            // One frame for every frame: frame 0's (`scene::frame`), so a
+            // far-off sequence moving across a grid line stays one model.
+            frames: meshes.iter().map(|m| in_frame(m, first.origin)).collect(),
             files,
             triangles,
             fps,

@@ -87,7 +87,10 @@ pub fn choose(
     let start = std::time::Instant::now();
     let base = request.settings;
     let mesh = scene.world_mesh(|_| true);
-    let camera = request.view.camera.resolve(scene.camera, &mesh.bounds())?;
+    let camera = request
+        .view
+        .camera
+        .resolve(scene.camera, &mesh.bounds(), scene.origin)?;
     let (w, h) = (request.view.width, request.view.height);
     let view = ScreenView::new(&camera, w, h);
     let tree = build_tree(&mesh, bars, "ssao")?;
