@@ -59,6 +59,15 @@ pub fn positive(name: &str, v: i64) -> Result<usize> {
     usize::try_from(v).map_err(|_| Error::param(name, "is too large"))
 }
 
+/// A count option within `lo..=hi` (`name`: the library's name); the
+/// message names the range (issue 14, class 8: every knob's ends).
+pub fn in_range(name: &str, v: i64, lo: i64, hi: i64) -> Result<usize> {
+    if !(lo..=hi).contains(&v) {
+        return Err(Error::param(name, format!("must be between {lo} and {hi}, got {v}")));
+    }
+    usize::try_from(v).map_err(|_| Error::param(name, "is too large"))
+}
+
 /// The most threads per available core.
 pub const MAX_THREADS_PER_CORE: usize = 8;
 

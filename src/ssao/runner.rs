@@ -42,6 +42,16 @@ impl SsaoRequest {
         if let Some(shade) = &self.shade {
             shade.validate()?;
         }
+        // The references' rays per pixel: as many as AO's per point at most.
+        let most = crate::ao::MAX_RAYS_PER_POINT;
+        for (name, n) in [
+            ("reference_rays", self.truth_rays),
+            ("screen_reference_spp", self.reference_spp),
+        ] {
+            if n > most {
+                return Err(Error::param(name, format!("must be between 0 and {most}, got {n}")));
+            }
+        }
         if self.runs.repeat == 0 || self.runs.repeat > MAX_RUNS || self.runs.warmup > MAX_RUNS {
             return Err(Error::param("repeat", format!("must be between 1 and {MAX_RUNS}")));
         }
