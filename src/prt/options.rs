@@ -135,7 +135,11 @@ impl AnimationOptions {
                     .parent()
                     .and_then(|d| d.file_name())
                     .map_or_else(|| "sequence".to_string(), |d| d.to_string_lossy().into_owned());
-                Scene::from_user_animation(Path::new(pattern), sequence.into_animation(&name))
+                let origin = sequence.origin;
+                let mut scene = Scene::from_user_animation(Path::new(pattern), sequence.into_animation(&name))?;
+                // The scene is in frame 0's frame: world inputs follow it.
+                (scene.origin, scene.meshes[0].mesh.origin) = (origin, origin);
+                Ok(scene)
             }
             (Some(path), None, None) => {
                 let selector = self.animation.as_deref();

@@ -33,7 +33,10 @@ impl CameraSpec {
     /// `base` (a scene's camera, in that frame) or the default for
     /// `bounds`, with each given part replacing its own. Validated.
     pub fn resolve(&self, base: Option<Camera>, bounds: &Aabb, origin: DVec3) -> Result<Camera> {
-        let base = base.unwrap_or_else(|| Camera::default_for(bounds));
+        let base = match base {
+            Some(camera) => camera,
+            None => Camera::framing(bounds)?,
+        };
         let local = |p: DVec3| super::frame::to_local(origin, p);
         let camera = Camera {
             eye: self.eye.map_or(base.eye, local),
@@ -106,6 +109,43 @@ impl Camera {
             target: c,
             fov_degrees: 45.0,
         }
+    }
+
+    /// `default_for`, or what makes framing `bounds` impossible (issue 14,
+    /// class 9): bounds that are not finite, an extent whose diagonal
+    /// overflows f32, or a centre so far from the origin for the scene's
+    /// size that an eye 2.5 radii away rounds to the centre itself (which
+    /// `validate` could only call "the same point").
+    pub fn framing(bounds: &Aabb) -> Result<Camera> {
+        let show = |v: Vec3| format!("({:.3e}, {:.3e}, {:.3e})", v.x, v.y, v.z);
+        let box_text = format!("{} to {}", show(bounds.min), show(bounds.max));
+        if !(bounds.min.is_finite() && bounds.max.is_finite()) || bounds.min.cmpgt(bounds.max).any() {
+            return Err(Error::input(
+                "camera",
+                format!("the scene's bounds ({box_text}) are not finite: nothing to frame"),
+            ));
+        }
+        let diagonal = bounds.diagonal();
+        if !diagonal.is_finite() || !bounds.center().is_finite() {
+            return Err(Error::input(
+                "camera",
+                format!(
+                    "the scene's extent (bounds {box_text}) overflows f32: its diagonal or centre is not finite,                      so no default camera can frame it; rescale the model or give --eye and --target"
+                ),
+            ));
+        }
+        let camera = Camera::default_for(bounds);
+        let radius = if diagonal > 0.0 { 0.5 * diagonal } else { 1.0 };
+        if camera.eye == camera.target {
+            return Err(Error::input(
+                "camera",
+                format!(
+                    "the scene (bounds {box_text}) is too far from the origin for its size: an eye {:.3e} away                      from its centre rounds to the centre itself in f32; move the model nearer the origin",
+                    2.5 * radius
+                ),
+            ));
+        }
+        Ok(camera)
     }
 
     pub fn validate(&self) -> Result<()> {
@@ -207,6 +247,33 @@ mod tests {
         let (_, up, _) = cam.basis();
         assert!(rays[0].d().dot(up) > rays[2].d().dot(up));
         assert!((cam.eye - Vec3::new(0.3, 0.4, 1.0).normalize() * 2.5 * 3f32.sqrt()).length() < 1e-5);
+    }
+
+    #[test]
+    fn framing_says_what_is_wrong_with_a_scene_beyond_f32() {
+        let huge = Aabb::new(Vec3::splat(-3e38), Vec3::splat(3e38));
+        let e = Camera::framing(&huge).unwrap_err().to_string();
+        assert!(e.contains("extent") && e.contains("overflows f32"), "{e}");
+        let centre_overflows = Aabb::new(Vec3::splat(2e38), Vec3::splat(3e38));
+        let e = Camera::framing(&centre_overflows).unwrap_err().to_string();
+        assert!(e.contains("overflows f32"), "{e}");
+        let nan = Aabb::new(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::ONE);
+        assert!(Camera::framing(&nan).unwrap_err().to_string().contains("not finite"));
+        assert!(
+            Camera::framing(&Aabb::EMPTY)
+                .unwrap_err()
+                .to_string()
+                .contains("not finite")
+        );
+        // 1e30 + 1 is 1e30 in f32: a point far off, framed 2.5 away.
+        let far = Aabb::new(Vec3::splat(1e30), Vec3::splat(1e30));
+        let e = Camera::framing(&far).unwrap_err().to_string();
+        assert!(
+            e.contains("too far from the origin") && !e.contains("same point"),
+            "{e}"
+        );
+        let fine = Aabb::new(Vec3::ZERO, Vec3::ONE);
+        assert_eq!(Camera::framing(&fine).unwrap(), Camera::default_for(&fine));
     }
 
     #[test]

@@ -32,6 +32,8 @@ pub struct MeshSequence {
     pub files: Vec<PathBuf>,
     pub frames: Vec<Vec<Vec3>>,
     pub triangles: Vec<[u32; 3]>,
+    /// Where frame 0's frame (every frame's) is in world coordinates.
+    pub origin: glam::DVec3,
     /// Frames per second: frame k is at time k / fps.
     pub fps: f32,
 }
@@ -76,6 +78,7 @@ impl MeshSequence {
         }
         let triangles = first.triangles.clone();
         Ok(MeshSequence {
+            origin: first.origin,
             pattern: pattern.into(),
             // One frame for every frame: frame 0's (`scene::frame`), so a
             // far-off sequence moving across a grid line stays one model.
