@@ -127,3 +127,93 @@ fn the_command_lines_eye_target_and_light_follow_a_far_mesh() {
     }
     assert_alike(&images[0], &images[1], "trace");
 }
+
+/// `sphere-on-plane.obj`'s vertices (as f32 reads them) and faces.
+fn sphere_on_plane() -> (Vec<[f64; 3]>, Vec<Vec<usize>>) {
+    let text = std::fs::read_to_string(asset_s("sphere-on-plane.obj")).unwrap();
+    let mut vertices = Vec::new();
+    let mut faces = Vec::new();
+    for line in text.lines() {
+        let mut tokens = line.split_whitespace();
+        match tokens.next() {
+            Some("v") => vertices.push([0, 1, 2].map(|_| tokens.next().unwrap().parse::<f32>().unwrap() as f64)),
+            Some("f") => faces.push(
+                tokens
+                    .map(|t| t.split('/').next().unwrap().parse::<usize>().unwrap() - 1)
+                    .collect(),
+            ),
+            _ => {}
+        }
+    }
+    (vertices, faces)
+}
+
+fn ao_csv(path: &str) -> Vec<f64> {
+    let text = std::fs::read_to_string(path).unwrap();
+    text.lines()
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect()
+}
+
+/// The twin tests' AO tolerance: mean |difference| per vertex <= 1e-3.
+fn assert_ao_alike(a: &[f64], b: &[f64], what: &str) {
+    assert_eq!(a.len(), b.len());
+    let mean = a.iter().zip(b).map(|(x, y)| (x - y).abs()).sum::<f64>() / a.len() as f64;
+    println!("{what}: mean |AO difference| {mean:.2e}");
+    assert!(mean <= 1e-3, "{what}: mean |AO difference| {mean}");
+}
+
+/// A PLY of doubles far off reads as the OBJ near the origin does; a
+/// `.dfield` built from a far mesh serves that mesh (the field is in the
+/// mesh's frame, as its instance is).
+#[test]
+fn a_far_ply_of_doubles_and_a_far_field_file_give_the_same_ao() {
+    let d = TempDir::new("offset-ply-field");
+    let (vertices, faces) = sphere_on_plane();
+    let mut ply = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\n\
+         element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        vertices.len(),
+        faces.len()
+    );
+    for v in &vertices {
+        let p = far(*v);
+        ply += &format!("{} {} {}\n", p[0], p[1], p[2]);
+    }
+    for f in &faces {
+        ply += &format!(
+            "{} {}\n",
+            f.len(),
+            f.iter().map(|i| i.to_string()).collect::<Vec<_>>().join(" ")
+        );
+    }
+    let near = asset_s("sphere-on-plane.obj");
+    let far_ply = d.write("far.ply", ply);
+    let run = |mesh: &str, tag: &str| {
+        let csv = d.p(&format!("{tag}.csv"));
+        let field = d.p(&format!("{tag}.dfield"));
+        let vars = [("mesh", mesh), ("csv", csv.as_str()), ("field", field.as_str())];
+        pen(
+            "ao --mesh {mesh} --method raycast --rays 32 --per-vertex {csv} --device cpu",
+            &vars,
+        )
+        .ok();
+        let raycast = ao_csv(&csv);
+        pen(
+            "field build --mesh {mesh} --positions 16 --res 8 --bits 8 -o {field}",
+            &vars,
+        )
+        .ok();
+        pen(
+            "ao --mesh {mesh} --receiver {mesh} --method field --field {field} --positions 16 --res 8 --bits 8 \
+             --rays 32 --per-vertex {csv} --device cpu",
+            &vars,
+        )
+        .ok();
+        (raycast, ao_csv(&csv))
+    };
+    let (near_raycast, near_field) = run(&near, "near");
+    let (far_raycast, far_field) = run(&far_ply, "far");
+    assert_ao_alike(&near_raycast, &far_raycast, "PLY far off, ray-cast AO");
+    assert_ao_alike(&near_field, &far_field, "PLY far off, field AO from a .dfield");
+}

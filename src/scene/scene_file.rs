@@ -225,6 +225,19 @@ fn finite64(scene: &Path, field: &str, v: &[f64]) -> Result<()> {
     finite(scene, field, &v.iter().map(|&c| c as f32).collect::<Vec<_>>())
 }
 
+/// An instance's transform in the scene's frame (whose origin is `origin`)
+/// for its mesh (in its own frame) placed by `rotation`, `scale` and
+/// `translate` (world units): the mesh's origin is placed too, then the
+/// scene's taken off, in f64, so a far-off scene keeps its detail.
+fn placed(mesh: &super::Mesh, (rotation, scale, translate): (Quat, f32, [f64; 3]), origin: DVec3) -> Transform {
+    let world = rotation.as_dquat() * (mesh.origin * scale as f64) + DVec3::from_array(translate);
+    Transform {
+        translation: (world - origin).as_vec3(),
+        rotation,
+        scale,
+    }
+}
+
 /// The scene's frame (`scene::frame`): the origin for the world box of
 /// every instance (its mesh's box, placed by its translation, rotation and
 /// scale in f64). Instances whose placement is not valid are left out
@@ -385,16 +398,7 @@ fn load(path: &Path, shaded: bool) -> Result<Scene> {
             name: inst.name.clone().unwrap_or_else(|| format!("{}#{i}", inst.mesh)),
             mesh,
             role: inst.role,
-            transform: Transform {
-                // The mesh's own origin placed too, then the scene's taken
-                // off, in f64: a far-off scene keeps its detail.
-                translation: (rotation.as_dquat() * (meshes[mesh].mesh.origin * inst.scale as f64)
-                    + DVec3::from_array(inst.translate)
-                    - origin)
-                    .as_vec3(),
-                rotation,
-                scale: inst.scale,
-            },
+            transform: placed(&meshes[mesh].mesh, (rotation, inst.scale, inst.translate), origin),
             motion,
             material: inst.material.clone(),
         });

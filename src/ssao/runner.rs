@@ -123,10 +123,7 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: Bars) ->
     let settings = &request.settings;
     let mesh = scene.world_mesh(|_| true);
     let occluders = scene.occluders();
-    let camera = request
-        .view
-        .camera
-        .resolve(scene.camera, &mesh.bounds(), scene.origin)?;
+    let camera = scene.camera_in(&request.view.camera, &mesh.bounds())?;
     let (w, h) = (request.view.width, request.view.height);
     let view = ScreenView::new(&camera, w, h);
     let shade = request.shade.as_ref();
