@@ -111,9 +111,9 @@ fn the_command_lines_eye_target_and_light_follow_a_far_mesh() {
             show(at([0.0, 0.5, 0.0])),
             show(at([2.0, 6.0, 2.0])),
         );
-        pen(
+        let report = pen(
             "trace --mesh {mesh} --eye {eye} --target {target} --light {light} --width 48 --height 48 \
-             --out {out} --device cpu",
+             --out {out} --device cpu --json",
             &[
                 ("mesh", &mesh),
                 ("eye", &eye),
@@ -122,7 +122,14 @@ fn the_command_lines_eye_target_and_light_follow_a_far_mesh() {
                 ("out", &out),
             ],
         )
-        .ok();
+        .ok()
+        .json();
+        // The report's camera is where the user put it (f32's step there is 0.25).
+        let reported = report["camera"]["eye"][0].as_f64().unwrap();
+        assert!(
+            (reported - at([3.0, 4.0, 9.0])[0]).abs() <= 0.25,
+            "camera reported at {reported}"
+        );
         images.push(rgb(&out));
     }
     assert_alike(&images[0], &images[1], "trace");

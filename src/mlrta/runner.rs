@@ -219,7 +219,8 @@ pub fn trace_view(
         hits,
         build_ms: kdtree.build_ms,
         kdtree,
-        camera,
+        // Reported where the user's scene is, not in its frame.
+        camera: camera.in_world(mesh.origin),
         mlrta: t.mlrta,
         timing: t.timing,
         trace_ms: t.trace_ms,

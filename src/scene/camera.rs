@@ -148,6 +148,17 @@ impl Camera {
         Ok(camera)
     }
 
+    /// This camera (in the frame whose origin is `origin`) in world
+    /// coordinates, rounded to f32: for reports.
+    pub fn in_world(&self, origin: DVec3) -> Camera {
+        let world = |p: Vec3| super::frame::to_world(origin, p).as_vec3();
+        Camera {
+            eye: world(self.eye),
+            target: world(self.target),
+            ..*self
+        }
+    }
+
     pub fn validate(&self) -> Result<()> {
         if !self.eye.is_finite() || !self.target.is_finite() {
             return Err(Error::param("eye/target", "must be finite"));
