@@ -40,7 +40,62 @@ pub struct Device {
     fallback: Option<Error>,
 }
 
+/// What a method's GPU path needs of a device beyond compute shaders: the
+/// storage buffers its kernels bind (counted from their WGSL) and the
+/// texture formats it renders to. Checked when the device is opened
+/// (`Device::require`), before any work.
+pub struct Needs {
+    /// The method, for messages.
+    pub what: &'static str,
+    pub modules: &'static [crate::wgsl::Composition],
+    /// Formats rendered to, and what for.
+    pub render_targets: &'static [(wgpu::TextureFormat, &'static str)],
+}
+
+impl Needs {
+    /// Every compute kernel penumbra has: what any command's GPU path may use.
+    pub const COMPUTE: Needs = Needs {
+        what: "its compute kernels",
+        modules: crate::wgsl::MODULES,
+        render_targets: &[],
+    };
+
+    /// SSAO: its compute kernels and a G-buffer rendered as Rgba32Float
+    /// with a Depth32Float depth buffer.
+    pub const SSAO: Needs = Needs {
+        what: "SSAO",
+        modules: crate::wgsl::MODULES,
+        render_targets: &[
+            (wgpu::TextureFormat::Rgba32Float, "the G-buffer"),
+            (wgpu::TextureFormat::Depth32Float, "the G-buffer's depth"),
+        ],
+    };
+
+    /// The most storage buffers one module declares (an upper bound on what
+    /// one of its kernels binds in a stage).
+    pub fn storage_buffers(&self) -> u32 {
+        let count = |m: &crate::wgsl::Composition| m.source().matches("var<storage").count() as u32;
+        self.modules.iter().map(count).max().unwrap_or(0)
+    }
+}
+
 impl Device {
+    /// This device if it can run a method with `needs`; an automatic choice
+    /// that cannot falls back to the CPU (saying why), `--device gpu` is a
+    /// device error naming the adapter, its backend and what it lacks.
+    pub fn require(self, needs: &Needs) -> Result<Device> {
+        let Some(Err(why)) = self.gpu.as_ref().map(|ctx| ctx.check(needs)) else {
+            return Ok(self);
+        };
+        match self.automatic {
+            true => Ok(Device {
+                fallback: Some(why),
+                ..self.cpu_instead()
+            }),
+            false => Err(why),
+        }
+    }
+
     /// The CPU reference path.
     pub fn cpu() -> Device {
         Device {

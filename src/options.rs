@@ -7,10 +7,11 @@
 //! holds what the groups share.
 
 use clap::{Args, ValueEnum};
-use glam::Vec3;
+use glam::DVec3;
 
 use crate::error::{Error, Result};
-use crate::scene::{CameraSpec, parse_vec3};
+use crate::scene::CameraSpec;
+use crate::scene::frame::parse_point;
 
 /// On or off, however a flag is spelled.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -30,11 +31,11 @@ impl OnOff {
 #[derive(Args, Clone, Debug, Default)]
 pub struct CameraOptions {
     /// Camera position, "X,Y,Z".
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub eye: Option<Vec3>,
+    #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
+    pub eye: Option<DVec3>,
     /// Point looked at, "X,Y,Z".
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub target: Option<Vec3>,
+    #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
+    pub target: Option<DVec3>,
     /// Vertical field of view in degrees.
     #[arg(long, allow_negative_numbers = true)]
     pub fov: Option<f32>,
@@ -54,6 +55,15 @@ impl CameraOptions {
 pub fn positive(name: &str, v: i64) -> Result<usize> {
     if v <= 0 {
         return Err(Error::param(name, format!("must be positive, got {v}")));
+    }
+    usize::try_from(v).map_err(|_| Error::param(name, "is too large"))
+}
+
+/// A count option within `lo..=hi` (`name`: the library's name); the
+/// message names the range (issue 14, class 8: every knob's ends).
+pub fn in_range(name: &str, v: i64, lo: i64, hi: i64) -> Result<usize> {
+    if !(lo..=hi).contains(&v) {
+        return Err(Error::param(name, format!("must be between {lo} and {hi}, got {v}")));
     }
     usize::try_from(v).map_err(|_| Error::param(name, "is too large"))
 }

@@ -157,6 +157,30 @@ where
     }
 }
 
+/// Prints a command's report on stdout: the JSON object alone (`json`), else
+/// a `key: value` line per field.
+/// A closed stdout (`penumbra ... | head -c 10`) ends the run quietly.
+pub fn print_report(json: bool, value: &serde_json::Value) -> Result<()> {
+    let mut text = String::new();
+    if json {
+        text = format!("{value}\n");
+    } else if let serde_json::Value::Object(map) = value {
+        for (k, v) in map {
+            match v {
+                serde_json::Value::String(s) => text += &format!("{k}: {s}\n"),
+                _ => text += &format!("{k}: {v}\n"),
+            }
+        }
+    }
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(Error::internal(format!("cannot write to stdout: {e}")))
+        }
+        _ => Ok(()),
+    }
+}
+
 /// Where frame `frame` of an animation goes (`last`: it is the last
 /// frame): every frame to its own file where `template` holds `{}`, else
 /// only the last frame, to `template` itself.

@@ -157,6 +157,19 @@ impl Progress {
         p
     }
 
+    /// A bar of `len` steps that is never drawn: what it counted can be
+    /// read back (`position`), for tests of who advances a bar.
+    pub fn counting(len: u64) -> Progress {
+        Progress {
+            bar: Some(ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::hidden())),
+        }
+    }
+
+    /// Steps done so far (0 for a hidden bar).
+    pub fn position(&self) -> u64 {
+        self.bar.as_ref().map_or(0, ProgressBar::position)
+    }
+
     pub fn inc(&self, n: u64) {
         if let Some(b) = &self.bar {
             b.inc(n);

@@ -47,6 +47,23 @@ pub fn read_rays(path: &Path) -> Result<Vec<Ray>> {
     Ok(rays)
 }
 
+/// `read_rays` with the origins moved into the frame of a mesh whose
+/// origin is `origin` (`scene::frame`). The move is exact (an f32 origin
+/// minus a grid point near it, in f64, fits f32), so t and the hits are
+/// those of the world-space rays; but the file's f32 origins are what they
+/// are: 1e6 model sizes off, f32 steps are about 1/8 of the model, and an
+/// origin between them was rounded when the file was written.
+pub fn read_rays_in(path: &Path, origin: glam::DVec3) -> Result<Vec<Ray>> {
+    let mut rays = read_rays(path)?;
+    if origin != glam::DVec3::ZERO {
+        for r in &mut rays {
+            let world = glam::Vec3::from_array(r.origin).as_dvec3();
+            r.origin = crate::scene::frame::to_local(origin, world).to_array();
+        }
+    }
+    Ok(rays)
+}
+
 /// Writes rays as N records of 6 little-endian f32 (origin, direction).
 pub fn write_rays(path: &Path, rays: &[Ray]) -> Result<()> {
     let mut bytes = Vec::with_capacity(rays.len() * 24);

@@ -17,18 +17,13 @@ use crate::progress::{Bars, Progress};
 use crate::ray::{Hit, Ray};
 use crate::scene::Mesh;
 
-/// Meshes above this many triangles get a spinner while their tree builds.
-const SPINNER_TRIANGLES: usize = 200_000;
-
 /// Builds the kd-tree of `mesh` with default parameters; a spinner names
 /// `what` while a large mesh builds.
 pub fn build_tree(mesh: &Mesh, bars: Bars, what: &str) -> Result<KdTree> {
-    let progress = if mesh.triangles.len() > SPINNER_TRIANGLES {
-        bars.spinner(&format!("building kd-tree ({what})"))
-    } else {
-        Progress::hidden()
-    };
-    let tree = KdTree::build(mesh, &KdTreeParams::default())?;
+    // A bar of one step per triangle, shown once the build has taken a
+    // second (`progress`), advancing leaf by leaf.
+    let progress = bars.bar(mesh.triangles.len() as u64, &format!("building kd-tree ({what})"));
+    let tree = KdTree::build_with(mesh, &KdTreeParams::default(), &progress)?;
     progress.finish();
     Ok(tree)
 }

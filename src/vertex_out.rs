@@ -56,10 +56,14 @@ pub fn write_ao_ply(path: &Path, mesh: &Mesh, ao: &[f32]) -> Result<()> {
             mesh.positions.len()
         )));
     }
+    // A far-off model (`scene::frame`) is written back where it was, in
+    // doubles: in floats it would lose the detail its reader kept.
+    let far = mesh.origin != glam::DVec3::ZERO;
+    let ty = if far { "double" } else { "float" };
     let header = format!(
         "ply\nformat binary_little_endian 1.0\n\
          comment penumbra ambient accessibility: red = green = blue = ao x 255 (linear), quality = ao\n\
-         element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+         element vertex {}\nproperty {ty} x\nproperty {ty} y\nproperty {ty} z\n\
          property uchar red\nproperty uchar green\nproperty uchar blue\nproperty float quality\n\
          element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
         mesh.positions.len(),
@@ -69,8 +73,13 @@ pub fn write_ao_ply(path: &Path, mesh: &Mesh, ao: &[f32]) -> Result<()> {
         let mut body = Vec::with_capacity(header.len() + 19 * ao.len() + 13 * mesh.triangles.len());
         body.extend_from_slice(header.as_bytes());
         for (p, &a) in mesh.positions.iter().zip(ao) {
-            for c in p.to_array() {
-                body.extend_from_slice(&c.to_le_bytes());
+            match far {
+                true => mesh
+                    .to_world(*p)
+                    .to_array()
+                    .iter()
+                    .for_each(|c| body.extend(c.to_le_bytes())),
+                false => p.to_array().iter().for_each(|c| body.extend(c.to_le_bytes())),
             }
             let grey = (a.clamp(0.0, 1.0) * 255.0).round() as u8;
             body.extend_from_slice(&[grey; 3]);
@@ -184,6 +193,7 @@ mod tests {
             ],
             triangles: vec![[0, 1, 2], [2, 1, 3]],
             objects: Vec::new(),
+            origin: glam::DVec3::ZERO,
         };
         let ao = [0.0, 0.5, 1.0, 0.123];
         let path = dir.join("ao.ply");

@@ -379,9 +379,11 @@ fn headers_marks_and_indices_are_read_for_what_they_are() {
 }
 
 /// Every GPU command on each backend wgpu offers here runs or exits 2
-/// naming what the adapter refused (llvmpipe GL cannot render to the
-/// G-buffer's Rgba32Float), never a panic; an unknown `WGPU_BACKEND` is
-/// named as such.
+/// naming what the adapter lacks, checked when the device is opened: before
+/// any work (no "GPU adapter" line, no output written), never a panic and
+/// never a validation error later (llvmpipe GL cannot render to the
+/// G-buffer's Rgba32Float: SSAO, `sweep ssao`). An unknown `WGPU_BACKEND`
+/// is named as such.
 #[test]
 fn every_backend_runs_or_names_what_it_lacks() {
     let d = TempDir::new("guard_backends");
@@ -394,6 +396,12 @@ fn every_backend_runs_or_names_what_it_lacks() {
         &[("WGPU_BACKEND", Some("vulcan"))],
     );
     unknown.bad_input(&["WGPU_BACKEND", "vulcan", "not a backend"]);
+    let rays: Vec<u8> = [0f32, 3.0, 0.0, 0.0, -1.0, 0.0]
+        .iter()
+        .flat_map(|c| c.to_le_bytes())
+        .collect();
+    let rays = d.write("rays.f32", rays);
+    let probe = common::cli::write_probe(&d, [2.0, 1.8, 1.5], [0.2, 0.2, 0.25]);
     for backend in ["vulkan", "gl"] {
         let env = [("WGPU_BACKEND", Some(backend))];
         let info = common::cli::run_env(&["info".into(), "--json".into()], &env).json();
@@ -401,23 +409,45 @@ fn every_backend_runs_or_names_what_it_lacks() {
             println!("{backend}: no adapter, skipped");
             continue;
         }
-        let vars = [
-            ("mesh", mesh.as_str()),
-            ("out", &d.p("out.png")),
-            ("csv", &d.p("a.csv")),
-        ];
         for line in [
-            "ao --mesh {mesh} --method raycast --rays 4 --per-vertex {csv}",
-            "trace --mesh {mesh} --width 16 --height 16",
-            "ssao --mesh {mesh} --estimator sphere --spp 4 --radius 0.5 --width 16 --height 16 --out {out}",
-            "raytrace --method whitted --mesh {mesh} --width 16 --height 16 --out {out}",
+            "ao --mesh {mesh} --method raycast --rays 4 --per-vertex {out}.csv",
+            "ao --mesh {mesh} --receiver {mesh} --method field --positions 8 --res 8 --rays 4 --per-vertex {out}.csv",
+            "trace --mesh {mesh} --width 16 --height 16 --out {out}.png",
+            "trace-rays --mesh {mesh} --rays {rays} --out {out}.bin",
+            "ssao --mesh {mesh} --estimator sphere --spp 4 --radius 0.5 --width 16 --height 16 --out {out}.png",
+            "prt --mesh {mesh} --env {probe} --width 16 --height 16 --out {out}.png",
+            "raytrace --method whitted --mesh {mesh} --width 16 --height 16 --out {out}.png",
+            "raytrace --method bounded --mesh {mesh} --width 16 --height 16 --out {out}.png",
+            "sweep ssao --mesh {mesh} --width 16 --height 16 --grid spp=4 --out {out}",
         ] {
+            let out = d.p(&format!("{backend}-{}", line.split(' ').next().unwrap()));
+            let vars = [
+                ("mesh", mesh.as_str()),
+                ("out", &out),
+                ("rays", &rays),
+                ("probe", &probe),
+            ];
             let r = common::cli::run_env(&common::cli::cmd(&format!("{line} --device gpu"), &vars), &env);
             println!("{backend}: {line}: exit {}", r.code);
             match r.code {
-                0 => {}
-                2 => assert!(r.stderr.contains("refused the work"), "{}", r.describe()),
+                0 => assert!(!r.stderr.contains("refused the work"), "{}", r.describe()),
+                2 => {
+                    r.bad_input(&["cannot run", &format!("({backend})"), "lacks", "--device cpu"]);
+                    assert!(!r.stderr.contains("GPU adapter:"), "not up front\n{}", r.describe());
+                    assert!(
+                        !std::path::Path::new(&out).exists() && !std::path::Path::new(&format!("{out}.png")).exists()
+                    );
+                }
                 _ => panic!("{backend}: {}", r.describe()),
+            }
+            // What each backend here can do: lavapipe Vulkan runs everything;
+            // llvmpipe GL everything but SSAO's G-buffer.
+            let llvmpipe = info["selected"].as_str().unwrap().contains("llvmpipe");
+            let refused = r.code == 2;
+            let expected = backend == "gl" && line.contains("ssao");
+            assert!(!llvmpipe || refused == expected, "{backend}: {line}\n{}", r.describe());
+            if refused {
+                assert!(r.stderr.contains("Rgba32Float"), "{}", r.describe());
             }
         }
     }

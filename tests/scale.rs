@@ -14,6 +14,14 @@
 //! pixels; PRT's transfer error against ray tracing within 1e-3.
 //! Scenes whose extent leaves f32's range are refused (exit 2, naming the
 //! mesh and its extent) instead of answered wrongly.
+//!
+//! Offsets (issue 14, class 1, `scene::frame`): the same scenes moved 1e3
+//! and 1e6 times their size from the origin (written in f64 decimal, as a
+//! user's file would be) give the same answers within the same tolerances,
+//! and moved by a multiple of their frame's grid, identical answers. The
+//! rays' origins are on a grid f32 holds at the offset: a ray file is f32,
+//! and an origin between f32's steps there (1/8 of the model at 1e6 sizes)
+//! was rounded when the file was written, which no reader can undo.
 
 mod common;
 
@@ -33,16 +41,51 @@ const SCALES: [f32; 5] = [
     1.152_921_5e18,  // 2^60
 ];
 
+/// Where a scene is put: its coordinates times `scale` (in f32), then
+/// plus `offset` on x and z and minus it on y (in f64, written in full);
+/// ray origins rounded to multiples of `quantum` (0: not rounded).
+#[derive(Clone, Copy)]
+struct Placement {
+    scale: f32,
+    offset: f64,
+    quantum: f32,
+}
+
+impl Placement {
+    fn scaled(scale: f32) -> Placement {
+        Placement {
+            scale,
+            offset: 0.0,
+            quantum: 0.0,
+        }
+    }
+
+    fn shift(&self) -> [f64; 3] {
+        [self.offset, -self.offset, self.offset]
+    }
+}
+
 /// `obj` with every vertex coordinate multiplied by `scale` (in f32).
 fn scaled_obj(text: &str, scale: f32) -> String {
+    placed_obj(text, Placement::scaled(scale))
+}
+
+fn placed_obj(text: &str, at: Placement) -> String {
     text.lines()
         .map(|line| match line.strip_prefix("v ") {
             Some(rest) => {
                 let p: Vec<f32> = rest
                     .split_whitespace()
-                    .map(|c| c.parse::<f32>().unwrap() * scale)
+                    .map(|c| c.parse::<f32>().unwrap() * at.scale)
                     .collect();
-                format!("v {:e} {:e} {:e}\n", p[0], p[1], p[2])
+                match at.offset {
+                    0.0 => format!("v {:e} {:e} {:e}\n", p[0], p[1], p[2]),
+                    _ => {
+                        let s = at.shift();
+                        let q: Vec<f64> = (0..3).map(|k| p[k] as f64 + s[k]).collect();
+                        format!("v {} {} {}\n", q[0], q[1], q[2])
+                    }
+                }
             }
             None => format!("{line}\n"),
         })
@@ -51,7 +94,11 @@ fn scaled_obj(text: &str, scale: f32) -> String {
 
 /// Rays through a grid over the scene's box, from outside it (the same
 /// rays at every scale: origins and directions times the scale).
-fn rays_file(d: &TempDir, name: &str, lo: [f32; 3], hi: [f32; 3], scale: f32) -> String {
+fn rays_file(d: &TempDir, name: &str, lo: [f32; 3], hi: [f32; 3], at: Placement) -> String {
+    let round = |c: f32| match at.quantum {
+        0.0 => c,
+        q => (c / q).round() * q,
+    };
     let mut bytes = Vec::new();
     let n = 48;
     for i in 0..n {
@@ -64,13 +111,18 @@ fn rays_file(d: &TempDir, name: &str, lo: [f32; 3], hi: [f32; 3], scale: f32) ->
                 0.5 * (lo[2] + hi[2]),
             ];
             let origin = [
-                target[0] * 0.9,
-                target[1] + 0.1 * (hi[1] - lo[1]),
-                hi[2] + (hi[2] - lo[2]),
+                round(target[0] * 0.9),
+                round(target[1] + 0.1 * (hi[1] - lo[1])),
+                round(hi[2] + (hi[2] - lo[2])),
             ];
             let dir = [target[0] - origin[0], target[1] - origin[1], target[2] - origin[2]];
-            for c in origin.iter().chain(&dir) {
-                bytes.extend_from_slice(&(c * scale).to_le_bytes());
+            for (k, c) in origin.iter().enumerate() {
+                let placed = (c * at.scale) as f64 + at.shift()[k];
+                assert_eq!(placed as f32 as f64, placed, "a ray origin f32 cannot hold");
+                bytes.extend_from_slice(&(placed as f32).to_le_bytes());
+            }
+            for c in &dir {
+                bytes.extend_from_slice(&(c * at.scale).to_le_bytes());
             }
         }
     }
@@ -150,11 +202,12 @@ struct Answers {
     prt_error: f64,
 }
 
-fn answers(d: &TempDir, text: &str, scale: f32, radius: f32, device: &str) -> Answers {
-    let tag = format!("{scale:e}-{device}");
-    let mesh = d.write(&format!("mesh-{tag}.obj"), scaled_obj(text, scale));
+fn answers(d: &TempDir, text: &str, at: Placement, radius: f32, device: &str) -> Answers {
+    let scale = at.scale;
+    let tag = format!("{scale:e}-{:e}-{:e}-{device}", at.offset, at.quantum);
+    let mesh = d.write(&format!("mesh-{tag}.obj"), placed_obj(text, at));
     let (lo, hi) = bounds(text);
-    let rays = rays_file(d, &format!("rays-{tag}.f32"), lo, hi, scale);
+    let rays = rays_file(d, &format!("rays-{tag}.f32"), lo, hi, at);
     let p = |name: &str| {
         let (stem, ext) = name.split_once('.').unwrap();
         d.p(&format!("{stem}-{tag}.{ext}"))
@@ -211,7 +264,7 @@ fn answers(d: &TempDir, text: &str, scale: f32, radius: f32, device: &str) -> An
 
 /// `image_tolerance`: the share of 8-bit pixels allowed to differ by more
 /// than 1 (0.1% everywhere but one stated case).
-fn compare(name: &str, base: &Answers, other: &Answers, scale: f32, image_tolerance: f64) {
+fn compare(name: &str, base: &Answers, other: &Answers, at: &str, image_tolerance: f64) {
     let n = base.hits.len();
     let (mut disagree, mut worst_t) = (0usize, 0f32);
     for (&(t1, h1), &(ts, hs)) in base.hits.iter().zip(&other.hits) {
@@ -232,17 +285,17 @@ fn compare(name: &str, base: &Answers, other: &Answers, scale: f32, image_tolera
     let prt = image_outliers(&base.prt, &other.prt);
     let prt_error = (base.prt_error - other.prt_error).abs();
     println!(
-        "{name} at {scale:e}: {disagree}/{n} hit/miss disagreements, worst relative t {worst_t:.2e}, \
+        "{name} at {at}: {disagree}/{n} hit/miss disagreements, worst relative t {worst_t:.2e}, \
          mean |AO diff| {ao:.2e}, field {field:.2e}, SSAO pixels over 1/255 {ssao:.2e}, \
          PRT pixels over 1/255 {prt:.2e}, transfer error diff {prt_error:.2e}"
     );
-    assert!(disagree as f64 <= 1e-4 * n as f64, "{name} at {scale:e}: hits");
-    assert!(worst_t <= 1e-5, "{name} at {scale:e}: t");
-    assert!(ao <= 1e-3, "{name} at {scale:e}: AO");
-    assert!(field <= 1e-3, "{name} at {scale:e}: field AO");
-    assert!(ssao <= image_tolerance, "{name} at {scale:e}: SSAO");
-    assert!(prt <= image_tolerance, "{name} at {scale:e}: PRT image");
-    assert!(prt_error <= 1e-3, "{name} at {scale:e}: PRT transfer error");
+    assert!(disagree as f64 <= 1e-4 * n as f64, "{name} at {at}: hits");
+    assert!(worst_t <= 1e-5, "{name} at {at}: t");
+    assert!(ao <= 1e-3, "{name} at {at}: AO");
+    assert!(field <= 1e-3, "{name} at {at}: field AO");
+    assert!(ssao <= image_tolerance, "{name} at {at}: SSAO");
+    assert!(prt <= image_tolerance, "{name} at {at}: PRT image");
+    assert!(prt_error <= 1e-3, "{name} at {at}: PRT transfer error");
 }
 
 fn check_scene(name: &str, text: &str, radius: f32, scales: &[(f32, f64)]) {
@@ -252,10 +305,16 @@ fn check_scene(name: &str, text: &str, radius: f32, scales: &[(f32, f64)]) {
         devices.push("gpu");
     }
     for device in devices {
-        let base = answers(&d, text, 1.0, radius, device);
+        let base = answers(&d, text, Placement::scaled(1.0), radius, device);
         for &(scale, image_tolerance) in scales.iter().filter(|(s, _)| *s != 1.0) {
-            let other = answers(&d, text, scale, radius, device);
-            compare(&format!("{name} ({device})"), &base, &other, scale, image_tolerance);
+            let other = answers(&d, text, Placement::scaled(scale), radius, device);
+            compare(
+                &format!("{name} ({device})"),
+                &base,
+                &other,
+                &format!("{scale:e}"),
+                image_tolerance,
+            );
         }
     }
 }
@@ -318,4 +377,67 @@ fn scenes_beyond_f32s_range_are_refused_naming_the_extent() {
             pen(line, &[("mesh", &mesh), ("csv", &csv)]).bad_input(&[&mesh, "extent", "rescale"]);
         }
     }
+}
+
+/// The scene moved 1e3 and 1e6 times its size (decimal offsets, as a
+/// user's file gives them) and by 2^20 grid steps of its frame (exact).
+/// Same answers within the twin tolerances; identical on the grid.
+fn check_offsets(name: &str, text: &str, radius: f32) {
+    let d = TempDir::new(&format!("offset-{name}"));
+    let (lo, hi) = bounds(text);
+    let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0f32, f32::max) as f64;
+    let grid = 2f64.powi(extent.log2().ceil() as i32);
+    // Ray origins on a grid f32 holds at the largest offset.
+    let largest = 1e6 * extent + 4.0 * extent;
+    let quantum = 2f64.powi(largest.log2().ceil() as i32 - 23) as f32;
+    let on = |offset: f64| (offset / quantum as f64).round() * quantum as f64;
+    let mut devices = vec!["cpu"];
+    if gpu_available() {
+        devices.push("gpu");
+    }
+    for device in devices {
+        let at = |offset| Placement {
+            scale: 1.0,
+            offset,
+            quantum,
+        };
+        let base = answers(&d, text, at(0.0), radius, device);
+        for (label, offset) in [("1e3 sizes", on(1e3 * extent)), ("1e6 sizes", on(1e6 * extent))] {
+            let other = answers(&d, text, at(offset), radius, device);
+            compare(
+                &format!("{name} ({device})"),
+                &base,
+                &other,
+                &format!("offset {offset} ({label})"),
+                1e-3,
+            );
+        }
+        let offset = 2f64.powi(20) * grid;
+        let exact = answers(&d, text, at(offset), radius, device);
+        compare(
+            &format!("{name} ({device})"),
+            &base,
+            &exact,
+            &format!("offset {offset} (2^20 grid steps)"),
+            0.0,
+        );
+        assert_eq!(base.hits, exact.hits, "{name} ({device}): hits on the grid");
+        assert_eq!(base.ao, exact.ao, "{name} ({device}): AO on the grid");
+        assert_eq!(base.field_ao, exact.field_ao, "{name} ({device}): field AO on the grid");
+    }
+}
+
+#[test]
+fn a_procedural_scene_gives_the_same_answers_far_from_the_origin() {
+    let text = std::fs::read_to_string(asset_s("sphere-on-plane.obj")).unwrap();
+    check_offsets("sphere-on-plane", &text, 0.5);
+}
+
+#[test]
+fn a_shared_model_gives_the_same_answers_far_from_the_origin() {
+    let Some(path) = data_model("spot.obj") else {
+        return;
+    };
+    let text = std::fs::read_to_string(path).unwrap();
+    check_offsets("spot", &text, 0.2);
 }

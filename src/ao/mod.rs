@@ -22,6 +22,9 @@ use glam::Vec3;
 use crate::error::{Error, Result};
 use crate::sampling::{Frame, SampleSequence, StreamSampler, cosine_hemisphere, unit_float};
 
+/// The most rays per point (and per pixel for SSAO's ray-traced references).
+pub const MAX_RAYS_PER_POINT: u32 = 1 << 20;
+
 /// Where AO is estimated: the ray origin (already offset from the surface),
 /// the unit normal of the hemisphere, and the index of the point's stream in
 /// the sample sequence (a vertex or pixel index, so results do not depend on
@@ -68,7 +71,7 @@ impl AoSettings {
         if self.rays_per_point == 0 {
             return Err(Error::param("rays_per_point", "must be at least 1"));
         }
-        if self.rays_per_point > 1 << 20 {
+        if self.rays_per_point > MAX_RAYS_PER_POINT {
             return Err(Error::param("rays_per_point", "must be at most 1048576 per point"));
         }
         if self.radius.is_nan() || self.radius <= 0.0 {

@@ -193,7 +193,9 @@ pub fn visible_points(
     scene_camera: Option<Camera>,
     view: &View,
 ) -> Result<VisiblePoints> {
-    let camera = view.camera.resolve(scene_camera, &everything.bounds())?;
+    let camera = view
+        .camera
+        .resolve(scene_camera, &everything.bounds(), everything.origin)?;
     let rays = camera.primary_rays(view.width, view.height);
     let hits = tracer.closest(&rays)?;
     let points = hit_points(everything, &rays, &hits.value, everything.origin_offset());

@@ -4,7 +4,7 @@
 use clap::Args;
 use serde_json::{Value, json};
 
-use crate::device::{Device, DeviceChoice};
+use crate::device::{Device, DeviceChoice, Needs};
 use crate::error::Result;
 
 /// The default `--seed`: outputs repeat bit for bit on one device.
@@ -40,7 +40,13 @@ impl Common {
 
     /// Opens `--device` and says on stderr what was chosen.
     pub fn open_device(&self) -> Result<Device> {
-        let device = Device::open(self.device)?;
+        self.open_device_for(&Needs::COMPUTE)
+    }
+
+    /// Opens the device, refused up front (or left for the CPU, with
+    /// `auto`) where its GPU lacks what `needs` names.
+    pub fn open_device_for(&self, needs: &Needs) -> Result<Device> {
+        let device = Device::open(self.device)?.require(needs)?;
         if let Some(name) = device.adapter() {
             eprintln!("penumbra: GPU adapter: {name}");
         } else if let Some(why) = device.fallback_reason() {

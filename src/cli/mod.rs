@@ -30,7 +30,7 @@ use std::ffi::OsString;
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use serde_json::Value;
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 
 pub use args::{Common, DEFAULT_SEED, flag};
 
@@ -152,26 +152,7 @@ fn dispatch(command: Command) -> Result<()> {
     }
 }
 
-/// Prints the result: the JSON object alone with `--json`, else its fields.
-/// A closed stdout (`penumbra ... | head -c 10`) ends the run quietly.
+/// Prints the result (`output::print_report`).
 fn emit(json: bool, value: Value) -> Result<()> {
-    use std::io::Write;
-    let mut text = String::new();
-    if json {
-        text = format!("{value}\n");
-    } else if let Value::Object(map) = &value {
-        for (k, v) in map {
-            match v {
-                Value::String(s) => text += &format!("{k}: {s}\n"),
-                _ => text += &format!("{k}: {v}\n"),
-            }
-        }
-    }
-    let mut out = std::io::stdout().lock();
-    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
-            Err(Error::internal(format!("cannot write to stdout: {e}")))
-        }
-        _ => Ok(()),
-    }
+    crate::output::print_report(json, &value)
 }

@@ -100,7 +100,7 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     let mut rest = Vec::new();
     mesh.positions_at(playback.start, &mut rest);
     // Camera: the animation's, else the contract's default; options override.
-    let camera = view.camera.resolve(scene.camera, &used_bounds(&rest, triangles))?;
+    let camera = scene.camera_in(&view.camera, &used_bounds(&rest, triangles))?;
     let choice = match args.max_error {
         Some(e) => {
             let files: Vec<&Path> = args.mesh.iter().map(PathBuf::as_path).collect();

@@ -91,14 +91,14 @@ fn setup(args: &RaytraceArgs) -> Result<(Setup, WhittedRenderer)> {
         .as_deref()
         .map(|p| ImageFormat::check_png(p, "--error-image"))
         .transpose()?;
-    let path = args.path.as_deref().map(CameraPath::load).transpose()?;
     let scene = load_shaded_input(args.mesh.as_deref(), args.scene.as_deref())?;
+    let path = scene.camera_path(args.path.as_deref())?;
     warn(&scene.warnings);
     let render_scene = RenderScene::new(&scene, 0, &args.whitted.lighting())?;
     warn(&render_scene.warnings);
     let device = args.common.open_device()?;
     let renderer = WhittedRenderer::new(&device, render_scene, Bars::Stderr)?;
-    let base = args.camera.spec().resolve(scene.camera, &renderer.bounds())?;
+    let base = scene.camera_in(&args.camera.spec(), &renderer.bounds())?;
     let setup = Setup {
         device,
         threads,

@@ -71,8 +71,8 @@ pub fn run(args: &SsaoArgs) -> Result<Value> {
     super::io::warn(&scene.warnings);
     crate::ssao::gbuffer::validate_lights(&scene.lights)?;
     let bounds = scene.world_mesh(|_| true).bounds();
-    request.view.camera = request.view.camera.resolve(scene.camera, &bounds)?.into();
-    let device = args.common.open_device()?;
+    request.view.camera = scene.complete_camera(&request.view.camera, &bounds)?;
+    let device = args.common.open_device_for(&crate::device::Needs::SSAO)?;
     let choice = match args.knobs.max_error {
         Some(e) => {
             let files: Vec<&Path> = args.mesh.iter().chain(&args.scene).map(PathBuf::as_path).collect();

@@ -77,7 +77,7 @@ pub fn run(args: &SweepArgs) -> Result<Value> {
         radius: args.radius,
         seed: args.common.seed,
     };
-    let device = args.common.open_device()?;
+    let device = args.common.open_device_for(args.method.gpu_needs())?;
     let mut report = sweep::with_method(args.method, &inputs, &device, |method| {
         let grid = Grid::parse(&args.grid, method.knobs())?;
         sweep::sweep(method, &grid, runs, Bars::Stderr)

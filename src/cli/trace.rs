@@ -62,7 +62,7 @@ pub fn run(args: &TraceArgs) -> Result<Value> {
     o[1].map(|p| ImageFormat::check_png(p, "--tiles-image")).transpose()?;
     let scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
     let mesh = scene.world_mesh(|_| true);
-    request.view.camera = request.view.camera.resolve(scene.camera, &mesh.bounds())?.into();
+    request.view.camera = scene.complete_camera(&request.view.camera, &mesh.bounds())?;
     let device = args.common.open_device()?;
     let runs = args.common.runs.runs(1)?;
     let once = || trace_view(&device, &mesh, None, &request, Bars::Stderr);

@@ -8,7 +8,7 @@ use super::args::{Common, check_output};
 use crate::error::Result;
 use crate::mlrta::runner::mrays_per_s;
 use crate::progress::Bars;
-use crate::ray_file::{read_rays, write_hits};
+use crate::ray_file::{read_rays_in, write_hits};
 use crate::scene::load_mesh;
 use crate::tracer::Tracer;
 
@@ -31,7 +31,7 @@ pub fn run(args: &TraceRaysArgs) -> Result<Value> {
     let threads = args.common.init_threads()?;
     let out = check_output(&args.out, "--out")?;
     let mesh = load_mesh(&args.mesh)?;
-    let rays = read_rays(&args.rays)?;
+    let rays = read_rays_in(&args.rays, mesh.origin)?;
     let device = args.common.open_device()?;
     let mut tracer = Tracer::build(&device, &mesh, Bars::Stderr, "trace-rays")?;
     let progress = Bars::Stderr.spinner(&format!("tracing {} rays", rays.len()));

@@ -2,6 +2,7 @@
 //! CLI's convenience) or adopted from a host engine, plus what penumbra needs
 //! to know about them (limits, timestamp support, a name for reports).
 
+use crate::gpu::capabilities::Capabilities;
 use std::sync::Arc;
 
 use crate::error::{Error, Result};
@@ -48,6 +49,8 @@ pub struct GpuContext {
     pub backend: String,
     /// Whether compute passes can carry timestamp queries.
     pub timestamps: bool,
+    /// What methods need that the adapter may lack (checked up front).
+    pub capabilities: crate::gpu::capabilities::Capabilities,
     pub(crate) kernels: Arc<crate::gpu::kernels::KernelCache>,
 }
 
@@ -251,7 +254,11 @@ impl GpuContext {
         .map_err(|e| Error::Device(format!("cannot create a device on {}: {e}", info.name)))?;
         let backend = format!("{:?}", info.backend).to_lowercase();
         install_error_handler(&device, format!("{} ({backend})", info.name));
-        Ok(Self::adopt(device, queue, info.name.clone(), backend))
+        let capabilities = Capabilities::of_adapter(&adapter, &device);
+        Ok(GpuContext {
+            capabilities,
+            ..Self::adopt(device, queue, info.name.clone(), backend)
+        })
     }
 
     /// Adopts a host engine's device and queue. Passes are built for this
@@ -263,6 +270,7 @@ impl GpuContext {
     fn adopt(device: wgpu::Device, queue: wgpu::Queue, name: String, backend: String) -> GpuContext {
         let timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         GpuContext {
+            capabilities: Capabilities::of_device(&device),
             device,
             queue,
             name,
@@ -275,6 +283,12 @@ impl GpuContext {
     /// "name (backend)", as reports name the adapter.
     pub fn label(&self) -> String {
         format!("{} ({})", self.name, self.backend)
+    }
+
+    /// `Ok` if this device can run a method with `needs`, else a device
+    /// error naming what it lacks (before any work is requested).
+    pub fn check(&self, needs: &crate::device::Needs) -> Result<()> {
+        self.capabilities.check(needs, &self.label())
     }
 
     pub fn limits(&self) -> wgpu::Limits {

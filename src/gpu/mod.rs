@@ -12,6 +12,7 @@
 
 pub mod batch;
 pub mod buffers;
+pub mod capabilities;
 mod context;
 pub mod kernels;
 pub mod layout;

@@ -30,6 +30,7 @@ use glam::Vec3;
 use super::clip::{clip_triangle, clipped_bounds};
 use super::node::{KdNode, MAX_LEAF_TRIANGLES, MAX_TREE_DEPTH};
 use crate::aabb::Aabb;
+use crate::progress::Progress;
 
 /// Knobs of the builder. `Default` gives the settings docs/results' numbers
 /// were measured with.
@@ -279,6 +280,8 @@ pub(super) struct Builder<'a> {
     /// SAH degenerates (469 nodes for the bunny instead of 426,541).
     frame: f32,
     scene_area: f32,
+    /// Advanced by each leaf's share of the triangles (`build_cell`).
+    progress: &'a Progress,
 }
 
 /// Cells with more triangles than this build their children in parallel.
@@ -286,7 +289,13 @@ const PARALLEL_BELOW: usize = 2048;
 
 impl<'a> Builder<'a> {
     /// `frame`: the tree's `frame_scale`, in which areas are measured.
-    pub fn new(triangles: &'a [[Vec3; 3]], params: &'a KdTreeParams, bounds: &Aabb, frame: f32) -> Self {
+    /// `progress`: a bar of `triangles.len()` steps, full when the tree is.
+    pub fn new(
+        triangles: &'a [[Vec3; 3]],
+        params: &'a KdTreeParams,
+        (bounds, frame): (&Aabb, f32),
+        progress: &'a Progress,
+    ) -> Self {
         Builder {
             triangles,
             params,
@@ -296,6 +305,7 @@ impl<'a> Builder<'a> {
             hard_references: triangles.len().saturating_mul(HARD_REFERENCES_PER_TRIANGLE),
             frame,
             scene_area: bounds.surface_area_in(frame),
+            progress,
         }
     }
 
@@ -311,28 +321,32 @@ impl<'a> Builder<'a> {
             .collect();
         let mut out = Output::default();
         let budget = prims.len().saturating_mul(MAX_REFERENCES_PER_TRIANGLE);
-        self.build_cell(prims, bounds, (0, budget), &mut out);
+        let share = prims.len() as u64;
+        self.build_cell(prims, bounds, (0, budget, share), &mut out);
         out
     }
 
-    /// `at`: the cell's depth and the leaf references its subtree may hold.
-    fn build_cell(&self, prims: Vec<Prim>, cell: Aabb, at: (usize, usize), out: &mut Output) {
-        let (depth, budget) = at;
+    /// `at`: the cell's depth, the leaf references its subtree may hold,
+    /// and its share of the progress bar: the root's is every triangle,
+    /// shared out like the budget, so the bar is full exactly when the last
+    /// leaf is made and moves with each leaf, not only with the top splits.
+    fn build_cell(&self, prims: Vec<Prim>, cell: Aabb, at: (usize, usize, u64), out: &mut Output) {
+        let (depth, budget, share) = at;
         if prims.is_empty() {
-            return out.push_leaf(&prims, LeafReason::Empty, depth);
+            return self.leaf(out, &prims, LeafReason::Empty, (depth, share));
         }
         if depth >= self.max_depth {
-            return out.push_leaf(&prims, LeafReason::DepthLimit, depth);
+            return self.leaf(out, &prims, LeafReason::DepthLimit, (depth, share));
         }
         let made = self.references.load(std::sync::atomic::Ordering::Relaxed);
         // A cell whose share would leave a split's children less than their
         // own triangles, once the tree as a whole duplicates a lot.
         let spent = prims.len() * 2 > budget && made > self.soft_references;
         if spent || made > self.hard_references {
-            return out.push_leaf(&prims, LeafReason::ReferenceBudget, depth);
+            return self.leaf(out, &prims, LeafReason::ReferenceBudget, (depth, share));
         }
         if cell.surface_area_in(self.frame) < self.params.min_cell_area * self.scene_area {
-            return out.push_leaf(&prims, LeafReason::SmallCell, depth);
+            return self.leaf(out, &prims, LeafReason::SmallCell, (depth, share));
         }
         let split = self
             .empty_cut(&prims, &cell)
@@ -347,15 +361,20 @@ impl<'a> Builder<'a> {
                 let split = self.midpoint_split(&cell, cell.extent().max_position());
                 self.split_cell(prims, cell, at, split, out)
             }
-            None => out.push_leaf(&prims, LeafReason::Cost, depth),
+            None => self.leaf(out, &prims, LeafReason::Cost, (depth, share)),
         }
+    }
+
+    fn leaf(&self, out: &mut Output, prims: &[Prim], reason: LeafReason, (depth, share): (usize, u64)) {
+        out.push_leaf(prims, reason, depth);
+        self.progress.inc(share);
     }
 
     fn split_cell(
         &self,
         prims: Vec<Prim>,
         cell: Aabb,
-        (depth, budget): (usize, usize),
+        (depth, budget, share): (usize, usize, u64),
         split: Split,
         out: &mut Output,
     ) {
@@ -367,7 +386,9 @@ impl<'a> Builder<'a> {
         // The budget follows the references: a child gets its share of them.
         let total = (below.len() + above.len()).max(1);
         let below_budget = (budget as u128 * below.len() as u128 / total as u128) as usize;
-        let (below_at, above_at) = ((depth + 1, below_budget), (depth + 1, budget - below_budget));
+        let below_share = (share as u128 * below.len() as u128 / total as u128) as u64;
+        let below_at = (depth + 1, below_budget, below_share);
+        let above_at = (depth + 1, budget - below_budget, share - below_share);
         out.count_split(split.kind, depth);
         let index = out.nodes.len();
         out.nodes.push(KdNode::leaf(0, 0)); // replaced below

@@ -24,6 +24,7 @@ pub use traverse::{Counters, NoCounts, TRAVERSAL_SLACK, TraversalCounts};
 use crate::aabb::Aabb;
 use crate::device::elapsed_ms;
 use crate::error::{Error, Result};
+use crate::progress::Progress;
 use crate::ray::{Hit, Ray};
 use crate::scene::Mesh;
 
@@ -55,14 +56,29 @@ pub struct KdTree {
 impl KdTree {
     /// Builds the tree over all triangles of a mesh (validated first).
     pub fn build(mesh: &Mesh, params: &KdTreeParams) -> Result<KdTree> {
+        Self::build_with(mesh, params, &Progress::hidden())
+    }
+
+    /// `build`, advancing `progress` (a bar of one step per triangle) as
+    /// leaves are made (issue 14, class 5: big scenes take seconds).
+    pub fn build_with(mesh: &Mesh, params: &KdTreeParams, progress: &Progress) -> Result<KdTree> {
         mesh.validate()?;
         let triangles = (0..mesh.triangles.len()).map(|t| mesh.triangle(t)).collect();
-        Self::from_triangles(triangles, params)
+        Self::from_triangles_with(triangles, params, progress)
     }
 
     /// Builds the tree over a triangle soup; a triangle's index in the soup is
     /// the index hits report.
     pub fn from_triangles(triangles: Vec<[Vec3; 3]>, params: &KdTreeParams) -> Result<KdTree> {
+        Self::from_triangles_with(triangles, params, &Progress::hidden())
+    }
+
+    /// `from_triangles`, advancing `progress` as `build_with` does.
+    pub fn from_triangles_with(
+        triangles: Vec<[Vec3; 3]>,
+        params: &KdTreeParams,
+        progress: &Progress,
+    ) -> Result<KdTree> {
         validate_params(params)?;
         if triangles.is_empty() {
             return Err(Error::input(
@@ -82,7 +98,7 @@ impl KdTree {
         let start = Instant::now();
         let bounds = triangles.iter().flatten().fold(Aabb::EMPTY, |b, &p| b.grow(p));
         let frame_scale = watertight::frame_scale((bounds.max - bounds.min).max_element());
-        let builder = build::Builder::new(&triangles, params, &bounds, frame_scale);
+        let builder = build::Builder::new(&triangles, params, (&bounds, frame_scale), progress);
         let mut out = builder.build(bounds);
         build::finish_stats(&mut out);
         let build::Output {

@@ -445,3 +445,18 @@ fn overlapping_geometry_stays_within_the_reference_budget() {
     let tree = KdTree::from_triangles(sparse, &KdTreeParams::default()).unwrap();
     assert_eq!(tree.stats.budget_leaves, 0);
 }
+
+/// The build's bar (issue 14, class 5) is full exactly when the tree is,
+/// on spread-out triangles and on overlapping ones that spend the reference
+/// budget: every leaf advances it by its cell's share of the triangles.
+#[test]
+fn the_build_progress_bar_fills_exactly_when_the_tree_is_built() {
+    let mut rng = Rng(5);
+    for spread in [0.01, 1.0] {
+        let soup = random_soup(&mut rng, 20_000, spread);
+        let progress = crate::progress::Progress::counting(20_000);
+        let tree = KdTree::from_triangles_with(soup, &KdTreeParams::default(), &progress).unwrap();
+        assert_eq!(progress.position(), 20_000, "spread {spread}");
+        assert!(tree.stats.leaves > 1000, "advanced by many leaves, not one step");
+    }
+}

@@ -1,7 +1,6 @@
 //! MLRTA tracing's knobs as command-line options (see `crate::options`).
 
 use clap::Args;
-use glam::Vec3;
 
 use super::MlrtaParams;
 use super::aa::AaMode;
@@ -9,7 +8,7 @@ use super::runner::{AaRequest, ShadowLight, TraceRequest};
 use super::tiles::DEFAULT_MIN_TILE;
 use crate::error::Result;
 use crate::options::{Applies, OnOff, applies};
-use crate::scene::{View, parse_vec3};
+use crate::scene::View;
 
 #[derive(Args, Clone, Debug)]
 pub struct TraceOptions {
@@ -31,8 +30,8 @@ pub struct TraceOptions {
     #[arg(long, default_value_t = 16, allow_negative_numbers = true)]
     pub split_factor: u32,
     /// Point light "X,Y,Z": adds a shadow ray per hit (Table 3's statistics).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub light: Option<Vec3>,
+    #[arg(long, value_parser = crate::scene::frame::parse_point, allow_hyphen_values = true)]
+    pub light: Option<glam::DVec3>,
     /// Shadow rays to the default light (above the scene) when --light is
     /// not given: `--shadows` or `--shadows on`, as prt spells it.
     #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "on")]

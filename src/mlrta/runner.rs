@@ -33,17 +33,20 @@ pub enum ShadowLight {
     None,
     /// A point light one scene diagonal above the scene, slightly off-axis.
     AboveScene,
-    At(Vec3),
+    /// World coordinates, in f64 (`scene::frame`).
+    At(glam::DVec3),
 }
 
 impl ShadowLight {
-    pub fn position(self, bounds: &Aabb) -> Option<Vec3> {
+    /// The light in the frame of a mesh whose origin is `origin` and
+    /// bounds (in that frame) `bounds`.
+    pub fn position(self, bounds: &Aabb, origin: glam::DVec3) -> Option<Vec3> {
         match self {
             ShadowLight::None => None,
             ShadowLight::AboveScene => {
                 Some(bounds.center() + Vec3::new(-0.4, 1.0, 0.3).normalize() * bounds.diagonal())
             }
-            ShadowLight::At(p) => Some(p),
+            ShadowLight::At(p) => Some(crate::scene::frame::to_local(origin, p)),
         }
     }
 }
@@ -191,8 +194,8 @@ pub fn trace_view(
     request.validate()?;
     let (width, height) = (request.view.width, request.view.height);
     let bounds = mesh.bounds();
-    let camera = request.view.camera.resolve(scene_camera, &bounds)?;
-    let light = request.light.position(&bounds);
+    let camera = request.view.camera.resolve(scene_camera, &bounds, mesh.origin)?;
+    let light = request.light.position(&bounds, mesh.origin);
     let tree = build_tree(mesh, bars, "trace")?;
     let rays = camera.primary_rays(width, height);
     let packets = (width.div_ceil(PACKET) as u64 * height.div_ceil(PACKET) as u64) as f64;
@@ -216,7 +219,8 @@ pub fn trace_view(
         hits,
         build_ms: kdtree.build_ms,
         kdtree,
-        camera,
+        // Reported where the user's scene is, not in its frame.
+        camera: camera.in_world(mesh.origin),
         mlrta: t.mlrta,
         timing: t.timing,
         trace_ms: t.trace_ms,

@@ -131,6 +131,11 @@ fn build(poses: &[&[Vec3]], triangles: &[[u32; 3]], target: usize, tolerance: f3
 /// `target` triangles with no error bound (it stops earlier only where the
 /// topology forbids collapses).
 fn simplify(rest: &[Vec3], triangles: &[[u32; 3]], target: usize) -> Vec<[u32; 3]> {
+    // A target of the whole mesh or more keeps it whole (`--coarse` at its
+    // top end); meshoptimizer asserts, aborting the process, above it.
+    if target >= triangles.len() {
+        return triangles.to_vec();
+    }
     let positions: Vec<[f32; 3]> = rest.iter().map(|p| p.to_array()).collect();
     let Ok(adapter) = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(&positions), 12, 0) else {
         return Vec::new();

@@ -11,7 +11,8 @@ use super::runner::{Playback, PvsSampling, RayTraced, Shadows};
 use super::selfcheck::SelfCheck;
 use super::transfer::{Brdf, BrdfKind, Integration};
 use crate::error::{Error, Result};
-use crate::options::{Applies, OnOff, applies, positive};
+use crate::field::runner::MAX_FRAMES;
+use crate::options::{Applies, OnOff, applies, in_range, positive};
 use crate::scene::animated::AnimatedScene;
 use crate::scene::sequence::MeshSequence;
 use crate::scene::{MeshFormat, Scene, load_gltf_animation, load_mesh};
@@ -138,7 +139,11 @@ impl AnimationOptions {
                     .parent()
                     .and_then(|d| d.file_name())
                     .map_or_else(|| "sequence".to_string(), |d| d.to_string_lossy().into_owned());
-                Scene::from_user_animation(Path::new(pattern), sequence.into_animation(&name))
+                let origin = sequence.origin;
+                let mut scene = Scene::from_user_animation(Path::new(pattern), sequence.into_animation(&name))?;
+                // The scene is in frame 0's frame: world inputs follow it.
+                (scene.origin, scene.meshes[0].mesh.origin) = (origin, origin);
+                Ok(scene)
             }
             (Some(path), None, None) => {
                 let selector = self.animation.as_deref();
@@ -243,12 +248,14 @@ impl PlaybackOptions {
     pub fn playback(&self, seed: u32) -> Result<(Playback, RayTraced)> {
         let check_frames = positive("reference_frames", self.reference_frames)?;
         let playback = Playback {
-            frames: positive("frames", self.frames.unwrap_or(1))?,
+            // Bounded like every animated method's (a per-frame record
+            // each: 2^32 frames asked for 34 GB at once).
+            frames: in_range("frames", self.frames.unwrap_or(1), 1, MAX_FRAMES.into())?,
             start: self.start,
             dt: self.dt.unwrap_or(1.0 / 30.0),
             env_spin: self.env_spin,
             pvs: self.pvs.on().then_some(PvsSampling {
-                frames: positive("pvs_frames", self.pvs_frames)?,
+                frames: in_range("pvs_frames", self.pvs_frames, 1, MAX_FRAMES.into())?,
                 span: self.pvs_span,
             }),
             check_frames: if self.reference { check_frames } else { 0 },

@@ -87,8 +87,12 @@ pub struct RaytraceOptions {
 impl RaytraceOptions {
     /// Refuses no frames and a non-positive exposure.
     pub fn validate(&self) -> Result<()> {
-        if self.frames == 0 {
-            return Err(Error::param("frames", "must be at least 1"));
+        let most = crate::field::runner::MAX_FRAMES;
+        if self.frames == 0 || self.frames > most {
+            return Err(Error::param(
+                "frames",
+                format!("must be between 1 and {most}, got {}", self.frames),
+            ));
         }
         if !(self.exposure > 0.0 && self.exposure.is_finite()) {
             return Err(Error::param(

@@ -335,6 +335,7 @@ fn object_extent(mesh: &Mesh, object: &MeshObject) -> f32 {
 /// (never hit: the watertight test rejects it) inside the first sphere.
 fn placeholder_triangle(mesh: &mut Mesh, triangles: &mut Vec<TriangleShading>, spheres: &[Sphere], surface: u32) {
     let c = spheres[0].center();
+    let origin = mesh.origin;
     *mesh = Mesh {
         positions: vec![c, c, c],
         triangles: vec![[0, 1, 2]],
@@ -342,6 +343,7 @@ fn placeholder_triangle(mesh: &mut Mesh, triangles: &mut Vec<TriangleShading>, s
             name: "(none)".into(),
             triangles: 0..1,
         }],
+        origin,
     };
     triangles.push(TriangleShading {
         surface,

@@ -1,7 +1,7 @@
 //! Pinhole camera, the command-line contract's default camera, and images
 //! asked of a scene (`View`: a camera given in part, and a size).
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 use crate::aabb::Aabb;
 use crate::error::{Error, Result};
@@ -18,34 +18,40 @@ pub struct Camera {
 
 /// A camera given in part (the command line's `--eye/--target/--fov`):
 /// what is missing comes from the scene's camera, else from the contract's
-/// default camera for the scene's bounds.
+/// default camera for the scene's bounds. Points are in world coordinates,
+/// in f64 (an eye 1e6 sizes off keeps its digits); `resolve` moves them
+/// into the scene's frame (`scene::frame`).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct CameraSpec {
-    pub eye: Option<Vec3>,
-    pub target: Option<Vec3>,
+    pub eye: Option<DVec3>,
+    pub target: Option<DVec3>,
     pub fov_degrees: Option<f32>,
 }
 
 impl CameraSpec {
-    /// The whole camera: `base` (a scene's) or the default for `bounds`,
-    /// with each given part replacing its own. Validated.
-    pub fn resolve(&self, base: Option<Camera>, bounds: &Aabb) -> Result<Camera> {
-        let base = base.unwrap_or_else(|| Camera::default_for(bounds));
+    /// The whole camera in the frame whose origin is `origin` (the scene's):
+    /// `base` (a scene's camera, in that frame) or the default for
+    /// `bounds`, with each given part replacing its own. Validated.
+    pub fn resolve(&self, base: Option<Camera>, bounds: &Aabb, origin: DVec3) -> Result<Camera> {
+        let base = match base {
+            Some(camera) => camera,
+            None => Camera::framing(bounds)?,
+        };
+        let local = |p: DVec3| super::frame::to_local(origin, p);
         let camera = Camera {
-            eye: self.eye.unwrap_or(base.eye),
-            target: self.target.unwrap_or(base.target),
+            eye: self.eye.map_or(base.eye, local),
+            target: self.target.map_or(base.target, local),
             fov_degrees: self.fov_degrees.unwrap_or(base.fov_degrees),
         };
         camera.validate()?;
         Ok(camera)
     }
-}
 
-impl From<Camera> for CameraSpec {
-    fn from(c: Camera) -> CameraSpec {
+    /// The whole of `c`, a camera in the frame whose origin is `origin`.
+    pub fn world(c: Camera, origin: DVec3) -> CameraSpec {
         CameraSpec {
-            eye: Some(c.eye),
-            target: Some(c.target),
+            eye: Some(super::frame::to_world(origin, c.eye)),
+            target: Some(super::frame::to_world(origin, c.target)),
             fov_degrees: Some(c.fov_degrees),
         }
     }
@@ -102,6 +108,54 @@ impl Camera {
             eye: c + 2.5 * r * u,
             target: c,
             fov_degrees: 45.0,
+        }
+    }
+
+    /// `default_for`, or what makes framing `bounds` impossible (issue 14,
+    /// class 9): bounds that are not finite, an extent whose diagonal
+    /// overflows f32, or a centre so far from the origin for the scene's
+    /// size that an eye 2.5 radii away rounds to the centre itself (which
+    /// `validate` could only call "the same point").
+    pub fn framing(bounds: &Aabb) -> Result<Camera> {
+        let show = |v: Vec3| format!("({:.3e}, {:.3e}, {:.3e})", v.x, v.y, v.z);
+        let box_text = format!("{} to {}", show(bounds.min), show(bounds.max));
+        if !(bounds.min.is_finite() && bounds.max.is_finite()) || bounds.min.cmpgt(bounds.max).any() {
+            return Err(Error::input(
+                "camera",
+                format!("the scene's bounds ({box_text}) are not finite: nothing to frame"),
+            ));
+        }
+        let diagonal = bounds.diagonal();
+        if !diagonal.is_finite() || !bounds.center().is_finite() {
+            return Err(Error::input(
+                "camera",
+                format!(
+                    "the scene's extent (bounds {box_text}) overflows f32: its diagonal or centre is not finite,                      so no default camera can frame it; rescale the model or give --eye and --target"
+                ),
+            ));
+        }
+        let camera = Camera::default_for(bounds);
+        let radius = if diagonal > 0.0 { 0.5 * diagonal } else { 1.0 };
+        if camera.eye == camera.target {
+            return Err(Error::input(
+                "camera",
+                format!(
+                    "the scene (bounds {box_text}) is too far from the origin for its size: an eye {:.3e} away                      from its centre rounds to the centre itself in f32; move the model nearer the origin",
+                    2.5 * radius
+                ),
+            ));
+        }
+        Ok(camera)
+    }
+
+    /// This camera (in the frame whose origin is `origin`) in world
+    /// coordinates, rounded to f32: for reports.
+    pub fn in_world(&self, origin: DVec3) -> Camera {
+        let world = |p: Vec3| super::frame::to_world(origin, p).as_vec3();
+        Camera {
+            eye: world(self.eye),
+            target: world(self.target),
+            ..*self
         }
     }
 
@@ -204,6 +258,33 @@ mod tests {
         let (_, up, _) = cam.basis();
         assert!(rays[0].d().dot(up) > rays[2].d().dot(up));
         assert!((cam.eye - Vec3::new(0.3, 0.4, 1.0).normalize() * 2.5 * 3f32.sqrt()).length() < 1e-5);
+    }
+
+    #[test]
+    fn framing_says_what_is_wrong_with_a_scene_beyond_f32() {
+        let huge = Aabb::new(Vec3::splat(-3e38), Vec3::splat(3e38));
+        let e = Camera::framing(&huge).unwrap_err().to_string();
+        assert!(e.contains("extent") && e.contains("overflows f32"), "{e}");
+        let centre_overflows = Aabb::new(Vec3::splat(2e38), Vec3::splat(3e38));
+        let e = Camera::framing(&centre_overflows).unwrap_err().to_string();
+        assert!(e.contains("overflows f32"), "{e}");
+        let nan = Aabb::new(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::ONE);
+        assert!(Camera::framing(&nan).unwrap_err().to_string().contains("not finite"));
+        assert!(
+            Camera::framing(&Aabb::EMPTY)
+                .unwrap_err()
+                .to_string()
+                .contains("not finite")
+        );
+        // 1e30 + 1 is 1e30 in f32: a point far off, framed 2.5 away.
+        let far = Aabb::new(Vec3::splat(1e30), Vec3::splat(1e30));
+        let e = Camera::framing(&far).unwrap_err().to_string();
+        assert!(
+            e.contains("too far from the origin") && !e.contains("same point"),
+            "{e}"
+        );
+        let fine = Aabb::new(Vec3::ZERO, Vec3::ONE);
+        assert_eq!(Camera::framing(&fine).unwrap(), Camera::default_for(&fine));
     }
 
     #[test]

@@ -25,12 +25,22 @@ pub enum CameraPath {
 
 impl CameraPath {
     pub fn load(path: &Path) -> Result<CameraPath> {
+        Self::load_in(path, glam::DVec3::ZERO)
+    }
+
+    /// `load`, the keyframes' points (world coordinates, read in f64) moved
+    /// into the frame whose origin is `origin` (the scene's: `scene::frame`).
+    pub fn load_in(path: &Path, origin: glam::DVec3) -> Result<CameraPath> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::read(path, e))?;
-        Self::parse(&text).map_err(|e| e.in_file(path))
+        Self::parse_in(&text, origin).map_err(|e| e.in_file(path))
     }
 
     /// Parses keyframes; errors name the line.
     pub fn parse(text: &str) -> Result<CameraPath> {
+        Self::parse_in(text, glam::DVec3::ZERO)
+    }
+
+    fn parse_in(text: &str, origin: glam::DVec3) -> Result<CameraPath> {
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let mut keys = Vec::new();
         for (i, raw) in text.lines().enumerate() {
@@ -46,8 +56,11 @@ impl CameraPath {
                     format!("expected 'EX,EY,EZ TX,TY,TZ FOV', got {} fields", parts.len()),
                 ));
             };
-            let vec3 =
-                |what: &str, s: &str| super::parse_vec3(s).map_err(|e| Error::input(at(), format!("{what}: {e}")));
+            let vec3 = |what: &str, s: &str| {
+                super::frame::parse_point(s)
+                    .map(|p| super::frame::to_local(origin, p))
+                    .map_err(|e| Error::input(at(), format!("{what}: {e}")))
+            };
             let fov_degrees: f32 = fov
                 .parse()
                 .map_err(|_| Error::input(at(), format!("field of view '{fov}' is not a number")))?;

@@ -2,7 +2,7 @@
 
 use std::ops::Range;
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 use crate::aabb::Aabb;
 use crate::error::{Error, Result};
@@ -29,6 +29,10 @@ pub struct Mesh {
     pub triangles: Vec<[u32; 3]>,
     /// Per-object triangle ranges, in order, covering all triangles.
     pub objects: Vec<MeshObject>,
+    /// Where coordinate zero of `positions` is in world (file) coordinates:
+    /// zero, except for a model far from the origin, whose positions are
+    /// kept relative to it so f32 keeps their detail (`scene::frame`).
+    pub origin: DVec3,
 }
 
 impl Mesh {
@@ -42,6 +46,7 @@ impl Mesh {
                 name: "mesh".into(),
                 triangles: 0..n,
             }],
+            origin: DVec3::ZERO,
         };
         mesh.validate()?;
         Ok(mesh)
@@ -124,10 +129,21 @@ impl Mesh {
     }
 
     /// Appends `other`, renumbering its vertices and shifting its objects.
+    /// An empty mesh takes `other`'s frame; otherwise `other`'s positions
+    /// are moved into this mesh's frame (exactly where both origins agree).
     pub fn append(&mut self, other: &Mesh) {
         let v0 = self.positions.len() as u32;
         let t0 = self.triangles.len() as u32;
-        self.positions.extend_from_slice(&other.positions);
+        if self.positions.is_empty() {
+            self.origin = other.origin;
+        }
+        if other.origin == self.origin {
+            self.positions.extend_from_slice(&other.positions);
+        } else {
+            let shift = other.origin - self.origin;
+            self.positions
+                .extend(other.positions.iter().map(|p| (p.as_dvec3() + shift).as_vec3()));
+        }
         self.triangles.extend(other.triangles.iter().map(|t| t.map(|v| v + v0)));
         self.objects.extend(other.objects.iter().map(|o| MeshObject {
             name: o.name.clone(),
@@ -142,7 +158,18 @@ impl Mesh {
             positions: self.positions.iter().map(|&p| f(p)).collect(),
             triangles: self.triangles.clone(),
             objects: self.objects.clone(),
+            origin: self.origin,
         }
+    }
+
+    /// `p` (world coordinates) in this mesh's frame.
+    pub fn to_local(&self, p: DVec3) -> Vec3 {
+        super::frame::to_local(self.origin, p)
+    }
+
+    /// `p` (this mesh's frame) in world coordinates.
+    pub fn to_world(&self, p: Vec3) -> DVec3 {
+        super::frame::to_world(self.origin, p)
     }
 
     /// Object that contains triangle `t`.

@@ -15,6 +15,7 @@ mod camera;
 mod camera_path;
 pub mod deform;
 pub mod environment;
+pub mod frame;
 mod gltf;
 mod input;
 mod mesh;
@@ -170,6 +171,10 @@ pub struct Environment {
 
 #[derive(Debug, Clone)]
 pub struct Scene {
+    /// Where the scene's coordinate zero is in world coordinates: every
+    /// point of the scene (instances' placements, camera, lights, spheres)
+    /// is relative to it (`frame`; zero unless the scene is far off).
+    pub origin: glam::DVec3,
     pub meshes: Vec<SceneMesh>,
     pub instances: Vec<Instance>,
     pub camera: Option<Camera>,
@@ -198,13 +203,19 @@ impl Scene {
 
     /// This one-mesh scene made a caster onto `receiver`, which only
     /// receives (`ao --receiver`: the displacement-field paper's form).
+    /// A receiver read in another frame than the caster's is placed by
+    /// the difference of their origins (exact: both are on a grid).
     pub fn with_receiver(mut self, receiver: SceneMesh) -> Scene {
         self.instances[0].role = Role::Caster;
+        let translation = (receiver.mesh.origin - self.origin).as_vec3();
         self.instances.push(Instance {
             name: receiver.name.clone(),
             mesh: self.meshes.len(),
             role: Role::Receiver,
-            transform: Transform::default(),
+            transform: Transform {
+                translation,
+                ..Transform::default()
+            },
             motion: None,
             material: None,
         });
@@ -255,6 +266,7 @@ impl Scene {
     fn of(mesh: SceneMesh) -> Scene {
         let name = mesh.name.clone();
         Scene {
+            origin: mesh.mesh.origin,
             meshes: vec![mesh],
             instances: vec![Instance {
                 name,
@@ -295,10 +307,15 @@ impl Scene {
     /// `world_mesh` with every instance where its motion puts it at
     /// animation frame `frame`.
     pub fn world_mesh_at(&self, frame: u32, keep: impl Fn(Role) -> bool) -> Mesh {
-        let mut out = Mesh::default();
+        let mut out = Mesh {
+            origin: self.origin,
+            ..Mesh::default()
+        };
         for inst in self.instances.iter().filter(|i| keep(i.role)) {
             let transform = inst.transform_at(frame);
             let mut m = self.meshes[inst.mesh].mesh.map_positions(|p| transform.apply_point(p));
+            // Placed: in the scene's frame now.
+            m.origin = self.origin;
             let n = m.triangles.len() as u32;
             m.objects = vec![MeshObject {
                 name: inst.name.clone(),
@@ -307,6 +324,26 @@ impl Scene {
             out.append(&m);
         }
         out
+    }
+
+    /// `spec` completed against this scene (its camera, else the default
+    /// camera for `bounds`, which are in the scene's frame) and validated,
+    /// as a camera in world coordinates (`CameraSpec::world`).
+    pub fn complete_camera(&self, spec: &CameraSpec, bounds: &crate::aabb::Aabb) -> crate::error::Result<CameraSpec> {
+        let camera = spec.resolve(self.camera, bounds, self.origin)?;
+        Ok(CameraSpec::world(camera, self.origin))
+    }
+
+    /// `spec` resolved in the scene's frame: its camera, else the default
+    /// camera for `bounds` (in the scene's frame), with `spec`'s parts.
+    pub fn camera_in(&self, spec: &CameraSpec, bounds: &crate::aabb::Aabb) -> crate::error::Result<Camera> {
+        spec.resolve(self.camera, bounds, self.origin)
+    }
+
+    /// The camera path in the file `path`, if one is given, in the scene's
+    /// frame (its keyframes are world coordinates).
+    pub fn camera_path(&self, path: Option<&Path>) -> crate::error::Result<Option<CameraPath>> {
+        path.map(|p| CameraPath::load_in(p, self.origin)).transpose()
     }
 
     /// What occludes: casters and instances that are both.

@@ -170,7 +170,9 @@ struct Parsed {
 fn parse(text: &str, extended: bool) -> Result<Parsed> {
     // A UTF-8 byte-order mark is not part of the first statement.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut positions: Vec<Vec3> = Vec::new();
+    // In f64 until the frame is known (`frame::recentre`): a model far
+    // from the origin keeps its detail.
+    let mut positions: Vec<DVec3> = Vec::new();
     // Positive indices may refer to vertices defined later in the file; they
     // are checked once all vertices are known, against the face's line.
     let mut triangles: Vec<[u32; 3]> = Vec::new();
@@ -205,7 +207,7 @@ fn parse(text: &str, extended: bool) -> Result<Parsed> {
         };
         match keyword {
             "v" => positions.push(point(&mut tokens, &at, ("vertex", "vertices"), positions.len())?),
-            "vn" if extended => normals.push(point(&mut tokens, &at, ("normal", "normals"), normals.len())?),
+            "vn" if extended => normals.push(point(&mut tokens, &at, ("normal", "normals"), normals.len())?.as_vec3()),
             "f" => {
                 face.clear();
                 face_normals.clear();
@@ -365,10 +367,12 @@ fn parse(text: &str, extended: bool) -> Result<Parsed> {
             format!("no faces found ({nv} vertices); an empty mesh cannot be traced"),
         ));
     }
+    let (origin, positions) = super::frame::recentre(&positions);
     let mesh = Mesh {
         positions,
         triangles,
         objects,
+        origin,
     };
     mesh.validate()?;
     let mut warnings = Vec::new();
@@ -393,16 +397,17 @@ fn point<'a>(
     at: &dyn Fn() -> String,
     (noun, plural): (&str, &str),
     count: usize,
-) -> Result<Vec3> {
-    let mut c = [0.0f32; 3];
+) -> Result<DVec3> {
+    let mut c = [0.0f64; 3];
     for (axis, slot) in ["x", "y", "z"].iter().zip(c.iter_mut()) {
         let token = tokens
             .next()
             .ok_or_else(|| Error::input(at(), format!("{noun} has no {axis} coordinate (need 3 numbers)")))?;
         *slot = token
-            .parse::<f32>()
+            .parse::<f64>()
             .map_err(|_| Error::input(at(), format!("{noun} {axis} coordinate '{token}' is not a number")))?;
-        if !slot.is_finite() {
+        // Beyond f32's range is as unusable as infinity (and was read as it).
+        if !(*slot as f32).is_finite() {
             return Err(Error::input(
                 at(),
                 format!(
@@ -412,7 +417,7 @@ fn point<'a>(
             ));
         }
     }
-    Ok(Vec3::from_array(c))
+    Ok(DVec3::from_array(c))
 }
 
 /// An OBJ index: an integer, clamped to +-1e30 where it has more digits

@@ -26,7 +26,7 @@ mod header;
 
 use std::path::Path;
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 use super::mesh::{Mesh, MeshObject};
 use super::mtl::Material;
@@ -70,7 +70,8 @@ enum Slot {
 /// The mesh as it is read.
 #[derive(Default)]
 struct Read {
-    positions: Vec<Vec3>,
+    /// In f64 until the frame is known (`frame::recentre`).
+    positions: Vec<DVec3>,
     normals: Option<Vec<Vec3>>,
     colours: Option<Vec<Vec3>>,
     triangles: Vec<[u32; 3]>,
@@ -112,7 +113,7 @@ impl Read {
         let mut normals = has(Slot::Normal).then(|| Vec::with_capacity(n));
         let mut colours = has(Slot::Colour).then(|| Vec::with_capacity(n));
         for record in 0..e.count {
-            let (mut p, mut normal, mut colour) = ([0.0f32; 3], [0.0f32; 3], [0.0f32; 3]);
+            let (mut p, mut normal, mut colour) = ([0.0f64; 3], [0.0f32; 3], [0.0f32; 3]);
             for (property, &slot) in e.properties.iter().zip(&slots) {
                 let fail = |body: &dyn Body, problem| at(e, record, property, body, problem);
                 let ty = match property.kind {
@@ -125,7 +126,12 @@ impl Read {
                 };
                 let value = body.value(ty).map_err(|m| fail(body, m))?;
                 match slot {
-                    Slot::Position(axis) => p[axis] = finite(value).map_err(|m| fail(body, m))?,
+                    Slot::Position(axis) => {
+                        // A double keeps its digits (a far-off model); the
+                        // range is still f32's.
+                        finite(value).map_err(|m| fail(body, m))?;
+                        p[axis] = value;
+                    }
                     Slot::Normal(axis) => normal[axis] = finite(value).map_err(|m| fail(body, m))?,
                     Slot::Colour(c) => {
                         let scale = if ty.is_integer() { ty.range().1 } else { 1.0 };
@@ -134,7 +140,7 @@ impl Read {
                     Slot::Skip => {}
                 }
             }
-            self.positions.push(Vec3::from_array(p));
+            self.positions.push(DVec3::from_array(p));
             if let Some(n) = normals.as_mut() {
                 n.push(Vec3::from_array(normal));
             }
@@ -229,8 +235,10 @@ impl Read {
             }
         }
         let n = self.triangles.len() as u32;
+        let (origin, positions) = super::frame::recentre(&self.positions);
         let mesh = Mesh {
-            positions: self.positions,
+            origin,
+            positions,
             triangles: self.triangles,
             objects: if n > 0 {
                 vec![MeshObject {

@@ -47,7 +47,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use glam::{Quat, Vec3};
+use glam::{DVec3, Quat, Vec3};
 use serde::Deserialize;
 
 use super::{
@@ -101,7 +101,7 @@ struct MaterialFile {
 struct SphereFile {
     #[serde(default)]
     name: Option<String>,
-    center: [f32; 3],
+    center: [f64; 3],
     radius: f32,
     #[serde(default)]
     material: Option<String>,
@@ -115,8 +115,9 @@ struct InstanceFile {
     name: Option<String>,
     #[serde(default)]
     role: Role,
+    /// World-space points are read in f64 (`scene::frame`).
     #[serde(default)]
-    translate: [f32; 3],
+    translate: [f64; 3],
     #[serde(default)]
     rotate: Option<RotationFile>,
     #[serde(default = "one")]
@@ -135,7 +136,7 @@ struct MotionFile {
     #[serde(default)]
     degrees_per_frame: f32,
     #[serde(default)]
-    pivot: Option<[f32; 3]>,
+    pivot: Option<[f64; 3]>,
     #[serde(default)]
     translate_per_frame: [f32; 3],
 }
@@ -158,8 +159,8 @@ struct RotationFile {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct CameraFile {
-    eye: [f32; 3],
-    target: [f32; 3],
+    eye: [f64; 3],
+    target: [f64; 3],
     #[serde(default = "default_fov")]
     fov: f32,
 }
@@ -171,7 +172,7 @@ fn default_fov() -> f32 {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields, rename_all = "lowercase")]
 enum LightFile {
-    Point { position: [f32; 3], intensity: [f32; 3] },
+    Point { position: [f64; 3], intensity: [f32; 3] },
     Directional { direction: [f32; 3], radiance: [f32; 3] },
 }
 
@@ -216,6 +217,49 @@ fn finite(scene: &Path, field: &str, v: &[f32]) -> Result<()> {
     } else {
         Err(Error::file(scene, field, "must be finite"))
     }
+}
+
+/// `finite` for a point read in f64: finite in f32 too (what was read as
+/// infinity before points were read in f64 still is refused).
+fn finite64(scene: &Path, field: &str, v: &[f64]) -> Result<()> {
+    finite(scene, field, &v.iter().map(|&c| c as f32).collect::<Vec<_>>())
+}
+
+/// An instance's transform in the scene's frame (whose origin is `origin`)
+/// for its mesh (in its own frame) placed by `rotation`, `scale` and
+/// `translate` (world units): the mesh's origin is placed too, then the
+/// scene's taken off, in f64, so a far-off scene keeps its detail.
+fn placed(mesh: &super::Mesh, (rotation, scale, translate): (Quat, f32, [f64; 3]), origin: DVec3) -> Transform {
+    let world = rotation.as_dquat() * (mesh.origin * scale as f64) + DVec3::from_array(translate);
+    Transform {
+        translation: (world - origin).as_vec3(),
+        rotation,
+        scale,
+    }
+}
+
+/// The scene's frame (`scene::frame`): the origin for the world box of
+/// every instance (its mesh's box, placed by its translation, rotation and
+/// scale in f64). Instances whose placement is not valid are left out
+/// (the loader refuses them).
+fn scene_origin(file: &SceneFile, meshes: &[SceneMesh], index_of: &BTreeMap<String, usize>) -> DVec3 {
+    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for inst in &file.instances {
+        let Some(&m) = index_of.get(&inst.mesh) else { continue };
+        let mesh = &meshes[m].mesh;
+        let rotation = inst.rotate.as_ref().map_or(glam::DQuat::IDENTITY, |r| {
+            let axis = Vec3::from_array(r.axis).try_normalize().unwrap_or(Vec3::Y);
+            Quat::from_axis_angle(axis, r.degrees.to_radians()).as_dquat()
+        });
+        let b = mesh.bounds();
+        let scale = inst.scale as f64;
+        let centre = rotation * ((mesh.origin + b.center().as_dvec3()) * scale) + DVec3::from_array(inst.translate);
+        let half = DVec3::splat(0.5 * b.diagonal() as f64 * scale);
+        if centre.is_finite() && half.is_finite() {
+            (lo, hi) = (lo.min(centre - half), hi.max(centre + half));
+        }
+    }
+    super::frame::origin_for(lo, hi)
 }
 
 /// The files a scene file names (meshes, fields, the environment), resolved
@@ -273,6 +317,8 @@ fn load(path: &Path, shaded: bool) -> Result<Scene> {
             meshes.push(SceneMesh::new(name, &resolved, mesh));
         }
     }
+    let origin = scene_origin(&file, &meshes, &index_of);
+    let local = |p: &[f64; 3]| super::frame::to_local(origin, DVec3::from_array(*p));
     let materials = file
         .materials
         .iter()
@@ -303,7 +349,7 @@ fn load(path: &Path, shaded: bool) -> Result<Scene> {
                 format!("no mesh named '{}' in \"meshes\"", inst.mesh),
             )
         })?;
-        finite(path, &format!("{field}.translate"), &inst.translate)?;
+        finite64(path, &format!("{field}.translate"), &inst.translate)?;
         known(format!("{field}.material"), &inst.material)?;
         if !(inst.scale > 0.0 && inst.scale.is_finite()) {
             return Err(Error::file(
@@ -334,15 +380,16 @@ fn load(path: &Path, shaded: bool) -> Result<Scene> {
                 finite(
                     path,
                     &f,
-                    &[&m.axis[..], &[m.degrees_per_frame], &pivot, &m.translate_per_frame].concat(),
+                    &[&m.axis[..], &[m.degrees_per_frame], &m.translate_per_frame].concat(),
                 )?;
+                finite64(path, &f, &pivot)?;
                 let axis = Vec3::from_array(m.axis)
                     .try_normalize()
                     .ok_or_else(|| Error::file(path, format!("{f}.axis"), "must not be the zero vector"))?;
                 Some(Motion {
                     axis,
                     degrees_per_frame: m.degrees_per_frame,
-                    pivot: Vec3::from_array(pivot),
+                    pivot: local(&pivot),
                     velocity: Vec3::from_array(m.translate_per_frame),
                 })
             }
@@ -351,11 +398,7 @@ fn load(path: &Path, shaded: bool) -> Result<Scene> {
             name: inst.name.clone().unwrap_or_else(|| format!("{}#{i}", inst.mesh)),
             mesh,
             role: inst.role,
-            transform: Transform {
-                translation: Vec3::from_array(inst.translate),
-                rotation,
-                scale: inst.scale,
-            },
+            transform: placed(&meshes[mesh].mesh, (rotation, inst.scale, inst.translate), origin),
             motion,
             material: inst.material.clone(),
         });
@@ -363,7 +406,7 @@ fn load(path: &Path, shaded: bool) -> Result<Scene> {
     let mut spheres = Vec::new();
     for (i, sphere) in file.spheres.iter().enumerate() {
         let field = format!("spheres[{i}]");
-        finite(path, &format!("{field}.center"), &sphere.center)?;
+        finite64(path, &format!("{field}.center"), &sphere.center)?;
         if !(sphere.radius > 0.0 && sphere.radius.is_finite()) {
             return Err(Error::file(
                 path,
@@ -374,7 +417,7 @@ fn load(path: &Path, shaded: bool) -> Result<Scene> {
         known(format!("{field}.material"), &sphere.material)?;
         spheres.push(SceneSphere {
             name: sphere.name.clone().unwrap_or_else(|| format!("sphere#{i}")),
-            center: Vec3::from_array(sphere.center),
+            center: local(&sphere.center),
             radius: sphere.radius,
             material: sphere.material.clone(),
         });
@@ -391,9 +434,10 @@ fn load(path: &Path, shaded: bool) -> Result<Scene> {
     let camera = match &file.camera {
         None => None,
         Some(c) => {
+            finite64(path, "camera", &[c.eye, c.target].concat())?;
             let camera = Camera {
-                eye: Vec3::from_array(c.eye),
-                target: Vec3::from_array(c.target),
+                eye: local(&c.eye),
+                target: local(&c.target),
                 fov_degrees: c.fov,
             };
             camera
@@ -407,9 +451,10 @@ fn load(path: &Path, shaded: bool) -> Result<Scene> {
         let field = format!("lights[{i}]");
         lights.push(match l {
             LightFile::Point { position, intensity } => {
-                finite(path, &field, &[position.as_slice(), intensity.as_slice()].concat())?;
+                finite64(path, &field, position)?;
+                finite(path, &field, intensity)?;
                 Light::Point {
-                    position: Vec3::from_array(*position),
+                    position: local(position),
                     intensity: Vec3::from_array(*intensity),
                 }
             }
@@ -450,6 +495,7 @@ fn load(path: &Path, shaded: bool) -> Result<Scene> {
         fields.insert(mesh, resolve(path, &f, field_path)?);
     }
     Ok(Scene {
+        origin,
         meshes,
         instances,
         camera,

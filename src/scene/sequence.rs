@@ -32,8 +32,23 @@ pub struct MeshSequence {
     pub files: Vec<PathBuf>,
     pub frames: Vec<Vec<Vec3>>,
     pub triangles: Vec<[u32; 3]>,
+    /// Where frame 0's frame (every frame's) is in world coordinates.
+    pub origin: glam::DVec3,
     /// Frames per second: frame k is at time k / fps.
     pub fps: f32,
+}
+
+/// `mesh`'s positions in the frame whose origin is `origin`.
+fn in_frame(mesh: &crate::scene::Mesh, origin: glam::DVec3) -> Vec<Vec3> {
+    let shift = mesh.origin - origin;
+    match shift == glam::DVec3::ZERO {
+        true => mesh.positions.clone(),
+        false => mesh
+            .positions
+            .iter()
+            .map(|p| (p.as_dvec3() + shift).as_vec3())
+            .collect(),
+    }
 }
 
 impl MeshSequence {
@@ -63,8 +78,11 @@ impl MeshSequence {
         }
         let triangles = first.triangles.clone();
         Ok(MeshSequence {
+            origin: first.origin,
             pattern: pattern.into(),
-            frames: meshes.into_iter().map(|m| m.positions).collect(),
+            // One frame for every frame: frame 0's (`scene::frame`), so a
+            // far-off sequence moving across a grid line stays one model.
+            frames: meshes.iter().map(|m| in_frame(m, first.origin)).collect(),
             files,
             triangles,
             fps,

@@ -87,7 +87,7 @@ pub fn choose(
     let start = std::time::Instant::now();
     let base = request.settings;
     let mesh = scene.world_mesh(|_| true);
-    let camera = request.view.camera.resolve(scene.camera, &mesh.bounds())?;
+    let camera = scene.camera_in(&request.view.camera, &mesh.bounds())?;
     let (w, h) = (request.view.width, request.view.height);
     let view = ScreenView::new(&camera, w, h);
     let tree = build_tree(&mesh, bars, "ssao")?;

@@ -42,6 +42,16 @@ impl SsaoRequest {
         if let Some(shade) = &self.shade {
             shade.validate()?;
         }
+        // The references' rays per pixel: as many as AO's per point at most.
+        let most = crate::ao::MAX_RAYS_PER_POINT;
+        for (name, n) in [
+            ("reference_rays", self.truth_rays),
+            ("screen_reference_spp", self.reference_spp),
+        ] {
+            if n > most {
+                return Err(Error::param(name, format!("must be between 0 and {most}, got {n}")));
+            }
+        }
         if self.runs.repeat == 0 || self.runs.repeat > MAX_RUNS || self.runs.warmup > MAX_RUNS {
             return Err(Error::param("repeat", format!("must be between 1 and {MAX_RUNS}")));
         }
@@ -113,7 +123,7 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: Bars) ->
     let settings = &request.settings;
     let mesh = scene.world_mesh(|_| true);
     let occluders = scene.occluders();
-    let camera = request.view.camera.resolve(scene.camera, &mesh.bounds())?;
+    let camera = scene.camera_in(&request.view.camera, &mesh.bounds())?;
     let (w, h) = (request.view.width, request.view.height);
     let view = ScreenView::new(&camera, w, h);
     let shade = request.shade.as_ref();

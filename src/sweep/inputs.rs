@@ -30,6 +30,16 @@ pub enum SweepKind {
     Bounded,
 }
 
+impl SweepKind {
+    /// What the method's GPU path needs of a device (`Device::require`).
+    pub fn gpu_needs(self) -> &'static crate::device::Needs {
+        match self {
+            SweepKind::Ssao => &crate::device::Needs::SSAO,
+            _ => &crate::device::Needs::COMPUTE,
+        }
+    }
+}
+
 /// What a sweep runs on.
 #[derive(Debug, Clone, Copy)]
 pub struct SweepInputs<'a> {
@@ -69,7 +79,7 @@ pub fn with_method<R>(
             let scene = load_input(inputs.mesh, inputs.scene)?;
             let bounds = scene.world_mesh(|_| true).bounds();
             let radius = inputs.radius.unwrap_or(0.05 * bounds.diagonal());
-            let camera = view.camera.resolve(scene.camera, &bounds)?.into();
+            let camera = scene.complete_camera(&view.camera, &bounds)?;
             let view = View { camera, ..view };
             let truth = rays.unwrap_or(256);
             sweep(&mut super::ssao::SsaoSweep::new(
@@ -86,7 +96,7 @@ pub fn with_method<R>(
                 .mesh
                 .ok_or_else(|| Error::param("mesh", "sweep prt needs a mesh"))?;
             let mesh = load_mesh(path)?;
-            let eye = view.camera.resolve(None, &mesh.bounds())?.eye;
+            let eye = view.camera.resolve(None, &mesh.bounds(), mesh.origin)?.eye;
             let reference = RayTraced {
                 rays: rays.unwrap_or(1024),
                 seed,
@@ -103,7 +113,7 @@ pub fn with_method<R>(
         SweepKind::Trace => {
             let scene = load_input(inputs.mesh, inputs.scene)?;
             let mesh = scene.world_mesh(|_| true);
-            let camera = view.camera.resolve(scene.camera, &mesh.bounds())?.into();
+            let camera = scene.complete_camera(&view.camera, &mesh.bounds())?;
             let view = View { camera, ..view };
             sweep(&mut super::trace::TraceSweep::new(device.clone(), mesh, view))
         }
@@ -111,7 +121,7 @@ pub fn with_method<R>(
             let scene = load_shaded_input(inputs.mesh, inputs.scene)?;
             let render_scene = RenderScene::new(&scene, 0, &LightingOptions::default())?;
             let whitted = WhittedRenderer::new(device, render_scene, Bars::Stderr)?;
-            let camera = view.camera.resolve(scene.camera, &whitted.bounds())?;
+            let camera = view.camera.resolve(scene.camera, &whitted.bounds(), scene.origin)?;
             let settings = WhittedSettings {
                 seed,
                 ..WhittedSettings::default()

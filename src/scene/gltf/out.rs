@@ -4,7 +4,7 @@
 use std::collections::HashMap;
 
 use ::gltf::mesh::Mode;
-use glam::{DMat3, DMat4, Vec3};
+use glam::{DMat3, DMat4, DVec3, Vec3};
 
 use crate::error::{Error, Result};
 use crate::scene::mesh::{Mesh, MeshObject};
@@ -39,7 +39,8 @@ pub fn assemble(mode: Mode, idx: &[u32]) -> std::result::Result<Vec<[u32; 3]>, S
 
 /// The mesh and what shading adds, as it is assembled.
 pub struct Out {
-    pub positions: Vec<Vec3>,
+    /// In f64 (node transforms applied) until the frame is known.
+    pub positions: Vec<DVec3>,
     pub triangles: Vec<[u32; 3]>,
     pub objects: Vec<MeshObject>,
     /// Per vertex (zero where a primitive has no NORMAL).
@@ -94,10 +95,12 @@ impl Out {
         let base = base as u32;
         if world == DMat4::IDENTITY {
             // Bit for bit what the file holds (x * 1 + 0 would turn -0 into +0).
-            self.positions.extend_from_slice(positions);
+            self.positions.extend(positions.iter().map(|p| p.as_dvec3()));
         } else {
+            // A node's translation far from the origin keeps the mesh's
+            // detail: rounded to f32 only once recentred (`finish`).
             self.positions
-                .extend(positions.iter().map(|p| world.transform_point3(p.as_dvec3()).as_vec3()));
+                .extend(positions.iter().map(|p| world.transform_point3(p.as_dvec3())));
         }
         let linear = DMat3::from_mat4(world);
         let mirrored = linear.determinant() < 0.0;
@@ -132,10 +135,12 @@ impl Out {
 
     pub fn finish(self) -> Result<ObjFile> {
         let n = self.triangles.len() as u32;
+        let (origin, positions) = super::super::frame::recentre(&self.positions);
         let mesh = Mesh {
-            positions: self.positions,
+            positions,
             triangles: self.triangles,
             objects: self.objects,
+            origin,
         };
         if n == 0 {
             return Err(Error::input(
