@@ -64,6 +64,8 @@ const KNOBS: &[Knob] = &[
     // the process in meshoptimizer before).
     k("prt", "coarse", Some("1"), Some("4294967295"), &["0"]),
     k("prt", "coarse-tolerance", Some("0"), Some("1e30"), &["-1", "inf"]),
+    // More poses than frames: every frame played is a pose.
+    k("prt", "coarse-poses", Some("1"), Some("4294967295"), &["0"]),
     k("prt", "frames", Some("1"), None, &["0", "100001", "4294967295"]),
     k("prt", "exposure", Some("1e-30"), Some("1e30"), &["0", "inf"]),
     k("trace", "tile", Some("4"), Some("65536"), &["3"]),
