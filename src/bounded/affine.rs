@@ -28,15 +28,20 @@
 // chains read in the order the paper's formulas do.
 #![allow(clippy::should_implement_trait)]
 
+use crate::bounded::jet::{Iv, Jet};
+
 /// The number of cell coordinates.
 pub const SYMBOLS: usize = 4;
 
-/// An affine form `c + sum l[i] e_i + r e`, `r >= 0`.
+/// An affine form `c + sum l[i] e_i + r e`, `r >= 0`, and alongside it the
+/// quantity's second-order jet (`jet`), a second, often much sharper bound
+/// on its interpolation error: `interp_error` takes the smaller.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Aff {
     pub c: f64,
     pub l: [f64; SYMBOLS],
     pub r: f64,
+    pub jet: Jet,
 }
 
 impl Aff {
@@ -47,6 +52,7 @@ impl Aff {
             c,
             l: [0.0; SYMBOLS],
             r: 0.0,
+            jet: Jet::ZERO,
         }
     }
 
@@ -54,15 +60,22 @@ impl Aff {
     pub fn coordinate(i: usize, mid: f64, half: f64) -> Aff {
         let mut l = [0.0; SYMBOLS];
         l[i] = half;
-        Aff { c: mid, l, r: 0.0 }
+        Aff {
+            c: mid,
+            l,
+            r: 0.0,
+            jet: Jet::coordinate(i, half),
+        }
     }
 
     /// Any value in `[lo, hi]`, with no known dependence on the cell.
     pub fn interval(lo: f64, hi: f64) -> Aff {
+        let r = 0.5 * (hi - lo).abs();
         Aff {
             c: 0.5 * (lo + hi),
             l: [0.0; SYMBOLS],
-            r: 0.5 * (hi - lo).abs(),
+            r,
+            jet: Jet::perturbation(r),
         }
     }
 
@@ -92,6 +105,7 @@ impl Aff {
             c: self.c + o.c,
             l,
             r: self.r + o.r,
+            jet: self.jet.add(o.jet),
         }
     }
 
@@ -108,6 +122,7 @@ impl Aff {
             c: self.c * k,
             l: self.l.map(|x| x * k),
             r: self.r * k.abs(),
+            jet: self.jet.scale(k),
         }
     }
 
@@ -124,14 +139,60 @@ impl Aff {
         }
         let linear = |a: &Aff| a.l.iter().map(|x| x.abs()).sum::<f64>();
         let r = self.c.abs() * o.r + o.c.abs() * self.r + (linear(&self) + self.r) * (linear(&o) + o.r);
-        Aff { c: self.c * o.c, l, r }
+        let jet = Jet::mul(&self.jet, self.smooth_range(), &o.jet, o.smooth_range());
+        Aff {
+            c: self.c * o.c,
+            l,
+            r,
+            jet,
+        }
+    }
+
+    /// Where the smooth part `s` of `s + p` may lie: this form's range
+    /// widened by `P`.
+    fn smooth_range(&self) -> Iv {
+        Iv {
+            lo: self.lo() - self.jet.p,
+            hi: self.hi() + self.jet.p,
+        }
+    }
+
+    /// The bound on the error of interpolating the quantity over the cell
+    /// from its 16 corner values: `2 r` (the affine part is reproduced
+    /// exactly) or the jet's, whichever is smaller (both hold).
+    pub fn interp_error(&self) -> f64 {
+        let jet = self.jet.error();
+        if self.jet.live && jet.is_finite() {
+            (2.0 * self.r).min(jet)
+        } else {
+            2.0 * self.r
+        }
+    }
+
+    /// The same form without its jet (a shaft cull's: only ranges count).
+    pub fn plain(self) -> Aff {
+        Aff { jet: Jet::ZERO, ..self }
+    }
+
+    /// This form's result `out` of a function `g` that is C^2 over the
+    /// smooth part's range `u`, with `g'` and `g''` monotone there
+    /// (`g1`, `g2` evaluate them): its jet by the chain rule.
+    fn with_smooth_jet(&self, mut out: Aff, u: Iv, g1: impl Fn(f64) -> f64, g2: impl Fn(f64) -> f64) -> Aff {
+        let (a, b) = (Iv::span(g1(u.lo), g1(u.hi)), Iv::span(g2(u.lo), g2(u.hi)));
+        out.jet = Jet::smooth(&self.jet, a, b);
+        out
     }
 
     /// `alpha x + zeta`, with radius `delta` added: the result of an
     /// affine approximation of a function over this form's range.
     fn approximated(self, alpha: f64, zeta: f64, delta: f64) -> Aff {
+        // The jet: alpha s smooth, alpha p + the approximation's error
+        // a perturbation.
         let mut out = self.scale(alpha).add_const(zeta);
         out.r += delta;
+        if out.jet.live {
+            out.jet.p += delta;
+        }
         out
     }
 
@@ -156,7 +217,12 @@ impl Aff {
         // Convex (x > 0) or concave (x < 0): the slope at the end nearer 0
         // in |f'|, i.e. the end farther from 0.
         let far = if lo > 0.0 { hi } else { lo };
-        Some(self.min_range(|x| 1.0 / x, -1.0 / (far * far)))
+        let out = self.min_range(|x| 1.0 / x, -1.0 / (far * far));
+        let u = self.smooth_range();
+        if u.lo <= 0.0 && u.hi >= 0.0 {
+            return Some(out);
+        }
+        Some(self.with_smooth_jet(out, u, |x| -1.0 / (x * x), |x| 2.0 / (x * x * x)))
     }
 
     /// `self / o`; `None` where `o`'s range contains 0.
@@ -170,7 +236,12 @@ impl Aff {
         if lo <= 0.0 {
             return None;
         }
-        Some(self.min_range(f64::sqrt, 0.5 / hi.sqrt()))
+        let out = self.min_range(f64::sqrt, 0.5 / hi.sqrt());
+        let u = self.smooth_range();
+        if u.lo <= 0.0 {
+            return Some(out);
+        }
+        Some(self.with_smooth_jet(out, u, |x| 0.5 / x.sqrt(), |x| -0.25 / (x * x.sqrt())))
     }
 
     /// `1 / sqrt(x)`; `None` unless the range is positive.
@@ -179,7 +250,12 @@ impl Aff {
         if lo <= 0.0 {
             return None;
         }
-        Some(self.min_range(|x| 1.0 / x.sqrt(), -0.5 / (hi * hi.sqrt())))
+        let out = self.min_range(|x| 1.0 / x.sqrt(), -0.5 / (hi * hi.sqrt()));
+        let u = self.smooth_range();
+        if u.lo <= 0.0 {
+            return Some(out);
+        }
+        Some(self.with_smooth_jet(out, u, |x| -0.5 / (x * x.sqrt()), |x| 0.75 / (x * x * x.sqrt())))
     }
 
     /// `x^n` for `x >= 0` (a Phong lobe); `n >= 0`.
@@ -200,7 +276,15 @@ impl Aff {
         // Convex for n > 1 (slope at the low end), concave below.
         let at = if n > 1.0 { lo } else { hi };
         let alpha = if at > 0.0 { n * at.powf(n - 1.0) } else { 0.0 };
-        Some(self.min_range(f, alpha))
+        let out = self.min_range(f, alpha);
+        // max(x, 0)^n: C^2 for x > 0, and with a bounded second derivative
+        // through 0 when n >= 2 (enough for the interpolation bound).
+        let mut u = self.smooth_range();
+        if u.lo <= 0.0 && n < 2.0 {
+            return Some(out);
+        }
+        u.lo = u.lo.max(0.0);
+        Some(self.with_smooth_jet(out, u, |x| n * x.powf(n - 1.0), |x| n * (n - 1.0) * x.powf(n - 2.0)))
     }
 
     /// `max(x, 0)`: the chord between the ends where the range crosses 0.
@@ -325,6 +409,11 @@ impl AVec3 {
     pub fn is_finite(&self) -> bool {
         self.x.is_finite() && self.y.is_finite() && self.z.is_finite()
     }
+
+    /// Without the jets (`Aff::plain`).
+    pub fn plain(self) -> AVec3 {
+        self.map(Aff::plain)
+    }
 }
 
 #[cfg(test)]
@@ -369,6 +458,86 @@ mod tests {
         let v = AVec3::new(a, b, c);
         let n = v.normalize().unwrap();
         encloses(n.x, |e| x(e) / (x(e) * x(e) + y(e) * y(e) + z(e) * z(e)).sqrt());
+    }
+
+    /// Quadrilinear interpolation of `f` from the cell's 16 corners stays
+    /// within the form's `interp_error` of `f` over a grid of the cell;
+    /// returns the largest error seen.
+    fn interpolates_within(form: Aff, f: impl Fn([f64; 4]) -> f64) -> f64 {
+        let corners: Vec<f64> = (0..16)
+            .map(|k| f([0, 1, 2, 3].map(|i| if k >> i & 1 == 1 { 1.0 } else { -1.0 })))
+            .collect();
+        let steps: u32 = 7;
+        let mut worst = 0.0f64;
+        for i in 0..steps.pow(4) {
+            let e = [0, 1, 2, 3].map(|k| ((i / steps.pow(k)) % steps) as f64 / (steps - 1) as f64 * 2.0 - 1.0);
+            let interp: f64 = (0..16)
+                .map(|k| {
+                    let w: f64 = (0..4)
+                        .map(|a| {
+                            if k >> a & 1 == 1 {
+                                0.5 * (1.0 + e[a])
+                            } else {
+                                0.5 * (1.0 - e[a])
+                            }
+                        })
+                        .product();
+                    w * corners[k]
+                })
+                .sum();
+            let err = (interp - f(e)).abs();
+            assert!(
+                err <= form.interp_error() * (1.0 + 1e-9) + 1e-12,
+                "{err} > {}",
+                form.interp_error()
+            );
+            worst = worst.max(err);
+        }
+        worst
+    }
+
+    #[test]
+    fn jets_bound_the_interpolation_error_and_beat_the_remainder_on_products() {
+        let a = Aff::coordinate(0, 2.0, 0.5).add(Aff::coordinate(1, 0.0, 0.4));
+        let b = Aff::coordinate(2, -1.0, 0.3).add(Aff::coordinate(3, 0.0, 0.2));
+        let x = |e: [f64; 4]| 2.0 + 0.5 * e[0] + 0.4 * e[1];
+        let y = |e: [f64; 4]| -1.0 + 0.3 * e[2] + 0.2 * e[3];
+        // A product of forms in different coordinates is multilinear:
+        // interpolated exactly, and the jet knows it (the remainder does not).
+        let p = a.mul(b);
+        assert_eq!(p.jet.error(), 0.0);
+        assert!(p.r > 0.4);
+        interpolates_within(p, |e| x(e) * y(e));
+        // A square has pure second derivatives: a bound of 1/2 sum_i 2 l_i^2.
+        let sq = a.mul(a);
+        assert!(
+            (sq.interp_error() - (0.25 + 0.16)).abs() < 1e-12,
+            "{}",
+            sq.interp_error()
+        );
+        let worst = interpolates_within(sq, |e| x(e) * x(e));
+        assert!(
+            worst > 0.5 * sq.interp_error(),
+            "the bound is near what it bounds: {worst}"
+        );
+        // Smooth functions, a kink (relu across 0), an unknown interval.
+        interpolates_within(a.recip().unwrap(), |e| 1.0 / x(e));
+        interpolates_within(a.rsqrt().unwrap(), |e| 1.0 / x(e).sqrt());
+        interpolates_within(a.sqrt().unwrap().mul(b), |e| x(e).sqrt() * y(e));
+        let v = AVec3::new(a, b, Aff::coordinate(1, 1.0, 0.1));
+        interpolates_within(v.normalize().unwrap().x, |e| {
+            let z = 1.0 + 0.1 * e[1];
+            x(e) / (x(e) * x(e) + y(e) * y(e) + z * z).sqrt()
+        });
+        let c = Aff::coordinate(0, 0.1, 0.3).add(Aff::coordinate(2, 0.0, 0.1));
+        let z = |e: [f64; 4]| 0.1 + 0.3 * e[0] + 0.1 * e[2];
+        let w = Aff::coordinate(0, 0.5, 0.3).add(Aff::coordinate(3, 0.0, 0.15));
+        let wf = |e: [f64; 4]| 0.5 + 0.3 * e[0] + 0.15 * e[3];
+        interpolates_within(w.powf(1.5).unwrap(), |e| wf(e).powf(1.5));
+        interpolates_within(w.powf(40.0).unwrap(), |e| wf(e).powf(40.0));
+        interpolates_within(c.relu().mul(a), |e| z(e).max(0.0) * x(e));
+        let unknown = Aff::interval(0.0, 1.0);
+        interpolates_within(a.mul(unknown), |e| x(e) * (e[3] > 0.2) as u8 as f64);
     }
 
     #[test]

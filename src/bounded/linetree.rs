@@ -14,7 +14,7 @@ pub(crate) type HashMap<K, V> = std::collections::HashMap<K, V, foldhash::fast::
 
 use glam::{DVec3, Vec3};
 
-use crate::bounded::linespace::{CellBox, FacePair, LineCoords};
+use crate::bounded::linespace::{CellBox, FacePair, LATTICE_BITS, LineCoords};
 use crate::bounded::predicate::{Accepted, Failure, RootFace};
 use crate::raytrace::ray_tree::{RayNode, RayTree};
 
@@ -162,11 +162,19 @@ impl Linetrees {
 
     /// The leaf of tree `t` whose cell contains `c`.
     pub fn leaf(&self, t: u32, c: &LineCoords) -> u32 {
-        let tree = &self.trees[t as usize];
-        let mut i = tree.root;
+        self.leaf_below(self.trees[t as usize].root, c)
+    }
+
+    /// The leaf under cell `i` (which contains `c`) that contains `c`.
+    /// The line is put on the lattice once, so each level of the descent
+    /// is a bit test rather than a cell's midpoint in floating point (this
+    /// walk runs for every pixel that reprojection leaves).
+    pub fn leaf_below(&self, mut i: u32, c: &LineCoords) -> u32 {
+        let pair = &self.trees[self.cells[i as usize].tree as usize].pair;
+        let q = lattice_of(pair, c);
         while let CellState::Split { axes, first } = self.cells[i as usize].state {
             let cell = &self.cells[i as usize].cell;
-            i = first + child_number(cell, &tree.pair, axes, c);
+            i = first + child_number(cell, axes, &q);
         }
         i
     }
@@ -326,14 +334,24 @@ impl Linetrees {
     }
 }
 
-/// Which child of `cell` (split along `axes`) holds `c`.
-fn child_number(cell: &CellBox, pair: &FacePair, axes: u8, c: &LineCoords) -> u32 {
+/// A line's lattice coordinates: per coordinate, which of the
+/// `2^LATTICE_BITS` finest steps of the root holds it (clamped, so the
+/// closed root's upper faces fall in its last step).
+fn lattice_of(pair: &FacePair, c: &LineCoords) -> [u32; 4] {
+    let steps = (1u64 << LATTICE_BITS) as f64;
+    std::array::from_fn(|a| {
+        let (lo, hi) = (pair.lo[a % 2], pair.hi[a % 2]);
+        ((c[a] - lo) / (hi - lo) * steps).clamp(0.0, steps - 1.0) as u32
+    })
+}
+
+/// Which child of `cell` (split along `axes`) holds the line at lattice
+/// coordinates `q`: the bit below the cell's depth of each halved one.
+fn child_number(cell: &CellBox, axes: u8, q: &[u32; 4]) -> u32 {
     let mut k = 0;
     for (bit, a) in (0..4).filter(|a| axes >> a & 1 == 1).enumerate() {
-        let (lo, hi) = cell.range(pair, a);
-        if c[a] >= 0.5 * (lo + hi) {
-            k |= 1 << bit;
-        }
+        let upper = q[a] >> (LATTICE_BITS - 1 - cell.depth[a] as u32) & 1;
+        k |= upper << bit;
     }
     k
 }

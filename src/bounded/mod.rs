@@ -9,6 +9,7 @@ pub mod affine;
 pub mod geometry;
 pub mod gpu;
 pub mod interpolate;
+pub mod jet;
 pub mod linespace;
 pub mod linetree;
 pub mod measure;

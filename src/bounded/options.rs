@@ -34,7 +34,7 @@ pub struct BoundedOptions {
     #[arg(long, default_value_t = 1024.0, allow_negative_numbers = true)]
     pub memory_mb: f64,
     /// bounded: a failed cell is split only if at least this many pixels per child ask for it.
-    #[arg(long, default_value_t = 2, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = BoundedSettings::default().min_pixels, allow_negative_numbers = true)]
     pub min_pixels: u32,
     /// bounded: also render every frame exactly and report the error and the speed-up.
     #[arg(long)]

@@ -27,8 +27,12 @@
 //! weights, reflected and refracted directions) is evaluated in affine
 //! arithmetic over the cell (`affine`). Its affine part is interpolated
 //! exactly by the 16 samples; the remainder `r` bounds the interpolation
-//! error by `2 r` per channel. The cell is accepted where
-//! `2 r + rounding <= epsilon * max(L_min, floor)` for every channel, with
+//! error by `2 r` per channel. Alongside, the same evaluation carries
+//! enclosures of the pure second derivatives (`jet`), whose bound
+//! `sum_i 1/2 max |L_ii| (+ 2 P)` leaves out the cross terms that
+//! quadrilinear interpolation reproduces; the smaller of the two bounds,
+//! `E`, is used. The cell is accepted where
+//! `E + rounding <= epsilon * max(L_min, floor)` for every channel, with
 //! `L_min` the smallest radiance the form allows: then
 //! `|L_interp - L| <= epsilon * max(L, floor)` for every ray of the cell.
 //! `BoundKind::Paper` keeps the discontinuity tests and replaces this
@@ -222,13 +226,13 @@ impl Predicate<'_> {
                     let interp = radiance.iter().map(|r| r[c] as f64).sum::<f64>() / 16.0;
                     (2.0 * (centre[c] as f64 - interp).abs() + allowance, centre[c] as f64)
                 }
-                _ => (2.0 * total.r + allowance, total.lo()),
+                _ => (total.interp_error() + allowance, total.lo()),
             };
             bound[c] = error;
             let limit = self.epsilon * reference.max(self.floor);
             // NaN fails: it is not at most the limit.
             fails |= error.partial_cmp(&limit).is_none_or(|o| o.is_gt()) || !total.is_finite();
-            let certain_error = 2.0 * walk.certain[c].r + allowance;
+            let certain_error = walk.certain[c].interp_error() + allowance;
             let certain_limit = self.epsilon * walk.certain[c].lo().max(self.floor);
             certain_fails |= certain_error.partial_cmp(&certain_limit).is_none_or(|o| o.is_gt());
         }

@@ -54,6 +54,13 @@ impl Shafts<'_> {
     /// Whether no primitive but the excluded ones can meet a segment
     /// `o + t d`, `0 < t < end`, of the family.
     pub fn clear(&self, o: &AVec3, d: &AVec3, end: End, exclude: &[Exclude]) -> bool {
+        // Ranges are all a cull needs: the interpolation-error jets stay
+        // behind (their arithmetic was most of a cull's).
+        let (o, d) = (&o.plain(), &d.plain());
+        let end = match end {
+            End::At(t) => End::At(t.plain()),
+            End::Infinite => End::Infinite,
+        };
         let (lo, hi) = self.swept_box(o, d, end);
         if !(lo.is_finite() && hi.is_finite()) {
             return false;
