@@ -226,20 +226,10 @@ impl Camera {
     }
 }
 
-/// A point or vector written "X,Y,Z" (finite numbers).
+/// A point or vector written "X,Y,Z" (finite numbers), read as
+/// `frame::parse_point` reads it and rounded to f32 once.
 pub fn parse_vec3(s: &str) -> std::result::Result<Vec3, String> {
-    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
-    if parts.len() != 3 {
-        return Err(format!("expected X,Y,Z, got '{s}'"));
-    }
-    let mut v = [0.0f32; 3];
-    for (slot, p) in v.iter_mut().zip(&parts) {
-        *slot = p.parse().map_err(|_| format!("'{p}' is not a number"))?;
-        if !slot.is_finite() {
-            return Err(format!("'{p}' is not finite"));
-        }
-    }
-    Ok(Vec3::from_array(v))
+    super::frame::parse_point(s).map(|p| p.as_vec3())
 }
 
 #[cfg(test)]
