@@ -78,6 +78,18 @@ fn a_far_scene_files_placement_camera_and_light_follow_its_frame() {
             .collect();
         assert_alike(&images[0], &images[1], what);
     }
+    // raytrace reports its camera where the scene file puts it, not in the
+    // recentred frame it renders in.
+    let report = pen(
+        "raytrace --method whitted --scene {scene} --width 16 --height 16 --out {out} --device cpu --json",
+        &[("scene", &far), ("out", &d.p("report.png"))],
+    )
+    .ok()
+    .json();
+    let eye: Vec<f64> = (0..3).map(|k| report["camera"]["eye"][k].as_f64().unwrap()).collect();
+    let want = self::far([3.0, 4.0, 9.0]);
+    // f32's step at 2e6 is 0.25.
+    assert!((0..3).all(|k| (eye[k] - want[k]).abs() <= 0.25), "{eye:?} vs {want:?}");
 }
 
 #[test]

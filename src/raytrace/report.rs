@@ -31,7 +31,7 @@ pub struct RenderReport {
     pub spheres: usize,
     pub lights: usize,
     pub emitters: usize,
-    /// The last frame's camera.
+    /// The last frame's camera, in world coordinates.
     pub camera: Camera,
     /// Warnings of the scene's files and of preparing it for rendering.
     pub warnings: usize,
@@ -63,7 +63,9 @@ impl RenderReport {
             spheres: scene.spheres.len(),
             lights: scene.lights.len(),
             emitters: scene.emitters,
-            camera,
+            // In world coordinates, as the scene file and `--eye` give it
+            // (the renderer works in the scene's recentred frame).
+            camera: camera.in_world(scene.mesh.origin),
             warnings: load_warnings + scene.warnings.len(),
         }
     }

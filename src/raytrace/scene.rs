@@ -152,7 +152,9 @@ impl RenderScene {
         for inst in &scene.instances {
             let source = &scene.meshes[inst.mesh];
             let transform = inst.transform_at(frame);
-            let world = source.mesh.map_positions(|p| transform.apply_point(p));
+            let mut world = source.mesh.map_positions(|p| transform.apply_point(p));
+            // Placed: in the scene's frame now (as `Scene::world_mesh_at`).
+            world.origin = scene.origin;
             let shading = source.shading.as_ref();
             let normal_base = normals.len() as u32;
             if let Some(s) = shading {
