@@ -42,6 +42,20 @@ fn field_copysign(x: f32, s: f32) -> f32 {
     return select(abs(x), -abs(x), (bitcast<u32>(s) & 0x80000000u) != 0u);
 }
 
+// sampling::atan::atan_unit (Abramowitz and Stegun 4.4.49, t in [-1, 1])
+fn field_atan_unit(t: f32) -> f32 {
+    let z = t * t;
+    var p = 0.0028662257;
+    p = p * z - 0.016165737;
+    p = p * z + 0.042909614;
+    p = p * z - 0.07528964;
+    p = p * z + 0.10656264;
+    p = p * z - 0.142089;
+    p = p * z + 0.19993551;
+    p = p * z - 0.33333145;
+    return t + t * (z * p);
+}
+
 // positions::square_to_sphere
 fn field_square_to_sphere(u: f32, v: f32) -> vec3<f32> {
     let up = abs(u);
@@ -63,9 +77,11 @@ fn field_sphere_to_square(d: vec3<f32>) -> vec2<f32> {
     let x = abs(d.x);
     let y = abs(d.y);
     let r = sqrt(max(1.0 - abs(d.z), 0.0));
-    var phi = 0.0;
-    if (x != 0.0 || y != 0.0) {
-        phi = atan2(y, x) / FIELD_PI_OVER_2;
+    let x_major = x >= y;
+    let angle = field_atan_unit(select(x / y, y / x, x_major)) / FIELD_PI_OVER_2;
+    var phi = select(1.0 - angle, angle, x_major);
+    if (x == 0.0 && y == 0.0) {
+        phi = 0.0;
     }
     var v = phi * r;
     var u = r - v;
@@ -114,31 +130,18 @@ fn field_wrap(i_in: i32, j_in: i32) -> u32 {
     return u32(clamp(i, 0, n - 1) + clamp(j, 0, n - 1) * n);
 }
 
-// concentric::concentric_square
+// concentric::concentric_square (the branch as selects, as `field::batch`)
 fn field_concentric_square(x: f32, y: f32) -> vec2<f32> {
     let r = sqrt(x * x + y * y);
     if (r == 0.0) {
         return vec2<f32>(0.5, 0.5);
     }
-    var phi = atan2(y, x);
-    if (phi < -FIELD_PI_OVER_4) {
-        phi += 2.0 * FIELD_PI;
-    }
-    var a: f32;
-    var b: f32;
-    if (phi < FIELD_PI_OVER_4) {
-        a = r;
-        b = r * phi / FIELD_PI_OVER_4;
-    } else if (phi < 3.0 * FIELD_PI_OVER_4) {
-        a = -r * (phi - FIELD_PI_OVER_2) / FIELD_PI_OVER_4;
-        b = r;
-    } else if (phi < 5.0 * FIELD_PI_OVER_4) {
-        a = -r;
-        b = -r * (phi - FIELD_PI) / FIELD_PI_OVER_4;
-    } else {
-        a = r * (phi - 3.0 * FIELD_PI_OVER_2) / FIELD_PI_OVER_4;
-        b = -r;
-    }
+    let x_major = abs(x) >= abs(y);
+    let angle = field_atan_unit(select(x / y, y / x, x_major));
+    let ax = field_copysign(r, x);
+    let by = field_copysign(r, y);
+    let a = select(by * angle / FIELD_PI_OVER_4, ax, x_major);
+    let b = select(by, ax * angle / FIELD_PI_OVER_4, x_major);
     return vec2<f32>((a + 1.0) * 0.5, (b + 1.0) * 0.5);
 }
 

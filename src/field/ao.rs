@@ -12,6 +12,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::batch::{Batchable, Directions, LANES, Traces};
 use super::build::DisplacementField;
 use super::lookup::{FieldTrace, Positional};
 use super::query::FieldQuery;
@@ -19,6 +20,7 @@ use crate::ao::{AoPoint, AoSettings, PointDirections, VisibilityMasks};
 use crate::progress::Progress;
 use crate::sampling::SampleSequence;
 use crate::scene::Transform;
+use crate::simd::{Isa, Kernel, Lanes, dispatch};
 use glam::Quat;
 
 /// One caster instance: its mesh's field and its placement.
@@ -79,6 +81,79 @@ impl<'f> ReadyCaster<'f> {
         }
     }
 
+    /// World directions in the caster's space.
+    #[inline(always)]
+    fn object_directions(&self, world: &[Vec3]) -> Directions {
+        let mut d = Directions::default();
+        for (i, w) in world.iter().enumerate() {
+            let v = (self.inverse_rotation * *w).normalize();
+            (d.x[i], d.y[i], d.z[i]) = (v.x, v.y, v.z);
+        }
+        d
+    }
+
+    /// A batch's lanes as AO sees them: blocked within `radius` (world
+    /// units), inside the sphere, surface behind the origin.
+    #[inline(always)]
+    fn classify(&self, traces: Traces, radius: f32) -> LaneClasses {
+        let mut blocked = 0u16;
+        for i in 0..LANES {
+            if traces.hit >> i & 1 == 1 && traces.t[i] * self.transform.scale <= radius {
+                blocked |= 1 << i;
+            }
+        }
+        LaneClasses {
+            blocked,
+            inside: traces.inside,
+            hidden: traces.hidden,
+        }
+    }
+
+    /// One ray's classes (lane 0) for a field the batch path does not take.
+    fn classify_one(&self, o_obj: Vec3, d: Vec3, positional: Positional, radius: f32) -> LaneClasses {
+        let mut c = LaneClasses::default();
+        let trace = self.trace(o_obj, d, positional);
+        c.inside = u16::from(trace.inside());
+        match trace {
+            FieldTrace::Hit { t, .. } if t <= radius => c.blocked = 1,
+            FieldTrace::Miss { hidden: true, .. } => c.hidden = 1,
+            _ => {}
+        }
+        c
+    }
+
+    /// The rays `world` (of one point, from `o_obj` in the caster's space)
+    /// that enter the caster's sphere, gathered sixteen to a batch, their
+    /// classes set in `sink`; the others are `Outside`, which sets no class.
+    #[inline(always)]
+    fn trace_entering(&self, batch: &Batchable, o_obj: Vec3, world: &[Vec3], radius: f32, sink: &mut ClassWords) {
+        let mut pending = Directions::default();
+        let mut rays = [0u32; LANES];
+        let mut n = 0;
+        for (k, chunk) in world.chunks(LANES).enumerate() {
+            let d = self.object_directions(chunk);
+            let mut enters = batch.enters(o_obj, &d) & (u32::MAX >> (32 - chunk.len())) as u16;
+            while enters != 0 {
+                let i = enters.trailing_zeros() as usize;
+                enters &= enters - 1;
+                (pending.x[n], pending.y[n], pending.z[n]) = (d.x[i], d.y[i], d.z[i]);
+                rays[n] = (k * LANES + i) as u32;
+                n += 1;
+                if n == LANES {
+                    sink.set(&rays[..n], self.classify(batch.trace(o_obj, &pending), radius));
+                    n = 0;
+                }
+            }
+        }
+        if n > 0 {
+            // The unused lanes repeat the first ray (a valid lookup).
+            for i in n..LANES {
+                (pending.x[i], pending.y[i], pending.z[i]) = (pending.x[0], pending.y[0], pending.z[0]);
+            }
+            sink.set(&rays[..n], self.classify(batch.trace(o_obj, &pending), radius));
+        }
+    }
+
     /// The ray from `o_obj` (the point's origin in the caster's space) along
     /// world direction `d`.
     #[inline]
@@ -92,6 +167,87 @@ impl<'f> ReadyCaster<'f> {
             other => other,
         }
     }
+}
+
+/// A worker's buffers: the point's origin in each caster's space (with
+/// the caster's batch path, if it has one), its rays' sample bits and
+/// directions, and which rays a caster blocked.
+#[derive(Default)]
+struct Scratch<'c, 'q, 'f> {
+    origins: Vec<Origin<'c, 'q, 'f>>,
+    bits: Vec<[u32; 2]>,
+    rays: Vec<(Vec3, u8)>,
+    world: Vec<Vec3>,
+    blocked: Vec<u32>,
+}
+
+/// A caster, its batch path if it has one, and a point's origin in its space.
+type Origin<'c, 'q, 'f> = (&'c ReadyCaster<'f>, Option<&'c Batchable<'q, 'f>>, Vec3);
+
+/// A point's per-ray words: bit j % 32 of word j / 32 for ray j.
+struct ClassWords<'a> {
+    blocked: &'a mut [u32],
+    inside: &'a mut [u32],
+    hidden: &'a mut [u32],
+}
+
+impl ClassWords<'_> {
+    /// Ray `rays[i]`'s classes are lane i of `lanes`.
+    #[inline(always)]
+    fn set(&mut self, rays: &[u32], lanes: LaneClasses) {
+        for (i, &j) in rays.iter().enumerate() {
+            let (w, shift) = ((j / 32) as usize, j % 32);
+            self.blocked[w] |= u32::from(lanes.blocked >> i & 1) << shift;
+            self.inside[w] |= u32::from(lanes.inside >> i & 1) << shift;
+            self.hidden[w] |= u32::from(lanes.hidden >> i & 1) << shift;
+        }
+    }
+}
+
+/// One point's rays against the casters, as a kernel: the directions, the
+/// batches and the lookups compiled in the instruction set `dispatch`
+/// picks (the lanes type itself is unused: the passes are plain loops the
+/// compiler vectorises).
+struct PointRays<'a, 'c, 'q, 'f> {
+    origins: &'a [Origin<'c, 'q, 'f>],
+    dirs: &'a PointDirections,
+    positional: Positional,
+    radius: f32,
+    bits: &'a mut Vec<[u32; 2]>,
+    rays: &'a mut Vec<(Vec3, u8)>,
+    world: &'a mut Vec<Vec3>,
+    words: ClassWords<'a>,
+}
+
+impl Kernel for PointRays<'_, '_, '_, '_> {
+    type Out = ();
+
+    #[inline(always)]
+    fn run<V: Lanes>(mut self) {
+        let n = self.rays.len();
+        self.dirs.directions_and_cells(self.bits, self.rays);
+        self.world.clear();
+        self.world.extend(self.rays.iter().map(|&(d, _)| d));
+        for &(c, batch, o_obj) in self.origins {
+            match batch {
+                Some(b) => c.trace_entering(b, o_obj, self.world, self.radius, &mut self.words),
+                None => {
+                    for j in 0..n {
+                        let lane = c.classify_one(o_obj, self.world[j], self.positional, self.radius);
+                        self.words.set(&[j as u32], lane);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Sixteen rays' classes against one caster (bit i = lane i).
+#[derive(Debug, Clone, Copy, Default)]
+struct LaneClasses {
+    blocked: u16,
+    inside: u16,
+    hidden: u16,
 }
 
 /// Visibility of `rays_per_point` rays per point through the casters'
@@ -112,49 +268,61 @@ pub fn field_ao(
     let mut inside = vec![0u32; points.len() * words];
     let mut hidden = vec![0u32; points.len() * words];
     let ready: Vec<ReadyCaster> = casters.iter().map(ReadyCaster::new).collect();
+    let batches: Vec<Option<Batchable>> = ready.iter().map(|c| Batchable::of(&c.query, positional)).collect();
     bits.par_chunks_mut(words)
         .zip(inside.par_chunks_mut(words))
         .zip(hidden.par_chunks_mut(words))
         .zip(points.par_iter().zip(owners.par_iter()))
         .with_min_len(16)
-        .for_each_init(Vec::new, |origins, (((mask, inside), hidden), (point, &owner))| {
-            let normal = Vec3::from_array(point.normal);
-            let origin = Vec3::from_array(point.origin);
-            // The point's origin in each caster's space, once for all its rays.
-            origins.clear();
-            origins.extend(
-                ready
-                    .iter()
-                    .filter(|c| c.instance != owner)
-                    .map(|c| (c, c.transform.inverse_point(origin))),
-            );
-            let dirs = PointDirections::new(&seq, point.stream, normal);
-            for j in 0..settings.rays_per_point {
-                let bit = 1u32 << (j % 32);
-                let w = (j / 32) as usize;
+        .for_each_init(
+            Scratch::default,
+            |scratch, (((mask, inside), hidden), (point, &owner))| {
+                let rays = settings.rays_per_point as usize;
                 if !point.has_hemisphere() {
-                    mask[w] |= bit;
-                    continue;
+                    (0..rays).for_each(|j| mask[j / 32] |= 1 << (j % 32));
+                    progress.inc(1);
+                    return;
                 }
-                let dir = dirs.direction(j);
-                let mut visible = true;
-                for &(c, o_obj) in origins.iter() {
-                    let trace = c.trace(o_obj, dir, positional);
-                    if trace.inside() {
-                        inside[w] |= bit;
+                let normal = Vec3::from_array(point.normal);
+                let origin = Vec3::from_array(point.origin);
+                // The point's origin in each caster's space, once for all its rays.
+                scratch.origins.clear();
+                scratch.origins.extend(
+                    ready
+                        .iter()
+                        .zip(&batches)
+                        .filter(|(c, _)| c.instance != owner)
+                        .map(|(c, b)| (c, b.as_ref(), c.transform.inverse_point(origin))),
+                );
+                scratch.bits.resize(rays, [0; 2]);
+                scratch.rays.resize(rays, (Vec3::ZERO, 0));
+                scratch.blocked.clear();
+                scratch.blocked.resize(words, 0);
+                let dirs = PointDirections::new(&seq, point.stream, normal);
+                let kernel = PointRays {
+                    origins: &scratch.origins,
+                    dirs: &dirs,
+                    positional,
+                    radius: settings.radius,
+                    bits: &mut scratch.bits,
+                    rays: &mut scratch.rays,
+                    world: &mut scratch.world,
+                    words: ClassWords {
+                        blocked: &mut scratch.blocked,
+                        inside,
+                        hidden,
+                    },
+                };
+                dispatch(Isa::best(), kernel);
+                for j in 0..rays {
+                    let (w, bit) = (j / 32, 1u32 << (j % 32));
+                    if scratch.blocked[w] & bit == 0 {
+                        mask[w] |= bit;
                     }
-                    match trace {
-                        FieldTrace::Hit { t, .. } if t <= settings.radius => visible = false,
-                        FieldTrace::Miss { hidden: true, .. } => hidden[w] |= bit,
-                        _ => {}
-                    }
                 }
-                if visible {
-                    mask[w] |= bit;
-                }
-            }
-            progress.inc(1);
-        });
+                progress.inc(1);
+            },
+        );
     let masks = VisibilityMasks {
         rays_per_point: settings.rays_per_point,
         words_per_point: words as u32,

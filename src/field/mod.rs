@@ -17,10 +17,13 @@
 //! - `storage`: 32-bit, 8-bit and 1-bit maps;
 //! - `file`: the `.dfield` format;
 //! - `query`: a field made ready for many lookups (frames tabulated);
+//! - `batch`: the lookups of sixteen rays of a point at once, in vector
+//!   instructions;
 //! - `runner`: AO of a scene's receivers through its casters' fields, on
 //!   any device (`ao --method field`).
 
 pub mod ao;
+pub mod batch;
 pub mod budget;
 pub mod build;
 pub mod directions;

@@ -22,6 +22,8 @@ use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
 
 use glam::Vec3;
 
+use crate::sampling::atan::atan_unit;
+
 /// The positional samples: `side * side` points on the unit sphere.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct OctahedralGrid {
@@ -46,11 +48,14 @@ pub fn square_to_sphere(u: f32, v: f32) -> Vec3 {
 pub fn sphere_to_square(d: Vec3) -> [f32; 2] {
     let (x, y) = (d.x.abs(), d.y.abs());
     let r = (1.0 - d.z.abs()).max(0.0).sqrt();
-    // phi / (pi/2) in [0, 1], measured from the x axis.
+    // phi / (pi/2) in [0, 1], measured from the x axis; the angle from the
+    // nearer axis keeps the ratio in [0, 1] for `atan_unit`.
     let phi = if x == 0.0 && y == 0.0 {
         0.0
+    } else if x >= y {
+        atan_unit(y / x) / FRAC_PI_2
     } else {
-        y.atan2(x) / FRAC_PI_2
+        1.0 - atan_unit(x / y) / FRAC_PI_2
     };
     let mut v = phi * r;
     let mut u = r - v;

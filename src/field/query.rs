@@ -30,6 +30,11 @@ impl<'f> FieldQuery<'f> {
         FieldQuery { field, frames }
     }
 
+    /// Map m's frame is `frames()[m]`.
+    pub fn frames(&self) -> &[Frame] {
+        &self.frames
+    }
+
     /// `DisplacementField::trace`, reading the frames from the table.
     #[inline]
     pub fn trace(&self, o: Vec3, d: Vec3, positional: Positional) -> FieldTrace {

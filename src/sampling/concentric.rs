@@ -7,7 +7,9 @@
 //! r = b and phi = pi/2 - (pi/4) (a/b). The map preserves area fractions, so
 //! stratified squares give stratified disks.
 
-use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
+
+use super::atan::atan_unit;
 
 /// Square [0,1]^2 to unit disk.
 #[inline]
@@ -26,26 +28,24 @@ pub fn concentric_disk(u: f32, v: f32) -> [f32; 2] {
     [r * c, r * s]
 }
 
-/// Unit disk to square [0,1]^2: the inverse of `concentric_disk`.
+/// Unit disk to square [0,1]^2: the inverse of `concentric_disk`. The
+/// diagonals split the disk as they split the square: where |x| >= |y| the
+/// point came from the triangle r = a, whose angle is phi = atan(y / x) off
+/// the x axis (pi added for x < 0, which the ratio absorbs), so b = a phi /
+/// (pi/4); elsewhere the roles swap. The ratio stays in [-1, 1], where
+/// `atan_unit` needs no range reduction.
 #[inline]
 pub fn concentric_square(x: f32, y: f32) -> [f32; 2] {
     let r = (x * x + y * y).sqrt();
     if r == 0.0 {
         return [0.5, 0.5];
     }
-    // phi in [-pi/4, 7pi/4) selects the triangle.
-    let mut phi = y.atan2(x);
-    if phi < -FRAC_PI_4 {
-        phi += 2.0 * PI;
-    }
-    let (a, b) = if phi < FRAC_PI_4 {
-        (r, r * phi / FRAC_PI_4)
-    } else if phi < 3.0 * FRAC_PI_4 {
-        (-r * (phi - FRAC_PI_2) / FRAC_PI_4, r)
-    } else if phi < 5.0 * FRAC_PI_4 {
-        (-r, -r * (phi - PI) / FRAC_PI_4)
+    let (a, b) = if x.abs() >= y.abs() {
+        let a = r.copysign(x);
+        (a, a * atan_unit(y / x) / FRAC_PI_4)
     } else {
-        (r * (phi - 3.0 * FRAC_PI_2) / FRAC_PI_4, -r)
+        let b = r.copysign(y);
+        (b * atan_unit(x / y) / FRAC_PI_4, b)
     };
     [(a + 1.0) * 0.5, (b + 1.0) * 0.5]
 }

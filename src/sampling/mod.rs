@@ -3,10 +3,12 @@
 //!
 //! * `sequence`: Owen-scrambled Sobol points, seeded, integer arithmetic only,
 //!   so a seed gives the same points on every device.
+//! * `atan`: the arctangent on [-1, 1] as a polynomial (for the inverses).
 //! * `concentric`: Shirley and Chiu's concentric square-to-disk map and its inverse.
 //! * `hemisphere`: Malley's method (cosine-weighted hemisphere directions by
 //!   lifting concentric-disk points), and an orthonormal basis around a normal.
 
+pub mod atan;
 pub mod concentric;
 pub mod hemisphere;
 pub mod sequence;
