@@ -128,16 +128,11 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
         .as_deref()
         .map(|p| crate::vertex_out::PrtVertexCsv::create(p, transfer))
         .transpose()?;
-    let (size, files) = (
-        (args.size.width, args.size.height),
-        (args.out_frames.as_deref(), out_png),
-    );
+    let size = (args.size.width, args.size.height);
+    let files = (args.out_frames.as_deref(), out_png);
     let mut images = FrameImages::new(files, size, args.albedo, args.exposure, &env, camera);
-    let (runs, eye, visibility) = (
-        args.common.runs.runs(1)?,
-        Some(camera.eye),
-        (args.play.shadows, reference),
-    );
+    let (runs, eye) = (args.common.runs.runs(1)?, Some(camera.eye));
+    let visibility = (args.play.shadows, reference);
     playback.bars = Bars::Stderr;
     let on_frame = |f: usize, positions: &[Vec3], out: &FrameOutput| {
         if let Some(csv) = csv.as_mut() {
@@ -145,27 +140,20 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
         }
         images.frame((f, playback.frames), (positions, &triangles), &out.radiance)
     };
-    let lit = (&env, eye);
     let (report, times, used) = match &args.scene {
         Some(_) => {
             let mut r = ObjectsRunner::for_scene(&device, &scene, &settings, visibility, args.inter_object)?;
-            let (report, times) = play_scene_runs(&mut r, &scene, lit, &playback, runs, on_frame)?;
-            r.notes()
-                .iter()
-                .chain(&report.warnings())
-                .for_each(|n| super::io::note(n));
+            super::io::notes(&r.notes());
+            let (report, times) = play_scene_runs(&mut r, &scene, (&env, eye), &playback, runs, on_frame)?;
+            super::io::notes(&report.warnings());
             (super::io::merged(json!({}), &report)?, times, r.device().clone())
         }
         None => {
             let poses = playback.poses(mesh, settings.hierarchy.poses);
             let mut r = PrtRunner::new_posed(&device, &poses, &triangles, &settings, visibility.0, reference)?;
-            r.notes().iter().for_each(|n| super::io::note(n));
+            super::io::notes(r.notes());
             let (report, times) = animate_runs(&mut r, (mesh, &env), eye, &playback, runs, on_frame)?;
-            report
-                .self_check
-                .iter()
-                .flat_map(|c| c.warning())
-                .for_each(|w| super::io::note(&w));
+            super::io::notes(&report.warnings());
             (super::io::merged(json!({}), &report)?, times, r.device().clone())
         }
     };

@@ -42,6 +42,7 @@ use std::sync::Arc;
 
 use glam::{Mat3, Vec3};
 
+use super::geometry::point_triangle_distance_sq;
 use super::hierarchy::Hierarchy;
 use super::pipeline::{emit, to_local};
 use super::raster::TriangleBatch;
@@ -77,17 +78,44 @@ impl Chunks {
         }
     }
 
-    /// The full mesh of `h`, chunk g holding the fine triangles its far
-    /// group g stands for (the clusters of its coarse triangles, or the
-    /// group itself without a coarse level).
-    pub fn fine_of_groups(h: &Hierarchy) -> Chunks {
+    /// The full mesh of `h` (vertices at `rest`), chunk g holding what its
+    /// far group g stands for: the clusters of its coarse triangles, and
+    /// the fine triangles of other clusters that lie within `grow[g]` (its
+    /// deviation) of one of them. Clusters follow the nearest coarse
+    /// triangle with a compatible normal, not the groups' borders: without
+    /// those strays a refined group drawn next to coarse ones would leave
+    /// holes where its coarse triangles reached over a neighbour's clusters.
+    pub fn fine_of_groups(h: &Hierarchy, rest: &[Vec3], grow: &[f32]) -> Chunks {
         let mut of_group = vec![0u32; h.far.len()];
         for (g, group) in h.groups.iter().enumerate() {
             of_group[group.far.start as usize..group.far.end as usize].fill(g as u32);
         }
+        let corners = |t: &[u32; 3]| t.map(|v| rest[v as usize]);
         let mut lists: Vec<Vec<[u32; 3]>> = vec![Vec::new(); h.groups.len()];
         for (t, &c) in h.fine.iter().zip(&h.cluster_of_fine) {
-            lists[of_group[c as usize] as usize].push(*t);
+            let own = of_group[c as usize] as usize;
+            lists[own].push(*t);
+            if !h.coarse {
+                continue;
+            }
+            let p = corners(t);
+            let centroid = (p[0] + p[1] + p[2]) / 3.0;
+            // Half the longest edge: a straddling triangle counts.
+            let half = 0.5
+                * (p[0] - p[1])
+                    .length()
+                    .max((p[1] - p[2]).length())
+                    .max((p[2] - p[0]).length());
+            for (g, group) in h.groups.iter().enumerate().filter(|&(g, _)| g != own && grow[g] > 0.0) {
+                let reach = (grow[g] + half).powi(2);
+                let far = &h.far[group.far.start as usize..group.far.end as usize];
+                if far
+                    .iter()
+                    .any(|f| point_triangle_distance_sq(centroid, &corners(f)) <= reach)
+                {
+                    lists[g].push(*t);
+                }
+            }
         }
         let mut out = Chunks::default();
         for list in lists {
@@ -126,24 +154,33 @@ pub struct BlockerTopology {
     pub coarse: Arc<Chunks>,
     pub fine: Arc<Chunks>,
     /// Per chunk: the largest deviation of its coarse triangles from the
-    /// fine surface (0 without a coarse level or without the proxy check).
+    /// fine surface (0 without a coarse level, without the proxy check, or
+    /// below `DEVIATION_FLOOR`).
     pub deviation: Vec<f32>,
 }
 
+/// Deviations below this share of an object's size are taken as none:
+/// a flat board's coarse top strays from its fine one by rounding only.
+pub const DEVIATION_FLOOR: f32 = 1e-3;
+
 impl BlockerTopology {
-    pub fn new(h: &Hierarchy) -> BlockerTopology {
-        let deviation = h
+    /// From the object's hierarchy and its first pose.
+    pub fn new(h: &Hierarchy, rest: &[Vec3]) -> BlockerTopology {
+        let floor = DEVIATION_FLOOR * crate::scene::used_bounds(rest, &h.fine).diagonal();
+        let deviation: Vec<f32> = h
             .groups
             .iter()
             .map(|g| {
-                h.deviation
+                let d = h
+                    .deviation
                     .get(g.far.start as usize..g.far.end as usize)
-                    .map_or(0.0, |d| d.iter().copied().fold(0.0, f32::max))
+                    .map_or(0.0, |d| d.iter().copied().fold(0.0, f32::max));
+                if d > floor { d } else { 0.0 }
             })
             .collect();
         BlockerTopology {
             coarse: Arc::new(Chunks::far_level(h)),
-            fine: Arc::new(Chunks::fine_of_groups(h)),
+            fine: Arc::new(Chunks::fine_of_groups(h, rest, &deviation)),
             deviation,
         }
     }
@@ -322,7 +359,8 @@ impl SceneBlockers {
             }
             for (g, &(c, e)) in o.drawn.boxes.iter().enumerate() {
                 let n = o.drawn.chunks.ranges[g].1.len() as u64;
-                if normal.dot(c - origin) + normal.abs().dot(e) <= 0.0 {
+                let below = |(c, e): (Vec3, Vec3)| normal.dot(c - origin) + normal.abs().dot(e) <= 0.0;
+                if below((c, e)) && o.fine.as_ref().is_none_or(|f| below(f.boxes[g])) {
                     counts.group_culled += n;
                     continue;
                 }
@@ -350,5 +388,46 @@ impl SceneBlockers {
                 counts.gathered += kept;
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::prt::hierarchy::HierarchySettings;
+
+    /// The chunks' triangles, back in the object's vertex numbering, sorted.
+    fn global(c: &Chunks) -> Vec<[u32; 3]> {
+        let mut out = Vec::new();
+        for (v, t) in &c.ranges {
+            let verts = &c.verts[v.start as usize..v.end as usize];
+            out.extend(
+                c.tris[t.start as usize..t.end as usize]
+                    .iter()
+                    .map(|l| l.map(|i| verts[i as usize])),
+            );
+        }
+        out.sort_unstable();
+        out
+    }
+
+    #[test]
+    fn fine_chunks_hold_every_fine_triangle_and_far_chunks_the_far_level() {
+        let mesh = crate::scene::chess::pawn();
+        let h = Hierarchy::build(&mesh.positions, &mesh.triangles, &HierarchySettings::default()).unwrap();
+        assert!(h.coarse);
+        let topo = BlockerTopology::new(&h, &mesh.positions);
+        // Every fine triangle, strays in several chunks.
+        let mut fine = mesh.triangles.clone();
+        fine.sort_unstable();
+        let mut held = global(&topo.fine);
+        assert!(topo.deviation.iter().any(|&d| d > 0.0));
+        assert!(held.len() > fine.len(), "strays are shared");
+        held.dedup();
+        assert_eq!(held, fine);
+        let mut far = h.far.clone();
+        far.sort_unstable();
+        assert_eq!(global(&topo.coarse), far);
+        assert_eq!(topo.coarse.ranges.len(), topo.fine.ranges.len());
     }
 }

@@ -82,7 +82,7 @@ impl ObjectsRunner {
             };
             let runner =
                 PrtRunner::new_posed(device, &spec.poses, &spec.triangles, settings, own, reference).map_err(named)?;
-            let topology = BlockerTopology::new(&runner.prt().hierarchy);
+            let topology = BlockerTopology::new(&runner.prt().hierarchy, &spec.poses[0]);
             if !topology.fine.fits() {
                 return Err(named(Error::input(
                     "mesh",

@@ -841,6 +841,11 @@ impl PrtReport {
         }
     }
 
+    /// The self-check's warning, if it has one.
+    pub fn warnings(&self) -> Vec<String> {
+        self.self_check.iter().flat_map(|c| c.warning()).collect()
+    }
+
     /// With what was decided and measured before the first frame.
     fn with_setup(self, self_check: Option<SelfCheckReport>, lighting: Deringing) -> PrtReport {
         PrtReport {
