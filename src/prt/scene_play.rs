@@ -13,7 +13,7 @@ use serde::Serialize;
 use super::blockers::{InterObject, OtherStats, SceneBlockers};
 use super::objects::{ObjectErrors, ObjectsRunner, instance_positions, pooled};
 use super::pipeline::{FrameOutput, FrameStats};
-use super::runner::{FrameTimes, Playback, Shadows, ms_between, spun};
+use super::runner::{FrameTimes, Phases, Playback, Shadows, ms_between, spun};
 use super::selfcheck::SelfCheckReport;
 use crate::device::elapsed_ms;
 use crate::error::{Error, Result};
@@ -37,6 +37,9 @@ pub struct SceneReport {
     pub fps_best: f64,
     pub frame_ms: FrameTimes,
     pub phases_ms: ScenePhases,
+    /// With `--profile`: shares of the per-vertex time over every object
+    /// (the paper's Table 2) and ms per frame (`runner::Phases`).
+    pub phases: Option<Phases>,
     pub gpu_ms_per_frame: Option<f64>,
     pub frames: usize,
     /// Blockers per shaded vertex, over the scene.
@@ -256,6 +259,7 @@ pub fn play_scene(
         frame_ms,
         gpu_ms,
         phases,
+        profile: animation.profile,
     };
     Ok(report(
         runner,
@@ -307,6 +311,28 @@ struct Timing {
     frame_ms: Vec<f64>,
     gpu_ms: Vec<f64>,
     phases: ScenePhases,
+    profile: bool,
+}
+
+/// Table 2's shares from the CPU phases summed over threads and objects
+/// (per frame: divided by the thread count). On a GPU the integration is
+/// the kernels' time and "other" the rest of the frame.
+fn table_two(all: &FrameStats, t: &Timing, gpu_ms: Option<f64>) -> Phases {
+    let nf = t.frame_ms.len().max(1) as f64;
+    let threads = rayon::current_num_threads() as f64;
+    let mut ms = all.phase_ns.map(|n| n as f64 * 1e-6 / nf / threads);
+    if let Some(kernel) = gpu_ms {
+        ms[2] = kernel;
+        ms[3] = (t.frame_ms.iter().sum::<f64>() / nf - ms[0] - ms[1] - ms[2]).max(0.0);
+    }
+    let total: f64 = ms.iter().sum::<f64>().max(1e-12);
+    Phases {
+        transform: ms[0] / total,
+        rasterization: ms[1] / total,
+        integration: ms[2] / total,
+        other: ms[3] / total,
+        ms_per_frame: ms,
+    }
 }
 
 /// Each shaded, self-shadowed object's self-check on its first pose.
@@ -390,6 +416,7 @@ fn report(
         .collect();
     let p = t.phases;
     let modes = tally.and_then(|t| by_mode(None, t));
+    let gpu_ms = (!t.gpu_ms.is_empty()).then(|| t.gpu_ms.iter().sum::<f64>() / t.gpu_ms.len() as f64);
     let prt = runner.object(0).2.prt();
     SceneReport {
         vertices: objects.iter().filter(|o| o.role.receives()).map(|o| o.vertices).sum(),
@@ -411,7 +438,8 @@ fn report(
             transfer: p.transfer / nf,
             output: p.output / nf,
         },
-        gpu_ms_per_frame: (!t.gpu_ms.is_empty()).then(|| t.gpu_ms.iter().sum::<f64>() / t.gpu_ms.len() as f64),
+        phases: t.profile.then(|| table_two(&all, &t, gpu_ms)),
+        gpu_ms_per_frame: gpu_ms,
         frames: t.frame_ms.len(),
         blockers_per_vertex: per_vertex(&all),
         transfer_l2_error: tally.map(|t| t.mean(None, in_use)),
