@@ -265,3 +265,54 @@ fn gen_assets_writes_the_committed_chess_scene() {
         );
     }
 }
+
+/// Roles as the scene format has them: a caster shadows the others but is
+/// not shaded; a receiver is shaded but casts nothing, not even on itself.
+#[test]
+fn casters_cast_and_receivers_receive() {
+    let settings = PrtSettings::default();
+    let (bd, p) = (board(), pawn());
+    let poses = vec![bd.positions.clone(), placed(&p, Vec3::new(0.0, 0.5, 0.0), 0.0)];
+    let lighting = white(settings.bands);
+    let run = |roles: [Role; 2]| {
+        let specs = vec![
+            ObjectSpec {
+                role: roles[0],
+                ..spec("board", &bd, poses[0].clone())
+            },
+            ObjectSpec {
+                role: roles[1],
+                ..spec("pawn", &p, poses[1].clone())
+            },
+        ];
+        let mut r = ObjectsRunner::new(
+            &Device::cpu(),
+            specs,
+            &settings,
+            (Shadows::On, RAYS),
+            InterObject::Coarse,
+        )
+        .unwrap();
+        let mut outs = Vec::new();
+        r.frame(&poses, None, &lighting, false, &mut outs).unwrap();
+        outs
+    };
+    let both = run([Role::Both, Role::Both]);
+    let caster = run([Role::Both, Role::Caster]);
+    assert_eq!(caster[0].transfer, both[0].transfer, "a caster shadows as both does");
+    assert!(caster[1].transfer.is_empty(), "a caster is not shaded");
+    let receiver = run([Role::Receiver, Role::Both]);
+    let n = coefficient_count(settings.bands);
+    // The pawn's foot faces the board: shadowed by it unless the board casts nothing.
+    let foot: Vec<usize> = (0..poses[1].len()).filter(|&v| p.positions[v].y == 0.0).collect();
+    assert!(!foot.is_empty());
+    for &v in &foot {
+        assert!(
+            receiver[1].transfer[v * n] > both[1].transfer[v * n] + 0.1,
+            "vertex {v}"
+        );
+    }
+    // The board as a receiver does not shadow itself: only the pawn darkens it.
+    let alone = run([Role::Receiver, Role::Receiver]);
+    assert!(alone[0].stats.drawn == 0, "nothing casts");
+}
