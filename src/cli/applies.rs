@@ -94,6 +94,8 @@ fn prt_rules(a: &super::prt::PrtArgs) -> Vec<Rule> {
         ),
         rule(a.motion.mesh_sequence.is_some(), &["sequence_fps"], "--mesh-sequence"),
         rule(a.mesh.is_some(), &["animation"], "--mesh (a glTF file)"),
+        rule(a.scene.is_some(), &["inter_object"], "--scene"),
+        rule(a.scene.is_none(), &["pvs"], "--mesh, --animated or --mesh-sequence"),
         rule(a.per_vertex.is_some(), &["per_vertex_transfer"], "--per-vertex"),
         rule(
             a.out.is_some() || a.out_frames.is_some(),

@@ -46,6 +46,7 @@ pub fn of(command: &Command) -> Files {
         }
         Command::Prt(a) => {
             f.mesh("--mesh", &a.mesh);
+            f.scene(&a.scene);
             f.input("--env", &Some(a.env.clone()));
             f.frames("--out", &a.out, a.play.frames.unwrap_or(1).clamp(0, 100_000) as u32);
             f.output("--sh-out", &a.sh_out);

@@ -20,6 +20,11 @@ pub fn note(text: &str) {
     eprintln!("penumbra: {}", crate::error::rename_quoted(text, super::args::flag));
 }
 
+/// Each of a runner's notes on stderr.
+pub fn notes(texts: &[String]) {
+    texts.iter().for_each(|n| note(n));
+}
+
 /// `report` with every field of `more` (a JSON object) added.
 pub fn merged(mut report: Value, more: impl serde::Serialize) -> Result<Value> {
     let more = serde_json::to_value(more).map_err(|e| Error::internal(format!("report: {e}")))?;

@@ -56,7 +56,7 @@ enum Command {
     /// Primary rays from a camera, with traversal statistics.
     Trace(trace::TraceArgs),
     /// Self-shadowed rendering under an environment map, transfer recomputed every frame.
-    Prt(prt::PrtArgs),
+    Prt(Box<prt::PrtArgs>),
     /// Displacement fields: build one from a mesh, or inspect a .dfield file.
     Field(field::FieldArgs),
     /// Screen-space ambient occlusion and indirect light (the paper's estimators).
@@ -65,7 +65,7 @@ enum Command {
     Raytrace(raytrace::RaytraceArgs),
     /// Time and error of every setting of a grid of a method's knobs on your scene.
     Sweep(sweep::SweepArgs),
-    /// Write the procedural scenes (corner, closed box, well, ...) as OBJ files, the ray tracer's scenes (OBJ, MTL, scene files) into OUT/raytrace and example animations into OUT/animations.
+    /// Write the procedural scenes (corner, closed box, well, ...) as OBJ files, the ray tracer's scenes into OUT/raytrace, example animations into OUT/animations and the chess-like scene into OUT/chess and OUT/scenes/chess.json.
     GenAssets(GenAssetsArgs),
 }
 

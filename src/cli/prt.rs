@@ -9,22 +9,31 @@ use glam::Vec3;
 use serde_json::{Value, json};
 
 use super::args::{CameraArgs, Common, check_outputs, parse_vec3};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::image_out::ImageFormat;
 use crate::progress::Bars;
+use crate::prt::blockers::InterObject;
 use crate::prt::budget::choose_cached;
 use crate::prt::images::FrameImages;
+use crate::prt::objects::{ObjectsRunner, shaded_pose};
 use crate::prt::options::{AnimationOptions, PlaybackOptions, PrtOptions};
-use crate::prt::pipeline::PrtSettings;
+use crate::prt::pipeline::{FrameOutput, PrtSettings};
 use crate::prt::runner::{Playback, PrtRunner, RayTraced, Shadows, animate_runs};
+use crate::prt::scene_play::play_scene_runs;
 use crate::prt::sh_out::write_sh_json;
-use crate::scene::{EnvironmentMap, View, used_bounds};
+use crate::scene::{EnvironmentMap, View, file_stem, load_scene, used_bounds};
 
 #[derive(clap::Args)]
 pub struct PrtArgs {
     /// Mesh: OBJ, PLY or glTF (static: the transfer is still recomputed every frame).
-    #[arg(long, required_unless_present_any = ["animated", "mesh_sequence"])]
+    #[arg(long, required_unless_present_any = ["animated", "mesh_sequence", "scene"])]
     pub mesh: Option<PathBuf>,
+    /// A scene file of several objects, each self-shadowed and shadowing the others; instances' `motion` moves them per frame.
+    #[arg(long, conflicts_with_all = ["mesh", "animated", "mesh_sequence", "max_error"])]
+    pub scene: Option<PathBuf>,
+    /// How the other objects of a --scene shadow each one.
+    #[arg(long, value_enum, default_value_t = InterObject::Coarse)]
+    pub inter_object: InterObject,
     /// A built-in animation instead of --mesh: cloth or character.
     #[arg(long, conflicts_with = "mesh")]
     pub animated: Option<String>,
@@ -75,7 +84,7 @@ pub struct PrtArgs {
 /// the reference's rays.
 fn knobs(a: &PrtArgs) -> Result<(PrtSettings, Playback, RayTraced)> {
     let (playback, reference) = a.play.playback(a.common.seed)?;
-    FrameImages::check(a.exposure, a.albedo)?;
+    FrameImages::check(a.exposure, a.albedo, a.out_frames.as_deref())?;
     Ok((a.knobs.settings(a.play.shadows == Shadows::On)?, playback, reference))
 }
 
@@ -87,20 +96,19 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     settings.validate()?;
     // Inputs: the probe first (a bad file fails before any work).
     let env = EnvironmentMap::load(&args.env)?;
-    let scene = args.motion.scene(args.mesh.as_deref(), args.animated.as_deref())?;
-    playback.fit_clip(
-        scene.meshes[0].clip(),
-        args.play.frames.is_some(),
-        args.play.dt.is_some(),
-    )?;
+    let scene = match &args.scene {
+        Some(path) => load_scene(path)?,
+        None => args.motion.scene(args.mesh.as_deref(), args.animated.as_deref())?,
+    };
+    let (frames_given, dt_given) = (args.play.frames.is_some(), args.play.dt.is_some());
+    playback.fit_clip(scene.meshes[0].clip(), frames_given, dt_given)?;
     scene.warnings.iter().for_each(|w| super::io::note(w));
     let device = args.common.open_device()?;
     let mesh = &scene.meshes[0];
-    let triangles = &mesh.mesh.triangles;
-    let mut rest = Vec::new();
-    mesh.positions_at(playback.start, &mut rest);
+    // What is shaded: the mesh's first pose, or the scene's shaded instances.
+    let (rest, triangles) = shaded_pose(args.scene.is_some(), &scene, playback.start);
     // Camera: the animation's, else the contract's default; options override.
-    let camera = scene.camera_in(&view.camera, &used_bounds(&rest, triangles))?;
+    let camera = scene.camera_in(&view.camera, &used_bounds(&rest, &triangles))?;
     let choice = match args.max_error {
         Some(e) => {
             let files: Vec<&Path> = args.mesh.iter().map(PathBuf::as_path).collect();
@@ -114,48 +122,54 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
         }
         None => None,
     };
-    let poses = playback.poses(mesh, settings.hierarchy.poses);
-    let mut runner = PrtRunner::new_posed(&device, &poses, triangles, &settings, args.play.shadows, reference)?;
-    runner.notes().iter().for_each(|n| super::io::note(n));
     let transfer = args.per_vertex_transfer as usize * crate::sh::coefficient_count(settings.bands);
     let mut csv = args
         .per_vertex
         .as_deref()
         .map(|p| crate::vertex_out::PrtVertexCsv::create(p, transfer))
         .transpose()?;
-    let mut images = FrameImages {
-        folder: args.out_frames.as_deref(),
-        out: out_png,
-        size: (args.size.width, args.size.height),
-        albedo: args.albedo,
-        exposure: args.exposure,
-        env: &env,
-        camera,
-        written: 0,
-    };
+    let size = (args.size.width, args.size.height);
+    let files = (args.out_frames.as_deref(), out_png);
+    let mut images = FrameImages::new(files, size, args.albedo, args.exposure, &env, camera);
     let (runs, eye) = (args.common.runs.runs(1)?, Some(camera.eye));
+    let visibility = (args.play.shadows, reference);
     playback.bars = Bars::Stderr;
-    let (report, times) = animate_runs(&mut runner, (mesh, &env), eye, &playback, runs, |f, positions, out| {
+    let on_frame = |f: usize, positions: &[Vec3], out: &FrameOutput| {
         if let Some(csv) = csv.as_mut() {
             csv.frame(f, &out.radiance, args.albedo.to_array(), &out.transfer)?;
         }
-        images.frame((f, playback.frames), (positions, triangles), &out.radiance)
-    })?;
-    if let Some(w) = report.self_check.as_ref().and_then(|c| c.warning()) {
-        super::io::note(&w);
-    }
+        images.frame((f, playback.frames), (positions, &triangles), &out.radiance)
+    };
+    let (report, times, used) = match &args.scene {
+        Some(_) => {
+            let mut r = ObjectsRunner::for_scene(&device, &scene, &settings, visibility, args.inter_object)?;
+            super::io::notes(&r.notes());
+            let (report, times) = play_scene_runs(&mut r, &scene, (&env, eye), &playback, runs, on_frame)?;
+            super::io::notes(&report.warnings());
+            (super::io::merged(json!({}), &report)?, times, r.device().clone())
+        }
+        None => {
+            let poses = playback.poses(mesh, settings.hierarchy.poses);
+            let mut r = PrtRunner::new_posed(&device, &poses, &triangles, &settings, visibility.0, reference)?;
+            super::io::notes(r.notes());
+            let (report, times) = animate_runs(&mut r, (mesh, &env), eye, &playback, runs, on_frame)?;
+            super::io::notes(&report.warnings());
+            (super::io::merged(json!({}), &report)?, times, r.device().clone())
+        }
+    };
     csv.map(|c| c.finish()).transpose()?;
     if let Some(p) = &args.sh_out {
         write_sh_json(p, &env, &args.env, settings.bands, args.play.env_spin)?;
     }
-    let head = json!({ "scene": mesh.name, "images": images.written, "exposure": images.exposure, "camera": camera, "max_error": choice,
+    let name = args.scene.as_ref().map_or(mesh.name.clone(), |p| file_stem(p));
+    let head = json!({ "scene": name, "images": images.written, "exposure": images.exposure, "camera": camera, "max_error": choice,
                  "sh_out": args.sh_out, "per_vertex": args.per_vertex, "runs": times });
     let report = super::io::merged(head, &report)?;
-    super::io::merged(report, args.common.report(runner.device(), threads))
+    super::io::merged(report, args.common.report(&used, threads))
 }
 
 /// The checked `--out` (its image format too), `--sh-out`, `--per-vertex`
-/// and `--out-frames` folder, before any work; `--out`'s path.
+/// before any work; `--out`'s path.
 fn checked_outputs(args: &PrtArgs) -> Result<Option<&Path>> {
     let outputs = [
         (&args.out, "--out"),
@@ -164,13 +178,5 @@ fn checked_outputs(args: &PrtArgs) -> Result<Option<&Path>> {
     ];
     let out = check_outputs(&outputs)?[0];
     out.map(|p| ImageFormat::check(p, "--out")).transpose()?;
-    if let Some(dir) = &args.out_frames
-        && !dir.is_dir()
-    {
-        return Err(Error::param(
-            "--out-frames",
-            format!("{} is not a folder", dir.display()),
-        ));
-    }
     Ok(out)
 }

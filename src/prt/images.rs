@@ -30,9 +30,36 @@ pub struct FrameImages<'a> {
     pub written: usize,
 }
 
-impl FrameImages<'_> {
-    /// Refuses a non-positive exposure and a negative albedo.
-    pub fn check(exposure: Option<f32>, albedo: Vec3) -> Result<()> {
+impl<'a> FrameImages<'a> {
+    /// Nothing written yet; `exposure` None: the first frame drawn sets it.
+    pub fn new(
+        (folder, out): (Option<&'a Path>, Option<&'a Path>),
+        size: (u32, u32),
+        albedo: Vec3,
+        exposure: Option<f32>,
+        env: &'a EnvironmentMap,
+        camera: Camera,
+    ) -> FrameImages<'a> {
+        FrameImages {
+            folder,
+            out,
+            size,
+            albedo,
+            exposure,
+            env,
+            camera,
+            written: 0,
+        }
+    }
+
+    /// Refuses a non-positive exposure, a negative albedo and a frames'
+    /// `folder` that is not one.
+    pub fn check(exposure: Option<f32>, albedo: Vec3, folder: Option<&Path>) -> Result<()> {
+        if let Some(dir) = folder
+            && !dir.is_dir()
+        {
+            return Err(Error::param("out_frames", format!("{} is not a folder", dir.display())));
+        }
         if let Some(e) = exposure
             && !(e.is_finite() && e > 0.0)
         {

@@ -21,7 +21,11 @@
 //! * `selfcheck` — the ray-traced error estimate made at setup
 //! * `gpu` — the WGSL passes
 //! * `runner` — per-frame transfer of a deforming mesh on any device, with checks
+//! * `blockers` — other objects' coarse levels as blockers (section 4.1)
+//! * `objects` — several independently moving objects: transfer and whole-scene checks
+//! * `scene_play` — a scene of objects played frame by frame, with its report
 
+pub mod blockers;
 pub mod budget;
 pub mod clip;
 pub mod clusters;
@@ -32,6 +36,7 @@ pub mod images;
 pub mod level;
 pub mod lut;
 pub mod mask;
+pub mod objects;
 pub mod options;
 pub mod pipeline;
 pub mod proxy;
@@ -40,6 +45,7 @@ pub mod raster;
 pub mod reference;
 pub mod render;
 pub mod runner;
+pub mod scene_play;
 pub mod selfcheck;
 pub mod sh_out;
 pub mod sides;

@@ -20,6 +20,7 @@ use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
 use super::Csr;
+use super::blockers::{OtherStats, Receiver, SceneBlockers};
 use super::hierarchy::{Hierarchy, HierarchySettings};
 use super::lut::PlaneLut;
 use super::mask::MaskGrid;
@@ -30,6 +31,11 @@ use crate::device::elapsed_ms;
 use crate::error::{Error, Result};
 use crate::scene::{ORIGIN_OFFSET, used_bounds, vertex_normals};
 use crate::sh::{MAX_BANDS, ShRotation, coefficient_count, tangent_frame};
+
+/// Per-vertex counters of a frame: vertices, without normal, candidates,
+/// group-culled, below, back-facing, edge-on, drawn, the four phase times,
+/// then other objects' blockers (`OtherStats` in field order).
+const COUNTERS: usize = 19;
 
 /// On, off, or decided from the mesh.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -136,6 +142,8 @@ pub struct FrameStats {
     /// Nanoseconds in transform, rasterisation, integration, other (summed
     /// over threads; only with profiling on).
     pub phase_ns: [u64; 4],
+    /// Other objects' blockers (`blockers`; zero for a lone mesh).
+    pub others: OtherStats,
 }
 
 impl std::ops::AddAssign<&FrameStats> for FrameStats {
@@ -151,6 +159,7 @@ impl std::ops::AddAssign<&FrameStats> for FrameStats {
         for (sum, ns) in self.phase_ns.iter_mut().zip(s.phase_ns) {
             *sum += ns;
         }
+        self.others += &s.others;
     }
 }
 
@@ -276,6 +285,8 @@ struct FrameShared<'a> {
     profile: bool,
     /// Integrate, rotate and shade (false: masks only, for the GPU kernel).
     integrate: bool,
+    /// Other objects' blockers and the receiving object's id.
+    others: Option<Receiver<'a>>,
 }
 
 impl Prt {
@@ -424,6 +435,20 @@ impl Prt {
         keep_masks: bool,
         out: &mut FrameOutput,
     ) -> Result<()> {
+        self.frame_with(positions, eye, lighting, (profile, keep_masks), None, out)
+    }
+
+    /// `frame` of object `id` of a scene, other objects' `blockers`
+    /// rasterised into its masks too (`blockers`); `(profile, keep_masks)`.
+    pub fn frame_with(
+        &self,
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        lighting: &[f32],
+        (profile, keep_masks): (bool, bool),
+        others: Option<(&SceneBlockers, usize)>,
+        out: &mut FrameOutput,
+    ) -> Result<()> {
         if lighting.len() != 3 * self.coeffs() {
             return Err(Error::input("lighting", format!("needs {} values", 3 * self.coeffs())));
         }
@@ -432,7 +457,7 @@ impl Prt {
             keep_masks,
             integrate: true,
         };
-        self.run_frame(positions, eye, lighting, work, out)
+        self.run_frame(positions, eye, lighting, work, others, out)
     }
 
     /// The CPU half of a GPU frame: normals and visibility masks only
@@ -445,12 +470,24 @@ impl Prt {
         profile: bool,
         out: &mut FrameOutput,
     ) -> Result<()> {
+        self.frame_masks_with(positions, eye, profile, None, out)
+    }
+
+    /// `frame_masks` of object `id` of a scene, with other objects' `blockers`.
+    pub fn frame_masks_with(
+        &self,
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        profile: bool,
+        others: Option<(&SceneBlockers, usize)>,
+        out: &mut FrameOutput,
+    ) -> Result<()> {
         let work = FrameWork {
             profile,
             keep_masks: true,
             integrate: false,
         };
-        self.run_frame(positions, eye, &[], work, out)
+        self.run_frame(positions, eye, &[], work, others, out)
     }
 
     fn run_frame(
@@ -459,6 +496,7 @@ impl Prt {
         eye: Option<Vec3>,
         lighting: &[f32],
         work: FrameWork,
+        others: Option<(&SceneBlockers, usize)>,
         out: &mut FrameOutput,
     ) -> Result<()> {
         if positions.len() != self.vertex_count {
@@ -475,9 +513,9 @@ impl Prt {
             return Err(Error::input(format!("vertex {}", i + 1), "has a non-finite coordinate"));
         }
         match self.grid.words {
-            4 => self.frame_impl::<4>(positions, eye, lighting, work, out),
-            16 => self.frame_impl::<16>(positions, eye, lighting, work, out),
-            64 => self.frame_impl::<64>(positions, eye, lighting, work, out),
+            4 => self.frame_impl::<4>(positions, eye, lighting, work, others, out),
+            16 => self.frame_impl::<16>(positions, eye, lighting, work, others, out),
+            64 => self.frame_impl::<64>(positions, eye, lighting, work, others, out),
             w => return Err(Error::internal(format!("no rasteriser for {w} mask words"))),
         }
         Ok(())
@@ -489,6 +527,7 @@ impl Prt {
         eye: Option<Vec3>,
         lighting: &[f32],
         work: FrameWork,
+        others: Option<(&SceneBlockers, usize)>,
         out: &mut FrameOutput,
     ) {
         let FrameWork {
@@ -515,6 +554,11 @@ impl Prt {
             far_xyz: Default::default(),
             profile,
             integrate,
+            others: others.filter(|(b, _)| !b.is_empty()).map(|(blockers, id)| Receiver {
+                blockers,
+                id,
+                pixel: 1.0 / self.grid.side as f32,
+            }),
         };
         if self.pvs.is_none() {
             if self.settings.group_culling {
@@ -524,7 +568,7 @@ impl Prt {
                 a.extend(h.group_verts.iter().map(|&v| positions[v as usize][axis]));
             }
         }
-        let counters: [AtomicU64; 12] = Default::default();
+        let counters: [AtomicU64; COUNTERS] = std::array::from_fn(|_| AtomicU64::new(0));
         let setup_ns = other_start.elapsed().as_nanos() as u64;
 
         const CHUNK: usize = 16;
@@ -542,7 +586,7 @@ impl Prt {
             .for_each(|(chunk, ((transfer, radiance), masks))| {
                 SCRATCH.with(|s| {
                     let scratch = &mut *s.borrow_mut();
-                    let mut local = [0u64; 12];
+                    let mut local = [0u64; COUNTERS];
                     let first = chunk * CHUNK;
                     #[cfg(target_arch = "x86_64")]
                     if self.avx2 {
@@ -571,6 +615,15 @@ impl Prt {
             edge_on: c[6],
             drawn: c[7],
             phase_ns: [c[8], c[9], c[10], c[11] + setup_ns],
+            others: OtherStats {
+                candidates: c[12],
+                object_culled: c[13],
+                group_culled: c[14],
+                refined: c[15],
+                refined_fine: c[16],
+                below_horizon: c[17],
+                gathered: c[18],
+            },
         };
     }
 
@@ -585,7 +638,7 @@ impl Prt {
         transfer: &mut [f32],
         radiance: &mut [[f32; 3]],
         masks: Option<&mut [u64]>,
-        counts: &mut [u64; 12],
+        counts: &mut [u64; COUNTERS],
     ) {
         self.chunk::<W>(first, shared, scratch, transfer, radiance, masks, counts)
     }
@@ -601,7 +654,7 @@ impl Prt {
         transfer: &mut [f32],
         radiance: &mut [[f32; 3]],
         mut masks: Option<&mut [u64]>,
-        counts: &mut [u64; 12],
+        counts: &mut [u64; COUNTERS],
     ) {
         let n = self.coeffs();
         scratch.tris.reserve(self.own.max_candidates);
@@ -625,7 +678,7 @@ impl Prt {
         scratch: &mut Scratch,
         transfer: &mut [f32],
         mask: &mut [u64; W],
-        counts: &mut [u64; 12],
+        counts: &mut [u64; COUNTERS],
     ) -> [f32; 3] {
         let normal = shared.normals[v];
         if normal == Vec3::ZERO {
@@ -642,6 +695,24 @@ impl Prt {
         scratch.tris.clear();
         if self.settings.shadows {
             self.gather(v, shared, normal, frame, origin, scratch, counts);
+        }
+        if let Some(r) = &shared.others {
+            let mut o = OtherStats::default();
+            let inv = 1.0 / self.scale;
+            r.blockers.gather(
+                r,
+                origin,
+                normal,
+                frame,
+                inv,
+                &mut scratch.local,
+                &mut scratch.tris,
+                &mut o,
+            );
+            let c = [o.candidates, o.object_culled, o.group_culled, o.refined, o.refined_fine];
+            for (k, n) in c.into_iter().chain([o.below_horizon, o.gathered]).enumerate() {
+                counts[12 + k] += n;
+            }
         }
         let t1 = clock(shared.profile);
         let nt = scratch.tris.len();
@@ -714,7 +785,7 @@ impl Prt {
         frame: Mat3,
         origin: Vec3,
         scratch: &mut Scratch,
-        counts: &mut [u64; 12],
+        counts: &mut [u64; COUNTERS],
     ) {
         let h = &self.hierarchy;
         let inv = 1.0 / self.scale;
@@ -790,7 +861,16 @@ impl Prt {
 /// world-to-local matrix (already scaled), relative to `origin`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn to_local(xs: &[f32], ys: &[f32], zs: &[f32], origin: Vec3, rt: Vec3, rb: Vec3, rn: Vec3, local: &mut [Vec<f32>; 3]) {
+pub(super) fn to_local(
+    xs: &[f32],
+    ys: &[f32],
+    zs: &[f32],
+    origin: Vec3,
+    rt: Vec3,
+    rb: Vec3,
+    rn: Vec3,
+    local: &mut [Vec<f32>; 3],
+) {
     let m = xs.len().min(ys.len()).min(zs.len());
     for a in local.iter_mut() {
         if a.len() < m {
@@ -810,7 +890,7 @@ fn to_local(xs: &[f32], ys: &[f32], zs: &[f32], origin: Vec3, rt: Vec3, rb: Vec3
 /// Writes a blocker (local vertex indices `l`) into the batch and keeps it
 /// if any vertex is above the horizon. Returns whether it was kept.
 #[inline(always)]
-fn emit(local: &[Vec<f32>; 3], l: [u16; 3], tris: &mut TriangleBatch) -> bool {
+pub(super) fn emit(local: &[Vec<f32>; 3], l: [u16; 3], tris: &mut TriangleBatch) -> bool {
     let [lx, ly, lz] = local;
     let p = |k: usize| Vec3::new(lx[l[k] as usize], ly[l[k] as usize], lz[l[k] as usize]);
     let t = [p(0), p(1), p(2)];

@@ -10,6 +10,7 @@ use std::time::Instant;
 use glam::{DMat3, Vec3};
 use serde::Serialize;
 
+use super::blockers::SceneBlockers;
 use super::gpu::{FrameInputs, GpuTransfer, MAX_GPU_BANDS};
 use super::hierarchy::NearField;
 use super::pipeline::{FrameOutput, FrameStats, Prt, PrtSettings};
@@ -159,6 +160,21 @@ impl PrtRunner {
         profile: bool,
         out: &mut FrameOutput,
     ) -> Result<Option<f64>> {
+        self.frame_with(positions, eye, lighting, profile, None, out)
+    }
+
+    /// `frame` of object `id` of a scene, with the other objects'
+    /// `blockers` in its masks (`blockers`; on a GPU too: the masks are
+    /// the CPU's). Ray-traced shadows here are the mesh's own.
+    pub fn frame_with(
+        &mut self,
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        lighting: &[f32],
+        profile: bool,
+        others: Option<(&SceneBlockers, usize)>,
+        out: &mut FrameOutput,
+    ) -> Result<Option<f64>> {
         let prt = &self.prt;
         match (self.shadows, &mut self.gpu) {
             (Shadows::Raytraced, _) => {
@@ -173,7 +189,7 @@ impl PrtRunner {
                 Ok(None)
             }
             (_, OnDevice::Gpu { ctx, state }) => {
-                prt.frame_masks(positions, eye, profile, out)?;
+                prt.frame_masks_with(positions, eye, profile, others, out)?;
                 let inputs = FrameInputs {
                     masks: &out.masks,
                     positions,
@@ -187,7 +203,7 @@ impl PrtRunner {
                 Ok(g.kernel_ms)
             }
             (_, OnDevice::Cpu) => {
-                prt.frame(positions, eye, lighting, profile, false, out)?;
+                prt.frame_with(positions, eye, lighting, (profile, false), others, out)?;
                 Ok(None)
             }
         }
@@ -321,12 +337,12 @@ impl Playback {
         self.validate()
     }
 
-    fn time(&self, frame: usize) -> f32 {
+    pub(crate) fn time(&self, frame: usize) -> f32 {
         self.start + frame as f32 * self.dt
     }
 
     /// The frames checked against ray tracing.
-    fn checked(&self) -> Vec<usize> {
+    pub(crate) fn checked(&self) -> Vec<usize> {
         self.spread(self.check_frames)
     }
 
@@ -347,7 +363,7 @@ impl Playback {
         poses
     }
 
-    fn spread(&self, k: usize) -> Vec<usize> {
+    pub(crate) fn spread(&self, k: usize) -> Vec<usize> {
         let k = k.min(self.frames);
         (0..k)
             .map(|i| if k == 1 { 0 } else { i * (self.frames - 1) / (k - 1) })
@@ -473,7 +489,7 @@ pub fn animate(
     .with_frames(phases, mesh))
 }
 
-fn ms_between(a: Instant, b: Instant) -> f64 {
+pub(crate) fn ms_between(a: Instant, b: Instant) -> f64 {
     (b - a).as_secs_f64() * 1e3
 }
 
@@ -823,6 +839,11 @@ impl PrtReport {
             animation: mesh.animation.as_ref().map(|a| a.source()),
             ..self
         }
+    }
+
+    /// The self-check's warning, if it has one.
+    pub fn warnings(&self) -> Vec<String> {
+        self.self_check.iter().flat_map(|c| c.warning()).collect()
     }
 
     /// With what was decided and measured before the first frame.

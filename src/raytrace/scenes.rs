@@ -490,13 +490,14 @@ pub fn write_scenes(dir: &Path) -> Result<Vec<PathBuf>> {
 }
 
 /// Every asset `penumbra gen-assets` writes under `out`: the procedural
-/// scenes (OBJ), the ray tracer's scenes (`raytrace/`) and the example
-/// animations (`animations/`).
+/// scenes (OBJ), the ray tracer's scenes (`raytrace/`), the example
+/// animations (`animations/`) and the chess-like scene (`chess/`, `scenes/chess.json`).
 pub fn write_every_asset(out: &Path) -> Result<Vec<std::path::PathBuf>> {
     let mut written = crate::scene::procedural::write_assets(out)?;
     written.extend(write_scenes(&out.join("raytrace"))?);
     written.extend(crate::scene::animation_assets::write_animation_assets(
         &out.join("animations"),
     )?);
+    written.extend(crate::scene::chess::write_chess(out)?);
     Ok(written)
 }

@@ -13,6 +13,7 @@ pub mod animated;
 pub mod animation_assets;
 mod camera;
 mod camera_path;
+pub mod chess;
 pub mod deform;
 pub mod environment;
 pub mod frame;
