@@ -2,9 +2,9 @@
 // `ssao_points` (sphere, hemisphere, importance, tangent-sphere: weighted
 // point samples in the tangent frame), `ssao_march` (ray marching, section
 // 3.2) and `ssao_disk` (pipes through the base disk, section 4.5, with the
-// analytic line integral for mu = (r/R)^4). One invocation per pixel;
-// writes `ao` (not clamped), 1 on background and zero-normal pixels.
-// Composed after ssao_common.wgsl.
+// analytic line integral for mu = (r/R)^4). One invocation per cell of the
+// estimation grid (ssao_common.wgsl); writes `ao` (not clamped), 1 on
+// background and zero-normal pixels. Composed after ssao_common.wgsl.
 
 // Copies the geometry texture's depth into `depth` (twin: the G-buffer's
 // z values; see ssao_common.wgsl).
@@ -16,55 +16,73 @@ fn ssao_pack_depth(@builtin(global_invocation_id) gid: vec3<u32>) {
     depth[pixel_index(gid)] = texel(gid.x, gid.y).w;
 }
 
+// estimators::HomogeneousFrame: the shaded point and its tangent frame
+// scaled by R, mapped by `homogeneous`: sample q is at
+// s + t q.x + b q.y + n q.z.
+struct HomogeneousFrame {
+    s: vec3<f32>,
+    t: vec3<f32>,
+    b: vec3<f32>,
+    n: vec3<f32>,
+}
+
+fn homogeneous_frame(sp: Shaded) -> HomogeneousFrame {
+    let f = frame_basis(sp.n);
+    var h: HomogeneousFrame;
+    h.s = homogeneous(sp.s);
+    h.t = homogeneous(params.radius * f[0]);
+    h.b = homogeneous(params.radius * f[1]);
+    h.n = homogeneous(params.radius * sp.n);
+    return h;
+}
+
 @compute @workgroup_size(8, 8)
 fn ssao_points(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if (!in_image(gid)) {
+    if (!in_grid(gid)) {
         return;
     }
-    let sp = shaded_point(gid.x, gid.y);
+    let sp = shaded_point(gid.x * params.scale, gid.y * params.scale);
     if (!sp.ok) {
-        ao[pixel_index(gid)] = 1.0;
+        ao[grid_index(gid)] = 1.0;
         return;
     }
-    let f = frame_basis(sp.n);
+    let h = homogeneous_frame(sp);
     let base = set_base(gid.x, gid.y);
     var sum = 0.0;
     for (var j = 0u; j < params.samples; j = j + 1u) {
         let q = table[base + j];
-        let p = sp.s + params.radius * (f[0] * q.x + f[1] * q.y + sp.n * q.z);
-        if (!occluded(p)) {
+        if (!occluded_homogeneous(h.s + h.t * q.x + h.b * q.y + h.n * q.z)) {
             sum = sum + q.w;
         }
     }
-    ao[pixel_index(gid)] = sum;
+    ao[grid_index(gid)] = sum;
 }
 
 @compute @workgroup_size(8, 8)
 fn ssao_march(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if (!in_image(gid)) {
+    if (!in_grid(gid)) {
         return;
     }
-    let sp = shaded_point(gid.x, gid.y);
+    let sp = shaded_point(gid.x * params.scale, gid.y * params.scale);
     if (!sp.ok) {
-        ao[pixel_index(gid)] = 1.0;
+        ao[grid_index(gid)] = 1.0;
         return;
     }
-    let f = frame_basis(sp.n);
+    let h = homogeneous_frame(sp);
     let base = set_base(gid.x, gid.y);
     var sum = 0.0;
     for (var ray = 0u; ray < params.rays; ray = ray + 1u) {
         var value = params.open_weight;
         for (var k = 0u; k < params.steps; k = k + 1u) {
             let q = table[base + ray * params.steps + k];
-            let p = sp.s + params.radius * (f[0] * q.x + f[1] * q.y + sp.n * q.z);
-            if (occluded(p)) {
+            if (occluded_homogeneous(h.s + h.t * q.x + h.b * q.y + h.n * q.z)) {
                 value = q.w;
                 break;
             }
         }
         sum = sum + value;
     }
-    ao[pixel_index(gid)] = sum;
+    ao[grid_index(gid)] = sum;
 }
 
 // estimators::pipe_integral: 4 [a (t1 - t0) + N.z (t1^2 - t0^2) / 2]
@@ -75,12 +93,12 @@ fn pipe_integral(a: f32, nz: f32, t0: f32, t1: f32) -> f32 {
 
 @compute @workgroup_size(8, 8)
 fn ssao_disk(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if (!in_image(gid)) {
+    if (!in_grid(gid)) {
         return;
     }
-    let sp = shaded_point(gid.x, gid.y);
+    let sp = shaded_point(gid.x * params.scale, gid.y * params.scale);
     if (!sp.ok) {
-        ao[pixel_index(gid)] = 1.0;
+        ao[grid_index(gid)] = 1.0;
         return;
     }
     let n = sp.n;
@@ -124,5 +142,5 @@ fn ssao_disk(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (params.calibrate != 0u) {
         result = select(1.0, sum / open, open > 0.0);
     }
-    ao[pixel_index(gid)] = result;
+    ao[grid_index(gid)] = result;
 }
