@@ -77,44 +77,80 @@ fn ssao_filter_ao_columns(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
 }
 
-// Each pixel of a surface averages the grid cells around it whose depth is
-// within filter_depth of its own: its cell (X, Y) = (x, y) / scale, and
-// (X + 1, Y), (X, Y + 1), (X + 1, Y + 1) where x, y are not multiples of
-// scale (the pixel lies between the cells' pixels; at scale 2 halfway, so
-// equal weights). None such: the value of the cell of the 3x3 cells around
-// (X, Y) nearest in depth (the first on a tie, rows first), 1 if none is a
-// surface. Reads the filtered grid, scratch[2n + i].
+// The AO of every pixel from the filtered grid (scale 2; twin:
+// filter::ssao_upsample, which gives the rule per pixel). One invocation
+// per grid cell (X, Y) writes its 2x2 pixels, which read cells (X, Y),
+// (X + 1, Y), (X, Y + 1), (X + 1, Y + 1): a pixel averages those of them
+// that lie on its side of it (its own cell; the next in x where x is odd,
+// in y where y is odd: halfway, so equal weights) and are within
+// filter_depth of it in depth. None such: the value of the cell of the 3x3
+// cells around (X, Y) nearest in depth (the first on a tie, rows first), 1
+// if none is a surface. Background pixels get 1. Reads the filtered grid,
+// scratch[2n + i].
 @compute @workgroup_size(8, 8)
 fn ssao_upsample(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if (!in_image(gid)) {
-        return;
-    }
-    let i = pixel_index(gid);
-    let c = depth[i];
-    if (!valid_depth(c)) {
-        ao_out[i] = 1.0;
+    if (!in_grid(gid)) {
         return;
     }
     let lo = 2u * params.lo_width * params.lo_height;
-    let x0 = gid.x / params.scale;
-    let y0 = gid.y / params.scale;
-    let x1 = select(x0, x0 + 1u, gid.x % params.scale != 0u && x0 + 1u < params.lo_width);
-    let y1 = select(y0, y0 + 1u, gid.y % params.scale != 0u && y0 + 1u < params.lo_height);
-    var sum = 0.0;
-    var count = 0u;
-    for (var y = y0; y <= y1; y = y + 1u) {
-        for (var x = x0; x <= x1; x = x + 1u) {
-            let d = grid_depth(x, y);
-            if (valid_depth(d) && abs(d - c) <= params.filter_depth) {
-                sum = sum + scratch[lo + y * params.lo_width + x];
+    let x0 = gid.x;
+    let y0 = gid.y;
+    let right = x0 + 1u < params.lo_width;
+    let below = y0 + 1u < params.lo_height;
+    let x1 = select(x0, x0 + 1u, right);
+    let y1 = select(y0, y0 + 1u, below);
+    let d = vec4<f32>(grid_depth(x0, y0), grid_depth(x1, y0), grid_depth(x0, y1), grid_depth(x1, y1));
+    let v = vec4<f32>(
+        scratch[lo + y0 * params.lo_width + x0],
+        scratch[lo + y0 * params.lo_width + x1],
+        scratch[lo + y1 * params.lo_width + x0],
+        scratch[lo + y1 * params.lo_width + x1],
+    );
+    for (var py = 0u; py < 2u; py = py + 1u) {
+        for (var px = 0u; px < 2u; px = px + 1u) {
+            let x = 2u * x0 + px;
+            let y = 2u * y0 + py;
+            if (x >= params.width || y >= params.height) {
+                continue;
+            }
+            let i = y * params.width + x;
+            let c = depth[i];
+            if (!valid_depth(c)) {
+                ao_out[i] = 1.0;
+                continue;
+            }
+            let use_x = px == 1u && right;
+            let use_y = py == 1u && below;
+            var sum = 0.0;
+            var count = 0u;
+            if (valid_depth(d.x) && abs(d.x - c) <= params.filter_depth) {
+                sum = sum + v.x;
                 count = count + 1u;
+            }
+            if (use_x && valid_depth(d.y) && abs(d.y - c) <= params.filter_depth) {
+                sum = sum + v.y;
+                count = count + 1u;
+            }
+            if (use_y && valid_depth(d.z) && abs(d.z - c) <= params.filter_depth) {
+                sum = sum + v.z;
+                count = count + 1u;
+            }
+            if (use_x && use_y && valid_depth(d.w) && abs(d.w - c) <= params.filter_depth) {
+                sum = sum + v.w;
+                count = count + 1u;
+            }
+            if (count > 0u) {
+                ao_out[i] = sum * (1.0 / f32(count));
+            } else {
+                ao_out[i] = nearest_cell(x0, y0, c, lo);
             }
         }
     }
-    if (count > 0u) {
-        ao_out[i] = sum * (1.0 / f32(count));
-        return;
-    }
+}
+
+// The value of the cell of the 3x3 around (x0, y0) nearest to depth c (see
+// ssao_upsample).
+fn nearest_cell(x0: u32, y0: u32, c: f32, lo: u32) -> f32 {
     var found = false;
     var best = 0.0;
     var value = 1.0;
@@ -128,7 +164,7 @@ fn ssao_upsample(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
         }
     }
-    ao_out[i] = value;
+    return value;
 }
 
 @compute @workgroup_size(8, 8)

@@ -157,6 +157,8 @@ pub fn ssao_filter_ao_columns(gb: &GBuffer, params: &SsaoParams, rows: &[[f32; 2
 /// lies halfway between the cells' pixels: equal weights). None near: the
 /// value of the cell among the 3x3 around (X, Y) nearest in depth (the
 /// first on a tie, rows first), 1 if none is a surface. Background: 1.
+/// (The GPU runs one invocation per cell for its 2x2 pixels, which share
+/// the four cells they read; the rule per pixel is this.)
 pub fn ssao_upsample(gb: &GBuffer, params: &SsaoParams, grid: &[f32]) -> Vec<f32> {
     let (w, s) = (params.width, params.scale);
     let (lw, lh) = (params.lo_width, params.lo_height);

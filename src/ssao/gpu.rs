@@ -591,7 +591,8 @@ impl SsaoPass {
             false => actions.push(Copy(2, to, offset, Some(4 * self.grid.0 as u64 * self.grid.1 as u64))),
         }
         if self.scale != 1 {
-            actions.push(Run(Upsample, filter, pixels));
+            // One invocation per cell, for its 2x2 pixels.
+            actions.push(Run(Upsample, filter, grid));
         }
         if self.shade {
             actions.extend([
