@@ -104,6 +104,16 @@ fn ssao_disk(@builtin(global_invocation_id) gid: vec3<u32>) {
     let n = sp.n;
     let s = sp.s;
     let base = set_base(gid.x, gid.y);
+    // Disk point (x, y) projects to (fx0 + ax x, fy0 + ay y): the disk is
+    // at the shaded depth (see `homogeneous`).
+    let hs = homogeneous(s);
+    let inv_z = 1.0 / hs.z;
+    let fx0 = hs.x * inv_z;
+    let fy0 = hs.y * inv_z;
+    let ax = homogeneous(vec3<f32>(params.radius, 0.0, 0.0)).x * inv_z;
+    let ay = homogeneous(vec3<f32>(0.0, params.radius, 0.0)).y * inv_z;
+    let inv_r = 1.0 / params.radius;
+    let inv_nz = 1.0 / n.z;
     var sum = 0.0;
     var open = 0.0;
     for (var j = 0u; j < params.samples; j = j + 1u) {
@@ -117,21 +127,21 @@ fn ssao_disk(@builtin(global_invocation_id) gid: vec3<u32>) {
         var t0 = -hw;
         var t1 = hw;
         if (n.z < 0.0) {
-            t1 = min(t1, -a / n.z);
+            t1 = min(t1, -a * inv_nz);
         } else if (n.z > 0.0) {
-            t0 = max(t0, -a / n.z);
+            t0 = max(t0, -a * inv_nz);
         } else if (a < 0.0) {
             t1 = t0;
         }
         if (t1 > t0) {
             open = open + q.w * pipe_integral(a, n.z, t0, t1);
         }
-        let c = vec3<f32>(s.x + params.radius * q.x, s.y + params.radius * q.y, s.z);
-        let px = project(c);
-        if (px.x >= 0) {
-            let d = depth[u32(px.y) * params.width + u32(px.x)];
+        let fx = fx0 + ax * q.x;
+        let fy = fy0 + ay * q.y;
+        if (fx >= 0.0 && fx < f32(params.width) && fy >= 0.0 && fy < f32(params.height)) {
+            let d = depth[u32(fy) * params.width + u32(fx)];
             if (valid_depth(d)) {
-                t1 = min(t1, (d + params.bias * d - s.z) / params.radius);
+                t1 = min(t1, (d + params.bias * d - s.z) * inv_r);
             }
         }
         if (t1 > t0) {

@@ -521,6 +521,15 @@ pub fn ssao_disk(gb: &GBuffer, params: &SsaoParams, table: &[[f32; 4]]) -> Vec<f
         let Some((s, n)) = shaded_point(gb, &sc, x, y) else {
             return 1.0;
         };
+        // Disk point (x, y) projects to (fx0 + ax x, fy0 + ay y): the disk
+        // is at the shaded depth (see `ScreenConstants::homogeneous`).
+        let hs = sc.homogeneous(s);
+        let inv_z = 1.0 / hs.z;
+        let (fx0, fy0) = (hs.x * inv_z, hs.y * inv_z);
+        let ax = sc.homogeneous(Vec3::new(params.radius, 0.0, 0.0)).x * inv_z;
+        let ay = sc.homogeneous(Vec3::new(0.0, params.radius, 0.0)).y * inv_z;
+        let (inv_r, inv_nz) = (1.0 / params.radius, 1.0 / n.z);
+        let (w, h) = (sc.width as f32, sc.height as f32);
         let (mut sum, mut open) = (0.0f32, 0.0f32);
         for q in &table[base..base + params.samples as usize] {
             let w2 = 1.0 - q[0] * q[0] - q[1] * q[1];
@@ -531,20 +540,20 @@ pub fn ssao_disk(gb: &GBuffer, params: &SsaoParams, table: &[[f32; 4]]) -> Vec<f
             let a = q[0] * n.x + q[1] * n.y;
             let (mut t0, mut t1) = (-hw, hw);
             if n.z < 0.0 {
-                t1 = t1.min(-a / n.z);
+                t1 = t1.min(-a * inv_nz);
             } else if n.z > 0.0 {
-                t0 = t0.max(-a / n.z);
+                t0 = t0.max(-a * inv_nz);
             } else if a < 0.0 {
                 t1 = t0;
             }
             if t1 > t0 {
                 open += q[3] * pipe_integral(a, n.z, t0, t1);
             }
-            let c = Vec3::new(s.x + params.radius * q[0], s.y + params.radius * q[1], s.z);
-            if let Some((px, py)) = sc.project(c) {
-                let d = gb.geometry[(py * sc.width + px) as usize][3];
+            let (fx, fy) = (fx0 + ax * q[0], fy0 + ay * q[1]);
+            if fx >= 0.0 && fx < w && fy >= 0.0 && fy < h {
+                let d = gb.geometry[(fy as u32 * sc.width + fx as u32) as usize][3];
                 if valid_depth(d) {
-                    t1 = t1.min((d + params.bias * d - s.z) / params.radius);
+                    t1 = t1.min((d + params.bias * d - s.z) * inv_r);
                 }
             }
             if t1 > t0 {
