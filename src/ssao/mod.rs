@@ -5,7 +5,8 @@
 //! A frame is: the G-buffer (`gbuffer`: camera-space normal and depth,
 //! radiance, albedo), one of the paper's estimators of the ambient
 //! occlusion O (`estimators`, over per-pixel sample sets from `interleave`),
-//! optionally the depth-aware 4x4 low-pass filter of section 5 (`filter`),
+//! optionally the depth-aware 4x4 low-pass filter of section 5 (`filter`;
+//! estimator and AO filter at full or half resolution, then upsampled),
 //! and optionally the indirect term I = L~ (1 - O) and the shaded image
 //! (`indirect`). Every step is a WGSL kernel (`gpu`) with a CPU twin of the
 //! same name and data layout. `truth` gives what the estimators are
