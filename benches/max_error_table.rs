@@ -115,6 +115,7 @@ fn ssao_request(radius: f32, seed: u32) -> SsaoRequest {
         filter_depth: None,
         bias_px: penumbra::ssao::DEFAULT_BIAS_PX,
         calibrate: true,
+        resolution: penumbra::ssao::Resolution::Full,
         seed,
     };
     SsaoRequest {

@@ -75,6 +75,7 @@ fn every_estimator_and_knob_runs() {
             "--estimator hemisphere --measure exp --sigma 4",
             "--estimator raymarch --steps 2 --measure exp",
             "--estimator sphere --calibrate off --bias 0 --filter-depth 0.1",
+            "--estimator base-disk --resolution half",
         ] {
             let r = pen(
                 &format!(
@@ -85,6 +86,8 @@ fn every_estimator_and_knob_runs() {
             );
             let j = r.ok().json();
             assert!(j["rmse_vs_raytraced"].is_null() && j["rmse_vs_screen_reference"].is_null());
+            let half = knobs.contains("--resolution half");
+            assert_eq!(j["resolution"], if half { "half" } else { "full" });
         }
     }
 }
@@ -258,23 +261,30 @@ fn only_the_kernels_and_truths_used_are_built() {
     if !gpu_available() {
         return;
     }
-    for (filter, estimator, compiled) in [
+    for (options, compiled) in [
         (
-            "on",
-            "importance",
+            "--filter on --estimator importance",
             vec![
                 "ssao_estimate.ssao_pack_depth",
                 "ssao_estimate.ssao_points",
-                "ssao_filter.ssao_filter_ao",
+                "ssao_filter.ssao_filter_ao_rows",
+                "ssao_filter.ssao_filter_ao_columns",
             ],
         ),
         (
-            "off",
-            "raymarch",
+            "--filter off --estimator raymarch",
             vec!["ssao_estimate.ssao_pack_depth", "ssao_estimate.ssao_march"],
         ),
+        (
+            "--filter off --estimator base-disk --resolution half",
+            vec![
+                "ssao_estimate.ssao_pack_depth",
+                "ssao_estimate.ssao_disk",
+                "ssao_filter.ssao_upsample",
+            ],
+        ),
     ] {
-        let args = format!("{lean} --filter {filter} --estimator {estimator} --device gpu --json");
+        let args = format!("{lean} {options} --device gpu --json");
         let gpu = pen(&args, &vars).ok().json();
         let names: Vec<&str> = gpu["pipelines"]["compiled"]
             .as_array()
@@ -282,13 +292,10 @@ fn only_the_kernels_and_truths_used_are_built() {
             .iter()
             .map(|c| c["name"].as_str().unwrap())
             .collect();
-        println!(
-            "filter {filter} {estimator}: compiled {names:?}, skipped {}",
-            gpu["pipelines"]["skipped"]
-        );
+        println!("{options}: compiled {names:?}, skipped {}", gpu["pipelines"]["skipped"]);
         assert_eq!(names, compiled);
         let skipped = gpu["pipelines"]["skipped"].as_array().unwrap();
-        assert_eq!(names.len() + skipped.len(), 8, "every SSAO kernel is listed once");
+        assert_eq!(names.len() + skipped.len(), 10, "every SSAO kernel is listed once");
         assert!(skipped.iter().any(|s| s == "ssao_indirect.ssao_compose"));
         assert!(gpu["pipelines"]["compile_ms"].as_f64().unwrap() > 0.0);
         assert_eq!(gpu["build_ms"], 0.0);

@@ -9,7 +9,8 @@
 //!   pixel (a 3x3 neighbour differs from it in the CPU G-buffer by the same
 //!   thresholds, or is background).
 //! * Kernels: every pixel within 1e-4 of the CPU twin (AO before and after
-//!   the filter, L~, the image), given the same G-buffer and sample table.
+//!   the filter, at full and half resolution, L~, the image), given the
+//!   same G-buffer and sample table.
 
 mod common;
 
@@ -23,7 +24,7 @@ use penumbra::scene::{Camera, Mesh, load_obj};
 use penumbra::ssao::gbuffer::{GBuffer, ScreenView, gbuffer};
 use penumbra::ssao::gpu::{GBufferSource, run_frame};
 use penumbra::ssao::truth::{raytraced, screen_reference};
-use penumbra::ssao::{Estimator, Measure, ShadeSettings, SsaoSettings, rmse, run_cpu};
+use penumbra::ssao::{Estimator, Measure, Resolution, ShadeSettings, SsaoSettings, rmse, run_cpu};
 
 const W: u32 = 160;
 const H: u32 = 120;
@@ -150,10 +151,17 @@ fn flat(v: &[[f32; 4]]) -> Vec<f32> {
 fn compare_kernels(ctx: &GpuContext, name: &str, gb: &GBuffer, view: &ScreenView, radius: f32) {
     let shade = ShadeSettings::default();
     for estimator in Estimator::ALL {
-        for (interleave, filter) in [(true, true), (false, false)] {
+        let (full, half) = (Resolution::Full, Resolution::Half);
+        for (interleave, filter, resolution) in [
+            (true, true, full),
+            (false, false, full),
+            (true, true, half),
+            (true, false, half),
+        ] {
             let mut s = SsaoSettings::new(estimator, 16, radius);
             s.interleave = interleave;
             s.filter = filter;
+            s.resolution = resolution;
             let cpu = run_cpu(gb, view, &s, Some(&shade)).unwrap();
             let g = run_frame(ctx, GBufferSource::Upload(gb), view, &s, Some(&shade), 1).unwrap();
             assert_eq!(&g.gbuffer, gb, "the uploaded G-buffer reads back unchanged");
@@ -173,7 +181,11 @@ fn compare_kernels(ctx: &GpuContext, name: &str, gb: &GBuffer, view: &ScreenView
                     max_diff(&flat(cpu.image.as_ref().unwrap()), &flat(gpu.image.as_ref().unwrap())),
                 ),
             ];
-            let label = format!("{name} {} interleave={interleave} filter={filter}", estimator.name());
+            let label = format!(
+                "{name} {} interleave={interleave} filter={filter} resolution={}",
+                estimator.name(),
+                resolution.name()
+            );
             println!("{label}: worst |gpu - cpu| {checks:?}");
             for (what, (d, at)) in checks {
                 assert!(d <= 1e-4, "{label}: {what} differs by {d} at element {at}");
@@ -195,6 +207,17 @@ fn ssao_kernels_equal_their_cpu_twins() {
         let view = ScreenView::new(&camera, W, H);
         compare_kernels(&ctx, "kitchen inside", &cpu_gbuffer(&mesh, &camera, W, H), &view, 0.3);
     }
+    // Odd sizes: the half-resolution grid's last column and row have no
+    // right or lower neighbour.
+    let (w, h) = (W + 1, H - 1);
+    let view = ScreenView::new(&camera, w, h);
+    compare_kernels(
+        &ctx,
+        "sphere-on-plane odd",
+        &cpu_gbuffer(&mesh, &camera, w, h),
+        &view,
+        0.5,
+    );
 }
 
 /// Runs every estimator on the CPU (and GPU when there is one) and hands
@@ -202,11 +225,17 @@ fn ssao_kernels_equal_their_cpu_twins() {
 fn each_estimator(gb: &GBuffer, view: &ScreenView, radius: f32, check: impl Fn(&str, &[f32])) {
     let ctx = gpu();
     for estimator in Estimator::ALL {
-        for (interleave, filter) in [(true, true), (false, false)] {
+        let (full, half) = (Resolution::Full, Resolution::Half);
+        for (interleave, filter, resolution) in [(true, true, full), (false, false, full), (true, true, half)] {
             let mut s = SsaoSettings::new(estimator, 8, radius);
             s.interleave = interleave;
             s.filter = filter;
-            let label = format!("{} interleave={interleave} filter={filter}", estimator.name());
+            s.resolution = resolution;
+            let label = format!(
+                "{} interleave={interleave} filter={filter} resolution={}",
+                estimator.name(),
+                resolution.name()
+            );
             let cpu = run_cpu(gb, view, &s, Some(&ShadeSettings::default())).unwrap();
             for v in cpu.image.as_ref().unwrap().iter().flatten() {
                 assert!(v.is_finite(), "{label}: non-finite image value on the CPU");

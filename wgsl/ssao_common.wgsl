@@ -5,12 +5,20 @@
 // group(0): the G-buffer textures of gbuffer.wgsl (geometry = camera-space
 //           normal and z, shade = radiance and packed albedo).
 // group(1): params; table (the sample sets, (q.xyz, w) per entry, set k at
-//           k * samples); ao (estimator output), ao_out (filtered);
+//           k * samples); ao (estimator output, on the estimation grid),
+//           ao_out (filtered, full resolution);
 //           indirect (L~ rgb, pixels averaged), indirect_out (filtered);
 //           image (linear rgba); depth (the geometry texture's z as a
 //           tight array, written by `ssao_pack_depth`: buffer loads are
 //           much cheaper than texel fetches on a software rasteriser, and
-//           every sample reads one).
+//           every sample reads one); scratch (the filter's row sums and
+//           counts, then at half resolution the filtered grid: see
+//           ssao_filter.wgsl).
+//
+// The estimator and the AO filter run on the estimation grid: every
+// `scale`-th pixel in x and y (lo_width x lo_height cells; scale 1 = every
+// pixel, 2 = half resolution, upsampled by `ssao_upsample`). Cell (X, Y)
+// shades pixel (scale X, scale Y) and takes sample set pattern_index(X, Y).
 
 struct SsaoParams {
     width: u32,
@@ -34,9 +42,9 @@ struct SsaoParams {
     px_x: f32,
     px_y: f32,
     open_weight: f32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    lo_width: u32,
+    lo_height: u32,
+    scale: u32,
 }
 
 @group(0) @binding(0) var geometry: texture_2d<f32>;
@@ -50,6 +58,7 @@ struct SsaoParams {
 @group(1) @binding(5) var<storage, read_write> indirect_out: array<vec4<f32>>;
 @group(1) @binding(6) var<storage, read_write> image: array<vec4<f32>>;
 @group(1) @binding(7) var<storage, read_write> depth: array<f32>;
+@group(1) @binding(8) var<storage, read_write> scratch: array<f32>;
 
 // gbuffer::valid_depth: 0 < d <= 3e38 (0, NaN, infinity and huge
 // far-plane values are background).
@@ -83,14 +92,30 @@ fn project(p: vec3<f32>) -> vec2<i32> {
     return vec2<i32>(-1, -1);
 }
 
-// estimators::occluded
-fn occluded(p: vec3<f32>) -> bool {
-    let q = project(p);
-    if (q.x < 0) {
+// ScreenConstants::homogeneous: (fx z, fy z, z) for camera-space p, where
+// (fx, fy) is where `project` puts it; linear in p, so a pixel maps its
+// tangent frame once and each sample costs three multiply-adds per axis.
+fn homogeneous(p: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(
+        (p.x * params.inv_tan_half_x + p.z) * params.half_w,
+        (p.z - p.y * params.inv_tan_half_y) * params.half_h,
+        p.z,
+    );
+}
+
+// estimators::occluded_homogeneous: `occluded` for h = homogeneous(p).
+fn occluded_homogeneous(h: vec3<f32>) -> bool {
+    if (!(h.z > 0.0)) {
         return false;
     }
-    let d = depth[u32(q.y) * params.width + u32(q.x)];
-    return valid_depth(d) && p.z > d + params.bias * d;
+    let inv_z = 1.0 / h.z;
+    let fx = h.x * inv_z;
+    let fy = h.y * inv_z;
+    if (!(fx >= 0.0 && fx < f32(params.width) && fy >= 0.0 && fy < f32(params.height))) {
+        return false;
+    }
+    let d = depth[u32(fy) * params.width + u32(fx)];
+    return valid_depth(d) && h.z > d + params.bias * d;
 }
 
 struct Shaded {
@@ -113,6 +138,20 @@ fn shaded_point(x: u32, y: u32) -> Shaded {
 fn set_base(x: u32, y: u32) -> u32 {
     let k = (x % params.pattern) + params.pattern * (y % params.pattern);
     return k * params.samples;
+}
+
+// The estimation grid (see the top).
+fn in_grid(gid: vec3<u32>) -> bool {
+    return gid.x < params.lo_width && gid.y < params.lo_height;
+}
+
+fn grid_index(gid: vec3<u32>) -> u32 {
+    return gid.y * params.lo_width + gid.x;
+}
+
+// The depth of grid cell (x, y)'s pixel.
+fn grid_depth(x: u32, y: u32) -> f32 {
+    return depth[y * params.scale * params.width + x * params.scale];
 }
 
 fn in_image(gid: vec3<u32>) -> bool {

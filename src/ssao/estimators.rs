@@ -275,12 +275,17 @@ pub struct SsaoParams {
     pub px_x: f32,
     pub px_y: f32,
     pub open_weight: f32,
-    pub _pad: [u32; 3],
+    /// The estimation grid: every `scale`-th pixel in x and y,
+    /// lo_width x lo_height cells (`Resolution`; see `estimate_cpu`).
+    pub lo_width: u32,
+    pub lo_height: u32,
+    pub scale: u32,
 }
 
 impl SsaoParams {
     pub fn new(view: &ScreenView, s: &SsaoSettings, table: &SampleTable, shade: ShadeSettings) -> SsaoParams {
         let c = view.constants();
+        let scale = s.resolution.scale();
         SsaoParams {
             width: view.width,
             height: view.height,
@@ -303,8 +308,21 @@ impl SsaoParams {
             px_x: c.px_x,
             px_y: c.px_y,
             open_weight: table.open_weight,
-            _pad: [0; 3],
+            lo_width: view.width.div_ceil(scale),
+            lo_height: view.height.div_ceil(scale),
+            scale,
         }
+    }
+
+    /// Cells of the estimation grid.
+    pub fn cells(&self) -> usize {
+        self.lo_width as usize * self.lo_height as usize
+    }
+
+    /// Depth of grid cell (x, y)'s pixel (`grid_depth` in the WGSL).
+    #[inline]
+    pub fn grid_depth(&self, gb: &GBuffer, x: u32, y: u32) -> f32 {
+        gb.geometry[(y * self.scale * self.width + x * self.scale) as usize][3]
     }
 
     pub fn screen(&self) -> ScreenConstants {
@@ -355,7 +373,51 @@ pub fn shaded_point(gb: &GBuffer, sc: &ScreenConstants, x: u32, y: u32) -> Optio
     Some((sc.cam_point(x, y, g[3]), n))
 }
 
-/// Runs the estimator's kernel on the CPU.
+/// Whether h = `ScreenConstants::homogeneous(p)` lies behind the depth
+/// buffer: `occluded` through the homogeneous projection
+/// (`occluded_homogeneous` in the WGSL).
+#[inline]
+pub fn occluded_homogeneous(gb: &GBuffer, sc: &ScreenConstants, bias: f32, h: Vec3) -> bool {
+    match sc.project_homogeneous(h) {
+        Some((x, y)) => {
+            let d = gb.geometry[(y * sc.width + x) as usize][3];
+            valid_depth(d) && h.z > d + bias * d
+        }
+        None => false,
+    }
+}
+
+/// The shaded point s and its tangent frame scaled by R, mapped by
+/// `ScreenConstants::homogeneous`: table entry q's sample point maps to
+/// s + t q.x + b q.y + n q.z (`homogeneous_frame` in the WGSL).
+pub struct HomogeneousFrame {
+    pub s: Vec3,
+    pub t: Vec3,
+    pub b: Vec3,
+    pub n: Vec3,
+}
+
+impl HomogeneousFrame {
+    #[inline]
+    pub fn new(sc: &ScreenConstants, radius: f32, s: Vec3, n: Vec3) -> HomogeneousFrame {
+        let f = Frame::from_normal(n);
+        HomogeneousFrame {
+            s: sc.homogeneous(s),
+            t: sc.homogeneous(radius * f.t),
+            b: sc.homogeneous(radius * f.b),
+            n: sc.homogeneous(radius * n),
+        }
+    }
+
+    #[inline]
+    pub fn sample(&self, q: &[f32; 4]) -> Vec3 {
+        self.s + self.t * q[0] + self.b * q[1] + self.n * q[2]
+    }
+}
+
+/// Runs the estimator's kernel on the CPU: one value per cell of the
+/// estimation grid (`SsaoParams::lo_width` x `lo_height`; cell (X, Y)
+/// shades pixel (scale X, scale Y) with sample set pattern_index(X, Y)).
 pub fn estimate_cpu(family: Family, gb: &GBuffer, params: &SsaoParams, table: &[[f32; 4]]) -> Vec<f32> {
     match family {
         Family::Points => ssao_points(gb, params, table),
@@ -364,28 +426,31 @@ pub fn estimate_cpu(family: Family, gb: &GBuffer, params: &SsaoParams, table: &[
     }
 }
 
-fn per_pixel(gb: &GBuffer, params: &SsaoParams, f: impl Fn(u32, u32) -> f32 + Sync) -> Vec<f32> {
-    let w = params.width;
-    (0..gb.pixels() as u32)
+/// `f(x, y, base)` per grid cell: its pixel and its set's first table entry.
+fn per_cell(params: &SsaoParams, f: impl Fn(u32, u32, usize) -> f32 + Sync) -> Vec<f32> {
+    let (w, scale) = (params.lo_width, params.scale);
+    (0..params.cells() as u32)
         .into_par_iter()
         .with_min_len(64)
-        .map(|i| f(i % w, i / w))
+        .map(|i| {
+            let (cx, cy) = (i % w, i / w);
+            let base = (params.pattern_index(cx, cy) * params.samples) as usize;
+            f(cx * scale, cy * scale, base)
+        })
         .collect()
 }
 
 /// CPU twin of `ssao_points`: O = sum_j w_j v(s + R (T q.x + B q.y + N q.z)).
 pub fn ssao_points(gb: &GBuffer, params: &SsaoParams, table: &[[f32; 4]]) -> Vec<f32> {
     let sc = params.screen();
-    per_pixel(gb, params, |x, y| {
+    per_cell(params, |x, y, base| {
         let Some((s, n)) = shaded_point(gb, &sc, x, y) else {
             return 1.0;
         };
-        let f = Frame::from_normal(n);
-        let base = (params.pattern_index(x, y) * params.samples) as usize;
+        let h = HomogeneousFrame::new(&sc, params.radius, s, n);
         let mut sum = 0.0f32;
         for q in &table[base..base + params.samples as usize] {
-            let p = s + params.radius * (f.t * q[0] + f.b * q[1] + f.n * q[2]);
-            if !occluded(gb, &sc, params.bias, p) {
+            if !occluded_homogeneous(gb, &sc, params.bias, h.sample(q)) {
                 sum += q[3];
             }
         }
@@ -397,19 +462,17 @@ pub fn ssao_points(gb: &GBuffer, params: &SsaoParams, table: &[[f32; 4]]) -> Vec
 /// occluded step, 1 / N if none.
 pub fn ssao_march(gb: &GBuffer, params: &SsaoParams, table: &[[f32; 4]]) -> Vec<f32> {
     let sc = params.screen();
-    per_pixel(gb, params, |x, y| {
+    per_cell(params, |x, y, base| {
         let Some((s, n)) = shaded_point(gb, &sc, x, y) else {
             return 1.0;
         };
-        let f = Frame::from_normal(n);
-        let base = (params.pattern_index(x, y) * params.samples) as usize;
+        let h = HomogeneousFrame::new(&sc, params.radius, s, n);
         let mut sum = 0.0f32;
         for ray in 0..params.rays as usize {
             let mut value = params.open_weight;
             for k in 0..params.steps as usize {
-                let q = table[base + ray * params.steps as usize + k];
-                let p = s + params.radius * (f.t * q[0] + f.b * q[1] + f.n * q[2]);
-                if occluded(gb, &sc, params.bias, p) {
+                let q = &table[base + ray * params.steps as usize + k];
+                if occluded_homogeneous(gb, &sc, params.bias, h.sample(q)) {
                     value = q[3];
                     break;
                 }
@@ -454,11 +517,19 @@ pub fn pipe_integral(a: f32, nz: f32, t0: f32, t1: f32) -> f32 {
 /// without the depth cut (the pixel's open value).
 pub fn ssao_disk(gb: &GBuffer, params: &SsaoParams, table: &[[f32; 4]]) -> Vec<f32> {
     let sc = params.screen();
-    per_pixel(gb, params, |x, y| {
+    per_cell(params, |x, y, base| {
         let Some((s, n)) = shaded_point(gb, &sc, x, y) else {
             return 1.0;
         };
-        let base = (params.pattern_index(x, y) * params.samples) as usize;
+        // Disk point (x, y) projects to (fx0 + ax x, fy0 + ay y): the disk
+        // is at the shaded depth (see `ScreenConstants::homogeneous`).
+        let hs = sc.homogeneous(s);
+        let inv_z = 1.0 / hs.z;
+        let (fx0, fy0) = (hs.x * inv_z, hs.y * inv_z);
+        let ax = sc.homogeneous(Vec3::new(params.radius, 0.0, 0.0)).x * inv_z;
+        let ay = sc.homogeneous(Vec3::new(0.0, params.radius, 0.0)).y * inv_z;
+        let (inv_r, inv_nz) = (1.0 / params.radius, 1.0 / n.z);
+        let (w, h) = (sc.width as f32, sc.height as f32);
         let (mut sum, mut open) = (0.0f32, 0.0f32);
         for q in &table[base..base + params.samples as usize] {
             let w2 = 1.0 - q[0] * q[0] - q[1] * q[1];
@@ -469,20 +540,20 @@ pub fn ssao_disk(gb: &GBuffer, params: &SsaoParams, table: &[[f32; 4]]) -> Vec<f
             let a = q[0] * n.x + q[1] * n.y;
             let (mut t0, mut t1) = (-hw, hw);
             if n.z < 0.0 {
-                t1 = t1.min(-a / n.z);
+                t1 = t1.min(-a * inv_nz);
             } else if n.z > 0.0 {
-                t0 = t0.max(-a / n.z);
+                t0 = t0.max(-a * inv_nz);
             } else if a < 0.0 {
                 t1 = t0;
             }
             if t1 > t0 {
                 open += q[3] * pipe_integral(a, n.z, t0, t1);
             }
-            let c = Vec3::new(s.x + params.radius * q[0], s.y + params.radius * q[1], s.z);
-            if let Some((px, py)) = sc.project(c) {
-                let d = gb.geometry[(py * sc.width + px) as usize][3];
+            let (fx, fy) = (fx0 + ax * q[0], fy0 + ay * q[1]);
+            if fx >= 0.0 && fx < w && fy >= 0.0 && fy < h {
+                let d = gb.geometry[(fy as u32 * sc.width + fx as u32) as usize][3];
                 if valid_depth(d) {
-                    t1 = t1.min((d + params.bias * d - s.z) / params.radius);
+                    t1 = t1.min((d + params.bias * d - s.z) * inv_r);
                 }
             }
             if t1 > t0 {

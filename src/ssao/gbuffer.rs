@@ -112,6 +112,33 @@ impl ScreenConstants {
         let inside = fx >= 0.0 && fx < self.width as f32 && fy >= 0.0 && fy < self.height as f32;
         inside.then_some((fx as u32, fy as u32))
     }
+
+    /// (fx z, fy z, z) of camera-space p, where (fx, fy) is where `project`
+    /// puts it (before truncation; `homogeneous` in the WGSL). Linear in
+    /// p: a pixel maps its tangent frame once (`HomogeneousFrame`) and each
+    /// sample costs a multiply-add per axis and coordinate.
+    #[inline]
+    pub fn homogeneous(&self, p: Vec3) -> Vec3 {
+        Vec3::new(
+            (p.x * self.inv_tan_half_x + p.z) * self.half_w,
+            (p.z - p.y * self.inv_tan_half_y) * self.half_h,
+            p.z,
+        )
+    }
+
+    /// The pixel of h = `homogeneous(p)`, or None outside the image or
+    /// behind the camera (`occluded_homogeneous` in the WGSL).
+    #[inline]
+    pub fn project_homogeneous(&self, h: Vec3) -> Option<(u32, u32)> {
+        // NaN falls through to the bounds test, which it fails.
+        if h.z <= 0.0 {
+            return None;
+        }
+        let inv_z = 1.0 / h.z;
+        let (fx, fy) = (h.x * inv_z, h.y * inv_z);
+        let inside = fx >= 0.0 && fx < self.width as f32 && fy >= 0.0 && fy < self.height as f32;
+        inside.then_some((fx as u32, fy as u32))
+    }
 }
 
 /// A W x H G-buffer, row 0 at the top.
@@ -401,6 +428,43 @@ mod tests {
         }
         assert_eq!(sc.project(Vec3::new(0.0, 0.0, -1.0)), None);
         assert_eq!(sc.project(Vec3::new(100.0, 0.0, 1.0)), None);
+    }
+
+    #[test]
+    fn homogeneous_projection_finds_the_same_pixels() {
+        let cam = Camera {
+            eye: Vec3::ZERO,
+            target: Vec3::Z,
+            fov_degrees: 60.0,
+        };
+        let sc = ScreenView::new(&cam, 37, 23).constants();
+        // Points a quarter pixel off the centres, at several depths: the
+        // same pixel as `project`, and the map is linear.
+        for z in [0.3f32, 1.0, 7.5] {
+            for y in 0..23 {
+                for x in 0..37 {
+                    let c = sc.cam_point(x, y, z);
+                    let off = Vec3::new(
+                        0.25 * sc.px_x * sc.tan_half_x * z,
+                        -0.25 * sc.px_y * sc.tan_half_y * z,
+                        0.0,
+                    );
+                    let p = c + off;
+                    assert_eq!(sc.project_homogeneous(sc.homogeneous(p)), Some((x, y)));
+                    assert_eq!(sc.project(p), Some((x, y)));
+                    let sum = sc.homogeneous(c) + sc.homogeneous(off);
+                    assert!((sum - sc.homogeneous(p)).length() <= 1e-4 * sum.length());
+                }
+            }
+        }
+        for p in [
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::new(100.0, 0.0, 1.0),
+            Vec3::new(0.0, -100.0, 1.0),
+        ] {
+            assert_eq!(sc.project_homogeneous(sc.homogeneous(p)), None);
+        }
+        assert_eq!(sc.project_homogeneous(Vec3::splat(f32::NAN)), None);
     }
 
     #[test]

@@ -351,7 +351,9 @@ enum SsaoKernel {
     March,
     Disk,
     Indirect,
-    FilterAo,
+    FilterAoRows,
+    FilterAoColumns,
+    Upsample,
     FilterIndirect,
     Compose,
 }
@@ -367,7 +369,8 @@ impl SsaoKernel {
 }
 
 /// The SSAO io bind group: params, sample table, raw and filtered AO, raw
-/// and filtered indirect light, image, packed depth.
+/// and filtered indirect light, image, packed depth, the AO filter's
+/// scratch (see `wgsl/ssao_common.wgsl`).
 const SSAO_IO: &[Io] = &[
     Io::Uniform(0, "ssao params", std::mem::size_of::<SsaoParams>() as u64),
     Io::In(1, "ssao sample table"),
@@ -377,6 +380,7 @@ const SSAO_IO: &[Io] = &[
     Io::Out(5, "ssao indirect filtered"),
     Io::Out(6, "ssao image"),
     Io::Out(7, "ssao depth"),
+    Io::Out(8, "ssao filter scratch"),
 ];
 
 /// The layouts and pipelines of the SSAO kernels for one device.
@@ -384,7 +388,7 @@ pub struct SsaoKernels {
     pub gbuffer_layout: wgpu::BindGroupLayout,
     pub io_layout: wgpu::BindGroupLayout,
     /// By module: estimate (pack depth, points, march, disk), indirect
-    /// (indirect, compose), filter (ao, indirect).
+    /// (indirect, compose), filter (ao rows, ao columns, upsample, indirect).
     estimate: Pipelines,
     indirect: Pipelines,
     filter: Pipelines,
@@ -398,7 +402,12 @@ impl Kernels for SsaoKernels {
         let layouts = [&gbuffer_layout, &io_layout];
         let build = |module, entries: &[&'static str]| compute_pipelines(device, module, &layouts, entries, log);
         let estimate = ["ssao_pack_depth", "ssao_points", "ssao_march", "ssao_disk"];
-        let filters = ["ssao_filter_ao", "ssao_filter_indirect"];
+        let filters = [
+            "ssao_filter_ao_rows",
+            "ssao_filter_ao_columns",
+            "ssao_upsample",
+            "ssao_filter_indirect",
+        ];
         SsaoKernels {
             estimate: build(&crate::wgsl::SSAO_ESTIMATE_MODULE, &estimate),
             indirect: build(&crate::wgsl::SSAO_INDIRECT_MODULE, &["ssao_indirect", "ssao_compose"]),
@@ -420,17 +429,21 @@ impl SsaoKernels {
             Disk => self.estimate.get(3),
             Indirect => self.indirect.get(0),
             Compose => self.indirect.get(1),
-            FilterAo => self.filter.get(0),
-            FilterIndirect => self.filter.get(1),
+            FilterAoRows => self.filter.get(0),
+            FilterAoColumns => self.filter.get(1),
+            Upsample => self.filter.get(2),
+            FilterIndirect => self.filter.get(3),
         }
     }
 }
 
 /// What `SsaoPass::record` records, in order.
 enum Action {
-    Run(SsaoKernel, SsaoStep),
-    /// Binding to binding (a filter turned off).
-    Copy(u32, u32),
+    /// A kernel over every pixel (true) or the estimation grid.
+    Run(SsaoKernel, SsaoStep, bool),
+    /// Binding to binding at a byte offset, that many bytes or all (a
+    /// filter turned off).
+    Copy(u32, u32, u64, Option<u64>),
 }
 
 /// A step of a frame, as timings split it.
@@ -451,6 +464,9 @@ pub struct SsaoPass {
     kernels: Arc<SsaoKernels>,
     io: KeptGroup,
     size: (u32, u32),
+    /// The estimation grid (`SsaoParams::lo_width`, `lo_height`) and its scale.
+    grid: (u32, u32),
+    scale: u32,
     family: Family,
     filter: bool,
     shade: bool,
@@ -464,6 +480,8 @@ impl Pass for SsaoPass {
             kernels,
             io: KeptGroup::for_io(device, "ssao io", SSAO_IO),
             size: (0, 0),
+            grid: (0, 0),
+            scale: 1,
             family: Family::Points,
             filter: false,
             shade: false,
@@ -495,21 +513,25 @@ impl SsaoPass {
         let table = SampleTable::build(settings)?;
         let params = SsaoParams::new(view, settings, &table, shade.copied().unwrap_or_default());
         let rgba = if shade.is_some() { pixels * 16 } else { 16 };
+        let cells = params.cells() as u64;
         let io = &mut self.io;
         io.write(device, queue, 0, bytemuck::bytes_of(&params))?;
         io.write(device, queue, 1, bytemuck::cast_slice(&table.entries))?;
         for (binding, bytes) in [
-            (2, pixels * 4),
+            (2, cells * 4),
             (3, pixels * 4),
             (4, rgba),
             (5, rgba),
             (6, rgba),
             (7, pixels * 4),
+            (8, cells * 12),
         ] {
             io.reserve(device, binding, bytes)?;
         }
         io.update(device, &self.kernels.io_layout);
         self.size = (w, h);
+        self.grid = (params.lo_width, params.lo_height);
+        self.scale = params.scale;
         self.family = table.family;
         self.filter = settings.filter;
         self.shade = shade.is_some();
@@ -540,9 +562,10 @@ impl SsaoPass {
     }
 
     /// Records the prepared frame after its G-buffer: packed depth,
-    /// estimator, filter and, with shading, the indirect light and image;
-    /// each kernel gets the next timestamps of `timer`. Returns the step
-    /// each timed kernel belongs to.
+    /// estimator, AO filter (and at half resolution the upsampling) and,
+    /// with shading, the indirect light and image; each kernel gets the
+    /// next timestamps of `timer`. Returns the step each timed kernel
+    /// belongs to.
     pub fn record(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -550,38 +573,58 @@ impl SsaoPass {
         mut timer: Option<&mut PassTimer>,
     ) -> Vec<SsaoStep> {
         use Action::{Copy, Run};
-        // Without the filter, its output is the unfiltered buffer's copy.
-        let filtered = |kernel, step, from, to| if self.filter { Run(kernel, step) } else { Copy(from, to) };
+        use SsaoKernel::*;
+        let (pixels, grid, filter) = (true, false, SsaoStep::Filter);
         let mut actions = vec![
             // The packed depth is part of the G-buffer's cost.
-            Run(SsaoKernel::PackDepth, SsaoStep::GBuffer),
-            Run(SsaoKernel::estimator(self.family), SsaoStep::Estimate),
-            filtered(SsaoKernel::FilterAo, SsaoStep::Filter, 2, 3),
+            Run(PackDepth, SsaoStep::GBuffer, pixels),
+            Run(SsaoKernel::estimator(self.family), SsaoStep::Estimate, grid),
         ];
+        // The filtered grid: `ao_out` at full resolution, else the
+        // scratch buffer's third part (the upsampling's input).
+        let (to, offset) = match self.scale {
+            1 => (3, 0),
+            _ => (8, 8 * self.grid.0 as u64 * self.grid.1 as u64),
+        };
+        match self.filter {
+            true => actions.extend([Run(FilterAoRows, filter, grid), Run(FilterAoColumns, filter, grid)]),
+            false => actions.push(Copy(2, to, offset, Some(4 * self.grid.0 as u64 * self.grid.1 as u64))),
+        }
+        if self.scale != 1 {
+            // One invocation per cell, for its 2x2 pixels.
+            actions.push(Run(Upsample, filter, grid));
+        }
         if self.shade {
             actions.extend([
-                Run(SsaoKernel::Indirect, SsaoStep::Indirect),
-                filtered(SsaoKernel::FilterIndirect, SsaoStep::Indirect, 4, 5),
-                Run(SsaoKernel::Compose, SsaoStep::Compose),
+                Run(Indirect, SsaoStep::Indirect, pixels),
+                match self.filter {
+                    true => Run(FilterIndirect, SsaoStep::Indirect, pixels),
+                    false => Copy(4, 5, 0, None),
+                },
+                Run(Compose, SsaoStep::Compose, pixels),
             ]);
         }
-        let grid = (self.size.0.div_ceil(TILE), self.size.1.div_ceil(TILE));
         let mut steps = Vec::new();
         for action in actions {
             match action {
-                Run(kernel, step) => {
+                Run(kernel, step, every_pixel) => {
+                    let (w, h) = if every_pixel { self.size } else { self.grid };
                     let writes = timer.as_mut().and_then(|t| t.next_pass());
                     let pipeline = self.kernels.pipeline(kernel);
-                    record_dispatch(encoder, "ssao", writes, pipeline, &[gbuffer, self.io.group()], grid);
+                    let groups = (w.div_ceil(TILE), h.div_ceil(TILE));
+                    record_dispatch(encoder, "ssao", writes, pipeline, &[gbuffer, self.io.group()], groups);
                     steps.push(step);
                 }
-                Copy(from, to) => encoder.copy_buffer_to_buffer(self.io.buffer(from), 0, self.io.buffer(to), 0, None),
+                Copy(from, to, offset, bytes) => {
+                    encoder.copy_buffer_to_buffer(self.io.buffer(from), 0, self.io.buffer(to), offset, bytes)
+                }
             }
         }
         steps
     }
 
-    /// The estimator's output per pixel, before filtering (f32).
+    /// The estimator's output per cell of the estimation grid, before
+    /// filtering (f32; `SsaoParams::cells` of them).
     pub fn raw_ao(&self) -> &wgpu::Buffer {
         self.io.buffer(2)
     }
@@ -688,7 +731,7 @@ pub fn run_frame(
     let mut runs_ms = Vec::new();
     for _ in 0..repeat.max(1) {
         let run_start = Instant::now();
-        let mut timer = PassTimer::new(ctx, 8);
+        let mut timer = PassTimer::new(ctx, 12);
         let mut encoder = device.create_command_encoder(&Default::default());
         let mut kinds = Vec::new();
         if let Some((pass, vertices, group, _)) = &render {
@@ -750,7 +793,7 @@ pub fn run_frame(
     };
     let gbuffer = targets.read(ctx)?;
     let pixels = (w * h) as usize;
-    let ao_raw: Vec<f32> = read_buffer(ctx, ssao.raw_ao(), pixels)?;
+    let ao_raw: Vec<f32> = read_buffer(ctx, ssao.raw_ao(), (ssao.grid.0 * ssao.grid.1) as usize)?;
     let ao_out: Vec<f32> = read_buffer(ctx, ssao.ao(), pixels)?;
     let (indirect, image) = if shade.is_some() {
         (

@@ -5,7 +5,8 @@
 //! A frame is: the G-buffer (`gbuffer`: camera-space normal and depth,
 //! radiance, albedo), one of the paper's estimators of the ambient
 //! occlusion O (`estimators`, over per-pixel sample sets from `interleave`),
-//! optionally the depth-aware 4x4 low-pass filter of section 5 (`filter`),
+//! optionally the depth-aware 4x4 low-pass filter of section 5 (`filter`;
+//! estimator and AO filter at full or half resolution, then upsampled),
 //! and optionally the indirect term I = L~ (1 - O) and the shaded image
 //! (`indirect`). Every step is a WGSL kernel (`gpu`) with a CPU twin of the
 //! same name and data layout. `truth` gives what the estimators are
@@ -43,6 +44,35 @@ pub const MAX_SPP: u32 = 4096;
 /// `SsaoSettings::bias_px`).
 pub const DEFAULT_BIAS_PX: f32 = 2.0;
 
+/// Where the estimator runs: every pixel, or every other pixel in x and y
+/// with the filtered result upsampled depth-aware (`filter::ssao_upsample`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Resolution {
+    /// Estimate and filter at every pixel.
+    Full,
+    /// Estimate and filter at every other pixel in x and y (a quarter of the
+    /// work), then upsample depth-aware to every pixel.
+    Half,
+}
+
+impl Resolution {
+    /// Pixels per grid cell along x and y.
+    pub fn scale(&self) -> u32 {
+        match self {
+            Resolution::Full => 1,
+            Resolution::Half => 2,
+        }
+    }
+
+    pub fn name(&self) -> &'static str {
+        match self {
+            Resolution::Full => "full",
+            Resolution::Half => "half",
+        }
+    }
+}
+
 /// Every knob of one SSAO frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SsaoSettings {
@@ -72,6 +102,8 @@ pub struct SsaoSettings {
     /// Scale each pixel's sample weights so that a point without occluders
     /// gets exactly 1 (see `estimators`); off = the paper's formulas as written.
     pub calibrate: bool,
+    /// Estimation grid: every pixel or every other one (then upsampled).
+    pub resolution: Resolution,
     pub seed: u32,
 }
 
@@ -88,6 +120,7 @@ impl SsaoSettings {
             filter_depth: None,
             bias_px: DEFAULT_BIAS_PX,
             calibrate: true,
+            resolution: Resolution::Full,
             seed: 0x5eed,
         }
     }
@@ -190,7 +223,8 @@ impl Default for ShadeSettings {
 /// Outputs of one frame, per pixel (row 0 at the top).
 #[derive(Debug, Clone, Default)]
 pub struct SsaoFrame {
-    /// The estimator's output before filtering (not clamped).
+    /// The estimator's output before filtering (not clamped), per cell of
+    /// the estimation grid (every pixel at full resolution, row-major).
     pub ao_raw: Vec<f32>,
     /// Final accessibility in [0, 1] (filtered if asked); 1 on background.
     pub ao: Vec<f32>,
@@ -257,11 +291,7 @@ pub fn run_cpu(
     let ao_raw = estimators::estimate_cpu(table.family, gb, &params, &table.entries);
     timings.estimate_ms = elapsed_ms(start);
     let start = Instant::now();
-    let ao_filtered = if settings.filter {
-        filter::ssao_filter_ao(gb, &params, &ao_raw)
-    } else {
-        ao_raw.clone()
-    };
+    let ao_filtered = filter::filter_ao(gb, &params, settings.filter, &ao_raw);
     timings.filter_ms = elapsed_ms(start);
     let mut indirect = None;
     let mut image = None;

@@ -11,7 +11,7 @@ use crate::progress::Bars;
 use crate::scene::{Scene, View};
 use crate::ssao::runner::{SsaoRequest, run};
 use crate::ssao::truth::Estimate;
-use crate::ssao::{Estimator, Measure, MeasureKind, SsaoSettings, rmse};
+use crate::ssao::{Estimator, Measure, MeasureKind, Resolution, SsaoSettings, rmse};
 
 const KNOBS: &[Knob] = &[
     Knob {
@@ -62,6 +62,11 @@ const KNOBS: &[Knob] = &[
         default_grid: &[],
     },
     Knob {
+        name: "resolution",
+        help: "estimation grid full/half (half: upsampled depth-aware)",
+        default_grid: &[],
+    },
+    Knob {
         name: "radius",
         help: "neighbourhood radius R (changes the truth)",
         default_grid: &[],
@@ -103,6 +108,7 @@ impl SsaoSweep {
             filter_depth: None,
             bias_px: crate::ssao::DEFAULT_BIAS_PX,
             calibrate: true,
+            resolution: Resolution::Full,
             seed,
         };
         base.validate()?;
@@ -134,6 +140,7 @@ impl SsaoSweep {
             filter_depth: s.get("filter-depth")?.or(b.filter_depth),
             bias_px: s.get("bias")?.unwrap_or(b.bias_px),
             calibrate: s.get_on_off("calibrate")?.unwrap_or(b.calibrate),
+            resolution: s.get_enum("resolution")?.unwrap_or(b.resolution),
             seed: b.seed,
         };
         settings.validate()?;
