@@ -7,8 +7,8 @@
 //! instruction set by calling them inside a `simd::dispatch` kernel.
 //!
 //! Every lane computes exactly what the scalar lookup computes for its ray
-//! (`lookup::trace_in`, positional `Bilinear`, 8-bit maps, concentric
-//! directions: the defaults): the same IEEE operations in the same order,
+//! (`lookup::trace_in`, 8-bit maps and concentric directions, the
+//! defaults, with either positional interpolation): the same IEEE operations in the same order,
 //! a branch turned into computing both sides and selecting one. Rust never
 //! fuses a multiply and an add, so vector lanes round as the scalar code
 //! does; `tests` hold every lane to the scalar answer bit for bit. Other
@@ -70,11 +70,13 @@ impl Traces {
     }
 }
 
-/// A field whose lookups the batch path computes: 8-bit maps, concentric
-/// directions, positional `Bilinear`.
+/// A field whose lookups the batch path computes: 8-bit maps (the default
+/// storage) and concentric directions (the default mapping), either
+/// positional interpolation.
 pub struct Batchable<'q, 'f> {
     query: &'q FieldQuery<'f>,
     maps: &'f [u8],
+    positional: Positional,
 }
 
 impl<'q, 'f> Batchable<'q, 'f> {
@@ -82,12 +84,15 @@ impl<'q, 'f> Batchable<'q, 'f> {
         let field = query.field;
         match &field.data {
             FieldData::U8(maps)
-                if positional == Positional::Bilinear
-                    && field.params.directions == DirectionMapping::Concentric
+                if field.params.directions == DirectionMapping::Concentric
                     && maps.len() == field.params.maps() * field.params.texels_per_map()
                     && query.frames().len() == field.params.maps() =>
             {
-                Some(Batchable { query, maps })
+                Some(Batchable {
+                    query,
+                    maps,
+                    positional,
+                })
             }
             _ => None,
         }
@@ -115,10 +120,15 @@ impl<'q, 'f> Batchable<'q, 'f> {
     pub fn trace(&self, o: Vec3, d: &Directions) -> Traces {
         let field = self.query.field;
         let entry = Entry::of(field.center, field.radius, o, d);
-        let corners = Corners::of(field.params.grid.side, &entry);
+        let side = field.params.grid.side;
+        let corners = match self.positional {
+            Positional::Bilinear => Corners::bilinear(side, &entry),
+            Positional::Nearest => Corners::nearest(side, &entry),
+        };
         let mut coverage = [0.0f32; LANES];
         let mut weighted = [0.0f32; LANES];
-        for (maps, weights) in corners.maps.iter().zip(&corners.weights) {
+        let used = corners.maps.iter().zip(&corners.weights).take(corners.used);
+        for (maps, weights) in used {
             let taps = Taps::of(self.query.frames(), field.params.res, maps, d);
             let texels = field.params.texels_per_map();
             let mut map_coverage = [0.0f32; LANES];
@@ -218,19 +228,46 @@ impl Entry {
     }
 }
 
-/// The four positional samples around each entry point and their weights
-/// (`OctahedralGrid::bilinear` of `sphere_to_square`).
+/// The positional samples read for each entry point, and their weights:
+/// the first `used` of four.
 struct Corners {
     maps: [[u32; LANES]; 4],
     weights: [[f32; LANES]; 4],
+    used: usize,
 }
 
 impl Corners {
+    /// The nearest sample, weight 1 (`OctahedralGrid::nearest`; the scalar
+    /// lookup takes its map's sample as it is, and 0 + 1 x is x).
     #[inline(always)]
-    fn of(side: u32, entry: &Entry) -> Corners {
+    fn nearest(side: u32, entry: &Entry) -> Corners {
         let mut c = Corners {
             maps: [[0; LANES]; 4],
             weights: [[0.0; LANES]; 4],
+            used: 1,
+        };
+        let n = side as f32;
+        let last = side as i32 - 1;
+        for i in 0..LANES {
+            let [u, v] = sphere_to_square(entry.p.x[i], entry.p.y[i], entry.p.z[i]);
+            let gx = (u + 1.0) * 0.5 * n - 0.5;
+            let gy = (v + 1.0) * 0.5 * n - 0.5;
+            let a = (floor(gx + 0.5) as i32).clamp(0, last) as u32;
+            let b = (floor(gy + 0.5) as i32).clamp(0, last) as u32;
+            c.maps[0][i] = a + b * side;
+            c.weights[0][i] = 1.0;
+        }
+        c
+    }
+
+    /// The four samples around each entry point, bilinearly weighted
+    /// (`OctahedralGrid::bilinear`).
+    #[inline(always)]
+    fn bilinear(side: u32, entry: &Entry) -> Corners {
+        let mut c = Corners {
+            maps: [[0; LANES]; 4],
+            weights: [[0.0; LANES]; 4],
+            used: 4,
         };
         let n = side as f32;
         for i in 0..LANES {

@@ -61,9 +61,13 @@ impl Rng {
 /// Origins outside, on and inside the sphere, and along the axes (where
 /// the square maps have their seams), sixteen directions each; a few
 /// directions along the axes and the diagonals too.
-fn check(field: &DisplacementField, run: impl Fn(&Batchable, Vec3, &Directions) -> Traces) -> usize {
+fn check(
+    field: &DisplacementField,
+    positional: Positional,
+    run: impl Fn(&Batchable, Vec3, &Directions) -> Traces,
+) -> usize {
     let query = FieldQuery::new(field);
-    let batch = Batchable::of(&query, Positional::Bilinear).expect("8-bit concentric maps batch");
+    let batch = Batchable::of(&query, positional).expect("8-bit concentric maps batch");
     let mut rng = Rng(0x9e37_79b9);
     let (c, r) = (field.center, field.radius);
     let mut compared = 0;
@@ -93,7 +97,7 @@ fn check(field: &DisplacementField, run: impl Fn(&Batchable, Vec3, &Directions) 
         );
         for i in 0..LANES {
             let dir = Vec3::new(d.x[i], d.y[i], d.z[i]);
-            let scalar = query.trace(o, dir, Positional::Bilinear);
+            let scalar = query.trace(o, dir, positional);
             let lane = traces.lane(i);
             let same = match (scalar, lane) {
                 (FieldTrace::Hit { t: a, inside: x }, FieldTrace::Hit { t: b, inside: y }) => {
@@ -125,19 +129,21 @@ fn every_lane_is_the_scalar_lookup_in_every_instruction_set() {
     }
     hits += batch.trace(o, &d).hit.count_ones();
     assert!(hits > 8, "the rays down onto the sphere hit ({hits} of 16)");
-    let n = check(&field, |b, o, d| b.trace(o, d));
-    for isa in Isa::available() {
-        let m = check(&field, |batch, o, d| dispatch(isa, Batch { batch, o, d }));
-        assert_eq!(m, n, "{isa:?}");
+    for positional in [Positional::Bilinear, Positional::Nearest] {
+        let n = check(&field, positional, |b, o, d| b.trace(o, d));
+        assert_eq!(n, 400 * LANES);
+        for isa in Isa::available() {
+            let m = check(&field, positional, |batch, o, d| dispatch(isa, Batch { batch, o, d }));
+            assert_eq!(m, n, "{isa:?} {positional:?}");
+        }
     }
-    assert_eq!(n, 400 * LANES);
 }
 
 #[test]
-fn only_the_default_lookup_batches() {
+fn only_8_bit_concentric_maps_batch() {
     for (directions, storage, positional, batches) in [
         (DirectionMapping::Concentric, Storage::U8, Positional::Bilinear, true),
-        (DirectionMapping::Concentric, Storage::U8, Positional::Nearest, false),
+        (DirectionMapping::Concentric, Storage::U8, Positional::Nearest, true),
         (DirectionMapping::Polar, Storage::U8, Positional::Bilinear, false),
         (DirectionMapping::Concentric, Storage::F32, Positional::Bilinear, false),
     ] {
