@@ -81,12 +81,12 @@ impl<'f> ReadyCaster<'f> {
         }
     }
 
-    /// World directions in the caster's space.
+    /// Rays' world directions in the caster's space.
     #[inline(always)]
-    fn object_directions(&self, world: &[Vec3]) -> Directions {
+    fn object_directions(&self, rays: &[(Vec3, u8)]) -> Directions {
         let mut d = Directions::default();
-        for (i, w) in world.iter().enumerate() {
-            let v = (self.inverse_rotation * *w).normalize();
+        for (i, &(w, _)) in rays.iter().enumerate() {
+            let v = (self.inverse_rotation * w).normalize();
             (d.x[i], d.y[i], d.z[i]) = (v.x, v.y, v.z);
         }
         d
@@ -122,11 +122,12 @@ impl<'f> ReadyCaster<'f> {
         c
     }
 
-    /// The rays `world` (of one point, from `o_obj` in the caster's space)
+    /// The rays `world` (of one point, from `o_obj` in the caster's space;
+    /// directions with their sample cells, which this ignores)
     /// that enter the caster's sphere, gathered sixteen to a batch, their
     /// classes set in `sink`; the others are `Outside`, which sets no class.
     #[inline(always)]
-    fn trace_entering(&self, batch: &Batchable, o_obj: Vec3, world: &[Vec3], radius: f32, sink: &mut ClassWords) {
+    fn trace_entering(&self, batch: &Batchable, o_obj: Vec3, world: &[(Vec3, u8)], radius: f32, sink: &mut ClassWords) {
         let mut pending = Directions::default();
         let mut rays = [0u32; LANES];
         let mut n = 0;
@@ -171,13 +172,12 @@ impl<'f> ReadyCaster<'f> {
 
 /// A worker's buffers: the point's origin in each caster's space (with
 /// the caster's batch path, if it has one), its rays' sample bits and
-/// directions, and which rays a caster blocked.
+/// directions (with their sample cells), and which rays a caster blocked.
 #[derive(Default)]
 struct Scratch<'c, 'q, 'f> {
     origins: Vec<Origin<'c, 'q, 'f>>,
     bits: Vec<[u32; 2]>,
     rays: Vec<(Vec3, u8)>,
-    world: Vec<Vec3>,
     blocked: Vec<u32>,
 }
 
@@ -213,9 +213,8 @@ struct PointRays<'a, 'c, 'q, 'f> {
     dirs: &'a PointDirections,
     positional: Positional,
     radius: f32,
-    bits: &'a mut Vec<[u32; 2]>,
-    rays: &'a mut Vec<(Vec3, u8)>,
-    world: &'a mut Vec<Vec3>,
+    bits: &'a mut [[u32; 2]],
+    rays: &'a mut [(Vec3, u8)],
     words: ClassWords<'a>,
 }
 
@@ -224,16 +223,13 @@ impl Kernel for PointRays<'_, '_, '_, '_> {
 
     #[inline(always)]
     fn run<V: Lanes>(mut self) {
-        let n = self.rays.len();
         self.dirs.directions_and_cells(self.bits, self.rays);
-        self.world.clear();
-        self.world.extend(self.rays.iter().map(|&(d, _)| d));
         for &(c, batch, o_obj) in self.origins {
             match batch {
-                Some(b) => c.trace_entering(b, o_obj, self.world, self.radius, &mut self.words),
+                Some(b) => c.trace_entering(b, o_obj, self.rays, self.radius, &mut self.words),
                 None => {
-                    for j in 0..n {
-                        let lane = c.classify_one(o_obj, self.world[j], self.positional, self.radius);
+                    for (j, &(d, _)) in self.rays.iter().enumerate() {
+                        let lane = c.classify_one(o_obj, d, self.positional, self.radius);
                         self.words.set(&[j as u32], lane);
                     }
                 }
@@ -306,7 +302,6 @@ pub fn field_ao(
                     radius: settings.radius,
                     bits: &mut scratch.bits,
                     rays: &mut scratch.rays,
-                    world: &mut scratch.world,
                     words: ClassWords {
                         blocked: &mut scratch.blocked,
                         inside,

@@ -8,22 +8,21 @@
 //!
 //! Every lane computes exactly what the scalar lookup computes for its ray
 //! (`lookup::trace_in`, 8-bit maps and concentric directions, the
-//! defaults, with either positional interpolation): the same IEEE operations in the same order,
-//! a branch turned into computing both sides and selecting one. Rust never
-//! fuses a multiply and an add, so vector lanes round as the scalar code
-//! does; `tests` hold every lane to the scalar answer bit for bit. Other
+//! defaults, with either positional interpolation), through the very same
+//! functions (`sphere_to_square`, `OctahedralGrid::bilinear`, `rim_clamp`,
+//! `concentric_square`, `texel_taps`), which are written without early
+//! exits so that they vectorise. Rust never fuses a multiply and an add,
+//! so vector lanes round as the scalar code does; `tests` hold every lane to the scalar answer bit for bit. Other
 //! storages and mappings keep the scalar path (`Batchable::of`).
-
-use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
 
 use glam::Vec3;
 
-use super::directions::DirectionMapping;
-use super::lookup::{FieldTrace, Positional};
+use super::directions::{DirectionMapping, rim_clamp};
+use super::lookup::{FieldTrace, Positional, interval, texel_taps, unit_entry};
+use super::positions::OctahedralGrid;
 use super::query::FieldQuery;
 use super::storage::FieldData;
-use crate::sampling::Frame;
-use crate::sampling::atan::atan_unit;
+use crate::sampling::{Frame, concentric_square};
 
 /// Rays per batch.
 pub const LANES: usize = 16;
@@ -34,6 +33,14 @@ pub struct Directions {
     pub x: [f32; LANES],
     pub y: [f32; LANES],
     pub z: [f32; LANES],
+}
+
+impl Directions {
+    /// Lane i as a vector.
+    #[inline(always)]
+    pub fn lane(&self, i: usize) -> Vec3 {
+        Vec3::new(self.x[i], self.y[i], self.z[i])
+    }
 }
 
 /// What a batch of rays found, lane by lane (bit i = lane i).
@@ -107,7 +114,7 @@ impl<'q, 'f> Batchable<'q, 'f> {
         let oc = o - field.center;
         let mut mask = 0u16;
         for i in 0..LANES {
-            let [_, s1, disc] = interval(oc, field.radius, d.x[i], d.y[i], d.z[i]);
+            let [_, s1, disc] = interval(oc, field.radius, d.lane(i));
             mask |= u16::from(!(disc < 0.0 || s1 <= 0.0)) << i;
         }
         mask
@@ -120,10 +127,10 @@ impl<'q, 'f> Batchable<'q, 'f> {
     pub fn trace(&self, o: Vec3, d: &Directions) -> Traces {
         let field = self.query.field;
         let entry = Entry::of(field.center, field.radius, o, d);
-        let side = field.params.grid.side;
+        let grid = &field.params.grid;
         let corners = match self.positional {
-            Positional::Bilinear => Corners::bilinear(side, &entry),
-            Positional::Nearest => Corners::nearest(side, &entry),
+            Positional::Bilinear => Corners::bilinear(grid, &entry),
+            Positional::Nearest => Corners::nearest(grid, &entry),
         };
         let mut coverage = [0.0f32; LANES];
         let mut weighted = [0.0f32; LANES];
@@ -181,20 +188,12 @@ impl Entry {
             outside: [false; LANES],
         };
         for i in 0..LANES {
-            let (x, y, z) = (d.x[i], d.y[i], d.z[i]);
-            let [s0, s1, disc] = interval(oc, radius, x, y, z);
+            let [s0, s1, disc] = interval(oc, radius, d.lane(i));
             e.outside[i] = disc < 0.0 || s1 <= 0.0;
             e.s0[i] = s0;
             e.s1[i] = s1;
-            let px = (o.x + s0 * x - center.x) / radius;
-            let py = (o.y + s0 * y - center.y) / radius;
-            let pz = (o.z + s0 * z - center.z) / radius;
-            let len = (px * px + py * py + pz * pz).sqrt();
-            let inv = 1.0 / len;
-            let some = len > 0.0;
-            e.p.x[i] = if some { px * inv } else { 0.0 };
-            e.p.y[i] = if some { py * inv } else { 0.0 };
-            e.p.z[i] = if some { pz * inv } else { 1.0 };
+            let p = unit_entry(center, radius, o, d.lane(i), s0);
+            (e.p.x[i], e.p.y[i], e.p.z[i]) = (p.x, p.y, p.z);
         }
         e
     }
@@ -240,21 +239,14 @@ impl Corners {
     /// The nearest sample, weight 1 (`OctahedralGrid::nearest`; the scalar
     /// lookup takes its map's sample as it is, and 0 + 1 x is x).
     #[inline(always)]
-    fn nearest(side: u32, entry: &Entry) -> Corners {
+    fn nearest(grid: &OctahedralGrid, entry: &Entry) -> Corners {
         let mut c = Corners {
             maps: [[0; LANES]; 4],
             weights: [[0.0; LANES]; 4],
             used: 1,
         };
-        let n = side as f32;
-        let last = side as i32 - 1;
         for i in 0..LANES {
-            let [u, v] = sphere_to_square(entry.p.x[i], entry.p.y[i], entry.p.z[i]);
-            let gx = (u + 1.0) * 0.5 * n - 0.5;
-            let gy = (v + 1.0) * 0.5 * n - 0.5;
-            let a = (floor(gx + 0.5) as i32).clamp(0, last) as u32;
-            let b = (floor(gy + 0.5) as i32).clamp(0, last) as u32;
-            c.maps[0][i] = a + b * side;
+            c.maps[0][i] = grid.nearest(entry.p.lane(i));
             c.weights[0][i] = 1.0;
         }
         c
@@ -263,180 +255,50 @@ impl Corners {
     /// The four samples around each entry point, bilinearly weighted
     /// (`OctahedralGrid::bilinear`).
     #[inline(always)]
-    fn bilinear(side: u32, entry: &Entry) -> Corners {
+    fn bilinear(grid: &OctahedralGrid, entry: &Entry) -> Corners {
         let mut c = Corners {
             maps: [[0; LANES]; 4],
             weights: [[0.0; LANES]; 4],
             used: 4,
         };
-        let n = side as f32;
         for i in 0..LANES {
-            let [u, v] = sphere_to_square(entry.p.x[i], entry.p.y[i], entry.p.z[i]);
-            let gx = (u + 1.0) * 0.5 * n - 0.5;
-            let gy = (v + 1.0) * 0.5 * n - 0.5;
-            let (x0, y0) = (floor(gx), floor(gy));
-            let (fx, fy) = (gx - x0, gy - y0);
-            let (a, b) = (x0 as i32, y0 as i32);
-            let n = side as i32;
-            c.maps[0][i] = wrap(n, a, b);
-            c.maps[1][i] = wrap(n, a + 1, b);
-            c.maps[2][i] = wrap(n, a, b + 1);
-            c.maps[3][i] = wrap(n, a + 1, b + 1);
-            c.weights[0][i] = (1.0 - fx) * (1.0 - fy);
-            c.weights[1][i] = fx * (1.0 - fy);
-            c.weights[2][i] = (1.0 - fx) * fy;
-            c.weights[3][i] = fx * fy;
+            for (k, (m, w)) in grid.bilinear(entry.p.lane(i)).into_iter().enumerate() {
+                c.maps[k][i] = m;
+                c.weights[k][i] = w;
+            }
         }
         c
     }
 }
 
 /// One map's four texels around each ray's local direction, and their
-/// bilinear weights (`map_taps` of `locate`).
+/// bilinear weights (`map_taps` of `locate` for concentric maps).
 struct Taps {
     index: [[u32; LANES]; 4],
     weight: [[f32; LANES]; 4],
 }
 
 impl Taps {
-    // The lanes index the frames through `maps` and four arrays in step.
-    #[allow(clippy::needless_range_loop)]
     #[inline(always)]
     fn of(frames: &[Frame], res: u32, maps: &[u32; LANES], d: &Directions) -> Taps {
         let mut taps = Taps {
             index: [[0; LANES]; 4],
             weight: [[0.0; LANES]; 4],
         };
-        let r = res as f32;
-        for i in 0..LANES {
-            debug_assert!((maps[i] as usize) < frames.len());
-            // SAFETY: `wrap` clamps every map below the grid's count, the
-            // frames' length (`FieldQuery::new`). Unchecked, as above.
-            let f = unsafe { frames.get_unchecked(maps[i] as usize) };
-            let dir = Vec3::new(d.x[i], d.y[i], d.z[i]);
+        for (i, &m) in maps.iter().enumerate() {
+            debug_assert!((m as usize) < frames.len());
+            // SAFETY: `wrap` and `nearest` clamp every map below the grid's
+            // count, the frames' length (`FieldQuery::new`). Unchecked, the
+            // loop has no exit and vectorises.
+            let f = unsafe { frames.get_unchecked(m as usize) };
+            let dir = d.lane(i);
             let [x, y] = rim_clamp(dir.dot(f.t), dir.dot(f.b));
-            let [s, t] = concentric_square(x, y);
-            let x = clamp(s * r - 0.5, r - 1.0);
-            let y = clamp(t * r - 0.5, r - 1.0);
-            let (a0, b0) = (x as u32, y as u32);
-            let (fx, fy) = (x - a0 as f32, y - b0 as f32);
-            let (a1, b1) = ((a0 + 1).min(res - 1), (b0 + 1).min(res - 1));
-            taps.index[0][i] = b0 * res + a0;
-            taps.index[1][i] = b0 * res + a1;
-            taps.index[2][i] = b1 * res + a0;
-            taps.index[3][i] = b1 * res + a1;
-            taps.weight[0][i] = (1.0 - fx) * (1.0 - fy);
-            taps.weight[1][i] = fx * (1.0 - fy);
-            taps.weight[2][i] = (1.0 - fx) * fy;
-            taps.weight[3][i] = fx * fy;
+            for (k, (index, weight)) in texel_taps(concentric_square(x, y), res).into_iter().enumerate() {
+                taps.index[k][i] = index;
+                taps.weight[k][i] = weight;
+            }
         }
         taps
-    }
-}
-
-// The scalar functions below are those of `positions`, `directions` and
-// `sampling::concentric` with their branches written as selects.
-
-/// `lookup::sphere_interval` of the ray from `centre + oc` along (x, y, z):
-/// [s_entry, s_exit, discriminant], the line missing the sphere where the
-/// discriminant is negative.
-#[inline(always)]
-fn interval(oc: Vec3, radius: f32, x: f32, y: f32, z: f32) -> [f32; 3] {
-    let b = oc.x * x + oc.y * y + oc.z * z;
-    let (hx, hy, hz) = (oc.x - b * x, oc.y - b * y, oc.z - b * z);
-    let disc = radius * radius - (hx * hx + hy * hy + hz * hz);
-    let q = disc.max(0.0).sqrt();
-    [-b - q, -b + q, disc]
-}
-
-/// `positions::sphere_to_square`.
-#[inline(always)]
-fn sphere_to_square(dx: f32, dy: f32, dz: f32) -> [f32; 2] {
-    let (x, y) = (dx.abs(), dy.abs());
-    let r = (1.0 - dz.abs()).max(0.0).sqrt();
-    // One ratio, one arctangent: both sides of the branch evaluate the
-    // polynomial at the ratio they would pick.
-    let x_major = x >= y;
-    let angle = atan_unit(if x_major { y / x } else { x / y }) / FRAC_PI_2;
-    let phi = if x == 0.0 && y == 0.0 {
-        0.0
-    } else if x_major {
-        angle
-    } else {
-        1.0 - angle
-    };
-    let v = phi * r;
-    let u = r - v;
-    let below = dz < 0.0;
-    let (u, v) = (if below { 1.0 - v } else { u }, if below { 1.0 - u } else { v });
-    [u.copysign(dx), v.copysign(dy)]
-}
-
-/// `x.clamp(0.0, hi)` (hi >= 0) without its assertion, which would keep
-/// the loop from vectorising: NaN stays NaN as there.
-#[inline(always)]
-fn clamp(x: f32, hi: f32) -> f32 {
-    if x < 0.0 {
-        0.0
-    } else if x > hi {
-        hi
-    } else {
-        x
-    }
-}
-
-/// `positions::floor`.
-#[inline(always)]
-fn floor(x: f32) -> f32 {
-    let t = x as i32 as f32;
-    if t > x { t - 1.0 } else { t }
-}
-
-/// `OctahedralGrid::wrap`.
-#[inline(always)]
-fn wrap(n: i32, i: i32, j: i32) -> u32 {
-    let (i, j) = if i < 0 {
-        (-i - 1, n - 1 - j)
-    } else if i >= n {
-        (2 * n - 1 - i, n - 1 - j)
-    } else {
-        (i, j)
-    };
-    let (i, j) = if j < 0 {
-        (n - 1 - i, -j - 1)
-    } else if j >= n {
-        (n - 1 - i, 2 * n - 1 - j)
-    } else {
-        (i, j)
-    };
-    (i.clamp(0, n - 1) + j.clamp(0, n - 1) * n) as u32
-}
-
-/// `directions::rim_clamp`.
-#[inline(always)]
-fn rim_clamp(x: f32, y: f32) -> [f32; 2] {
-    let r2 = x * x + y * y;
-    let r = r2.sqrt();
-    if r2 > 1.0 { [x / r, y / r] } else { [x, y] }
-}
-
-/// `sampling::concentric_square`.
-#[inline(always)]
-fn concentric_square(x: f32, y: f32) -> [f32; 2] {
-    let r = (x * x + y * y).sqrt();
-    let ax = r.copysign(x);
-    let by = r.copysign(y);
-    let x_major = x.abs() >= y.abs();
-    let angle = atan_unit(if x_major { y / x } else { x / y });
-    let (a, b) = if x_major {
-        (ax, ax * angle / FRAC_PI_4)
-    } else {
-        (by * angle / FRAC_PI_4, by)
-    };
-    if r == 0.0 {
-        [0.5, 0.5]
-    } else {
-        [(a + 1.0) * 0.5, (b + 1.0) * 0.5]
     }
 }
 

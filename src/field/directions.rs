@@ -119,15 +119,13 @@ fn lift(x: f32, y: f32) -> Vec3 {
 }
 
 /// A direction's disk point, pulled onto the unit disk if rounding (or a
-/// direction slightly below the horizon) put it outside.
-fn rim_clamp(x: f32, y: f32) -> [f32; 2] {
+/// direction slightly below the horizon) put it outside. The square root
+/// is taken either way (a select, which `field::batch` vectorises).
+#[inline(always)]
+pub(super) fn rim_clamp(x: f32, y: f32) -> [f32; 2] {
     let r2 = x * x + y * y;
-    if r2 > 1.0 {
-        let r = r2.sqrt();
-        [x / r, y / r]
-    } else {
-        [x, y]
-    }
+    let r = r2.sqrt();
+    if r2 > 1.0 { [x / r, y / r] } else { [x, y] }
 }
 
 /// Fraction of a rejection map's texels that are unused: 1 - pi/4 in the

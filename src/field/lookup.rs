@@ -75,15 +75,29 @@ impl FieldTrace {
 /// from the line, which stays accurate for origins far from the sphere.
 #[inline]
 pub fn sphere_interval(center: Vec3, radius: f32, o: Vec3, d: Vec3) -> Option<(f32, f32)> {
-    let oc = o - center;
+    let [s0, s1, disc] = interval(o - center, radius, d);
+    if disc < 0.0 { None } else { Some((s0, s1)) }
+}
+
+/// `sphere_interval` without the branch, for the line from `centre + oc`:
+/// [s_entry, s_exit, discriminant], the line missing the sphere where the
+/// discriminant is negative (`field::batch` vectorises it).
+#[inline(always)]
+pub(super) fn interval(oc: Vec3, radius: f32, d: Vec3) -> [f32; 3] {
     let b = oc.dot(d);
     let h = oc - b * d;
     let disc = radius * radius - h.dot(h);
-    if disc < 0.0 {
-        return None;
-    }
-    let q = disc.sqrt();
-    Some((-b - q, -b + q))
+    let q = disc.max(0.0).sqrt();
+    [-b - q, -b + q, disc]
+}
+
+/// The unit position, relative to the centre, of the point at `s_entry`
+/// along o + s d: where the ray enters the sphere.
+#[inline(always)]
+pub(super) fn unit_entry(center: Vec3, radius: f32, o: Vec3, d: Vec3, s_entry: f32) -> Vec3 {
+    let p = (o + s_entry * d - center) / radius;
+    let len = p.length();
+    if len > 0.0 { p * (1.0 / len) } else { Vec3::Z }
 }
 
 /// The normalised distance of each 8-bit texel value, `q as f32 / 255.0`
@@ -97,6 +111,41 @@ static U8_DISTANCE: [f32; 256] = {
     }
     table
 };
+
+/// The four texels of a `res` x `res` map around map point (s, t) (indices
+/// in the map) with their bilinear weights, clamped to texel centres.
+/// Branch-free and without `f32::clamp`'s assertion, so that `field::batch`'s
+/// loops over sixteen rays vectorise it.
+#[inline(always)]
+pub(super) fn texel_taps([s, t]: [f32; 2], res: u32) -> [(u32, f32); 4] {
+    let r = res as f32;
+    let x = clamp(s * r - 0.5, r - 1.0);
+    let y = clamp(t * r - 0.5, r - 1.0);
+    // x, y >= 0: truncation is their floor, without the libm call that
+    // `floor` is on x86-64's baseline (no SSE4.1 rounding).
+    let (a0, b0) = (x as u32, y as u32);
+    let (fx, fy) = (x - a0 as f32, y - b0 as f32);
+    let (a1, b1) = ((a0 + 1).min(res - 1), (b0 + 1).min(res - 1));
+    [
+        (b0 * res + a0, (1.0 - fx) * (1.0 - fy)),
+        (b0 * res + a1, fx * (1.0 - fy)),
+        (b1 * res + a0, (1.0 - fx) * fy),
+        (b1 * res + a1, fx * fy),
+    ]
+}
+
+/// `x.clamp(0.0, hi)` (hi >= 0) without its assertion: NaN stays NaN as
+/// there.
+#[inline(always)]
+fn clamp(x: f32, hi: f32) -> f32 {
+    if x < 0.0 {
+        0.0
+    } else if x > hi {
+        hi
+    } else {
+        x
+    }
+}
 
 /// What a lookup reads: the share of the interpolation weight carried by
 /// taps that hit, and their weighted distances' sum.
@@ -130,22 +179,7 @@ impl DisplacementField {
     /// the map) with their bilinear weights.
     #[inline]
     fn map_taps(&self, local: Vec3) -> [(u32, f32); 4] {
-        let [s, t] = self.params.directions.locate(local);
-        let res = self.params.res;
-        let r = res as f32;
-        let x = (s * r - 0.5).clamp(0.0, r - 1.0);
-        let y = (t * r - 0.5).clamp(0.0, r - 1.0);
-        // x, y >= 0: truncation is their floor, without the libm call that
-        // `floor` is on x86-64's baseline (no SSE4.1 rounding).
-        let (a0, b0) = (x as u32, y as u32);
-        let (fx, fy) = (x - a0 as f32, y - b0 as f32);
-        let (a1, b1) = ((a0 + 1).min(res - 1), (b0 + 1).min(res - 1));
-        [
-            (b0 * res + a0, (1.0 - fx) * (1.0 - fy)),
-            (b0 * res + a1, fx * (1.0 - fy)),
-            (b1 * res + a0, (1.0 - fx) * fy),
-            (b1 * res + a1, fx * fy),
-        ]
+        texel_taps(self.params.directions.locate(local), self.params.res)
     }
 
     /// Map m's vote at `taps`.
@@ -235,10 +269,7 @@ impl DisplacementField {
         if s1 <= 0.0 {
             return None;
         }
-        let p = (o + s0 * d - self.center) / self.radius;
-        let len = p.length();
-        let p = if len > 0.0 { p * (1.0 / len) } else { Vec3::Z };
-        Some((p, s0, s1))
+        Some((unit_entry(self.center, self.radius, o, d, s0), s0, s1))
     }
 
     /// Traces the object-space ray o + s d (d unit).

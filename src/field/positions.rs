@@ -44,24 +44,27 @@ pub fn square_to_sphere(u: f32, v: f32) -> Vec3 {
 }
 
 /// The square point in [-1, 1]^2 of unit vector `d`: the inverse of
-/// `square_to_sphere`.
+/// `square_to_sphere`. Branches as selects (one ratio, one arctangent), so
+/// that `field::batch` vectorises it.
+#[inline(always)]
 pub fn sphere_to_square(d: Vec3) -> [f32; 2] {
     let (x, y) = (d.x.abs(), d.y.abs());
     let r = (1.0 - d.z.abs()).max(0.0).sqrt();
     // phi / (pi/2) in [0, 1], measured from the x axis; the angle from the
     // nearer axis keeps the ratio in [0, 1] for `atan_unit`.
+    let x_major = x >= y;
+    let angle = atan_unit(if x_major { y / x } else { x / y }) / FRAC_PI_2;
     let phi = if x == 0.0 && y == 0.0 {
         0.0
-    } else if x >= y {
-        atan_unit(y / x) / FRAC_PI_2
+    } else if x_major {
+        angle
     } else {
-        1.0 - atan_unit(x / y) / FRAC_PI_2
+        1.0 - angle
     };
-    let mut v = phi * r;
-    let mut u = r - v;
-    if d.z < 0.0 {
-        (u, v) = (1.0 - v, 1.0 - u);
-    }
+    let v = phi * r;
+    let u = r - v;
+    let below = d.z < 0.0;
+    let (u, v) = (if below { 1.0 - v } else { u }, if below { 1.0 - u } else { v });
     [u.copysign(d.x), v.copysign(d.y)]
 }
 
@@ -69,7 +72,7 @@ pub fn sphere_to_square(d: Vec3) -> [f32; 2] {
 /// baseline (no SSE4.1 rounding); the lookups floor per ray. NaN gives 0
 /// where `floor` gives NaN: both cast to index 0, and the fraction x - floor
 /// is NaN either way.
-#[inline]
+#[inline(always)]
 fn floor(x: f32) -> f32 {
     let t = x as i32 as f32;
     if t > x { t - 1.0 } else { t }
@@ -95,6 +98,7 @@ impl OctahedralGrid {
 
     /// Continuous grid coordinates of a unit vector: sample (i, j)'s centre is
     /// at (i, j), the square's edges at -0.5 and side - 0.5.
+    #[inline(always)]
     pub fn grid_coordinates(&self, d: Vec3) -> [f32; 2] {
         let [u, v] = sphere_to_square(d);
         let n = self.side as f32;
@@ -102,6 +106,7 @@ impl OctahedralGrid {
     }
 
     /// The sample nearest `d` in the grid (the cell containing it).
+    #[inline(always)]
     pub fn nearest(&self, d: Vec3) -> u32 {
         let [gx, gy] = self.grid_coordinates(d);
         let last = self.side as i32 - 1;
@@ -113,23 +118,28 @@ impl OctahedralGrid {
 
     /// The cell at grid index (i, j), which may lie one step outside the
     /// square: folded back across the edge it crossed.
+    #[inline(always)]
     pub fn wrap(&self, i: i32, j: i32) -> u32 {
         let n = self.side as i32;
-        let (mut i, mut j) = (i, j);
-        if i < 0 {
-            (i, j) = (-i - 1, n - 1 - j);
+        let (i, j) = if i < 0 {
+            (-i - 1, n - 1 - j)
         } else if i >= n {
-            (i, j) = (2 * n - 1 - i, n - 1 - j);
-        }
-        if j < 0 {
-            (i, j) = (n - 1 - i, -j - 1);
+            (2 * n - 1 - i, n - 1 - j)
+        } else {
+            (i, j)
+        };
+        let (i, j) = if j < 0 {
+            (n - 1 - i, -j - 1)
         } else if j >= n {
-            (i, j) = (n - 1 - i, 2 * n - 1 - j);
-        }
+            (n - 1 - i, 2 * n - 1 - j)
+        } else {
+            (i, j)
+        };
         (i.clamp(0, n - 1) + j.clamp(0, n - 1) * n) as u32
     }
 
     /// The four samples around `d` and their bilinear weights (summing to 1).
+    #[inline(always)]
     pub fn bilinear(&self, d: Vec3) -> [(u32, f32); 4] {
         let [gx, gy] = self.grid_coordinates(d);
         let (x0, y0) = (floor(gx), floor(gy));

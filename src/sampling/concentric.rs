@@ -34,20 +34,26 @@ pub fn concentric_disk(u: f32, v: f32) -> [f32; 2] {
 /// the x axis (pi added for x < 0, which the ratio absorbs), so b = a phi /
 /// (pi/4); elsewhere the roles swap. The ratio stays in [-1, 1], where
 /// `atan_unit` needs no range reduction.
-#[inline]
+/// Both sides of the branch evaluate the polynomial at the ratio they pick,
+/// and the centre is a select at the end: no early exit, so the loops of
+/// `field::batch` vectorise it.
+#[inline(always)]
 pub fn concentric_square(x: f32, y: f32) -> [f32; 2] {
     let r = (x * x + y * y).sqrt();
-    if r == 0.0 {
-        return [0.5, 0.5];
-    }
-    let (a, b) = if x.abs() >= y.abs() {
+    let x_major = x.abs() >= y.abs();
+    let angle = atan_unit(if x_major { y / x } else { x / y });
+    let (a, b) = if x_major {
         let a = r.copysign(x);
-        (a, a * atan_unit(y / x) / FRAC_PI_4)
+        (a, a * angle / FRAC_PI_4)
     } else {
         let b = r.copysign(y);
-        (b * atan_unit(x / y) / FRAC_PI_4, b)
+        (b * angle / FRAC_PI_4, b)
     };
-    [(a + 1.0) * 0.5, (b + 1.0) * 0.5]
+    if r == 0.0 {
+        [0.5, 0.5]
+    } else {
+        [(a + 1.0) * 0.5, (b + 1.0) * 0.5]
+    }
 }
 
 #[cfg(test)]
