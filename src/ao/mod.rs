@@ -125,13 +125,25 @@ impl PointDirections {
     /// would not see the caller's `target_feature`.)
     #[inline(always)]
     pub fn directions_and_cells(&self, bits: &mut [[u32; 2]], out: &mut [(Vec3, u8)]) {
-        // The seeds copied out first: read through `self` inside the loop,
-        // they are reloaded per sample (once inlined, the compiler can no
-        // longer tell that `bits` does not alias them) and the loop stays
-        // scalar, 4 to 5 times slower than vectorised.
+        // Sixteen samples at a time into a local array, with the seeds in
+        // a local copy: written straight into `bits` through `self`, the
+        // compiler (once this is inlined into a kernel) may reload the
+        // seeds per sample, unable to rule out aliasing, and leave the
+        // loop scalar, 4 to 5 times slower than vectorised. A fixed-size
+        // block is vectorised whatever surrounds it.
+        const BLOCK: usize = 16;
         let stream = self.stream;
-        for (j, b) in bits.iter_mut().enumerate() {
-            *b = stream.sample_bits(j as u32);
+        let whole = bits.len() / BLOCK * BLOCK;
+        let (blocks, rest) = bits.split_at_mut(whole);
+        for (c, chunk) in blocks.chunks_exact_mut(BLOCK).enumerate() {
+            let mut block = [[0u32; 2]; BLOCK];
+            for (i, b) in block.iter_mut().enumerate() {
+                *b = stream.sample_bits((c * BLOCK + i) as u32);
+            }
+            chunk.copy_from_slice(&block);
+        }
+        for (j, b) in rest.iter_mut().enumerate() {
+            *b = stream.sample_bits((whole + j) as u32);
         }
         for (o, &b) in out.iter_mut().zip(bits.iter()) {
             let [u, v] = b.map(unit_float);
