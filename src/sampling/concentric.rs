@@ -14,18 +14,28 @@ use super::atan::atan_unit;
 /// Square [0,1]^2 to unit disk.
 #[inline]
 pub fn concentric_disk(u: f32, v: f32) -> [f32; 2] {
+    let [r, phi] = concentric_polar(u, v);
+    let (s, c) = phi.sin_cos();
+    [r * c, r * s]
+}
+
+/// The disk point of `concentric_disk` as (r, phi), before the sine and
+/// cosine: signed radius and angle, (0, 0) at the centre (which then maps
+/// to the same +0 coordinates). Both triangles' quotients are computed and
+/// the answer selected, with no early exit, so that loops over many
+/// samples vectorise it (`ao::PointDirections`); libm's `sin_cos` stays a
+/// separate scalar step.
+#[inline(always)]
+pub fn concentric_polar(u: f32, v: f32) -> [f32; 2] {
     let a = 2.0 * u - 1.0;
     let b = 2.0 * v - 1.0;
-    if a == 0.0 && b == 0.0 {
-        return [0.0, 0.0];
-    }
-    let (r, phi) = if a.abs() > b.abs() {
+    let a_major = a.abs() > b.abs();
+    let (r, phi) = if a_major {
         (a, FRAC_PI_4 * (b / a))
     } else {
         (b, FRAC_PI_2 - FRAC_PI_4 * (a / b))
     };
-    let (s, c) = phi.sin_cos();
-    [r * c, r * s]
+    if a == 0.0 && b == 0.0 { [0.0, 0.0] } else { [r, phi] }
 }
 
 /// Unit disk to square [0,1]^2: the inverse of `concentric_disk`. The

@@ -12,6 +12,12 @@ use super::concentric::{concentric_disk, concentric_square};
 #[inline]
 pub fn cosine_hemisphere(u: f32, v: f32) -> Vec3 {
     let [x, y] = concentric_disk(u, v);
+    malley_lift(x, y)
+}
+
+/// A point of the unit disk lifted to the hemisphere above it.
+#[inline(always)]
+pub fn malley_lift(x: f32, y: f32) -> Vec3 {
     let z = (1.0 - x * x - y * y).max(0.0).sqrt();
     Vec3::new(x, y, z)
 }
