@@ -14,53 +14,80 @@ pub struct ClippedPolygon {
 }
 
 /// Sutherland–Hodgman clipping of triangle `tri` against the closed box `cell`.
+/// The polygon goes back and forth between two buffers (no copy per plane)
+/// and an edge's end is found without a division, in the order the vertices
+/// always had.
 pub fn clip_triangle(tri: &[Vec3; 3], cell: &Aabb) -> ClippedPolygon {
-    let mut poly = ClippedPolygon {
-        vertices: [Vec3::ZERO; 9],
-        len: 3,
-    };
-    poly.vertices[..3].copy_from_slice(tri);
-    let mut scratch = [Vec3::ZERO; 9];
+    let mut bufs = [[[0.0f32; 3]; 9]; 2];
+    for (v, p) in bufs[0].iter_mut().zip(tri) {
+        *v = p.to_array();
+    }
+    let (mut cur, mut len) = (0, 3);
     for axis in 0..3 {
         for (plane, keep_below) in [(cell.min[axis], false), (cell.max[axis], true)] {
-            if poly.len == 0 {
-                return poly;
-            }
-            let inside = |p: Vec3| if keep_below { p[axis] <= plane } else { p[axis] >= plane };
+            let inside = |p: &[f32; 3]| if keep_below { p[axis] <= plane } else { p[axis] >= plane };
+            let (first, second) = bufs.split_at_mut(1);
+            let (from, to) = if cur == 0 {
+                (&first[0], &mut second[0])
+            } else {
+                (&second[0], &mut first[0])
+            };
             // Most planes of a cell do not cut a triangle that straddles one
             // of them: skip those without rebuilding the polygon.
-            let kept = poly.vertices[..poly.len].iter().filter(|&&p| inside(p)).count();
-            if kept == poly.len {
+            let kept = from[..len].iter().filter(|p| inside(p)).count();
+            if kept == len {
                 continue;
             }
             if kept == 0 {
-                poly.len = 0;
-                return poly;
+                return ClippedPolygon {
+                    vertices: [Vec3::ZERO; 9],
+                    len: 0,
+                };
             }
-            let mut n = 0;
-            for i in 0..poly.len {
-                let a = poly.vertices[i];
-                let b = poly.vertices[(i + 1) % poly.len];
-                let (ia, ib) = (inside(a), inside(b));
-                if ia {
-                    scratch[n] = a;
-                    n += 1;
-                }
-                if ia != ib {
-                    // Intersection with the plane; the coordinate on the plane
-                    // is set exactly so the piece lies in the closed cell.
-                    let s = (plane - a[axis]) / (b[axis] - a[axis]);
-                    let mut p = a + (b - a) * s;
-                    p[axis] = plane;
-                    scratch[n] = p;
-                    n += 1;
-                }
-            }
-            poly.vertices[..n].copy_from_slice(&scratch[..n]);
-            poly.len = n;
+            len = clip_to_plane(&from[..len], to, axis, plane, inside);
+            cur = 1 - cur;
         }
     }
-    poly
+    let mut vertices = [Vec3::ZERO; 9];
+    for (v, p) in vertices.iter_mut().zip(&bufs[cur][..len]) {
+        *v = Vec3::from_array(*p);
+    }
+    ClippedPolygon { vertices, len }
+}
+
+/// One Sutherland–Hodgman step: the part of polygon `from` on the `inside`
+/// of the plane `p[axis] = plane`, written to `to`; returns its length.
+#[inline(always)]
+fn clip_to_plane(
+    from: &[[f32; 3]],
+    to: &mut [[f32; 3]; 9],
+    axis: usize,
+    plane: f32,
+    inside: impl Fn(&[f32; 3]) -> bool,
+) -> usize {
+    let mut n = 0;
+    for i in 0..from.len() {
+        let a = from[i];
+        let b = from[if i + 1 == from.len() { 0 } else { i + 1 }];
+        let (ia, ib) = (inside(&a), inside(&b));
+        if ia {
+            to[n] = a;
+            n += 1;
+        }
+        if ia != ib {
+            // Intersection with the plane; the coordinate on the plane
+            // is set exactly so the piece lies in the closed cell.
+            let s = (plane - a[axis]) / (b[axis] - a[axis]);
+            let mut p = [0.0; 3];
+            for c in 0..3 {
+                p[c] = a[c] + (b[c] - a[c]) * s;
+            }
+            p[axis] = plane;
+            to[n] = p;
+            n += 1;
+        }
+    }
+    n
 }
 
 impl ClippedPolygon {
