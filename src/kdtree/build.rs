@@ -27,7 +27,7 @@
 
 use glam::Vec3;
 
-use super::clip::{clip_triangle, clipped_bounds};
+use super::clip::{clip_triangle, split_clipped_bounds};
 use super::node::{KdNode, MAX_LEAF_TRIANGLES, MAX_TREE_DEPTH};
 use crate::aabb::Aabb;
 use crate::progress::Progress;
@@ -697,12 +697,14 @@ impl<'a> Builder<'a> {
                 None
             } else {
                 let tri = &self.triangles[p.tri as usize];
-                let bounds = clipped_bounds(tri, &above_cell);
+                let (below, bounds) = split_clipped_bounds(tri, cell, a, pos);
                 if !bounds.is_empty() {
                     above.push(Prim { bounds, tri: p.tri });
                 }
-                let bounds = clipped_bounds(tri, &below_cell);
-                (!bounds.is_empty()).then_some(Prim { bounds, tri: p.tri })
+                (!below.is_empty()).then_some(Prim {
+                    bounds: below,
+                    tri: p.tri,
+                })
             };
             if let Some(b) = below {
                 prims[kept] = b;
