@@ -17,17 +17,29 @@
 //!    times the scene box's is not split further.
 //!
 //! Candidate planes come from the triangles' bounds clipped to the cell
-//! ("perfect splits"). Cells with more than a few triangles evaluate the SAH
-//! on a binned grid of planes (O(N) per cell) and then sweep exactly only
-//! the events in the two bins around the best boundary; the smallest cells
-//! sweep every event exactly (Wald and Havran 2006). The rules above come
-//! first and are not binned. The two children of large cells are built in
-//! parallel with rayon; a split allocates only its above side (the below side
-//! is compacted in place) and the sweep's events live in a reused scratch.
+//! ("perfect splits"; a straddling triangle is clipped to the cell once and
+//! the polygon cut at the plane, `clip::split_clipped_bounds`). Cells with
+//! more than a few triangles evaluate the SAH on a binned grid of planes
+//! (O(N) per cell) and then sweep exactly only the events in the two bins
+//! around the best boundary; the smallest cells sweep every event exactly
+//! (Wald and Havran 2006). Up to 32 events the exact sweep counts the
+//! triangles on each side of every event, eight events at a time, instead
+//! of sorting them; it picks the plane the sorted sweep picks (a unit test
+//! compares them). The rules above come first and are not binned. The two
+//! children of large cells are built in parallel with rayon (in place on a
+//! one-thread pool); a split allocates only its above side (the below side
+//! is compacted in place, an empty cut moves the whole vector) and the
+//! sweep's events live in a reused scratch.
+//!
+//! With these, one thread, the bunny's build + `prepare` went 311 -> 230 ms
+//! (`trace --threads 1 --json`, best of 7 alternating with the previous
+//! binary at load average 4 on 2 cores; docs/results/tracing.md, "Build"),
+//! against Embree's high-quality BVH build at 114 ms: 2.0x, the issue's
+//! 1.5x is not met.
 
 use glam::Vec3;
 
-use super::clip::{clip_triangle, clipped_bounds};
+use super::clip::{clip_triangle, split_clipped_bounds};
 use super::node::{KdNode, MAX_LEAF_TRIANGLES, MAX_TREE_DEPTH};
 use crate::aabb::Aabb;
 use crate::progress::Progress;
@@ -58,7 +70,9 @@ pub struct KdTreeParams {
     /// sweep all their events. 16 with 32 bins builds the bunny about 10%
     /// faster (304 -> 273 ms, one thread) than sweeping every cell of up to
     /// 1024 triangles, with the same trace speed (bunny and dragon100k
-    /// primary rays within noise); 2 or 6 was slower than 16.
+    /// primary rays within noise); 2 or 6 was slower than 16. Up to 32
+    /// events (all cells of up to 16 triangles) the sweep counts instead of
+    /// sorting (`COUNTED_EVENTS`).
     pub exact_sah_below: usize,
     /// Number of bins per axis for binned SAH (2 to `MAX_BINS`).
     pub bins: usize,
@@ -137,7 +151,9 @@ pub(super) struct Output {
     pub leaf_triangles: Vec<u32>,
     pub stats: BuildStats,
     /// Scratch for the SAH sweep's events, reused from cell to cell.
-    events: Vec<u64>,
+    events: Events,
+    /// Progress not yet reported (`Builder::leaf`).
+    pending_progress: u64,
 }
 
 impl Output {
@@ -212,14 +228,21 @@ struct Sah {
 impl Sah {
     #[inline]
     fn cost(&self, pos: f32, n_below: usize, n_above: usize) -> f32 {
+        self.cost_of_counts(pos, n_below as f32, n_above as f32)
+    }
+
+    /// `cost` with the counts as floats (exact below 2^24), branch-free
+    /// for the counted sweep's vector lanes.
+    #[inline(always)]
+    fn cost_of_counts(&self, pos: f32, n_below: f32, n_above: f32) -> f32 {
         let p_below = self.constant + self.per_length * (pos - self.lo);
         let p_above = self.constant + self.per_length * (self.hi - pos);
-        let factor = if n_below == 0 || n_above == 0 {
+        let factor = if n_below == 0.0 || n_above == 0.0 {
             self.empty_factor
         } else {
             1.0
         };
-        self.traversal + self.intersection * factor * (p_below * n_below as f32 + p_above * n_above as f32)
+        self.traversal + self.intersection * factor * (p_below * n_below + p_above * n_above)
     }
 }
 
@@ -227,11 +250,11 @@ impl Sah {
 pub const MAX_BINS: usize = 256;
 
 /// The events an exact sweep looks at: all, or those in bins `first..=last`
-/// of a binning (`first`, `last`, the cell's low end, bins per length, bin
-/// count), with the below/above counts of the triangles left of them.
+/// of the binning `binned_split` left in `Events::bins`, with the
+/// below/above counts of the triangles left of them.
 #[derive(Clone, Copy)]
 struct Window {
-    bins: Option<(usize, usize, f32, f32, usize)>,
+    bins: Option<(u8, u8)>,
     counts_before: (usize, usize),
 }
 
@@ -241,17 +264,6 @@ impl Window {
         Window {
             bins: None,
             counts_before: (0, n),
-        }
-    }
-
-    #[inline]
-    fn contains(&self, x: f32) -> bool {
-        match self.bins {
-            None => true,
-            Some((first, last, lo, scale, bins)) => {
-                let b = (((x - lo) * scale) as usize).min(bins - 1);
-                b >= first && b <= last
-            }
         }
     }
 }
@@ -282,6 +294,11 @@ pub(super) struct Builder<'a> {
     scene_area: f32,
     /// Advanced by each leaf's share of the triangles (`build_cell`).
     progress: &'a Progress,
+    progress_step: u64,
+    /// Whether subtrees are built in parallel (the pool has several
+    /// threads); on one thread they are built in place, saving the copies
+    /// of their nodes into the parent's arrays.
+    parallel: bool,
 }
 
 /// Cells with more triangles than this build their children in parallel.
@@ -306,6 +323,8 @@ impl<'a> Builder<'a> {
             frame,
             scene_area: bounds.surface_area_in(frame),
             progress,
+            progress_step: (triangles.len() as u64 / 1024).max(1),
+            parallel: rayon::current_num_threads() > 1,
         }
     }
 
@@ -323,6 +342,7 @@ impl<'a> Builder<'a> {
         let budget = prims.len().saturating_mul(MAX_REFERENCES_PER_TRIANGLE);
         let share = prims.len() as u64;
         self.build_cell(prims, bounds, (0, budget, share), &mut out);
+        self.flush_progress(&mut out);
         out
     }
 
@@ -365,9 +385,19 @@ impl<'a> Builder<'a> {
         }
     }
 
+    /// The bar advances in steps of at least `progress_step`: a step per
+    /// leaf (213K on the bunny) read the clock and took a lock each time.
     fn leaf(&self, out: &mut Output, prims: &[Prim], reason: LeafReason, (depth, share): (usize, u64)) {
         out.push_leaf(prims, reason, depth);
-        self.progress.inc(share);
+        out.pending_progress += share;
+        if out.pending_progress >= self.progress_step {
+            self.flush_progress(out);
+        }
+    }
+
+    fn flush_progress(&self, out: &mut Output) {
+        self.progress.inc(out.pending_progress);
+        out.pending_progress = 0;
     }
 
     fn split_cell(
@@ -392,10 +422,11 @@ impl<'a> Builder<'a> {
         out.count_split(split.kind, depth);
         let index = out.nodes.len();
         out.nodes.push(KdNode::leaf(0, 0)); // replaced below
-        if n > PARALLEL_BELOW {
+        if n > PARALLEL_BELOW && self.parallel {
             let build = |prims, cell, at| {
                 let mut sub = Output::default();
                 self.build_cell(prims, cell, at, &mut sub);
+                self.flush_progress(&mut sub);
                 sub
             };
             let (b, a) = rayon::join(
@@ -527,7 +558,7 @@ impl<'a> Builder<'a> {
         }
     }
 
-    fn best_sah_split(&self, prims: &[Prim], cell: &Aabb, events: &mut Vec<u64>) -> Option<Split> {
+    fn best_sah_split(&self, prims: &[Prim], cell: &Aabb, events: &mut Events) -> Option<Split> {
         if cell.surface_area_in(self.frame) <= 0.0 {
             return None;
         }
@@ -543,79 +574,38 @@ impl<'a> Builder<'a> {
             .min_by(|a, b| a.cost.total_cmp(&b.cost))
     }
 
-    /// Exact SAH: sweep the sorted start, end and planar events of one axis
-    /// that fall in `window` (all of them, or those of a few bins, see
-    /// `binned_split`).
+    /// Exact SAH over the start, end and planar events of one axis that fall
+    /// in `window` (all of them, or those of a few bins, see `binned_split`):
+    /// counted at each event when there are few of them, swept in sorted
+    /// order otherwise. Both give the same plane (the lowest of the
+    /// cheapest, planar triangles below before above).
     fn swept_split(
         &self,
         prims: &[Prim],
         cell: &Aabb,
         axis: usize,
-        events: &mut Vec<u64>,
+        events: &mut Events,
         window: Window,
     ) -> Option<Split> {
-        const END: u64 = 0;
-        const PLANAR: u64 = 1;
-        const START: u64 = 2;
-        events.clear();
-        for p in prims {
-            let (lo, hi) = (p.bounds.min[axis], p.bounds.max[axis]);
-            if lo == hi {
-                if window.contains(lo) {
-                    events.push(sort_key(lo) << 2 | PLANAR);
-                }
-            } else {
-                if window.contains(lo) {
-                    events.push(sort_key(lo) << 2 | START);
-                }
-                if window.contains(hi) {
-                    events.push(sort_key(hi) << 2 | END);
-                }
-            }
-        }
-        events.sort_unstable();
-        let (lo, hi) = (cell.min[axis], cell.max[axis]);
+        events.gather(prims, axis, &window);
         let sah = self.sah(cell, axis);
-        let mut best: Option<Split> = None;
-        // Counts left of the window: triangles starting before it are below,
-        // those ending before it are not above.
-        let (mut n_below, mut n_above) = window.counts_before;
-        let mut i = 0;
-        while i < events.len() {
-            let key = events[i] >> 2;
-            let pos = from_sort_key(key);
-            let mut count = [0usize; 3];
-            while i < events.len() && events[i] >> 2 == key {
-                count[(events[i] & 3) as usize] += 1;
-                i += 1;
-            }
-            let (ends, planar, starts) = (count[0], count[1], count[2]);
-            n_above -= planar + ends;
-            if pos > lo && pos < hi {
-                for planar_below in [true, false] {
-                    let (nb, na) = if planar_below {
-                        (n_below + planar, n_above)
-                    } else {
-                        (n_below, n_above + planar)
-                    };
-                    let cost = sah.cost(pos, nb, na);
-                    if best.is_none_or(|b| cost < b.cost) {
-                        best = Some(Split {
-                            axis,
-                            pos,
-                            planar_below,
-                            kind: SplitKind::Sah,
-                            cost,
-                        });
-                    }
-                    if planar == 0 {
-                        break;
-                    }
-                }
-            }
-            n_below += starts + planar;
-        }
-        best
+        let (lo, hi) = (cell.min[axis], cell.max[axis]);
+        let best = if events.len() <= COUNTED_EVENTS && events.lens[2] == 0 {
+            events.pad();
+            events.counted_best_lanes(&sah, window.counts_before)
+        } else if events.len() <= COUNTED_EVENTS {
+            events.pad();
+            events.counted_best(&sah, (lo, hi), window.counts_before)
+        } else {
+            events.sorted_best(&sah, (lo, hi), window.counts_before)
+        };
+        best.map(|(pos, planar_below, cost)| Split {
+            axis,
+            pos,
+            planar_below,
+            kind: SplitKind::Sah,
+            cost,
+        })
     }
 
     /// Binned SAH over `bins` evenly spaced planes (O(N), Wald 2007), then an
@@ -624,25 +614,29 @@ impl<'a> Builder<'a> {
     /// exact sweep (Wald and Havran 2006) at the cost of sorting a few events
     /// instead of all of them. The partition that follows is exact, so
     /// binning only affects which plane is chosen.
-    fn binned_split(&self, prims: &[Prim], cell: &Aabb, axis: usize, events: &mut Vec<u64>) -> Option<Split> {
+    fn binned_split(&self, prims: &[Prim], cell: &Aabb, axis: usize, events: &mut Events) -> Option<Split> {
         let bins = self.params.bins.clamp(2, MAX_BINS);
         let (lo, extent) = (cell.min[axis], cell.extent()[axis]);
         let scale = bins as f32 / extent;
         // Monotone in x, so the events of a run of bins are a run of
         // positions. A planar triangle counts as a start and an end in its bin.
+        // Each triangle's bins are kept for the sweep's window.
         let bin = |x: f32| (((x - lo) * scale) as usize).min(bins - 1);
-        let mut starts = [0usize; MAX_BINS];
-        let mut ends = [0usize; MAX_BINS];
+        let mut starts = [0u32; MAX_BINS];
+        let mut ends = [0u32; MAX_BINS];
+        events.bins.clear();
         for p in prims {
-            starts[bin(p.bounds.min[axis])] += 1;
-            ends[bin(p.bounds.max[axis])] += 1;
+            let (b0, b1) = (bin(p.bounds.min[axis]), bin(p.bounds.max[axis]));
+            starts[b0] += 1;
+            ends[b1] += 1;
+            events.bins.push([b0 as u8, b1 as u8]);
         }
         let sah = self.sah(cell, axis);
         let mut best: Option<(usize, Split)> = None;
-        let mut n_below = starts[0];
+        let mut n_below = starts[0] as usize;
         let mut n_above = prims.len();
         for k in 1..bins {
-            n_above -= ends[k - 1];
+            n_above -= ends[k - 1] as usize;
             let pos = lo + extent * (k as f32 / bins as f32);
             let cost = sah.cost(pos, n_below, n_above);
             if best.is_none_or(|(_, b)| cost < b.cost) {
@@ -655,17 +649,17 @@ impl<'a> Builder<'a> {
                 };
                 best = Some((k, split));
             }
-            n_below += starts[k];
+            n_below += starts[k] as usize;
         }
         let (k, binned) = best?;
         // Bins k-1 and k, and the counts of the triangles left of them.
         let first = k - 1;
         let counts_before = (
-            starts[..first].iter().sum::<usize>(),
-            prims.len() - ends[..first].iter().sum::<usize>(),
+            starts[..first].iter().sum::<u32>() as usize,
+            prims.len() - ends[..first].iter().sum::<u32>() as usize,
         );
         let window = Window {
-            bins: Some((first, k, lo, scale, bins)),
+            bins: Some((first as u8, k as u8)),
             counts_before,
         };
         let swept = self.swept_split(prims, cell, axis, events, window);
@@ -685,7 +679,20 @@ impl<'a> Builder<'a> {
         below_cell.max[a] = pos;
         let mut above_cell = *cell;
         above_cell.min[a] = pos;
-        let mut above = Vec::with_capacity(prims.len() / 2 + 1);
+        if s.kind == SplitKind::EmptyCut {
+            // Rule 1 cuts at the triangles' own bound: all of them go to the
+            // other side (planar ones at the bound with them), unchanged.
+            return if s.planar_below {
+                (prims, below_cell, Vec::new(), above_cell)
+            } else {
+                (Vec::new(), below_cell, prims, above_cell)
+            };
+        }
+        let goes_above = |p: &Prim| {
+            let (lo, hi) = (p.bounds.min[a], p.bounds.max[a]);
+            hi > pos || (lo == pos && hi == pos && !s.planar_below)
+        };
+        let mut above = Vec::with_capacity(prims.iter().filter(|p| goes_above(p)).count());
         let mut kept = 0;
         for i in 0..prims.len() {
             let p = prims[i];
@@ -704,12 +711,14 @@ impl<'a> Builder<'a> {
                 None
             } else {
                 let tri = &self.triangles[p.tri as usize];
-                let bounds = clipped_bounds(tri, &above_cell);
+                let (below, bounds) = split_clipped_bounds(tri, cell, a, pos);
                 if !bounds.is_empty() {
                     above.push(Prim { bounds, tri: p.tri });
                 }
-                let bounds = clipped_bounds(tri, &below_cell);
-                (!bounds.is_empty()).then_some(Prim { bounds, tri: p.tri })
+                (!below.is_empty()).then_some(Prim {
+                    bounds: below,
+                    tri: p.tri,
+                })
             };
             if let Some(b) = below {
                 prims[kept] = b;
@@ -721,23 +730,243 @@ impl<'a> Builder<'a> {
     }
 }
 
-/// Maps an f32 to a u64 whose unsigned order is the float order (-0 < +0).
-fn sort_key(x: f32) -> u64 {
-    let bits = x.to_bits();
-    (if bits & 0x8000_0000 != 0 {
-        !bits
-    } else {
-        bits | 0x8000_0000
-    }) as u64
+/// Up to this many events, `swept_split` counts the triangles on each side
+/// of every event (O(n^2), branch-free, vectorised) instead of sorting them:
+/// cells of up to 16 triangles have at most 32 events. Sorting them (mostly
+/// insertion sort) and sweeping was 25% of the bunny's build.
+const COUNTED_EVENTS: usize = 32;
+
+/// One axis's events in a cell, as order-preserving integer keys (`key`),
+/// by kind, reused from cell to cell. For the counted sweep each list is
+/// padded with `i32::MAX` (no position's key) to a multiple of `LANES`.
+#[derive(Default)]
+struct Events {
+    starts: Vec<i32>,
+    ends: Vec<i32>,
+    planar: Vec<i32>,
+    /// The lists' lengths without the padding.
+    lens: [usize; 3],
+    /// Each triangle's bins of its low and high bound (`binned_split`).
+    bins: Vec<[u8; 2]>,
+    /// Candidate planes of `counted_best_lanes`, padded like the lists.
+    candidates: Vec<i32>,
+    sorted: Vec<u64>,
 }
 
-fn from_sort_key(key: u64) -> f32 {
-    let bits = key as u32;
-    f32::from_bits(if bits & 0x8000_0000 != 0 {
-        bits & 0x7fff_ffff
-    } else {
-        !bits
-    })
+/// The best plane of a sweep: position, planar triangles below, cost.
+type Best = Option<(f32, bool, f32)>;
+
+/// Width of the counted sweep's comparisons.
+const LANES: usize = 8;
+
+impl Events {
+    fn len(&self) -> usize {
+        self.lens.iter().sum()
+    }
+
+    fn gather(&mut self, prims: &[Prim], axis: usize, window: &Window) {
+        self.starts.clear();
+        self.ends.clear();
+        self.planar.clear();
+        match window.bins {
+            None => {
+                for p in prims {
+                    let (lo, hi) = (p.bounds.min[axis], p.bounds.max[axis]);
+                    if lo == hi {
+                        self.planar.push(key(lo));
+                    } else {
+                        self.starts.push(key(lo));
+                        self.ends.push(key(hi));
+                    }
+                }
+            }
+            Some((first, last)) => {
+                let inside = |b: u8| b >= first && b <= last;
+                for (p, &[b0, b1]) in prims.iter().zip(&self.bins) {
+                    let (lo, hi) = (p.bounds.min[axis], p.bounds.max[axis]);
+                    if lo == hi {
+                        if inside(b0) {
+                            self.planar.push(key(lo));
+                        }
+                    } else {
+                        if inside(b0) {
+                            self.starts.push(key(lo));
+                        }
+                        if inside(b1) {
+                            self.ends.push(key(hi));
+                        }
+                    }
+                }
+            }
+        }
+        self.lens = [self.starts.len(), self.ends.len(), self.planar.len()];
+    }
+
+    fn pad(&mut self) {
+        for list in [&mut self.starts, &mut self.ends, &mut self.planar] {
+            list.resize(list.len().next_multiple_of(LANES), i32::MAX);
+        }
+    }
+
+    /// At each event position p: triangles starting (or planar) before p
+    /// are below, those ending (or planar) at or before p are not above,
+    /// those planar at p go to either side. `before`: the counts left of
+    /// the window.
+    fn counted_best(&self, sah: &Sah, (lo, hi): (f32, f32), before: (usize, usize)) -> Best {
+        let [ns, ne, np] = self.lens;
+        let candidates = self.starts[..ns]
+            .iter()
+            .chain(&self.ends[..ne])
+            .chain(&self.planar[..np]);
+        // (key, planar below, cost); a cost of infinity is never chosen.
+        let mut best = (i32::MAX, true, f32::INFINITY);
+        for &p in candidates {
+            let pos = from_key(p);
+            if !(pos > lo && pos < hi) {
+                continue;
+            }
+            let mut n_below = before.0 + count(&self.starts, |k| k < p);
+            let mut n_above = before.1 - count(&self.ends, |k| k <= p);
+            let mut planar = 0;
+            if np > 0 {
+                n_below += count(&self.planar, |k| k < p);
+                n_above -= count(&self.planar, |k| k <= p);
+                planar = count(&self.planar, |k| k == p);
+            }
+            for planar_below in [true, false] {
+                let cost = if planar_below {
+                    sah.cost(pos, n_below + planar, n_above)
+                } else {
+                    sah.cost(pos, n_below, n_above + planar)
+                };
+                // The sweep's choice: lowest cost, then lowest position,
+                // then planar triangles below.
+                let (bp, bb, bc) = best;
+                if cost < bc || (cost == bc && (p < bp || (p == bp && planar_below && !bb))) {
+                    best = (p, planar_below, cost);
+                }
+                if planar == 0 {
+                    break;
+                }
+            }
+        }
+        (best.2 < f32::INFINITY).then(|| (from_key(best.0), best.1, best.2))
+    }
+
+    /// `counted_best` without planar triangles, `LANES` candidate planes at
+    /// a time and without a branch: the counts of the candidates of a lane
+    /// group, their costs (infinite outside the open cell, as padding is),
+    /// then the lowest cost and its lowest position.
+    fn counted_best_lanes(&mut self, sah: &Sah, before: (usize, usize)) -> Best {
+        let [ns, ne, _] = self.lens;
+        let (starts, ends) = (&self.starts, &self.ends);
+        let candidates = &mut self.candidates;
+        candidates.clear();
+        candidates.extend_from_slice(&starts[..ns]);
+        candidates.extend_from_slice(&ends[..ne]);
+        candidates.resize(candidates.len().next_multiple_of(LANES), i32::MAX);
+        let mut best = (f32::INFINITY, i32::MAX);
+        for group in candidates.chunks_exact(LANES) {
+            let keys: [i32; LANES] = std::array::from_fn(|j| group[j]);
+            let mut below = [0i32; LANES];
+            let mut ended = [0i32; LANES];
+            for &k in starts {
+                for j in 0..LANES {
+                    below[j] += (k < keys[j]) as i32;
+                }
+            }
+            for &k in ends {
+                for j in 0..LANES {
+                    ended[j] += (k <= keys[j]) as i32;
+                }
+            }
+            let cost: [f32; LANES] = std::array::from_fn(|j| {
+                let pos = from_key(keys[j]);
+                let n_below = (before.0 as i32).wrapping_add(below[j]) as f32;
+                let n_above = (before.1 as i32).wrapping_sub(ended[j]) as f32;
+                let c = sah.cost_of_counts(pos, n_below, n_above);
+                if pos > sah.lo && pos < sah.hi { c } else { f32::INFINITY }
+            });
+            for j in 0..LANES {
+                if cost[j] < best.0 || (cost[j] == best.0 && keys[j] < best.1) {
+                    best = (cost[j], keys[j]);
+                }
+            }
+        }
+        (best.0 < f32::INFINITY).then(|| (from_key(best.1), true, best.0))
+    }
+
+    /// The sweep of the events sorted by position (Wald and Havran 2006).
+    fn sorted_best(&mut self, sah: &Sah, (lo, hi): (f32, f32), before: (usize, usize)) -> Best {
+        const END: u64 = 0;
+        const PLANAR: u64 = 1;
+        const START: u64 = 2;
+        let wide = |k: i32| ((k as u32) ^ 0x8000_0000) as u64;
+        let events = &mut self.sorted;
+        events.clear();
+        let [ns, ne, np] = self.lens;
+        events.extend(self.ends[..ne].iter().map(|&k| wide(k) << 2 | END));
+        events.extend(self.planar[..np].iter().map(|&k| wide(k) << 2 | PLANAR));
+        events.extend(self.starts[..ns].iter().map(|&k| wide(k) << 2 | START));
+        events.sort_unstable();
+        let mut best: Best = None;
+        let (mut n_below, mut n_above) = before;
+        let mut i = 0;
+        while i < events.len() {
+            let k = events[i] >> 2;
+            let pos = from_key((k as u32 ^ 0x8000_0000) as i32);
+            let mut count = [0usize; 3];
+            while i < events.len() && events[i] >> 2 == k {
+                count[(events[i] & 3) as usize] += 1;
+                i += 1;
+            }
+            let (ends, planar, starts) = (count[0], count[1], count[2]);
+            n_above -= planar + ends;
+            if pos > lo && pos < hi {
+                for planar_below in [true, false] {
+                    let cost = if planar_below {
+                        sah.cost(pos, n_below + planar, n_above)
+                    } else {
+                        sah.cost(pos, n_below, n_above + planar)
+                    };
+                    if best.is_none_or(|(_, _, c)| cost < c) {
+                        best = Some((pos, planar_below, cost));
+                    }
+                    if planar == 0 {
+                        break;
+                    }
+                }
+            }
+            n_below += starts + planar;
+        }
+        best
+    }
+}
+
+/// How many of `keys` (a multiple of `LANES` long) satisfy `pred`, in
+/// whole vectors: the lists are too short for the compiler's own
+/// vectorisation of a loop of any length to reach its vector part.
+#[inline(always)]
+fn count(keys: &[i32], pred: impl Fn(i32) -> bool) -> usize {
+    let mut acc = [0u32; LANES];
+    for chunk in keys.chunks_exact(LANES) {
+        for (a, &k) in acc.iter_mut().zip(chunk) {
+            *a += pred(k) as u32;
+        }
+    }
+    acc.iter().sum::<u32>() as usize
+}
+
+/// Maps an f32 to an i32 whose order is the float order (-0 < +0), so
+/// that event positions compare as integers (vectorised, and -0 and +0
+/// stay two positions as in a sort).
+fn key(x: f32) -> i32 {
+    let bits = x.to_bits() as i32;
+    bits ^ (((bits >> 31) as u32) >> 1) as i32
+}
+
+fn from_key(k: i32) -> f32 {
+    f32::from_bits((k ^ (((k >> 31) as u32) >> 1) as i32) as u32)
 }
 
 /// Statistics of a built tree, as `penumbra trace --json` reports them.
@@ -782,13 +1011,58 @@ mod tests {
     use super::*;
 
     #[test]
-    fn sort_keys_order_like_floats() {
+    fn keys_order_like_floats() {
         let xs = [-f32::INFINITY, -2.5, -1e-30, -0.0, 0.0, 1e-30, 3.0, f32::INFINITY];
         for w in xs.windows(2) {
-            assert!(sort_key(w[0]) < sort_key(w[1]), "{} {}", w[0], w[1]);
+            assert!(key(w[0]) < key(w[1]), "{} {}", w[0], w[1]);
         }
         for x in xs {
-            assert_eq!(from_sort_key(sort_key(x)).to_bits(), x.to_bits());
+            assert_eq!(from_key(key(x)).to_bits(), x.to_bits());
+        }
+    }
+
+    /// The counted sweeps choose the plane the sorted sweep chooses, cost
+    /// ties (repeated positions on a coarse grid) and planar triangles
+    /// included.
+    #[test]
+    fn counted_sweeps_agree_with_the_sorted_sweep() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = |m: u32| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % m as u64) as f32
+        };
+        let sah = Sah {
+            lo: 0.0,
+            hi: 16.0,
+            constant: 0.3,
+            per_length: 0.05,
+            traversal: 1.0,
+            intersection: 1.5,
+            empty_factor: 0.8,
+        };
+        let window = Window::all;
+        for case in 0..2000 {
+            let n = 1 + case % 16;
+            let prims: Vec<Prim> = (0..n)
+                .map(|i| {
+                    let (a, b) = (next(17), next(17));
+                    let planar = case % 3 == 0 && next(4) == 0.0;
+                    let (lo, hi) = if planar { (a, a) } else { (a.min(b), a.max(b) + 1.0) };
+                    let bounds = Aabb::new(Vec3::new(lo, 0.0, 0.0), Vec3::new(hi.min(16.0), 1.0, 1.0));
+                    Prim { bounds, tri: i as u32 }
+                })
+                .collect();
+            let mut events = Events::default();
+            events.gather(&prims, 0, &window(n));
+            let sorted = events.sorted_best(&sah, (0.0, 16.0), (0, n));
+            events.pad();
+            let counted = events.counted_best(&sah, (0.0, 16.0), (0, n));
+            assert_eq!(counted, sorted, "case {case}");
+            if events.lens[2] == 0 {
+                assert_eq!(events.counted_best_lanes(&sah, (0, n)), sorted, "case {case}");
+            }
         }
     }
 }
