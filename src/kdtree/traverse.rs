@@ -13,7 +13,7 @@ use std::mem::MaybeUninit;
 use glam::Vec3;
 
 use super::KdTree;
-use super::node::MAX_TREE_DEPTH;
+use super::node::{KdNode, MAX_TREE_DEPTH};
 use super::watertight::ShearedRay;
 use crate::ray::Hit;
 
@@ -161,7 +161,7 @@ impl KdTree {
         };
         loop {
             counts.cell();
-            let node = self.nodes[node_index as usize];
+            let node = self.leaf_blocks.nodes[node_index as usize];
             if !node.is_leaf() {
                 let axis = (node.word1 & 3) as usize;
                 let split = node.split();
@@ -193,19 +193,8 @@ impl KdTree {
                 continue;
             }
 
-            let range = node.leaf_range();
-            for (&tri, verts) in self.leaf_triangles[range.clone()]
-                .iter()
-                .zip(&self.leaf_vertices[range])
-            {
-                counts.intersection();
-                let [v0, v1, v2] = *verts;
-                if let Some(t) = ray.intersect(v0, v1, v2, best.t) {
-                    best = Hit { t, triangle: tri };
-                    if ANY {
-                        return best;
-                    }
-                }
+            if self.test_leaf::<ANY, C>(ray, node, &mut best, counts) {
+                return best;
             }
             // A hit inside this cell is the closest: the remaining cells lie
             // beyond its exit. (A hit beyond it may still be beaten by a
@@ -226,5 +215,38 @@ impl KdTree {
                 }
             }
         }
+    }
+
+    /// Tests the triangles of leaf `node` (of `leaf_blocks.nodes`),
+    /// lowering `best`; true when `ANY` and one was hit (the search is over).
+    #[inline(always)]
+    fn test_leaf<const ANY: bool, C: Counters>(
+        &self,
+        ray: &ShearedRay,
+        node: KdNode,
+        best: &mut Hit,
+        counts: &mut C,
+    ) -> bool {
+        for block in self.leaf_blocks.of_leaf(node) {
+            let t = ray.intersect_block(block);
+            // In the leaf's order, as one test after the other would: a
+            // lane replaces the best hit only if strictly closer.
+            for (&t, &triangle) in t.iter().zip(&block.triangles) {
+                if triangle == Hit::MISS_INDEX {
+                    break;
+                }
+                counts.intersection();
+                if t > 0.0 && t < best.t * ray.scale {
+                    *best = Hit {
+                        t: t * ray.inv_scale,
+                        triangle,
+                    };
+                    if ANY {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
     }
 }

@@ -1,0 +1,173 @@
+//! The CPU's copy of the leaves: each leaf's triangles in blocks of four,
+//! coordinates laid out lane by lane (SoA), so that the single-ray
+//! traversal tests four triangles with one set of vector operations instead
+//! of one triangle at a time with a branch after each early exit (on 1M
+//! random rays against the bunny, +9%; on the cow, whose tree stays in
+//! cache, +18%).
+//!
+//! `nodes` is `KdTree::nodes` with each leaf's first entry replaced by the
+//! index of its first block; interior nodes, and so every node index, are
+//! unchanged (the packet traversals hand node indices of `KdTree::nodes` to
+//! the single-ray walk). The GPU keeps the original layout.
+
+use glam::Vec3;
+
+use super::node::KdNode;
+use super::watertight::ShearedRay;
+
+/// Triangles of one leaf per block.
+pub const BLOCK: usize = 4;
+
+/// Four triangles of a leaf: `v[3 * vertex + axis][lane]`, vertices
+/// multiplied by the tree's `frame_scale` (as `KdTree::leaf_vertices`),
+/// and their indices in the mesh. Lanes past the leaf's end are zero
+/// triangles (degenerate: never hit) and `u32::MAX`.
+#[repr(C, align(16))]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LeafBlock {
+    pub v: [[f32; BLOCK]; 9],
+    pub triangles: [u32; BLOCK],
+}
+
+/// `KdTree::nodes` pointing into `blocks`, see the module's doc.
+#[derive(Debug, Clone)]
+pub struct LeafBlocks {
+    pub nodes: Vec<KdNode>,
+    pub blocks: Vec<LeafBlock>,
+}
+
+impl LeafBlocks {
+    /// The blocks of a tree's leaves; `leaf_vertices` (scaled) and
+    /// `leaf_triangles` are indexed by the leaves' ranges in `nodes`.
+    pub fn new(nodes: &[KdNode], leaf_triangles: &[u32], leaf_vertices: &[[Vec3; 3]]) -> LeafBlocks {
+        let mut blocks = Vec::new();
+        let nodes = nodes
+            .iter()
+            .map(|&node| {
+                if !node.is_leaf() {
+                    return node;
+                }
+                let range = node.leaf_range();
+                let first_block = blocks.len() as u32;
+                for start in range.clone().step_by(BLOCK) {
+                    let mut block = LeafBlock {
+                        v: [[0.0; BLOCK]; 9],
+                        triangles: [u32::MAX; BLOCK],
+                    };
+                    for (lane, i) in (start..range.end.min(start + BLOCK)).enumerate() {
+                        for (vertex, p) in leaf_vertices[i].iter().enumerate() {
+                            for axis in 0..3 {
+                                block.v[3 * vertex + axis][lane] = p[axis];
+                            }
+                        }
+                        block.triangles[lane] = leaf_triangles[i];
+                    }
+                    blocks.push(block);
+                }
+                KdNode::leaf(first_block, range.len() as u32)
+            })
+            .collect();
+        LeafBlocks { nodes, blocks }
+    }
+
+    /// The blocks of leaf `node` (a node of `self.nodes`).
+    #[inline(always)]
+    pub fn of_leaf(&self, node: KdNode) -> &[LeafBlock] {
+        let first = node.word0 as usize;
+        let count = (node.word1 >> 2) as usize;
+        &self.blocks[first..first + count.div_ceil(BLOCK)]
+    }
+}
+
+#[inline(always)]
+fn lanes(f: impl Fn(usize) -> f32) -> [f32; BLOCK] {
+    std::array::from_fn(f)
+}
+
+impl ShearedRay {
+    /// `intersect` of the four triangles of `block`, before its final
+    /// `0 < t < t_max` test: each lane's t in the frame (`scale` times the
+    /// world's), NaN where the lane misses. Every lane runs the same IEEE
+    /// operations in the same order as `intersect` (no fused multiply-add in
+    /// Rust), so its t is bit for bit the one `intersect` compares.
+    #[inline(always)]
+    pub fn intersect_block(&self, block: &LeafBlock) -> [f32; BLOCK] {
+        let (kx, ky, kz) = (self.kx, self.ky, self.kz);
+        let o = self.origin.to_array();
+        let rel = |vertex: usize, axis: usize| lanes(|l| block.v[3 * vertex + axis][l] - o[axis]);
+        let (a_x, a_y, a_z) = (rel(0, kx), rel(0, ky), rel(0, kz));
+        let (b_x, b_y, b_z) = (rel(1, kx), rel(1, ky), rel(1, kz));
+        let (c_x, c_y, c_z) = (rel(2, kx), rel(2, ky), rel(2, kz));
+        let ax = lanes(|l| a_x[l] - self.sx * a_z[l]);
+        let ay = lanes(|l| a_y[l] - self.sy * a_z[l]);
+        let bx = lanes(|l| b_x[l] - self.sx * b_z[l]);
+        let by = lanes(|l| b_y[l] - self.sy * b_z[l]);
+        let cx = lanes(|l| c_x[l] - self.sx * c_z[l]);
+        let cy = lanes(|l| c_y[l] - self.sy * c_z[l]);
+        let u = lanes(|l| cx[l] * by[l] - cy[l] * bx[l]);
+        let v = lanes(|l| ax[l] * cy[l] - ay[l] * cx[l]);
+        let w = lanes(|l| bx[l] * ay[l] - by[l] * ax[l]);
+        let det = lanes(|l| u[l] + v[l] + w[l]);
+        let t_scaled = lanes(|l| u[l] * (self.sz * a_z[l]) + v[l] * (self.sz * b_z[l]) + w[l] * (self.sz * c_z[l]));
+        // The early exits of `intersect`, as masks (non-short-circuit `|`
+        // and `&`: no branches).
+        lanes(|l| {
+            let negative = (u[l] < 0.0) | (v[l] < 0.0) | (w[l] < 0.0);
+            let positive = (u[l] > 0.0) | (v[l] > 0.0) | (w[l] > 0.0);
+            let behind = ((det[l] > 0.0) & (t_scaled[l] <= 0.0)) | ((det[l] < 0.0) & (t_scaled[l] >= 0.0));
+            let miss = (negative & positive) | (det[l] == 0.0) | behind;
+            if miss { f32::NAN } else { t_scaled[l] / det[l] }
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each lane's t equals `intersect`'s bit for bit, hit or miss, over
+    /// random, degenerate and edge-on triangles.
+    #[test]
+    fn block_lanes_equal_the_single_triangle_test() {
+        let mut s = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+        };
+        let mut checked = [0usize; 2];
+        for k in 0..4000 {
+            let mut tris: Vec<[Vec3; 3]> = (0..BLOCK)
+                .map(|_| [0; 3].map(|_| Vec3::new(rnd(), rnd(), rnd())))
+                .collect();
+            if k % 7 == 0 {
+                tris[1] = [tris[1][0]; 3];
+                tris[2][2] = tris[2][0] * 0.5 + tris[2][1] * 0.5;
+            }
+            let leaf = KdNode::leaf(0, BLOCK as u32);
+            let ids: Vec<u32> = (0..BLOCK as u32).collect();
+            let blocks = LeafBlocks::new(&[leaf], &ids, &tris);
+            let o = Vec3::new(rnd(), rnd(), rnd()) * 3.0;
+            // Through a vertex, through a lane's centroid, or anywhere.
+            let d = match k % 3 {
+                0 => tris[0][1] - o,
+                1 => (tris[k % BLOCK][0] + tris[k % BLOCK][1] + tris[k % BLOCK][2]) / 3.0 - o,
+                _ => Vec3::new(rnd(), rnd(), rnd()),
+            };
+            let ray = ShearedRay::in_frame(o, d, 0.5);
+            let t = ray.intersect_block(&blocks.blocks[0]);
+            for (lane, tri) in tris.iter().enumerate() {
+                let single = ray.intersect(tri[0], tri[1], tri[2], f32::INFINITY);
+                let block = (t[lane] > 0.0 && t[lane] < f32::INFINITY).then_some(t[lane] * ray.inv_scale);
+                assert_eq!(
+                    single.map(f32::to_bits),
+                    block.map(f32::to_bits),
+                    "case {k} lane {lane}"
+                );
+                checked[single.is_some() as usize] += 1;
+            }
+        }
+        assert!(checked[0] > 1000 && checked[1] > 1000, "{checked:?}");
+    }
+}
