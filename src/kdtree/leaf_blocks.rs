@@ -9,6 +9,10 @@
 //! index of its first block; interior nodes, and so every node index, are
 //! unchanged (the packet traversals hand node indices of `KdTree::nodes` to
 //! the single-ray walk). The GPU keeps the original layout.
+//!
+//! The price is memory: a block is 160 bytes whatever its triangle count,
+//! and most leaves hold one or two, about 100 bytes per leaf reference on
+//! top of `leaf_vertices` (bunny `trace-rays`: peak 96 -> 132 MB).
 
 use glam::Vec3;
 

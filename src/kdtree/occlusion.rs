@@ -417,7 +417,7 @@ fn traverse<V: Lanes>(tree: &KdTree, rays: &Rays<V>) -> u16 {
             let r = lanes.trailing_zeros() as usize;
             let (a, b) = (t_min.to_array()[r], t_max.to_array()[r]);
             if tree
-                .walk::<true, _>(&rays.single(r), node_index, a, b, rays.t_max, &mut NoCounts)
+                .walk::<true, false, _>(&rays.single(r), node_index, a, b, rays.t_max, &mut NoCounts)
                 .is_hit()
             {
                 alive &= !lanes;

@@ -122,7 +122,7 @@ impl KdTree {
             return Hit::MISS;
         };
         let ray = SingleRay::new(origin, dir, self.frame_scale);
-        self.walk::<ANY, C>(
+        self.walk::<ANY, true, C>(
             &ray,
             0,
             t0 * (1.0 - TRAVERSAL_SLACK),
@@ -136,8 +136,13 @@ impl KdTree {
     /// `[t_min, t_cell_max]` in its cell: from the root, the whole search;
     /// from inside, the rest of a search a packet began
     /// (`occlusion`, which hands a ray its lanes no longer share).
+    /// `BLOCKS` reads the nodes and leaves of `leaf_blocks` (four triangles
+    /// tested at once); without it, `nodes` and `leaf_vertices`, which a
+    /// packet's lane should go on with: they are the arrays the packet
+    /// itself has in cache (reading the block copy there made the bunny's
+    /// AO rays 10% slower).
     #[inline(always)]
-    pub(crate) fn walk<const ANY: bool, C: Counters>(
+    pub(crate) fn walk<const ANY: bool, const BLOCKS: bool, C: Counters>(
         &self,
         r: &SingleRay,
         mut node_index: u32,
@@ -161,7 +166,11 @@ impl KdTree {
         };
         loop {
             counts.cell();
-            let node = self.leaf_blocks.nodes[node_index as usize];
+            let node = if BLOCKS {
+                self.leaf_blocks.nodes[node_index as usize]
+            } else {
+                self.nodes[node_index as usize]
+            };
             if !node.is_leaf() {
                 let axis = (node.word1 & 3) as usize;
                 let split = node.split();
@@ -193,7 +202,7 @@ impl KdTree {
                 continue;
             }
 
-            if self.test_leaf::<ANY, C>(ray, node, &mut best, counts) {
+            if self.test_leaf::<ANY, BLOCKS, C>(ray, node, &mut best, counts) {
                 return best;
             }
             // A hit inside this cell is the closest: the remaining cells lie
@@ -217,16 +226,33 @@ impl KdTree {
         }
     }
 
-    /// Tests the triangles of leaf `node` (of `leaf_blocks.nodes`),
-    /// lowering `best`; true when `ANY` and one was hit (the search is over).
+    /// Tests the triangles of leaf `node` (of `leaf_blocks.nodes` with
+    /// `BLOCKS`, else of `nodes`), lowering `best`; true when `ANY` and one
+    /// was hit (the search is over).
     #[inline(always)]
-    fn test_leaf<const ANY: bool, C: Counters>(
+    fn test_leaf<const ANY: bool, const BLOCKS: bool, C: Counters>(
         &self,
         ray: &ShearedRay,
         node: KdNode,
         best: &mut Hit,
         counts: &mut C,
     ) -> bool {
+        if !BLOCKS {
+            let range = node.leaf_range();
+            for (&triangle, &[v0, v1, v2]) in self.leaf_triangles[range.clone()]
+                .iter()
+                .zip(&self.leaf_vertices[range])
+            {
+                counts.intersection();
+                if let Some(t) = ray.intersect(v0, v1, v2, best.t) {
+                    *best = Hit { t, triangle };
+                    if ANY {
+                        return true;
+                    }
+                }
+            }
+            return false;
+        }
         for block in self.leaf_blocks.of_leaf(node) {
             let t = ray.intersect_block(block);
             // In the leaf's order, as one test after the other would: a
