@@ -120,47 +120,38 @@ impl PointDirections {
 
     /// Rays 0..`out.len()`: each one's direction and the cell of its sample in the
     /// square's 4x4 grid, in Morton order (`packets` groups rays by it).
-    /// Two passes: the samples' integer arithmetic for all rays, which the
-    /// compiler vectorises, then the map to the hemisphere, whose sine and
-    /// cosine are libm's, one ray at a time.
+    /// Sixteen rays at a time, each block in passes so that only libm's
+    /// sine and cosine run one ray at a time: the samples' integer
+    /// arithmetic, the concentric map's (r, phi), then the lift to the
+    /// hemisphere and world, all vectorised. The seeds and frame are local
+    /// copies and the samples go to a local array: written straight into
+    /// `bits` through `self`, the compiler (once this is inlined into a
+    /// kernel) may reload the seeds per sample, unable to rule out
+    /// aliasing, and leave the loop scalar, 4 to 5 times slower.
     /// (Plain loops over slices: iterator adaptors compiled out of line
     /// would not see the caller's `target_feature`.)
     #[inline(always)]
     pub fn directions_and_cells(&self, bits: &mut [[u32; 2]], out: &mut [(Vec3, u8)]) {
-        // Sixteen samples at a time into a local array, with the seeds in
-        // a local copy: written straight into `bits` through `self`, the
-        // compiler (once this is inlined into a kernel) may reload the
-        // seeds per sample, unable to rule out aliasing, and leave the
-        // loop scalar, 4 to 5 times slower than vectorised. A fixed-size
-        // block is vectorised whatever surrounds it.
         const BLOCK: usize = 16;
-        let stream = self.stream;
-        let whole = bits.len() / BLOCK * BLOCK;
-        let (blocks, rest) = bits.split_at_mut(whole);
-        for (c, chunk) in blocks.chunks_exact_mut(BLOCK).enumerate() {
+        let (stream, frame) = (self.stream, self.frame);
+        for (k, (outs, bs)) in out.chunks_mut(BLOCK).zip(bits.chunks_mut(BLOCK)).enumerate() {
+            // A whole block's samples even in a short last block (the
+            // extra ones are never read): a fixed trip count vectorises.
             let mut block = [[0u32; 2]; BLOCK];
             for (i, b) in block.iter_mut().enumerate() {
-                *b = stream.sample_bits((c * BLOCK + i) as u32);
+                *b = stream.sample_bits((k * BLOCK + i) as u32);
             }
-            chunk.copy_from_slice(&block);
-        }
-        for (j, b) in rest.iter_mut().enumerate() {
-            *b = stream.sample_bits((whole + j) as u32);
-        }
-        // `cosine_hemisphere` in three passes per block, so that only libm's
-        // sine and cosine run one ray at a time: the concentric map's
-        // (r, phi) and the lift to the hemisphere and world are vectorised.
-        let frame = self.frame;
-        for (outs, bs) in out.chunks_mut(BLOCK).zip(bits.chunks(BLOCK)) {
+            let n = bs.len();
+            bs.copy_from_slice(&block[..n]);
             let mut polar = [[0.0f32; 2]; BLOCK];
-            for (p, b) in polar.iter_mut().zip(bs) {
+            for (p, b) in polar.iter_mut().zip(&block) {
                 *p = concentric_polar(unit_float(b[0]), unit_float(b[1]));
             }
             let mut sin_cos = [(0.0f32, 0.0f32); BLOCK];
-            for (sc, p) in sin_cos.iter_mut().zip(&polar).take(bs.len()) {
+            for (sc, p) in sin_cos.iter_mut().zip(&polar).take(n) {
                 *sc = p[1].sin_cos();
             }
-            for ((o, b), (&[r, _], &(s, c))) in outs.iter_mut().zip(bs).zip(polar.iter().zip(&sin_cos)) {
+            for ((o, b), (&[r, _], &(s, c))) in outs.iter_mut().zip(&block).zip(polar.iter().zip(&sin_cos)) {
                 let [x, y] = b.map(|b| (b >> 30) as u8);
                 let cell = (x & 1) | (y & 1) << 1 | (x >> 1) << 2 | (y >> 1) << 3;
                 *o = (frame.to_world(malley_lift(r * c, r * s)), cell);
