@@ -294,3 +294,85 @@ fn the_guarantee_holds_under_a_memory_cap_that_evicts() {
     // Siblings share their corners' rays (see also linetree's unit test).
     assert!(traced * 2 < requested, "{traced} of {requested} extremal rays traced");
 }
+
+/// The shipped checkerboard's texture factor at a ray tree node's hit.
+fn texture_at(b: &BoundedRenderer, hit: &penumbra::raytrace::ray_tree::TreeHit) -> Vec3 {
+    b.whitted.scene().surface(hit.surface).texture(hit.point)
+}
+
+#[test]
+fn a_texture_is_looked_up_per_pixel_and_never_interpolated_across_in_a_reflection() {
+    let scene = load_scene_shaded(&asset("raytrace").join("checker-spheres.json")).unwrap();
+    let camera = scene.camera.unwrap();
+    let size = (320, 240);
+    let truth = exact(&scene, &camera, size);
+    let mut b = bounded(
+        &scene,
+        BoundedSettings {
+            epsilon: 0.2,
+            ..Default::default()
+        },
+    );
+    let frame = b.render(&camera, size.0, size.1).unwrap();
+    let e = compare(&frame, &truth, 0.2, b.settings.floor);
+    assert_eq!(e.violations, 0, "{e:?}");
+    // At a huge epsilon only discontinuities split cells: the mirror ball
+    // shows the checkerboard in cells that must each keep to one check.
+    let mut b = bounded(
+        &scene,
+        BoundedSettings {
+            epsilon: 1e6,
+            ..Default::default()
+        },
+    );
+    let camera = Camera {
+        eye: Vec3::new(-1.6, 1.6, 2.4),
+        target: Vec3::new(-2.2, 0.7, -0.3),
+        fov_degrees: 30.0,
+    };
+    let frame = b.render(&camera, size.0, size.1).unwrap();
+    // Per cell: the texture factors of its pixels' first hits (the root,
+    // looked up per pixel) and of their later hits (constant per cell).
+    let mut roots: std::collections::HashMap<u32, Vec<[u32; 3]>> = Default::default();
+    let mut later: std::collections::HashMap<(u32, usize), Vec<[u32; 3]>> = Default::default();
+    for (i, &cell) in frame.cells.iter().enumerate() {
+        if cell == u32::MAX {
+            continue;
+        }
+        let (x, y) = (i as u32 % frame.width, i as u32 / frame.width);
+        let (_, tree) = b
+            .whitted
+            .pixel_tree(&camera, size, &b.settings.whitted, (x, y, 0))
+            .unwrap();
+        for (k, node) in tree.nodes.iter().enumerate() {
+            let Some(hit) = node.hit.filter(|h| b.whitted.scene().surface(h.surface).textured()) else {
+                continue;
+            };
+            let factor = texture_at(&b, &hit).to_array().map(f32::to_bits);
+            let seen = if k == 0 {
+                roots.entry(cell).or_default()
+            } else {
+                later.entry((cell, k)).or_default()
+            };
+            if !seen.contains(&factor) {
+                seen.push(factor);
+            }
+        }
+    }
+    let spanning = roots.values().filter(|f| f.len() > 1).count();
+    let crossing = later.values().filter(|f| f.len() > 1).count();
+    println!(
+        "{} cells on the checkerboard, {spanning} of them over both checks; {} later textured hits, {crossing} over both",
+        roots.len(),
+        later.len()
+    );
+    assert!(
+        spanning > 0,
+        "no cell spans a texture edge: the texture is not looked up per pixel"
+    );
+    assert!(later.len() > 10, "too few reflected textured hits interpolated to test");
+    assert_eq!(
+        crossing, 0,
+        "a reflected or refracted texture edge was interpolated across"
+    );
+}

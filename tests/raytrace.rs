@@ -207,9 +207,18 @@ fn energy_never_increases_along_a_path() {
 
 /// `scene` scaled by `s` about the origin, with lights scaled so that the
 /// image stays the same: positions and the camera by `s`, point lights'
-/// intensities by `s^2`.
+/// intensities by `s^2`, checker textures' cubes by `s`.
 fn scaled(scene: &Scene, s: f32) -> (Scene, Camera) {
     let mut out = scene.clone();
+    let materials = out.materials.iter_mut().chain(
+        out.meshes
+            .iter_mut()
+            .flat_map(|m| m.shading.iter_mut().flat_map(|sh| sh.materials.iter_mut())),
+    );
+    for c in materials.filter_map(|m| m.checker.as_mut()) {
+        c.size *= s;
+        c.origin *= s;
+    }
     for inst in &mut out.instances {
         inst.transform.scale *= s;
         inst.transform.translation *= s;

@@ -166,7 +166,8 @@ fn full_scene(d: &TempDir) -> Value {
             { "directional": { "direction": [0, -1, 0], "radiance": [1, 1, 1] } }
         ],
         "environment": { "map": probe, "intensity": 1.5 },
-        "materials": { "m": { "kd": [0.5, 0.4, 0.3], "illum": 2 } },
+        "materials": { "m": { "kd": [0.5, 0.4, 0.3], "illum": 2,
+                              "checker": { "size": 0.5, "origin": [0, -0.25, 0], "odd": [0.2, 0.2, 0.2] } } },
         "spheres": [ { "center": [0, 1, 0], "radius": 0.25, "material": "m" } ],
         "ambient": [0.05, 0.05, 0.05],
         "background": [0, 0, 0]
@@ -183,6 +184,15 @@ fn schema_and_loader_agree_on_mutations() {
         ("unchanged", |_| {}),
         ("unknown top-level key", |v| v["bogus"] = json!(1)),
         ("unknown instance key", |v| v["instances"][0]["colour"] = json!("red")),
+        ("checker without odd", |v| {
+            v["materials"]["m"]["checker"] = json!({ "size": 1 })
+        }),
+        ("unknown checker key", |v| {
+            v["materials"]["m"]["checker"]["scale"] = json!(2)
+        }),
+        ("string checker size", |v| {
+            v["materials"]["m"]["checker"]["size"] = json!("1")
+        }),
         ("two-element translate", |v| {
             v["instances"][1]["translate"] = json!([1, 2])
         }),

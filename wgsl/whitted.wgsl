@@ -7,7 +7,7 @@
 // A pixel's samples are traced one after another; each sample's ray tree is
 // walked depth first with an explicit stack (WGSL has no recursion).
 //
-// records: the scene's surfaces (6 words4 each), lights (3) and spheres (2),
+// records: the scene's surfaces (8 words4 each), lights (3) and spheres (2),
 //          one after another from params.lights_at / spheres_at; floats as
 //          their bits.
 // triangle_shading: 2 words4 per triangle: (surface, normal indices),
@@ -85,10 +85,15 @@ struct Surface {
     kr: vec3<f32>,
     kt: vec3<f32>,
     ke: vec3<f32>,
+    checker_odd: vec3<f32>,
+    checker_inv_size: f32,
+    checker_origin: vec3<f32>,
 }
 
+const SURFACE_WORDS4: u32 = 8u;
+
 fn load_surface(id: u32) -> Surface {
-    let b = id * 6u;
+    let b = id * SURFACE_WORDS4;
     let r0 = records[b];
     let r1 = records[b + 1u];
     let r2 = records[b + 2u];
@@ -102,11 +107,28 @@ fn load_surface(id: u32) -> Surface {
     s.kr = bitcast<vec3<f32>>(records[b + 3u].xyz);
     s.kt = bitcast<vec3<f32>>(records[b + 4u].xyz);
     s.ke = bitcast<vec3<f32>>(records[b + 5u].xyz);
+    let r6 = records[b + 6u];
+    s.checker_odd = bitcast<vec3<f32>>(r6.xyz);
+    s.checker_inv_size = bitcast<f32>(r6.w);
+    s.checker_origin = bitcast<vec3<f32>>(records[b + 7u].xyz);
     return s;
 }
 
 fn surface_ni(id: u32) -> f32 {
-    return bitcast<f32>(records[id * 6u + 2u].w);
+    return bitcast<f32>(records[id * SURFACE_WORDS4 + 2u].w);
+}
+
+// The checker texture's factor of ka and kd at p (Surface::texture).
+fn texture(s: Surface, p: vec3<f32>) -> vec3<f32> {
+    if (s.checker_inv_size == 0.0) {
+        return vec3<f32>(1.0);
+    }
+    let c = floor((p - s.checker_origin) * s.checker_inv_size);
+    let k = c.x + c.y + c.z;
+    if (k - 2.0 * floor(0.5 * k) != 0.0) {
+        return s.checker_odd;
+    }
+    return vec3<f32>(1.0);
 }
 
 struct Light {
@@ -423,7 +445,7 @@ fn transmittance(o: vec3<f32>, d: vec3<f32>, t_max: f32, finite: bool) -> vec4<f
 }
 
 // Light j's radiance (xyz) and code (w) at the lifted point.
-fn light_term(j: u32, lifted: vec3<f32>, n_g: vec3<f32>, n_s: vec3<f32>, d: vec3<f32>, surf: Surface) -> vec4<f32> {
+fn light_term(j: u32, lifted: vec3<f32>, n_g: vec3<f32>, n_s: vec3<f32>, d: vec3<f32>, surf: Surface, kd: vec3<f32>) -> vec4<f32> {
     let light = load_light(j);
     var l: vec3<f32>;
     var dist2 = 1.0;
@@ -464,7 +486,7 @@ fn light_term(j: u32, lifted: vec3<f32>, n_g: vec3<f32>, n_s: vec3<f32>, d: vec3
     if (n_h > 0.0) {
         spec = surf.ks * pow(n_h, surf.ns);
     }
-    return vec4<f32>(seen.xyz * e * (surf.kd * cos_p + spec), seen.w);
+    return vec4<f32>(seen.xyz * e * (kd * cos_p + spec), seen.w);
 }
 
 struct RayOut {
@@ -506,17 +528,19 @@ fn shade(o: vec3<f32>, d: vec3<f32>, media: Media) -> RayOut {
         }
         let lifted = offset_point(hit.point, n_g, hit.magnitude);
         var local = surf.ke;
+        let tex = texture(surf, hit.point);
         if ((surf.flags & LIT) != 0u) {
-            local = local + surf.ka * params.ambient;
+            local = local + surf.ka * tex * params.ambient;
+            let kd = surf.kd * tex;
             for (var j = 0u; j < params.light_count; j = j + 1u) {
                 shadow_rays = 0u;
-                let term = light_term(j, lifted, n_g, n_s, ray.dir, surf);
+                let term = light_term(j, lifted, n_g, n_s, ray.dir, surf, kd);
                 out.rays.y += shadow_rays;
                 sig = fnv_word(sig, (j << 2u) | u32(term.w));
                 local = local + term.xyz;
             }
         } else {
-            local = local + surf.kd;
+            local = local + surf.kd * tex;
         }
         out.radiance = out.radiance + ray.weight * local;
 

@@ -22,15 +22,19 @@ use crate::raytrace::ray_tree::{RayNode, RayTree};
 #[derive(Debug, Clone)]
 pub struct Sample {
     pub radiance: Vec3,
+    /// Its first hit's ambient and diffuse terms before the texture
+    /// (`RayOut::diffuse`).
+    pub diffuse: Vec3,
     pub tree: RayTree,
     refs: u32,
     key: u128,
 }
 
 impl Sample {
-    pub fn new(radiance: Vec3, tree: RayTree) -> Sample {
+    pub fn new(radiance: Vec3, diffuse: Vec3, tree: RayTree) -> Sample {
         Sample {
             radiance,
+            diffuse,
             tree,
             refs: 0,
             key: 0,
@@ -49,10 +53,34 @@ impl Sample {
 }
 
 /// An accepted cell: its corners' radiance and what the predicate proved.
+/// On a textured surface (`diffuse` given) the radiance of a line is
+/// `radiance + T diffuse`, both interpolated, with `T` the texture at the
+/// line's exact hit (the paper's section 7, "Textures": the texture is
+/// looked up, not interpolated).
 #[derive(Debug, Clone)]
 pub struct Interpolant {
+    /// Radiance, or on a textured surface what its texture does not scale.
     pub radiance: [Vec3; 16],
+    /// The ambient and diffuse terms the texture scales, where it has one.
+    pub diffuse: Option<Box<[Vec3; 16]>>,
     pub accepted: Accepted,
+}
+
+impl Interpolant {
+    /// The radiance at `local` in the cell, where the line's hit has the
+    /// texture factor `texture` (1 where there is none).
+    pub fn at(&self, local: [f32; 4], texture: Vec3) -> Vec3 {
+        let base = crate::bounded::interpolate::interpolate(&self.radiance, local);
+        match &self.diffuse {
+            Some(d) => base + texture * crate::bounded::interpolate::interpolate(d, local),
+            None => base,
+        }
+    }
+
+    /// Bytes it holds, for the memory cap.
+    fn bytes(&self) -> usize {
+        std::mem::size_of::<Interpolant>() + self.diffuse.as_ref().map_or(0, |_| std::mem::size_of::<[Vec3; 16]>())
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -237,8 +265,8 @@ impl Linetrees {
                 s.refs += 1;
             }
         }
-        if matches!(state, CellState::Valid(_)) {
-            self.account(std::mem::size_of::<Interpolant>() as isize);
+        if let CellState::Valid(interp) = &state {
+            self.account(interp.bytes() as isize);
         }
         let cell = &mut self.cells[i as usize];
         if let Some(old) = cell.samples.replace(ids) {
@@ -301,12 +329,13 @@ impl Linetrees {
                 break;
             }
             let cell = &mut self.cells[i as usize];
-            let valid = matches!(cell.state, CellState::Valid(_));
+            let held = match &cell.state {
+                CellState::Valid(interp) => interp.bytes(),
+                _ => 0,
+            };
             cell.state = CellState::Unbuilt;
             if let Some(ids) = cell.samples.take() {
-                if valid {
-                    self.account(-(std::mem::size_of::<Interpolant>() as isize));
-                }
+                self.account(-(held as isize));
                 self.release(ids);
                 evicted += 1;
             }

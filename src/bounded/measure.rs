@@ -8,7 +8,6 @@ use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::bounded::interpolate::interpolate;
 use crate::bounded::linetree::CellState;
 use crate::bounded::predicate::{Failure, RootFace};
 use crate::bounded::runner::{BoundedFrame, BoundedRenderer, PixelPath, TraceReason};
@@ -92,7 +91,7 @@ impl BoundedRenderer {
                         let h = hash_u32(seed ^ hash_u32(c.wrapping_mul(0x9e37_79b9) ^ hash_u32(j * 4 + i as u32)));
                         lo + (hi - lo) * (h as f64 / u32::MAX as f64)
                     });
-                    let (exact, first) = self.trace_line(params, cell.tree, &coords);
+                    let (exact, first, texture) = self.trace_line(params, cell.tree, &coords);
                     s.lines += 1;
                     let same = first.is_some_and(|p| {
                         RootFace::of(self.geometry(), self.whitted.scene(), p) == interp.accepted.root
@@ -101,7 +100,7 @@ impl BoundedRenderer {
                         s.skipped += 1;
                         continue;
                     }
-                    let l = interpolate(&interp.radiance, cell.cell.local(pair, &coords));
+                    let l = interp.at(cell.cell.local(pair, &coords), texture);
                     let rel = relative_error(l, exact, floor);
                     s.max_rel = s.max_rel.max(rel);
                     s.violations += (rel > eps as f64) as u64;
@@ -125,7 +124,7 @@ impl BoundedRenderer {
 /// rays that miss the surface; red blockers of reflections; magenta
 /// non-linear radiance), orange total internal reflection, cyan span
 /// fills, white the eye inside glass or a slab, grey face mismatches,
-/// black the background.
+/// blue texture edges, black the background.
 pub fn path_colour(path: PixelPath) -> [u8; 3] {
     match path {
         PixelPath::Reprojected => [90, 110, 150],
@@ -142,6 +141,7 @@ pub fn path_colour(path: PixelPath) -> [u8; 3] {
             TraceReason::Eye => [255, 255, 255],
             TraceReason::Mismatch => [128, 128, 128],
             TraceReason::Exact => [60, 60, 60],
+            TraceReason::TextureEdge => [0, 90, 230],
         },
     }
 }

@@ -134,6 +134,26 @@ pub struct Rejected {
 /// largest sample.
 pub const ROUNDING: f64 = 2e-5;
 
+/// A cell's 16 corner samples as the renderer interpolates them.
+pub struct Corners<'a> {
+    /// Radiance, or on a textured root what its texture does not scale.
+    pub radiance: &'a [Vec3; 16],
+    /// On a textured root, the terms its texture scales (`RayOut::diffuse`).
+    pub diffuse: Option<&'a [Vec3; 16]>,
+    /// For `BoundKind::Paper`: the cell's centre ray's (radiance, diffuse),
+    /// split as the corners are.
+    pub centre: Option<(Vec3, Vec3)>,
+}
+
+/// How a node's texture enters its shading.
+#[derive(Clone, Copy)]
+enum Texture {
+    /// One factor of `ka` and `kd` for every line of the cell.
+    Constant(DVec3),
+    /// The root's texture, looked up per pixel: its terms are kept apart.
+    PerPixel,
+}
+
 /// What the predicate reads.
 pub struct Predicate<'a> {
     pub w: &'a Whitted<'a>,
@@ -185,15 +205,18 @@ fn consistent(a: &Aff, want_negative: bool) -> Outcome<()> {
 
 impl Predicate<'_> {
     /// Judges a cell of `pair` from its corner samples' radiance and ray
-    /// trees (corner k: bit i of k is the high end of coordinate i), and,
-    /// for `BoundKind::Paper`, the radiance of the cell's centre ray.
+    /// trees (corner k: bit i of k is the high end of coordinate i).
+    ///
+    /// On a textured root the renderer interpolates `B` (`radiance`) and
+    /// `A` (`diffuse`) and makes `B + T A` with the texture `T` at the
+    /// pixel's exact hit, so its error is at most `E(B) + max T E(A)`,
+    /// compared with `epsilon max(min B + min T min A, floor)`.
     pub fn judge(
         &self,
         pair: &FacePair,
         cell: &CellBox,
-        radiance: &[Vec3; 16],
+        corners: &Corners,
         trees: [&RayTree; 16],
-        centre: Option<Vec3>,
     ) -> Result<Accepted, Rejected> {
         let default_split = if cell.depth[0] <= cell.depth[1] { 0b0101 } else { 0b1010 };
         let reject = |failure| Rejected {
@@ -214,26 +237,39 @@ impl Predicate<'_> {
         } else {
             0b1010
         };
-        let max_sample = radiance.iter().fold(Vec3::ZERO, |m, r| m.max(*r));
+        let (t_lo, t_hi) = walk.texture_range;
+        let zero = [Vec3::ZERO; 16];
+        let diffuse = corners.diffuse.unwrap_or(&zero);
+        let max_sample = (0..16).fold(Vec3::ZERO, |m, k| {
+            m.max(corners.radiance[k].abs() + t_hi.as_vec3() * diffuse[k].abs())
+        });
+        let mean = |v: &[Vec3; 16], c: usize| v.iter().map(|r| r[c] as f64).sum::<f64>() / 16.0;
         let mut bound = [0.0; 3];
         let mut certain_fails = false;
         let mut fails = false;
         for c in 0..3 {
             let allowance = ROUNDING * max_sample[c] as f64 + 1e-9;
-            let total = walk.certain[c].add(walk.uncertain[c]);
-            let (error, reference) = match (self.bound, centre) {
-                (BoundKind::Paper, Some(centre)) => {
-                    let interp = radiance.iter().map(|r| r[c] as f64).sum::<f64>() / 16.0;
-                    (2.0 * (centre[c] as f64 - interp).abs() + allowance, centre[c] as f64)
+            let base = walk.certain[c].add(walk.uncertain[c]);
+            let textured = walk.diffuse_certain[c].add(walk.diffuse_uncertain[c]);
+            let lowest = |b: &Aff, a: &Aff| b.lo() + (t_lo[c] * a.lo()).min(t_hi[c] * a.lo());
+            let (error, reference) = match (self.bound, corners.centre) {
+                (BoundKind::Paper, Some((cb, ca))) => {
+                    let e = 2.0 * (cb[c] as f64 - mean(corners.radiance, c)).abs()
+                        + t_hi[c] * 2.0 * (ca[c] as f64 - mean(diffuse, c)).abs();
+                    (e + allowance, cb[c] as f64 + t_lo[c] * ca[c] as f64)
                 }
-                _ => (total.interp_error() + allowance, total.lo()),
+                _ => (
+                    base.interp_error() + t_hi[c] * textured.interp_error() + allowance,
+                    lowest(&base, &textured),
+                ),
             };
             bound[c] = error;
             let limit = self.epsilon * reference.max(self.floor);
             // NaN fails: it is not at most the limit.
-            fails |= error.partial_cmp(&limit).is_none_or(|o| o.is_gt()) || !total.is_finite();
-            let certain_error = walk.certain[c].interp_error() + allowance;
-            let certain_limit = self.epsilon * walk.certain[c].lo().max(self.floor);
+            fails |= error.partial_cmp(&limit).is_none_or(|o| o.is_gt()) || !base.is_finite() || !textured.is_finite();
+            let certain_error =
+                walk.certain[c].interp_error() + t_hi[c] * walk.diffuse_certain[c].interp_error() + allowance;
+            let certain_limit = self.epsilon * lowest(&walk.certain[c], &walk.diffuse_certain[c]).max(self.floor);
             certain_fails |= certain_error.partial_cmp(&certain_limit).is_none_or(|o| o.is_gt());
         }
         if fails {
@@ -267,6 +303,9 @@ impl Predicate<'_> {
         let mut out = Walk {
             certain: [Aff::ZERO; 3],
             uncertain: [Aff::ZERO; 3],
+            diffuse_certain: [Aff::ZERO; 3],
+            diffuse_uncertain: [Aff::ZERO; 3],
+            texture_range: (DVec3::ONE, DVec3::ONE),
             root: RootFace::Polygon(0),
             hits: (DVec3::ZERO, DVec3::ZERO),
             reprojectable: false,
@@ -327,6 +366,17 @@ impl Predicate<'_> {
             let delta = Aff::interval(delta_lo.min(delta_hi), delta_hi);
             let lifted = hit.q.add(n_g.times(delta));
             let shading = *self.w.scene.surface(tree_hit.surface);
+            let texture = if !shading.textured() {
+                Texture::Constant(DVec3::ONE)
+            } else if i == 0 {
+                let odd = Vec3::from_array(shading.checker_odd).as_dvec3();
+                out.texture_range = (odd.min(DVec3::ONE), odd.max(DVec3::ONE));
+                Texture::PerPixel
+            } else {
+                // Seen in a reflection or through glass, a texture's edge
+                // is a discontinuity: every line must meet one check.
+                Texture::Constant(constant_texture(&shading, &hit.q).ok_or(Failure::Topology)?)
+            };
             let at = AtHit {
                 s: &shading,
                 hit: &hit,
@@ -334,7 +384,7 @@ impl Predicate<'_> {
                 n_g,
                 n_s,
             };
-            let local = self.local(node, &fam, &at, &mut out)?;
+            let local = self.local(node, &fam, &at, texture, &mut out)?;
             for (c, l) in local.iter().enumerate() {
                 out.certain[c] = out.certain[c].add(fam.weight[c].mul(*l));
             }
@@ -426,8 +476,62 @@ impl Predicate<'_> {
         }
     }
 
-    /// The node's local radiance per channel (emission, ambient, lights).
-    fn local(&self, node: &RayNode, fam: &Family, at: &AtHit, out: &mut Walk) -> Outcome<[Aff; 3]> {
+    /// The node's local radiance per channel (emission, ambient, lights);
+    /// with `Texture::PerPixel` the terms the texture scales go to
+    /// `out.diffuse_*` instead.
+    fn local(&self, node: &RayNode, fam: &Family, at: &AtHit, texture: Texture, out: &mut Walk) -> Outcome<[Aff; 3]> {
+        let s = at.s;
+        let ke = Vec3::from_array(s.ke).as_dvec3();
+        let mut local = [0, 1, 2].map(|c| Aff::constant(ke[c]));
+        // The terms the texture scales: into `local` times a constant
+        // factor, or apart (per pixel, at the root: weight 1).
+        let (factor, per_pixel) = match texture {
+            Texture::Constant(t) => (t, false),
+            Texture::PerPixel => (DVec3::ONE, true),
+        };
+        let mut textured = [Aff::ZERO; 3];
+        let mut textured_unknown = [Aff::ZERO; 3];
+        let ambient = Vec3::from_array(self.w.params.ambient).as_dvec3();
+        let (ka, kd, ks) = (
+            Vec3::from_array(s.ka).as_dvec3() * factor,
+            Vec3::from_array(s.kd).as_dvec3() * factor,
+            Vec3::from_array(s.ks).as_dvec3(),
+        );
+        if !s.lit() {
+            textured = [0, 1, 2].map(|c| Aff::constant(kd[c]));
+        } else {
+            for c in 0..3 {
+                textured[c] = Aff::constant(ka[c] * ambient[c]);
+            }
+            let diffuse = per_pixel.then_some((&mut textured, &mut textured_unknown));
+            self.lights(node, fam, at, (kd, ks), &mut local, diffuse, out)?;
+        }
+        for c in 0..3 {
+            if per_pixel {
+                out.diffuse_certain[c] = out.diffuse_certain[c].add(fam.weight[c].mul(textured[c]));
+                out.diffuse_uncertain[c] = out.diffuse_uncertain[c].add(fam.weight[c].mul(textured_unknown[c]));
+            } else {
+                local[c] = local[c].add(textured[c]);
+                out.uncertain[c] = out.uncertain[c].add(fam.weight[c].mul(textured_unknown[c]));
+            }
+        }
+        Ok(local)
+    }
+
+    /// The lights' terms at a node into `local` (or `out.uncertain`), or,
+    /// where `diffuse` is given, the diffuse ones into it apart (certain,
+    /// unknown).
+    #[allow(clippy::too_many_arguments)]
+    fn lights(
+        &self,
+        node: &RayNode,
+        fam: &Family,
+        at: &AtHit,
+        (kd, ks): (DVec3, DVec3),
+        local: &mut [Aff; 3],
+        mut diffuse: Option<(&mut [Aff; 3], &mut [Aff; 3])>,
+        out: &mut Walk,
+    ) -> Outcome<()> {
         let &AtHit {
             s,
             hit,
@@ -435,21 +539,7 @@ impl Predicate<'_> {
             n_g,
             n_s,
         } = at;
-        let ke = Vec3::from_array(s.ke).as_dvec3();
-        let mut local = [0, 1, 2].map(|c| Aff::constant(ke[c]));
-        if !s.lit() {
-            let kd = Vec3::from_array(s.kd).as_dvec3();
-            return Ok([0, 1, 2].map(|c| local[c].add_const(kd[c])));
-        }
-        let ambient = Vec3::from_array(self.w.params.ambient).as_dvec3();
-        let (ka, kd, ks) = (
-            Vec3::from_array(s.ka).as_dvec3(),
-            Vec3::from_array(s.kd).as_dvec3(),
-            Vec3::from_array(s.ks).as_dvec3(),
-        );
-        for c in 0..3 {
-            local[c] = local[c].add_const(ka[c] * ambient[c]);
-        }
+
         for (j, code) in node.lights.iter().enumerate() {
             let light = &self.w.scene.lights[j];
             let pos = Vec3::from_array(light.position).as_dvec3();
@@ -493,7 +583,16 @@ impl Predicate<'_> {
             } else {
                 n_h.relu().powf(s.ns as f64).ok_or(Failure::Nonlinear)?
             };
-            let terms = [0, 1, 2].map(|c| falloff.scale(intensity[c]).mul(cos.scale(kd[c]).add(lobe.scale(ks[c]))));
+            // Apart, or as one product (a tighter remainder).
+            let (terms, diffuse_terms) = if diffuse.is_some() {
+                (
+                    [0, 1, 2].map(|c| falloff.scale(intensity[c]).mul(lobe.scale(ks[c]))),
+                    [0, 1, 2].map(|c| falloff.scale(intensity[c]).mul(cos.scale(kd[c]))),
+                )
+            } else {
+                let both = [0, 1, 2].map(|c| falloff.scale(intensity[c]).mul(cos.scale(kd[c]).add(lobe.scale(ks[c]))));
+                (both, [Aff::ZERO; 3])
+            };
             let shafts = self.shafts();
             // An emitter's sample lies just off its polygon, on the side its
             // shadow rays run: what lies behind that plane cannot block them.
@@ -517,6 +616,11 @@ impl Predicate<'_> {
                     for c in 0..3 {
                         local[c] = local[c].add(terms[c].scale(v));
                     }
+                    if let Some((d, _)) = diffuse.as_mut() {
+                        for c in 0..3 {
+                            d[c] = d[c].add(diffuse_terms[c].scale(v));
+                        }
+                    }
                 }
                 None => {
                     // Blocked or filtered at the 16, unknown in between:
@@ -525,10 +629,15 @@ impl Predicate<'_> {
                         let unknown = term.mul(Aff::interval(0.0, 1.0));
                         out.uncertain[c] = out.uncertain[c].add(fam.weight[c].mul(unknown));
                     }
+                    if let Some((_, d)) = diffuse.as_mut() {
+                        for c in 0..3 {
+                            d[c] = d[c].add(diffuse_terms[c].mul(Aff::interval(0.0, 1.0)));
+                        }
+                    }
                 }
             }
         }
-        Ok(local)
+        Ok(())
     }
 
     /// The visibility of a light blocked or filtered at the 16 corners,
@@ -721,6 +830,11 @@ impl Predicate<'_> {
 struct Walk {
     certain: [Aff; 3],
     uncertain: [Aff; 3],
+    /// A textured root's terms its texture scales (`Texture::PerPixel`).
+    diffuse_certain: [Aff; 3],
+    diffuse_uncertain: [Aff; 3],
+    /// The smallest and largest factor of that texture (1 and 1 without).
+    texture_range: (DVec3, DVec3),
     root: RootFace,
     hits: (DVec3, DVec3),
     reprojectable: bool,
@@ -776,6 +890,16 @@ fn smooth_normal(q: &AVec3, p: &Polygon, normals: &[DVec3; 3]) -> Outcome<AVec3>
         Some(false) => Ok(n.scale(-1.0)),
         None => Err(Failure::Silhouette),
     }
+}
+
+/// The texture factor of a surface over hit points `q`, where every
+/// point (with room for the renderer's rounding) lies in one check.
+fn constant_texture(s: &Shading, q: &AVec3) -> Option<DVec3> {
+    let [lo, hi] = [0, 1].map(|k| DVec3::from_array(q.axes().map(|a| if k == 0 { a.lo() } else { a.hi() })));
+    let margin = 1e-4 * lo.abs().max(hi.abs()).max_element().max(1.0);
+    let cube = |p: DVec3| ((p - Vec3::from_array(s.checker_origin).as_dvec3()) * s.checker_inv_size as f64).floor();
+    let centre = 0.5 * (lo + hi);
+    (cube(lo - DVec3::splat(margin)) == cube(hi + DVec3::splat(margin))).then(|| s.texture(centre.as_vec3()).as_dvec3())
 }
 
 /// Schlick's reflectance over the family (`optics::schlick`).

@@ -30,16 +30,18 @@ use crate::bounded::gpu::InterpolatePass;
 use crate::bounded::interpolate::{PixelJob, interpolate_pixels};
 use crate::bounded::linespace::{FacePair, LineCoords, pair_index};
 use crate::bounded::linetree::{CellState, HashMap, Interpolant, Linetrees, Sample, corner_ray};
-use crate::bounded::predicate::{BoundKind, Failure, Predicate, RootFace};
+use crate::bounded::predicate::{BoundKind, Corners, Failure, Predicate, RootFace};
 use crate::bounded::shaft::{End, Exclude, Shafts};
 use crate::device::elapsed_ms;
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::gpu::batch::Batched;
 use crate::progress::Progress;
+use crate::raytrace::offset::max_abs;
 use crate::raytrace::ray_tree::RayTree;
+use crate::raytrace::surface::Surface as Shading;
 use crate::raytrace::whitted::{FirstHit, Media, Whitted, WhittedParams, pixel_ray};
-use crate::raytrace::{WhittedRenderer, WhittedSettings};
+use crate::raytrace::{RenderScene, WhittedRenderer, WhittedSettings};
 use crate::scene::Camera;
 
 /// How a failed cell is split.
@@ -146,6 +148,9 @@ pub enum TraceReason {
     /// Epsilon 0, or the eye inside glass: the frame is the Whitted
     /// renderer's own.
     Exact,
+    /// Its hit lies within rounding of an edge of its surface's texture,
+    /// where the renderer's own hit point could fall in the other check.
+    TextureEdge,
 }
 
 /// How a pixel got its radiance.
@@ -223,6 +228,8 @@ pub struct BoundedFrame {
 struct Assigned {
     cell: u32,
     local: [f32; 4],
+    /// The pixel's primary hit, where it was traced (not reprojected).
+    hit: Option<(f32, u32)>,
 }
 
 /// The bounded-error renderer of one scene, kept across frames.
@@ -240,6 +247,9 @@ pub struct BoundedRenderer {
 
 /// A pixel's primary hit (distance, primitive) where it has one.
 type PrimaryHit = Option<(f32, u32)>;
+
+/// A pixel to trace and its primary hit where known.
+type PixelToTrace = (u32, PrimaryHit);
 
 /// A pixel on its way down a linetree: pixel, tree (then leaf cell), its
 /// line, the surface it sees and its primary hit.
@@ -377,6 +387,7 @@ impl BoundedRenderer {
                                 assigned[i as usize] = Some(Assigned {
                                     cell,
                                     local: c.local(&pair, &coords),
+                                    hit: Some(hit),
                                 });
                             } else {
                                 paths[i as usize] = PixelPath::Traced(TraceReason::Mismatch);
@@ -418,9 +429,17 @@ impl BoundedRenderer {
         }
         stats.build_ms = elapsed_ms(t2);
 
-        // 3. Slow path, and 4. interpolation.
-        let t3 = Instant::now();
+        // 3. Interpolation, and 4. the slow path (with the pixels at a
+        // texture's edges that interpolation hands back).
+        let t4 = Instant::now();
         let mut radiance = vec![Vec3::from_array(params.background); n];
+        let (pixel_cells, edges) = self.interpolate_all(&params, &claimed, &assigned, &mut radiance)?;
+        for (i, hit) in edges {
+            paths[i as usize] = PixelPath::Traced(TraceReason::TextureEdge);
+            slow.push((i, hit));
+        }
+        stats.interpolate_ms = elapsed_ms(t4);
+        let t3 = Instant::now();
         let twin = self.whitted.twin(&params);
         let media = Media::from_ids(&params.media[..params.media_len as usize]);
         let traced: Vec<(u32, Vec3, u32)> = slow
@@ -443,12 +462,9 @@ impl BoundedRenderer {
             stats.rays_traced_slow_path += rays as u64;
         }
         stats.trace_ms = elapsed_ms(t3);
-        let t4 = Instant::now();
-        let pixel_cells = self.interpolate_all(&params, &claimed, &assigned, &mut radiance)?;
         if self.settings.span {
             span_fill(width, &claimed, &mut radiance, &mut paths);
         }
-        stats.interpolate_ms = elapsed_ms(t4);
 
         // Bookkeeping: what reprojection tries next, memory.
         let mut used: Vec<u32> = assigned.iter().flatten().map(|a| a.cell).collect();
@@ -578,6 +594,7 @@ impl BoundedRenderer {
             bound: self.settings.bound,
         };
         let trees = &self.trees;
+        let scene = self.whitted.scene();
         let verdicts: Vec<(u32, CellState)> = cells
             .par_iter()
             .map(|&c| {
@@ -588,17 +605,28 @@ impl BoundedRenderer {
                 );
                 let keys = trees.corner_keys(c);
                 let samples: [&Sample; 16] = keys.map(|k| trees.sample(k).expect("traced above"));
-                let radiance = samples.map(|s| s.radiance);
+                let textured = first_surface(scene, samples[0]).is_some_and(|s| s.textured());
+                let radiance = samples.map(|s| textured_split(scene, s).0);
+                let diffuse = textured.then(|| samples.map(|s| s.diffuse));
                 let centre = (predicate.bound == BoundKind::Paper).then(|| {
                     let mid = [0, 1, 2, 3].map(|i| {
                         let (lo, hi) = cell.cell.range(&pair, i);
                         0.5 * (lo + hi)
                     });
                     let (o, d) = pair.ray(mid);
-                    trace_sample(&twin, &self.geometry, root, o, d.normalize()).radiance
+                    textured_split(scene, &trace_sample(&twin, &self.geometry, root, o, d.normalize()))
                 });
-                let state = match predicate.judge(&pair, &cell.cell, &radiance, samples.map(|s| &s.tree), centre) {
-                    Ok(accepted) => CellState::Valid(Box::new(Interpolant { radiance, accepted })),
+                let corners = Corners {
+                    radiance: &radiance,
+                    diffuse: diffuse.as_ref(),
+                    centre,
+                };
+                let state = match predicate.judge(&pair, &cell.cell, &corners, samples.map(|s| &s.tree)) {
+                    Ok(accepted) => CellState::Valid(Box::new(Interpolant {
+                        radiance,
+                        diffuse: diffuse.map(Box::new),
+                        accepted,
+                    })),
                     Err(r) => CellState::Failed {
                         failure: r.failure,
                         split: r.split,
@@ -676,16 +704,22 @@ impl BoundedRenderer {
     /// Interpolates every pixel that has a cell: its position in the cell
     /// here (f64 line coordinates), the interpolation itself on the device
     /// (`interpolate.wgsl`) or by its CPU twin, over one table of the
-    /// cells' corners.
+    /// cells' corners. A textured cell takes two slots (base, diffuse) and
+    /// a pixel two jobs, combined with the texture at the pixel's hit;
+    /// pixels whose hit lies within rounding of a texture edge are handed
+    /// back (with their hit) to be traced. Returns each pixel's cell.
     fn interpolate_all(
         &mut self,
         params: &WhittedParams,
         claimed: &[u32],
         assigned: &[Option<Assigned>],
         out: &mut [Vec3],
-    ) -> Result<Vec<u32>> {
+    ) -> Result<(Vec<u32>, Vec<PixelToTrace>)> {
         let eye = Vec3::from_array(params.eye).as_dvec3();
-        let found: Vec<(u32, Assigned)> = (0..out.len())
+        let twin = self.whitted.twin(params);
+        // Per pixel: its cell and place in it, and its texture factor (or
+        // `None`: at a texture's edge).
+        let found: Vec<(u32, Assigned, Option<Vec3>)> = (0..out.len())
             .into_par_iter()
             .with_min_len(256)
             .filter_map(|i| {
@@ -699,50 +733,111 @@ impl BoundedRenderer {
                         Assigned {
                             cell: c,
                             local: cell.cell.local(pair, &coords),
+                            hit: None,
                         }
                     }
                     _ => return None,
                 };
-                matches!(self.trees.cells[a.cell as usize].state, CellState::Valid(_)).then_some((i as u32, a))
+                let CellState::Valid(interp) = &self.trees.cells[a.cell as usize].state else {
+                    return None;
+                };
+                let texture = match interp.diffuse {
+                    Some(_) => self.pixel_texture(&twin, params, i as u32, interp.accepted.root, a.hit),
+                    None => Some(Vec3::ONE),
+                };
+                Some((i as u32, a, texture))
             })
             .collect();
-        // One slot per cell, in order of first use.
+        let mut edges = Vec::new();
+        // One slot per cell (two where textured), in order of first use.
         let mut slot_of: HashMap<u32, u32> = HashMap::default();
         let mut corners: Vec<[f32; 4]> = Vec::new();
-        let jobs: Vec<PixelJob> = found
-            .iter()
-            .map(|&(pixel, a)| {
-                let slot = *slot_of.entry(a.cell).or_insert_with(|| {
-                    let CellState::Valid(interp) = &self.trees.cells[a.cell as usize].state else {
-                        unreachable!("filtered above")
-                    };
-                    corners.extend(interp.radiance.iter().map(|r| r.extend(0.0).to_array()));
-                    (corners.len() / 16 - 1) as u32
-                });
-                PixelJob {
-                    slot,
-                    pixel,
-                    local: a.local,
-                    ..Default::default()
+        let mut jobs: Vec<PixelJob> = Vec::with_capacity(found.len());
+        let mut combine: Vec<(u32, u32, Option<Vec3>)> = Vec::with_capacity(found.len());
+        for &(pixel, a, texture) in &found {
+            let Some(texture) = texture else {
+                edges.push((pixel, a.hit));
+                continue;
+            };
+            let CellState::Valid(interp) = &self.trees.cells[a.cell as usize].state else {
+                unreachable!("filtered above")
+            };
+            let slot = *slot_of.entry(a.cell).or_insert_with(|| {
+                let first = (corners.len() / 16) as u32;
+                corners.extend(interp.radiance.iter().map(|r| r.extend(0.0).to_array()));
+                if let Some(d) = &interp.diffuse {
+                    corners.extend(d.iter().map(|r| r.extend(0.0).to_array()));
                 }
-            })
-            .collect();
+                first
+            });
+            let job = |slot| PixelJob {
+                slot,
+                pixel,
+                local: a.local,
+                ..Default::default()
+            };
+            jobs.push(job(slot));
+            let textured = interp.diffuse.is_some();
+            if textured {
+                jobs.push(job(slot + 1));
+            }
+            combine.push((pixel, a.cell, textured.then_some(texture)));
+        }
         let radiance = match &mut self.gpu {
             Some((ctx, pass)) => pass.interpolate(ctx, &corners, &jobs)?.0,
             None => interpolate_pixels(&corners, &jobs),
         };
         let mut cells = vec![u32::MAX; out.len()];
-        for ((job, r), (_, a)) in jobs.iter().zip(radiance).zip(&found) {
-            out[job.pixel as usize] = Vec3::from_slice(&r[..3]);
-            cells[job.pixel as usize] = a.cell;
+        let mut results = radiance.iter().map(|r| Vec3::from_slice(&r[..3]));
+        for (pixel, cell, texture) in combine {
+            let base = results.next().unwrap_or_default();
+            out[pixel as usize] = match texture {
+                Some(t) => base + t * results.next().unwrap_or_default(),
+                None => base,
+            };
+            cells[pixel as usize] = cell;
         }
-        Ok(cells)
+        Ok((cells, edges))
+    }
+
+    /// The texture factor at pixel `i`'s hit on the cell's root surface:
+    /// its traced primary hit, or (reprojected) its line's intersection
+    /// with the root; `None` where the hit lies within rounding of an edge
+    /// of the texture (the renderer's own hit point could be across it).
+    fn pixel_texture(
+        &self,
+        twin: &Whitted,
+        params: &WhittedParams,
+        i: u32,
+        root: RootFace,
+        hit: PrimaryHit,
+    ) -> Option<Vec3> {
+        let (o, d) = pixel_ray(params, i, 0);
+        let (t, primitive) = match hit {
+            Some(h) => h,
+            None => {
+                let (t, p) = self.geometry.root_hit(root, o.as_dvec3(), d.as_dvec3())?;
+                (t as f32, p)
+            }
+        };
+        let scene = twin.scene;
+        let n_tri = scene.triangles.len() as u32;
+        let surface = scene.surface(match primitive.checked_sub(n_tri) {
+            Some(k) => scene.spheres[k as usize].surface,
+            None => scene.triangles[primitive as usize].surface,
+        });
+        // The renderer's point (`Whitted::hit_info`) is this one up to
+        // rounding of t and of the point: a margin with room to spare.
+        let point = o + t * d;
+        let margin = Vec3::splat(1e-5 * (max_abs(o) + t.abs() + max_abs(point)));
+        let same = surface.checker_cube(point - margin) == surface.checker_cube(point + margin);
+        same.then(|| surface.texture(point))
     }
 
     /// The exact radiance leaving tree `tree`'s surface along its line `c`,
-    /// and the primitive it was shaded on (`None`: the line misses the
-    /// surface), for `--check`.
-    pub fn trace_line(&self, params: &WhittedParams, tree: u32, c: &LineCoords) -> (Vec3, Option<u32>) {
+    /// the primitive it was shaded on (`None`: the line misses the
+    /// surface) and the texture factor there, for `--check`.
+    pub fn trace_line(&self, params: &WhittedParams, tree: u32, c: &LineCoords) -> (Vec3, Option<u32>, Vec3) {
         let tree = &self.trees.trees[tree as usize];
         let (o, d) = tree.pair.ray(*c);
         let s = trace_sample(
@@ -752,8 +847,9 @@ impl BoundedRenderer {
             o,
             d.normalize(),
         );
-        let first = s.tree.nodes.first().and_then(|n| n.hit).map(|h| h.primitive);
-        (s.radiance, first)
+        let first = s.tree.nodes.first().and_then(|n| n.hit);
+        let texture = first.map_or(Vec3::ONE, |h| self.whitted.scene().surface(h.surface).texture(h.point));
+        (s.radiance, first.map(|h| h.primitive), texture)
     }
 
     pub fn geometry(&self) -> &SceneGeometry {
@@ -799,7 +895,26 @@ fn trace_sample(twin: &Whitted, geometry: &SceneGeometry, root: RootFace, o: DVe
     };
     let mut tree = RayTree::default();
     let out = twin.shade(o32, d32, Media::default(), Some(&given), Some(&mut tree));
-    Sample::new(out.radiance, tree)
+    Sample::new(out.radiance, out.diffuse, tree)
+}
+
+/// The surface a sample's line hits first.
+fn first_surface<'a>(scene: &'a RenderScene, s: &Sample) -> Option<&'a Shading> {
+    let hit = s.tree.nodes.first()?.hit?;
+    Some(scene.surface(hit.surface))
+}
+
+/// A sample's radiance as `(base, diffuse)` with `radiance = base + T
+/// diffuse`, `T` the texture at its first hit (`base` the radiance where
+/// that surface has no texture).
+fn textured_split(scene: &RenderScene, s: &Sample) -> (Vec3, Vec3) {
+    match s.tree.nodes.first().and_then(|n| n.hit) {
+        Some(hit) if scene.surface(hit.surface).textured() => {
+            let t = scene.surface(hit.surface).texture(hit.point);
+            (s.radiance - t * s.diffuse, s.diffuse)
+        }
+        _ => (s.radiance, s.diffuse),
+    }
 }
 
 /// The pixels whose eye lines lie in the cell, oriented as its lines: the
@@ -924,6 +1039,7 @@ fn count_paths(paths: &[PixelPath], stats: &mut FrameStats) {
             TraceReason::Eye => "eye".into(),
             TraceReason::Mismatch => "face_mismatch".into(),
             TraceReason::Exact => "epsilon_zero".into(),
+            TraceReason::TextureEdge => "texture_edge".into(),
         };
         *p.traced_by.entry(name).or_default() += count;
     }

@@ -4,8 +4,10 @@
 //! tessellated), a Cornell box with a mirror box and a glass sphere lit by
 //! its ceiling, and extreme cases (total internal reflection in a glass
 //! block, grazing views of a reflective floor, a camera inside glass).
-//! Every check of a checkerboard is its own flat face with its own
-//! material, so ray trees see its edges.
+//! The spheres' checkerboard is a texture (one square whose `ka` and `kd`
+//! a checker pattern scales), as in the paper; the glass block's and the
+//! grazing view's checkerboards are geometry, every check its own flat
+//! face with its own material, so ray trees see their edges.
 
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
@@ -15,7 +17,7 @@ use serde_json::json;
 
 use crate::error::{Error, Result};
 use crate::raytrace::sphere::tessellate;
-use crate::scene::{Material, write_mtl};
+use crate::scene::{Checker, Material, write_mtl};
 
 /// Tessellation of the spheres of the tessellated twins.
 pub const SPHERE_RINGS: u32 = 32;
@@ -204,6 +206,9 @@ fn material_json(m: &Material) -> serde_json::Value {
     if m.has_tf {
         o["tf"] = rgb(m.tf);
     }
+    if let Some(c) = m.checker {
+        o["checker"] = json!({ "size": c.size, "origin": rgb(c.origin), "odd": rgb(c.odd) });
+    }
     o
 }
 
@@ -228,49 +233,78 @@ fn with_setting(mut scene: serde_json::Value, setting: serde_json::Value) -> ser
     scene
 }
 
-fn checker_spheres() -> ShippedScene {
+/// The checkerboard of the paper's scene: one square of side 8 on y = 0,
+/// its 8 x 8 checks a texture (the paper's section 7, "Textures"), not
+/// 64 polygons: light checks `kd` 0.8, dark ones 0.1.
+fn checkerboard() -> Material {
+    Material {
+        checker: Some(Checker {
+            size: 1.0,
+            origin: Vec3::new(0.0, -0.5, 0.0),
+            odd: Vec3::splat(0.125),
+        }),
+        ..diffuse("checkerboard", Vec3::splat(0.8))
+    }
+}
+
+/// The textured floor's OBJ (`checker-spheres.obj`), which the scenes that
+/// stand on it share, and its MTL (the material untextured: the scene
+/// files put `checkerboard()` on it).
+fn checker_floor() -> Vec<(String, String)> {
     let mut obj = ObjWriter::default();
-    obj.checker("floor", 4.0, 8, 0.0, ("check-light", "check-dark"));
-    let mtl = write_mtl(&checks(), HEADER);
-    let materials: serde_json::Map<String, serde_json::Value> = [mirror(), glass(), phong()]
-        .iter()
-        .map(|m| (m.name.clone(), material_json(m)))
-        .collect();
+    let v = |x: f32, z: f32| Vec3::new(x, 0.0, z);
+    obj.quad(
+        "floor",
+        "checkerboard",
+        [v(-4.0, -4.0), v(-4.0, 4.0), v(4.0, 4.0), v(4.0, -4.0)],
+    );
+    let untextured = Material {
+        checker: None,
+        ..checkerboard()
+    };
+    vec![
+        ("checker-spheres.obj".into(), obj.text(HEADER, "checker-spheres.mtl")),
+        ("checker-spheres.mtl".into(), write_mtl(&[untextured], HEADER)),
+    ]
+}
+
+fn materials_json(materials: &[Material]) -> serde_json::Map<String, serde_json::Value> {
+    materials.iter().map(|m| (m.name.clone(), material_json(m))).collect()
+}
+
+fn checker_spheres() -> ShippedScene {
     let spheres: Vec<_> = CHECKER_SPHERES
         .iter()
         .map(|(name, material, c, r)| json!({ "name": name, "center": c, "radius": r, "material": material }))
         .collect();
     let scene = json!({
         "meshes": { "floor": "checker-spheres.obj" },
-        "instances": [ { "mesh": "floor" } ],
-        "materials": materials,
+        "instances": [ { "mesh": "floor", "material": "checkerboard" } ],
+        "materials": materials_json(&[checkerboard(), mirror(), glass(), phong()]),
         "spheres": spheres,
     });
+    let mut files = checker_floor();
+    files.push((
+        "checker-spheres.json".into(),
+        pretty(&with_setting(scene, checker_setting())),
+    ));
     ShippedScene {
         name: "checker-spheres",
-        summary: "mirror, glass and Phong spheres (analytic) over an 8x8 checkerboard, one point light, a sky",
-        files: vec![
-            ("checker-spheres.obj".into(), obj.text(HEADER, "checker-spheres.mtl")),
-            ("checker-spheres.mtl".into(), mtl),
-            (
-                "checker-spheres.json".into(),
-                pretty(&with_setting(scene, checker_setting())),
-            ),
-        ],
+        summary: "mirror, glass and Phong spheres (analytic) over a checkerboard (one square, 8x8 checks as a texture), one point light, a sky",
+        files,
     }
 }
 
 fn checker_spheres_tessellated() -> ShippedScene {
     let mut obj = ObjWriter::default();
-    obj.checker("floor", 4.0, 8, 0.0, ("check-light", "check-dark"));
     for (name, material, c, r) in CHECKER_SPHERES {
         obj.sphere(name, material, Vec3::from_array(c), r);
     }
-    let [a, b] = checks();
-    let mtl = write_mtl(&[a, b, mirror(), glass(), phong()], HEADER);
+    let mtl = write_mtl(&[mirror(), glass(), phong()], HEADER);
     let scene = json!({
-        "meshes": { "scene": "checker-spheres-tessellated.obj" },
-        "instances": [ { "mesh": "scene" } ],
+        "meshes": { "floor": "checker-spheres.obj", "spheres": "checker-spheres-tessellated.obj" },
+        "instances": [ { "mesh": "floor", "material": "checkerboard" }, { "mesh": "spheres" } ],
+        "materials": materials_json(&[checkerboard()]),
     });
     ShippedScene {
         name: "checker-spheres-tessellated",
@@ -439,14 +473,10 @@ fn grazing() -> ShippedScene {
 }
 
 fn inside_glass() -> ShippedScene {
-    let materials: serde_json::Map<String, serde_json::Value> = [glass(), phong()]
-        .iter()
-        .map(|m| (m.name.clone(), material_json(m)))
-        .collect();
     let scene = json!({
         "meshes": { "floor": "checker-spheres.obj" },
-        "instances": [ { "mesh": "floor" } ],
-        "materials": materials,
+        "instances": [ { "mesh": "floor", "material": "checkerboard" } ],
+        "materials": materials_json(&[checkerboard(), glass(), phong()]),
         "spheres": [
             { "name": "glass-dome", "center": [0.0, 2.5, 0.0], "radius": 2.0, "material": "glass" },
             { "name": "phong-ball", "center": [1.5, 1.0, -3.0], "radius": 1.0, "material": "phong" }

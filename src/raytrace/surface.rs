@@ -37,7 +37,7 @@ pub const LIT: u32 = 1;
 /// media a ray is inside (glass); else transmission goes straight through.
 pub const REFRACTS: u32 = 2;
 
-/// A material's shading coefficients, as the GPU reads them (96 bytes).
+/// A material's shading coefficients, as the GPU reads them (128 bytes).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct Surface {
@@ -56,6 +56,12 @@ pub struct Surface {
     /// Emitted radiance.
     pub ke: [f32; 3],
     pub _pad2: u32,
+    /// The checker texture (`Checker`): the factor of `ka` and `kd` on odd
+    /// cubes, and the reciprocal of the cube size (0: no texture).
+    pub checker_odd: [f32; 3],
+    pub checker_inv_size: f32,
+    pub checker_origin: [f32; 3],
+    pub _pad3: u32,
 }
 
 impl Surface {
@@ -115,6 +121,35 @@ impl Surface {
             _pad1: 0,
             ke: m.ke.to_array(),
             _pad2: 0,
+            checker_odd: m.checker.map_or([1.0; 3], |c| c.odd.to_array()),
+            checker_inv_size: m.checker.map_or(0.0, |c| 1.0 / c.size),
+            checker_origin: m.checker.map_or([0.0; 3], |c| c.origin.to_array()),
+            _pad3: 0,
+        }
+    }
+
+    /// Whether `ka` and `kd` vary over the surface (a checker texture).
+    pub fn textured(&self) -> bool {
+        self.checker_inv_size != 0.0
+    }
+
+    /// The cube of the checker texture that holds `p` (integer-valued).
+    pub fn checker_cube(&self, p: Vec3) -> Vec3 {
+        ((p - Vec3::from_array(self.checker_origin)) * self.checker_inv_size).floor()
+    }
+
+    /// The texture's factor of `ka` and `kd` at `p`: 1, or `checker_odd`
+    /// on odd cubes (the same operations as `texture` in whitted.wgsl).
+    pub fn texture(&self, p: Vec3) -> Vec3 {
+        if !self.textured() {
+            return Vec3::ONE;
+        }
+        let c = self.checker_cube(p);
+        let k = c.x + c.y + c.z;
+        if k - 2.0 * (0.5 * k).floor() != 0.0 {
+            Vec3::from_array(self.checker_odd)
+        } else {
+            Vec3::ONE
         }
     }
 
@@ -198,5 +233,28 @@ mod tests {
         assert_eq!(Surface::from_material(&m, &mut w).kr, [1.0; 3]);
         assert_eq!(w.len(), 1);
         assert!(w[0].contains("'hot'"), "{w:?}");
+    }
+
+    #[test]
+    fn checker_alternates_by_cube_parity() {
+        let m = Material {
+            checker: Some(crate::scene::Checker {
+                size: 0.5,
+                origin: Vec3::new(0.0, -0.25, 0.0),
+                odd: Vec3::new(0.1, 0.2, 0.3),
+            }),
+            ..Material::named("floor")
+        };
+        let s = Surface::from_material(&m, &mut Vec::new());
+        assert!(s.textured() && !Surface::from_material(&material(2), &mut Vec::new()).textured());
+        let odd = Vec3::new(0.1, 0.2, 0.3);
+        // On the plane y = 0 (inside the layer of cubes -0.25..0.25).
+        assert_eq!(s.texture(Vec3::new(0.1, 0.0, 0.1)), Vec3::ONE);
+        assert_eq!(s.texture(Vec3::new(0.6, 0.0, 0.1)), odd);
+        assert_eq!(s.texture(Vec3::new(0.6, 0.0, 0.6)), Vec3::ONE);
+        assert_eq!(s.texture(Vec3::new(-0.1, 0.0, 0.1)), odd);
+        assert_eq!(s.texture(Vec3::new(-0.1, 0.0, -0.1)), Vec3::ONE);
+        assert_eq!(s.texture(Vec3::new(-1.1, 1e-7, -0.1)), Vec3::ONE);
+        assert_eq!(s.texture(Vec3::new(0.1, 0.3, 0.1)), odd);
     }
 }

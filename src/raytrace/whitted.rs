@@ -75,7 +75,7 @@ pub struct WhittedParams {
     /// Invocations per row of the 2D dispatch grid.
     pub row_pitch: u32,
     /// Where the lights and the spheres start in the GPU's records (the
-    /// surfaces come first, 6 words4 each; a light takes 3, a sphere 2).
+    /// surfaces come first, 8 words4 each; a light takes 3, a sphere 2).
     pub lights_at: u32,
     pub spheres_at: u32,
     pub _pad: [u32; 3],
@@ -221,10 +221,25 @@ pub struct LightGeometry {
     pub t_max: f32,
 }
 
+/// A light's terms at a point: what reaches it (transmission times the
+/// light's irradiance at normal incidence), the cosine to the shading
+/// normal and the specular lobe times `ks`.
+#[derive(Debug, Clone, Copy, Default)]
+struct LightTerm {
+    irradiance: Vec3,
+    cos: f32,
+    specular: Vec3,
+}
+
 /// One ray's radiance, its tree's signature and the rays it took.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct RayOut {
     pub radiance: Vec3,
+    /// The first hit's ambient and diffuse terms before its texture:
+    /// `ka A + sum_j V_j E_j kd (N.L_j)`, so that `radiance = texture x
+    /// diffuse + (the rest)` (how the bounded renderer interpolates a
+    /// textured surface; `kd` for a surface that is not lit).
+    pub diffuse: Vec3,
     pub signature: u32,
     pub rays: [u32; 4],
 }
@@ -315,21 +330,32 @@ impl Whitted<'_> {
             let mut codes = Vec::new();
             let mut occluders = Vec::new();
             if surf.lit() {
-                local += Vec3::from_array(surf.ka) * Vec3::from_array(p.ambient);
+                let tex = surf.texture(hit.point);
+                let (ka, kd) = (Vec3::from_array(surf.ka), Vec3::from_array(surf.kd));
+                local += ka * tex * Vec3::from_array(p.ambient);
+                let root = ray.depth == 0;
+                if root {
+                    out.diffuse = ka * Vec3::from_array(p.ambient);
+                }
                 for j in 0..p.light_count {
                     let light = &self.scene.lights[j as usize];
                     let blocked = given.and_then(|g| g.blocked[j as usize]);
-                    let (code, light_radiance) =
-                        self.light_term(light, lifted, n_g, n_s, ray.dir, surf, blocked, &mut out.rays);
+                    let (code, term) = self.light_term(light, lifted, n_g, n_s, ray.dir, surf, blocked, &mut out.rays);
                     sig = fnv_word(sig, light_word(j, code));
                     if tree.is_some() {
                         codes.push(code);
                         occluders.push(self.occluder(light, lifted, n_g, n_s, code));
                     }
-                    local += light_radiance;
+                    local += term.irradiance * (kd * tex * term.cos + term.specular);
+                    if root {
+                        out.diffuse += term.irradiance * (kd * term.cos);
+                    }
                 }
             } else {
-                local += Vec3::from_array(surf.kd);
+                local += Vec3::from_array(surf.kd) * surf.texture(hit.point);
+                if ray.depth == 0 {
+                    out.diffuse = Vec3::from_array(surf.kd);
+                }
             }
             out.radiance += ray.weight * local;
 
@@ -589,7 +615,8 @@ impl Whitted<'_> {
     }
 
     /// Light `light`'s contribution at the lifted point `lifted` with
-    /// normals facing the viewer, seen along `d`: its code and radiance.
+    /// normals facing the viewer, seen along `d`: its code and its terms
+    /// (the caller adds `irradiance (kd cos + specular)`, `kd` textured).
     #[allow(clippy::too_many_arguments)]
     fn light_term(
         &self,
@@ -601,22 +628,28 @@ impl Whitted<'_> {
         surf: &Surface,
         blocked: Option<bool>,
         rays: &mut [u32; 4],
-    ) -> (LightCode, Vec3) {
+    ) -> (LightCode, LightTerm) {
+        let none = LightTerm::default();
         let Some(g) = self.light_geometry(light, lifted, n_g, n_s) else {
-            return (LightCode::FacesAway, Vec3::ZERO);
+            return (LightCode::FacesAway, none);
         };
         let (filter, code) = self.transmittance(g.from, g.dir, g.t_max, blocked, rays);
         if code == LightCode::Blocked {
-            return (code, Vec3::ZERO);
+            return (code, none);
         }
         let e = light.intensity() * (g.emitted / g.dist2);
         let h = (g.l - d).normalize();
         let n_h = n_s.dot(h);
-        let mut spec = Vec3::ZERO;
+        let mut specular = Vec3::ZERO;
         if n_h > 0.0 {
-            spec = Vec3::from_array(surf.ks) * n_h.powf(surf.ns);
+            specular = Vec3::from_array(surf.ks) * n_h.powf(surf.ns);
         }
-        (code, filter * e * (Vec3::from_array(surf.kd) * g.cos + spec))
+        let term = LightTerm {
+            irradiance: filter * e,
+            cos: g.cos,
+            specular,
+        };
+        (code, term)
     }
 
     /// What reaches the end of the shadow ray `o + t d`, `0 < t < t_max`:

@@ -42,7 +42,7 @@ pub use gltf::{load_gltf, load_gltf_animation};
 pub use input::{file_stem, load_input, load_shaded_input};
 pub use mesh::{Mesh, MeshObject, ORIGIN_OFFSET, used_bounds, vertex_normals};
 pub use mesh_file::{MeshFormat, companion_files, load_mesh, load_mesh_file};
-pub use mtl::{Material, load_mtl, parse_mtl, write_mtl};
+pub use mtl::{Checker, Material, load_mtl, parse_mtl, write_mtl};
 pub use obj::{
     DEFAULT_CREASE_DEGREES, NO_NORMAL, ObjFile, SMOOTH_DEFAULT, load_obj, load_obj_file, parse_obj, parse_obj_file,
     write_obj,

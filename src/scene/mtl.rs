@@ -34,6 +34,22 @@ pub struct Material {
     pub illum: u32,
     /// Whether the file gave `Tf` (glass uses Tf when given, else 1 - d).
     pub has_tf: bool,
+    /// A procedural checker texture on `Ka` and `Kd` (scene files only;
+    /// MTL has no such field).
+    pub checker: Option<Checker>,
+}
+
+/// A solid checker texture (pbrt's 3D checkerboard): space is cut into
+/// cubes of side `size` from `origin`; where the cube's integer
+/// coordinates sum to an odd number, `Ka` and `Kd` are multiplied by
+/// `odd`, elsewhere they are as given. A plane should lie inside one layer
+/// of cubes (not on a boundary between layers), or rounding decides its
+/// pattern.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Checker {
+    pub size: f32,
+    pub origin: Vec3,
+    pub odd: Vec3,
 }
 
 impl Material {
@@ -52,6 +68,7 @@ impl Material {
             dissolve: 1.0,
             illum: 2,
             has_tf: false,
+            checker: None,
         }
     }
 

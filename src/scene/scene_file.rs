@@ -29,7 +29,9 @@
 //!
 //! ```json
 //! "materials": { "glass": { "ks": [0.1, 0.1, 0.1], "tf": [1, 1, 1], "ni": 1.5, "illum": 7 },
-//!                "mirror": { "kd": [0, 0, 0], "ks": [0.9, 0.9, 0.9], "illum": 3 } },
+//!                "mirror": { "kd": [0, 0, 0], "ks": [0.9, 0.9, 0.9], "illum": 3 },
+//!                "floor": { "kd": [0.8, 0.8, 0.8], "ka": [0.8, 0.8, 0.8], "illum": 1,
+//!                           "checker": { "size": 1, "origin": [0, -0.5, 0], "odd": [0.125, 0.125, 0.125] } } },
 //! "spheres": [ { "name": "ball", "center": [0, 1, 0], "radius": 1, "material": "glass" } ],
 //! "ambient": [0.05, 0.05, 0.05], "background": [0.2, 0.3, 0.5],
 //! "instances": [ { "mesh": "box", "material": "mirror" } ]
@@ -94,6 +96,18 @@ struct MaterialFile {
     ni: Option<f32>,
     d: Option<f32>,
     illum: Option<u32>,
+    checker: Option<CheckerFile>,
+}
+
+/// `"checker": { "size": 1, "origin": [0, -0.5, 0], "odd": [0.1, 0.1, 0.1] }`:
+/// a solid checker texture multiplying `ka` and `kd` (`Checker`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CheckerFile {
+    size: f32,
+    #[serde(default)]
+    origin: [f32; 3],
+    odd: [f32; 3],
 }
 
 #[derive(Deserialize)]
@@ -553,7 +567,30 @@ fn material(path: &Path, name: &str, m: &MaterialFile) -> Result<Material> {
             "must be in [0, 1]",
         )?,
         illum,
+        checker: m.checker.as_ref().map(|c| checker(path, name, c)).transpose()?,
         ..base
+    })
+}
+
+fn checker(path: &Path, name: &str, c: &CheckerFile) -> Result<super::Checker> {
+    let field = |f: &str| format!("materials.{name}.checker.{f}");
+    if !(c.size.is_finite() && c.size > 0.0) {
+        return Err(Error::file(
+            path,
+            field("size"),
+            format!("must be a finite number > 0, got {}", c.size),
+        ));
+    }
+    if !c.origin.iter().all(|x| x.is_finite()) {
+        return Err(Error::file(path, field("origin"), "must be three finite numbers"));
+    }
+    if !c.odd.iter().all(|x| x.is_finite() && *x >= 0.0) {
+        return Err(Error::file(path, field("odd"), "must be three finite numbers >= 0"));
+    }
+    Ok(super::Checker {
+        size: c.size,
+        origin: Vec3::from_array(c.origin),
+        odd: Vec3::from_array(c.odd),
     })
 }
 
@@ -565,6 +602,35 @@ mod tests {
         let p = dir.join(name);
         std::fs::write(&p, text).unwrap();
         p
+    }
+
+    #[test]
+    fn checker_textures_are_read_and_bad_ones_name_their_field() {
+        let path = Path::new("scene.json");
+        let read = |text: &str| {
+            let m: MaterialFile = serde_json::from_str(text).unwrap();
+            material(path, "floor", &m)
+        };
+        let m = read(r#"{ "kd": [0.8, 0.8, 0.8], "checker": { "size": 2, "odd": [0.1, 0.2, 0.3] } }"#).unwrap();
+        let c = m.checker.unwrap();
+        assert_eq!((c.size, c.origin, c.odd), (2.0, Vec3::ZERO, Vec3::new(0.1, 0.2, 0.3)));
+        for (text, field) in [
+            (
+                r#"{ "checker": { "size": 0, "odd": [1, 1, 1] } }"#,
+                "materials.floor.checker.size",
+            ),
+            (
+                r#"{ "checker": { "size": -1, "odd": [1, 1, 1] } }"#,
+                "materials.floor.checker.size",
+            ),
+            (
+                r#"{ "checker": { "size": 1, "odd": [1, -1, 1] } }"#,
+                "materials.floor.checker.odd",
+            ),
+        ] {
+            let e = read(text).unwrap_err().to_string();
+            assert!(e.contains(field) && e.contains("scene.json"), "{text}: {e}");
+        }
     }
 
     #[test]
