@@ -539,7 +539,6 @@ impl Predicate<'_> {
             n_g,
             n_s,
         } = at;
-
         for (j, code) in node.lights.iter().enumerate() {
             let light = &self.w.scene.lights[j];
             let pos = Vec3::from_array(light.position).as_dvec3();
