@@ -384,11 +384,15 @@ fn interpolate_kernel_equals_cpu_twin_across_batches() {
             [rng.f32() * scale, rng.f32() * scale, rng.f32() * scale, 0.0]
         })
         .collect();
+    // Every third job textured: its slot's radiance plus a texture factor
+    // times the next slot's (a textured cell's two tables).
     let jobs: Vec<PixelJob> = (0..JOBS_PER_BATCH + 12_345)
         .map(|i| PixelJob {
-            slot: (rng.f32() * cells as f32) as u32 % cells as u32,
+            slot: (rng.f32() * (cells - 1) as f32) as u32 % (cells - 1) as u32,
             pixel: i as u32,
+            textured: (i % 3 == 0) as u32,
             local: [rng.f32(), rng.f32(), rng.f32(), rng.f32()],
+            texture: [rng.f32(), rng.f32(), rng.f32(), 0.0],
             ..Default::default()
         })
         .collect();
@@ -399,7 +403,7 @@ fn interpolate_kernel_equals_cpu_twin_across_batches() {
     let mut worst = 0f32;
     for ((a, b), job) in cpu.iter().zip(&gpu_out).zip(&jobs) {
         let base = job.slot as usize * 16;
-        let scale = corners[base..base + 16]
+        let scale = corners[base..base + 32]
             .iter()
             .flat_map(|c| c[..3].iter().copied())
             .fold(0f32, f32::max);

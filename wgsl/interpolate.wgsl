@@ -7,7 +7,8 @@
 //
 // CPU twin: `bounded::interpolate::interpolate_pixels` (same layout: a
 // `PixelJob` per pixel, 16 `vec4` corners per cell slot, corner k's bit i
-// set at the high end of coordinate i).
+// set at the high end of coordinate i; a textured cell's diffuse terms in
+// the slot after its own).
 
 struct InterpolateParams {
     job_count: u32,
@@ -20,9 +21,12 @@ struct PixelJob {
     // The cell's slot in `corners` (16 entries from slot * 16).
     slot: u32,
     pixel: u32,
+    // 1 on a textured surface: the next slot holds the terms the texture
+    // scales, and the radiance is B + texture * A.
+    textured: u32,
     _pad0: u32,
-    _pad1: u32,
     local: vec4<f32>,
+    texture: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> params: InterpolateParams;
@@ -30,20 +34,28 @@ struct PixelJob {
 @group(0) @binding(2) var<storage, read> jobs: array<PixelJob>;
 @group(0) @binding(3) var<storage, read_write> radiance: array<vec4<f32>>;
 
-// The weights are products over the four coordinates in order, the sum
+// The weights are products over the four coordinates in order, the sums
 // over corners in order, as the twin does, so both round alike.
-fn interpolate_corners(base: u32, u: vec4<f32>) -> vec3<f32> {
-    var sum = vec3<f32>(0.0);
+fn corner_weights(u: vec4<f32>) -> array<f32, 16> {
+    var w: array<f32, 16>;
     for (var k = 0u; k < 16u; k = k + 1u) {
-        var w = 1.0;
+        var x = 1.0;
         for (var i = 0u; i < 4u; i = i + 1u) {
             if (((k >> i) & 1u) == 1u) {
-                w = w * u[i];
+                x = x * u[i];
             } else {
-                w = w * (1.0 - u[i]);
+                x = x * (1.0 - u[i]);
             }
         }
-        sum = sum + corners[base + k].xyz * w;
+        w[k] = x;
+    }
+    return w;
+}
+
+fn weighted(base: u32, w: array<f32, 16>) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < 16u; k = k + 1u) {
+        sum = sum + corners[base + k].xyz * w[k];
     }
     return sum;
 }
@@ -55,5 +67,10 @@ fn interpolate(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let job = jobs[k];
-    radiance[k] = vec4<f32>(interpolate_corners(job.slot * 16u, job.local), 0.0);
+    let w = corner_weights(job.local);
+    var r = weighted(job.slot * 16u, w);
+    if (job.textured != 0u) {
+        r = r + job.texture.xyz * weighted((job.slot + 1u) * 16u, w);
+    }
+    radiance[k] = vec4<f32>(r, 0.0);
 }

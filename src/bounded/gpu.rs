@@ -37,7 +37,7 @@ const INTERPOLATE_IO: &[Io] = &[
     Io::Out(3, "interpolate radiance"),
 ];
 
-/// Pixels per dispatch (48 bytes each, in and out).
+/// Pixels per dispatch (64 bytes each, in and out).
 pub const JOBS_PER_BATCH: usize = 1 << 18;
 
 pub struct InterpolateKernels {

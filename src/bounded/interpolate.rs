@@ -7,30 +7,42 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 /// One pixel to interpolate: its cell's slot in the corner table and the
-/// pixel's line in the cell, each coordinate in [0, 1].
+/// pixel's line in the cell, each coordinate in [0, 1]; on a textured
+/// surface (`textured` 1) also the diffuse table in the next slot and the
+/// texture factor at the pixel's hit: radiance `B + texture x A`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
 pub struct PixelJob {
     pub slot: u32,
     pub pixel: u32,
-    pub _pad: [u32; 2],
+    pub textured: u32,
+    pub _pad: u32,
     pub local: [f32; 4],
+    /// The texture factor (xyz; w unused) where `textured` is 1.
+    pub texture: [f32; 4],
 }
 
-/// Quadrilinear interpolation of 16 corner values at `local` in [0, 1]^4
-/// (corner k: bit i of k is the high end of coordinate i): the weights are
-/// products over the coordinates in order, summed over corners in order,
-/// as `interpolate_corners` in the kernel does.
-pub fn interpolate(corners: &[Vec3; 16], local: [f32; 4]) -> Vec3 {
-    let mut sum = Vec3::ZERO;
-    for (k, corner) in corners.iter().enumerate() {
+/// The 16 corners' weights at `local` in [0, 1]^4 (corner k: bit i of k
+/// is the high end of coordinate i): products over the coordinates in
+/// order, as `corner_weights` in the kernel computes them.
+pub fn weights(local: [f32; 4]) -> [f32; 16] {
+    std::array::from_fn(|k| {
         let mut w = 1.0;
         for (i, &u) in local.iter().enumerate() {
             w *= if k >> i & 1 == 1 { u } else { 1.0 - u };
         }
-        sum += *corner * w;
-    }
-    sum
+        w
+    })
+}
+
+/// The sum of 16 values by their weights, in corner order.
+fn weighted(values: impl Iterator<Item = Vec3>, w: &[f32; 16]) -> Vec3 {
+    values.zip(w).fold(Vec3::ZERO, |sum, (v, &w)| sum + v * w)
+}
+
+/// Quadrilinear interpolation of 16 corner values at `local` in [0, 1]^4.
+pub fn interpolate(corners: &[Vec3; 16], local: [f32; 4]) -> Vec3 {
+    weighted(corners.iter().copied(), &weights(local))
 }
 
 /// Every job's radiance (`w` 0), from `corners` (16 per slot, `w` unused):
@@ -39,9 +51,16 @@ pub fn interpolate_pixels(corners: &[[f32; 4]], jobs: &[PixelJob]) -> Vec<[f32; 
     jobs.par_iter()
         .with_min_len(1024)
         .map(|job| {
-            let base = job.slot as usize * 16;
-            let cell: [Vec3; 16] = std::array::from_fn(|k| Vec3::from_slice(&corners[base + k][..3]));
-            interpolate(&cell, job.local).extend(0.0).to_array()
+            let w = weights(job.local);
+            let table = |slot: u32| {
+                let base = slot as usize * 16;
+                corners[base..base + 16].iter().map(|c| Vec3::from_slice(&c[..3]))
+            };
+            let mut r = weighted(table(job.slot), &w);
+            if job.textured != 0 {
+                r += Vec3::from_slice(&job.texture[..3]) * weighted(table(job.slot + 1), &w);
+            }
+            r.extend(0.0).to_array()
         })
         .collect()
 }
@@ -60,6 +79,26 @@ mod tests {
         }
         let at = [0.25, 0.5, 0.75, 0.1];
         assert!((interpolate(&corners, at) - f(at)).abs().max_element() < 1e-6);
+    }
+
+    #[test]
+    fn a_textured_job_adds_its_texture_times_the_next_slot() {
+        let mut corners = vec![[1.0, 2.0, 3.0, 0.0]; 16];
+        corners.extend(vec![[0.5, 0.25, 2.0, 0.0]; 16]);
+        let job = PixelJob {
+            slot: 0,
+            textured: 1,
+            local: [0.3, 0.6, 0.1, 0.9],
+            texture: [2.0, 4.0, 0.5, 0.0],
+            ..Default::default()
+        };
+        let out = interpolate_pixels(&corners, &[job]);
+        let want = Vec3::new(1.0 + 1.0, 2.0 + 1.0, 3.0 + 1.0);
+        assert!(
+            (Vec3::from_slice(&out[0][..3]) - want).abs().max_element() < 1e-5,
+            "{:?}",
+            out[0]
+        );
     }
 
     #[test]

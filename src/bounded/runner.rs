@@ -704,8 +704,8 @@ impl BoundedRenderer {
     /// Interpolates every pixel that has a cell: its position in the cell
     /// here (f64 line coordinates), the interpolation itself on the device
     /// (`interpolate.wgsl`) or by its CPU twin, over one table of the
-    /// cells' corners. A textured cell takes two slots (base, diffuse) and
-    /// a pixel two jobs, combined with the texture at the pixel's hit;
+    /// cells' corners. A textured cell takes two slots (base, diffuse), and
+    /// its pixels' jobs carry the texture at their hits;
     /// pixels whose hit lies within rounding of a texture edge are handed
     /// back (with their hit) to be traced. Returns each pixel's cell.
     fn interpolate_all(
@@ -723,12 +723,13 @@ impl BoundedRenderer {
             .into_par_iter()
             .with_min_len(256)
             .filter_map(|i| {
+                let mut ray = None;
                 let a = match (claimed[i], assigned[i]) {
                     (_, Some(a)) => a,
                     (c, None) if c < CONFLICT => {
                         let cell = &self.trees.cells[c as usize];
                         let pair = &self.trees.trees[cell.tree as usize].pair;
-                        let (_, d) = pixel_ray(params, i as u32, 0);
+                        let (_, d) = *ray.insert(pixel_ray(params, i as u32, 0));
                         let coords = pair.coords(eye, d.as_dvec3())?;
                         Assigned {
                             cell: c,
@@ -742,7 +743,10 @@ impl BoundedRenderer {
                     return None;
                 };
                 let texture = match interp.diffuse {
-                    Some(_) => self.pixel_texture(&twin, params, i as u32, interp.accepted.root, a.hit),
+                    Some(_) => {
+                        let ray = ray.unwrap_or_else(|| pixel_ray(params, i as u32, 0));
+                        self.pixel_texture(&twin, ray, interp.accepted.root, a.hit)
+                    }
                     None => Some(Vec3::ONE),
                 };
                 Some((i as u32, a, texture))
@@ -753,7 +757,7 @@ impl BoundedRenderer {
         let mut slot_of: HashMap<u32, u32> = HashMap::default();
         let mut corners: Vec<[f32; 4]> = Vec::new();
         let mut jobs: Vec<PixelJob> = Vec::with_capacity(found.len());
-        let mut combine: Vec<(u32, u32, Option<Vec3>)> = Vec::with_capacity(found.len());
+        let mut job_cells: Vec<u32> = Vec::with_capacity(found.len());
         for &(pixel, a, texture) in &found {
             let Some(texture) = texture else {
                 edges.push((pixel, a.hit));
@@ -770,49 +774,34 @@ impl BoundedRenderer {
                 }
                 first
             });
-            let job = |slot| PixelJob {
+            jobs.push(PixelJob {
                 slot,
                 pixel,
+                textured: interp.diffuse.is_some() as u32,
                 local: a.local,
+                texture: texture.extend(0.0).to_array(),
                 ..Default::default()
-            };
-            jobs.push(job(slot));
-            let textured = interp.diffuse.is_some();
-            if textured {
-                jobs.push(job(slot + 1));
-            }
-            combine.push((pixel, a.cell, textured.then_some(texture)));
+            });
+            job_cells.push(a.cell);
         }
         let radiance = match &mut self.gpu {
             Some((ctx, pass)) => pass.interpolate(ctx, &corners, &jobs)?.0,
             None => interpolate_pixels(&corners, &jobs),
         };
         let mut cells = vec![u32::MAX; out.len()];
-        let mut results = radiance.iter().map(|r| Vec3::from_slice(&r[..3]));
-        for (pixel, cell, texture) in combine {
-            let base = results.next().unwrap_or_default();
-            out[pixel as usize] = match texture {
-                Some(t) => base + t * results.next().unwrap_or_default(),
-                None => base,
-            };
-            cells[pixel as usize] = cell;
+        for ((job, r), cell) in jobs.iter().zip(radiance).zip(job_cells) {
+            out[job.pixel as usize] = Vec3::from_slice(&r[..3]);
+            cells[job.pixel as usize] = cell;
         }
         Ok((cells, edges))
     }
 
-    /// The texture factor at pixel `i`'s hit on the cell's root surface:
-    /// its traced primary hit, or (reprojected) its line's intersection
-    /// with the root; `None` where the hit lies within rounding of an edge
-    /// of the texture (the renderer's own hit point could be across it).
-    fn pixel_texture(
-        &self,
-        twin: &Whitted,
-        params: &WhittedParams,
-        i: u32,
-        root: RootFace,
-        hit: PrimaryHit,
-    ) -> Option<Vec3> {
-        let (o, d) = pixel_ray(params, i, 0);
+    /// The texture factor at a pixel's hit on the cell's root surface (its
+    /// ray `(o, d)`): its traced primary hit, or (reprojected) its line's
+    /// intersection with the root; `None` where the hit lies within
+    /// rounding of an edge of the texture (the renderer's own hit point
+    /// could be across it).
+    fn pixel_texture(&self, twin: &Whitted, (o, d): (Vec3, Vec3), root: RootFace, hit: PrimaryHit) -> Option<Vec3> {
         let (t, primitive) = match hit {
             Some(h) => h,
             None => {
@@ -829,9 +818,7 @@ impl BoundedRenderer {
         // The renderer's point (`Whitted::hit_info`) is this one up to
         // rounding of t and of the point: a margin with room to spare.
         let point = o + t * d;
-        let margin = Vec3::splat(1e-5 * (max_abs(o) + t.abs() + max_abs(point)));
-        let same = surface.checker_cube(point - margin) == surface.checker_cube(point + margin);
-        same.then(|| surface.texture(point))
+        surface.texture_near(point, 1e-5 * (max_abs(o) + t.abs() + max_abs(point)))
     }
 
     /// The exact radiance leaving tree `tree`'s surface along its line `c`,

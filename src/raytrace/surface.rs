@@ -144,13 +144,26 @@ impl Surface {
         if !self.textured() {
             return Vec3::ONE;
         }
-        let c = self.checker_cube(p);
-        let k = c.x + c.y + c.z;
+        self.factor_of(self.checker_cube(p))
+    }
+
+    fn factor_of(&self, cube: Vec3) -> Vec3 {
+        let k = cube.x + cube.y + cube.z;
         if k - 2.0 * (0.5 * k).floor() != 0.0 {
             Vec3::from_array(self.checker_odd)
         } else {
             Vec3::ONE
         }
+    }
+
+    /// The texture's factor at every point within `margin` of `p` (per
+    /// axis), or `None` where a cube's face lies that close.
+    pub fn texture_near(&self, p: Vec3, margin: f32) -> Option<Vec3> {
+        if !self.textured() {
+            return Some(Vec3::ONE);
+        }
+        let lo = self.checker_cube(p - Vec3::splat(margin));
+        (lo == self.checker_cube(p + Vec3::splat(margin))).then(|| self.factor_of(lo))
     }
 
     pub fn lit(&self) -> bool {
@@ -256,5 +269,9 @@ mod tests {
         assert_eq!(s.texture(Vec3::new(-0.1, 0.0, -0.1)), Vec3::ONE);
         assert_eq!(s.texture(Vec3::new(-1.1, 1e-7, -0.1)), Vec3::ONE);
         assert_eq!(s.texture(Vec3::new(0.1, 0.3, 0.1)), odd);
+        // Near an edge (x = 0.5) only with a margin that does not reach it.
+        assert_eq!(s.texture_near(Vec3::new(0.49, 0.0, 0.1), 0.005), Some(Vec3::ONE));
+        assert_eq!(s.texture_near(Vec3::new(0.49, 0.0, 0.1), 0.02), None);
+        assert_eq!(s.texture_near(Vec3::new(0.51, 0.0, 0.1), 0.005), Some(odd));
     }
 }
