@@ -892,15 +892,15 @@ fn first_surface<'a>(scene: &'a RenderScene, s: &Sample) -> Option<&'a Shading> 
 }
 
 /// A sample's radiance as `(base, diffuse)` with `radiance = base + T
-/// diffuse`, `T` the texture at its first hit (`base` the radiance where
-/// that surface has no texture).
+/// diffuse`, `T` the texture at its first hit (`(radiance, 0)` where that
+/// surface has no texture).
 fn textured_split(scene: &RenderScene, s: &Sample) -> (Vec3, Vec3) {
     match s.tree.nodes.first().and_then(|n| n.hit) {
         Some(hit) if scene.surface(hit.surface).textured() => {
             let t = scene.surface(hit.surface).texture(hit.point);
             (s.radiance - t * s.diffuse, s.diffuse)
         }
-        _ => (s.radiance, s.diffuse),
+        _ => (s.radiance, Vec3::ZERO),
     }
 }
 
