@@ -96,18 +96,10 @@ impl<V: Lanes> Rays<V> {
     /// Lane `r` as the single-ray traversal's ray (`traverse::SingleRay`).
     #[inline(always)]
     fn single(&self, r: usize) -> SingleRay {
-        let lane = |v: V| v.to_array()[r];
-        let bit = |m: V::M| m.bits() & (1 << r) != 0;
-        let axis = |[m0, m1]: [V::M; 2]| {
-            if bit(m0) {
-                0
-            } else if bit(m1) {
-                1
-            } else {
-                2
-            }
-        };
-        let [kx, ky, kz] = self.shear.k.map(axis);
+        let lane = |v: V| lane_of(v, r);
+        let bit = |m: V::M| bit_of(m, r);
+        let k = &self.shear.k;
+        let (kx, ky, kz) = (axis_of(k[0], r), axis_of(k[1], r), axis_of(k[2], r));
         let o = self.origin;
         SingleRay {
             o4: [o.x, o.y, o.z, 0.0],
@@ -139,30 +131,34 @@ impl<V: Lanes> Rays<V> {
     #[inline(always)]
     fn new(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32) -> Option<Self> {
         let n = dirs.len();
-        let d: [V; 3] = std::array::from_fn(|a| V::from_array(std::array::from_fn(|r| dirs[r.min(n - 1)][a])));
+        let d: [V; 3] = [column(dirs, 0), column(dirs, 1), column(dirs, 2)];
         let zero = V::splat(0.0);
-        if d.iter().any(|c| c.eq(zero).any()) {
+        if d[0].eq(zero).any() || d[1].eq(zero).any() || d[2].eq(zero).any() {
             return None;
         }
         let one = V::splat(1.0);
-        let inv = d.map(|c| one.div(c));
+        let inv = [one.div(d[0]), one.div(d[1]), one.div(d[2])];
         // Aabb::clip_ray: the slabs' entries and exits (no NaN arises).
         let (lo, hi) = (tree.bounds.min - origin, tree.bounds.max - origin);
-        let slab = |a: usize| {
-            let (p, q) = (V::splat(lo[a]).mul(inv[a]), V::splat(hi[a]).mul(inv[a]));
-            (p.min(q), p.max(q))
-        };
-        let (x, y, z) = (slab(0), slab(1), slab(2));
+        let (x, y, z) = (
+            slab(lo.x, hi.x, inv[0]),
+            slab(lo.y, hi.y, inv[1]),
+            slab(lo.z, hi.z, inv[2]),
+        );
         let t0 = x.0.max(y.0).max(z.0).max(zero);
         let t1 = x.1.min(y.1).min(z.1).min(V::splat(t_max));
         let live = t0.le(t1).bits() & (((1u32 << n) - 1) as u16);
         // shear_axes: kz the largest |component| (x, then y on ties), kx and
         // ky the next two, swapped where d[kz] < 0.
-        let abs = d.map(|c| c.max(zero.sub(c)));
+        let abs = [
+            d[0].max(zero.sub(d[0])),
+            d[1].max(zero.sub(d[1])),
+            d[2].max(zero.sub(d[2])),
+        ];
         let kz0 = abs[0].ge(abs[1]).and(abs[0].ge(abs[2]));
         let kz1 = abs[1].ge(abs[2]).and_not(kz0);
         let kz2 = V::M::from_bits(!0).and_not(kz0).and_not(kz1);
-        let pick = |m0: V::M, m1: V::M, v: &[V; 3]| V::select(m0, v[0], V::select(m1, v[1], v[2]));
+        let pick = pick_of::<V>;
         let dz = pick(kz0, kz1, &d);
         let neg = dz.lt(zero);
         let kx0 = kz2.and_not(neg).or(kz1.and(neg));
@@ -183,7 +179,7 @@ impl<V: Lanes> Rays<V> {
             t_min: t0.mul(V::splat(1.0 - TRAVERSAL_SLACK)),
             t_cell_max: t1.mul(V::splat(1.0 + TRAVERSAL_SLACK)),
             inv,
-            below_on_plane: d.map(|c| c.le(zero)),
+            below_on_plane: [d[0].le(zero), d[1].le(zero), d[2].le(zero)],
             shear,
             frame_origin: origin * tree.frame_scale,
             scale: tree.frame_scale,
@@ -280,13 +276,25 @@ impl SharedOrigin {
             live: self.live,
             t_min: V::from_array(self.t_min),
             t_cell_max: V::from_array(self.t_cell_max),
-            inv: self.inv.map(V::from_array),
-            below_on_plane: self.below_on_plane.map(V::M::from_bits),
+            inv: [
+                V::from_array(self.inv[0]),
+                V::from_array(self.inv[1]),
+                V::from_array(self.inv[2]),
+            ],
+            below_on_plane: [
+                V::M::from_bits(self.below_on_plane[0]),
+                V::M::from_bits(self.below_on_plane[1]),
+                V::M::from_bits(self.below_on_plane[2]),
+            ],
             shear: Shear {
                 sx: V::from_array(self.sx),
                 sy: V::from_array(self.sy),
                 sz: V::from_array(self.sz),
-                k: self.k.map(|[m0, m1]| [V::M::from_bits(m0), V::M::from_bits(m1)]),
+                k: [
+                    [V::M::from_bits(self.k[0][0]), V::M::from_bits(self.k[0][1])],
+                    [V::M::from_bits(self.k[1][0]), V::M::from_bits(self.k[1][1])],
+                    [V::M::from_bits(self.k[2][0]), V::M::from_bits(self.k[2][1])],
+                ],
                 // The single ray compares with `t_max * scale` (its best t is
                 // t_max until it hits).
                 limit: V::splat(self.t_max * self.scale),
@@ -370,6 +378,75 @@ impl<V: Lanes> Shear<V> {
     }
 }
 
+// Helpers of the lanes' set-up as functions, not closures: a closure that
+// the compiler leaves out of line (or hands to `array::map`) is compiled
+// without the dispatching function's instruction set, and every intrinsic
+// in it becomes a call (on AVX2 that cost the AO packets a third).
+
+/// Lane `r` of `v`.
+#[inline(always)]
+fn lane_of<V: Lanes>(v: V, r: usize) -> f32 {
+    v.to_array()[r]
+}
+
+/// Whether lane `r` of `m` is set.
+#[inline(always)]
+fn bit_of<M: Mask>(m: M, r: usize) -> bool {
+    m.bits() & (1 << r) != 0
+}
+
+/// The axis (0 x, 1 y, 2 z) a pair of axis masks gives lane `r`.
+#[inline(always)]
+fn axis_of<M: Mask>([m0, m1]: [M; 2], r: usize) -> usize {
+    if bit_of(m0, r) {
+        0
+    } else if bit_of(m1, r) {
+        1
+    } else {
+        2
+    }
+}
+
+/// Component `a` of the directions, one per lane (the last repeated).
+#[inline(always)]
+fn column<V: Lanes>(dirs: &[Vec3], a: usize) -> V {
+    let n = dirs.len();
+    let mut c = [0.0; LANES];
+    for (r, x) in c.iter_mut().enumerate() {
+        *x = dirs[r.min(n - 1)][a];
+    }
+    V::from_array(c)
+}
+
+/// A slab's entry and exit distances along one axis.
+#[inline(always)]
+fn slab<V: Lanes>(lo: f32, hi: f32, inv: V) -> (V, V) {
+    let (p, q) = (V::splat(lo).mul(inv), V::splat(hi).mul(inv));
+    (p.min(q), p.max(q))
+}
+
+/// `v[0]` where `m0`, else `v[1]` where `m1`, else `v[2]`.
+#[inline(always)]
+fn pick_of<V: Lanes>(m0: V::M, m1: V::M, v: &[V; 3]) -> V {
+    V::select(m0, v[0], V::select(m1, v[1], v[2]))
+}
+
+/// The live lanes' shear axes (kx, ky, kz), if they are all the same.
+#[inline(always)]
+fn common_axes<V: Lanes>(shear: &Shear<V>, live: u16) -> Option<[usize; 3]> {
+    let mut k = [0usize; 3];
+    for (i, [m0, m1]) in shear.k.iter().enumerate() {
+        let (m0, m1) = (m0.bits() & live, m1.bits() & live);
+        k[i] = match (m0, m1) {
+            (m, 0) if m == live => 0,
+            (0, m) if m == live => 1,
+            (0, 0) => 2,
+            _ => return None,
+        };
+    }
+    Some(k)
+}
+
 /// A deferred cell: node, lanes, and their intervals.
 type Deferred<V> = (u32, <V as Lanes>::M, V, V);
 
@@ -384,20 +461,7 @@ fn traverse<V: Lanes>(tree: &KdTree, rays: &Rays<V>) -> u16 {
     let o = rays.origin.to_array();
     let fo = rays.frame_origin;
     // The live lanes' shear axes, if they are all the same.
-    let live = rays.live;
-    let common = (|| {
-        let mut k = [0usize; 3];
-        for (i, [m0, m1]) in shear.k.iter().enumerate() {
-            let (m0, m1) = (m0.bits() & live, m1.bits() & live);
-            k[i] = match (m0, m1) {
-                (m, 0) if m == live => 0,
-                (0, m) if m == live => 1,
-                (0, 0) => 2,
-                _ => return None,
-            };
-        }
-        Some(k)
-    })();
+    let common = common_axes(shear, rays.live);
 
     let mut alive = rays.live;
     let mut stack = [const { MaybeUninit::<Deferred<V>>::uninit() }; MAX_TREE_DEPTH];
