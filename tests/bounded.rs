@@ -7,6 +7,7 @@ mod common;
 
 use common::{asset, data_scene};
 use glam::Vec3;
+use penumbra::bounded::linetree::CellState;
 use penumbra::bounded::measure::compare;
 use penumbra::bounded::{BoundedFrame, BoundedRenderer, BoundedSettings, PixelPath};
 use penumbra::device::Device;
@@ -375,4 +376,71 @@ fn a_texture_is_looked_up_per_pixel_and_never_interpolated_across_in_a_reflectio
         crossing, 0,
         "a reflected or refracted texture edge was interpolated across"
     );
+}
+
+/// A big analytic ball with a fine, tinted checker texture (its odd
+/// checks' factor differs per channel, one above 1) and a highlight, over
+/// a matte floor.
+fn textured_ball_scene() -> Scene {
+    let dir = std::env::temp_dir().join(format!("penumbra-bounded-ball-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("floor.obj"),
+        "v -6 0 -6\nv 6 0 -6\nv 6 0 6\nv -6 0 6\nf 1 4 3 2\n",
+    )
+    .unwrap();
+    let json = r#"{
+        "ambient": [0.05, 0.05, 0.05],
+        "background": [0.3, 0.4, 0.6],
+        "camera": {"eye": [0.0, 2.0, 6.0], "fov": 40, "target": [0.0, 1.2, 0.0]},
+        "meshes": {"floor": "floor.obj"},
+        "instances": [{"mesh": "floor", "material": "matte"}],
+        "lights": [{"point": {"intensity": [120.0, 120.0, 120.0], "position": [3.0, 8.0, 4.0]}}],
+        "materials": {
+            "matte": {"kd": [0.6, 0.6, 0.6], "ka": [0.6, 0.6, 0.6], "illum": 1},
+            "ball": {"kd": [0.7, 0.7, 0.7], "ka": [0.7, 0.7, 0.7], "ks": [0.3, 0.3, 0.3], "ns": 30, "illum": 2,
+                     "checker": {"size": 0.3, "origin": [0.05, 0.05, 0.05], "odd": [0.2, 0.6, 1.2]}}
+        },
+        "spheres": [{"center": [0.0, 1.2, 0.0], "radius": 1.2, "material": "ball", "name": "ball"}]
+    }"#;
+    std::fs::write(dir.join("ball.json"), json).unwrap();
+    let scene = load_scene_shaded(&dir.join("ball.json")).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    scene
+}
+
+#[test]
+fn a_textured_sphere_keeps_the_guarantee_over_a_walk() {
+    let scene = textured_ball_scene();
+    let camera = scene.camera.unwrap();
+    // Large enough that cells on the ball split small enough to pass.
+    let size = (400, 300);
+    let path = CameraPath::Walk(camera);
+    for epsilon in [0.05, 0.5] {
+        let mut b = bounded(
+            &scene,
+            BoundedSettings {
+                epsilon,
+                ..Default::default()
+            },
+        );
+        let (mut on_ball, mut reprojected) = (0, 0);
+        for f in 0..3 {
+            let cam = path.at(f, 3);
+            let frame = b.render(&cam, size.0, size.1).unwrap();
+            let e = compare(&frame, &exact(&scene, &cam, size), epsilon, b.settings.floor);
+            assert_eq!(e.violations, 0, "epsilon {epsilon}, frame {f}: {e:?}");
+            reprojected += frame.stats.pixels.reprojected;
+            for &cell in frame.cells.iter().filter(|&&c| c != u32::MAX) {
+                if let CellState::Valid(interp) = &b.trees.cells[cell as usize].state {
+                    on_ball += interp.diffuse.is_some() as usize;
+                }
+            }
+        }
+        println!("epsilon {epsilon}: {on_ball} pixels interpolated on textured cells, {reprojected} reprojected");
+        assert!(
+            on_ball > 100,
+            "epsilon {epsilon}: only {on_ball} textured pixels interpolated"
+        );
+    }
 }
