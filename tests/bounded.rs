@@ -186,13 +186,6 @@ fn a_huge_epsilon_never_interpolates_across_a_tree_change_shadow_edge_or_silhoue
 /// A matte floor and a small ball near the eye: a small sideways step of
 /// the eye sweeps the ball across the floor's reprojected cells.
 fn occluder_scene() -> Scene {
-    let dir = std::env::temp_dir().join(format!("penumbra-bounded-occluder-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::write(
-        dir.join("floor.obj"),
-        "v -6 0 -6\nv 6 0 -6\nv 6 0 6\nv -6 0 6\nf 1 4 3 2\n",
-    )
-    .unwrap();
     let json = r#"{
         "ambient": [0.05, 0.05, 0.05],
         "background": [0.3, 0.4, 0.6],
@@ -203,8 +196,21 @@ fn occluder_scene() -> Scene {
         "materials": {"matte": {"kd": [0.6, 0.6, 0.6], "ka": [0.6, 0.6, 0.6], "illum": 1}},
         "spheres": [{"center": [-0.5, 1.5, 4.5], "radius": 0.15, "material": "matte", "name": "occluder"}]
     }"#;
-    std::fs::write(dir.join("occluder.json"), json).unwrap();
-    let scene = load_scene_shaded(&dir.join("occluder.json")).unwrap();
+    scene_over_floor("occluder", json)
+}
+
+/// A scene file `json` whose mesh "floor" is a 12 x 12 square at y = 0,
+/// written to a temporary folder and read back.
+fn scene_over_floor(name: &str, json: &str) -> Scene {
+    let dir = std::env::temp_dir().join(format!("penumbra-bounded-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("floor.obj"),
+        "v -6 0 -6\nv 6 0 -6\nv 6 0 6\nv -6 0 6\nf 1 4 3 2\n",
+    )
+    .unwrap();
+    std::fs::write(dir.join("scene.json"), json).unwrap();
+    let scene = load_scene_shaded(&dir.join("scene.json")).unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
     scene
 }
@@ -382,13 +388,6 @@ fn a_texture_is_looked_up_per_pixel_and_never_interpolated_across_in_a_reflectio
 /// checks' factor differs per channel, one above 1) and a highlight, over
 /// a matte floor.
 fn textured_ball_scene() -> Scene {
-    let dir = std::env::temp_dir().join(format!("penumbra-bounded-ball-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::write(
-        dir.join("floor.obj"),
-        "v -6 0 -6\nv 6 0 -6\nv 6 0 6\nv -6 0 6\nf 1 4 3 2\n",
-    )
-    .unwrap();
     let json = r#"{
         "ambient": [0.05, 0.05, 0.05],
         "background": [0.3, 0.4, 0.6],
@@ -403,10 +402,7 @@ fn textured_ball_scene() -> Scene {
         },
         "spheres": [{"center": [0.0, 1.2, 0.0], "radius": 1.2, "material": "ball", "name": "ball"}]
     }"#;
-    std::fs::write(dir.join("ball.json"), json).unwrap();
-    let scene = load_scene_shaded(&dir.join("ball.json")).unwrap();
-    std::fs::remove_dir_all(&dir).unwrap();
-    scene
+    scene_over_floor("ball", json)
 }
 
 #[test]
