@@ -36,7 +36,7 @@ pub fn weights(local: [f32; 4]) -> [f32; 16] {
 }
 
 /// The sum of 16 values by their weights, in corner order.
-fn weighted(values: impl Iterator<Item = Vec3>, w: &[f32; 16]) -> Vec3 {
+pub fn weighted(values: impl Iterator<Item = Vec3>, w: &[f32; 16]) -> Vec3 {
     values.zip(w).fold(Vec3::ZERO, |sum, (v, &w)| sum + v * w)
 }
 

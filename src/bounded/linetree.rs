@@ -70,9 +70,11 @@ impl Interpolant {
     /// The radiance at `local` in the cell, where the line's hit has the
     /// texture factor `texture` (1 where there is none).
     pub fn at(&self, local: [f32; 4], texture: Vec3) -> Vec3 {
-        let base = crate::bounded::interpolate::interpolate(&self.radiance, local);
+        use crate::bounded::interpolate::{weighted, weights};
+        let w = weights(local);
+        let base = weighted(self.radiance.iter().copied(), &w);
         match &self.diffuse {
-            Some(d) => base + texture * crate::bounded::interpolate::interpolate(d, local),
+            Some(d) => base + texture * weighted(d.iter().copied(), &w),
             None => base,
         }
     }

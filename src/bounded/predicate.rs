@@ -652,7 +652,7 @@ impl Predicate<'_> {
         exclude: &[Exclude; 2],
     ) -> Option<f64> {
         let p = occluder.filter(|&p| p != u32::MAX)?;
-        let shading = self.w.scene.surface(self.surface_of(p));
+        let shading = self.w.scene.surface(self.w.scene.primitive_surface(p));
         let t_max = match end {
             End::At(t) => t.lo(),
             End::Infinite => f64::INFINITY,
@@ -696,15 +696,6 @@ impl Predicate<'_> {
                     .all(|(m, v)| x.add_const(-v).dot_const(m).lo() >= 0.0)
                     .then_some(0.0)
             }
-        }
-    }
-
-    fn surface_of(&self, primitive: u32) -> u32 {
-        let n = self.geometry.triangle_count() as u32;
-        if primitive >= n {
-            self.w.scene.spheres[(primitive - n) as usize].surface
-        } else {
-            self.w.scene.triangles[primitive as usize].surface
         }
     }
 

@@ -716,7 +716,6 @@ impl BoundedRenderer {
         out: &mut [Vec3],
     ) -> Result<(Vec<u32>, Vec<PixelToTrace>)> {
         let eye = Vec3::from_array(params.eye).as_dvec3();
-        let twin = self.whitted.twin(params);
         // Per pixel: its cell and place in it, and its texture factor (or
         // `None`: at a texture's edge).
         let found: Vec<(u32, Assigned, Option<Vec3>)> = (0..out.len())
@@ -745,7 +744,7 @@ impl BoundedRenderer {
                 let texture = match interp.diffuse {
                     Some(_) => {
                         let ray = ray.unwrap_or_else(|| pixel_ray(params, i as u32, 0));
-                        self.pixel_texture(&twin, ray, interp.accepted.root, a.hit)
+                        self.pixel_texture(ray, interp.accepted.root, a.hit)
                     }
                     None => Some(Vec3::ONE),
                 };
@@ -801,7 +800,7 @@ impl BoundedRenderer {
     /// intersection with the root; `None` where the hit lies within
     /// rounding of an edge of the texture (the renderer's own hit point
     /// could be across it).
-    fn pixel_texture(&self, twin: &Whitted, (o, d): (Vec3, Vec3), root: RootFace, hit: PrimaryHit) -> Option<Vec3> {
+    fn pixel_texture(&self, (o, d): (Vec3, Vec3), root: RootFace, hit: PrimaryHit) -> Option<Vec3> {
         let (t, primitive) = match hit {
             Some(h) => h,
             None => {
@@ -809,12 +808,8 @@ impl BoundedRenderer {
                 (t as f32, p)
             }
         };
-        let scene = twin.scene;
-        let n_tri = scene.triangles.len() as u32;
-        let surface = scene.surface(match primitive.checked_sub(n_tri) {
-            Some(k) => scene.spheres[k as usize].surface,
-            None => scene.triangles[primitive as usize].surface,
-        });
+        let scene = self.whitted.scene();
+        let surface = scene.surface(scene.primitive_surface(primitive));
         // The renderer's point (`Whitted::hit_info`) is this one up to
         // rounding of t and of the point: a margin with room to spare.
         let point = o + t * d;

@@ -202,13 +202,8 @@ mod tests {
     /// in a cell of extent 2 here), in either way of computing them.
     #[test]
     fn split_bounds_match_clipping_to_each_child() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32 * 4.0 - 2.0
-        };
+        let mut rng = crate::kdtree::test_rng::Rng(0x2545_f491_4f6c_dd1d);
+        let mut next = || rng.next_f32() * 4.0 - 2.0;
         let cell = Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0));
         for case in 0..5000 {
             let tri = [0; 3].map(|_| Vec3::new(next(), next(), next()));

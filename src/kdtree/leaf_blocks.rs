@@ -133,13 +133,8 @@ mod tests {
     /// random, degenerate and edge-on triangles.
     #[test]
     fn block_lanes_equal_the_single_triangle_test() {
-        let mut s = 0x2545_f491_4f6c_dd1du64;
-        let mut rnd = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
-        };
+        let mut rng = crate::kdtree::test_rng::Rng(0x2545_f491_4f6c_dd1d);
+        let mut rnd = || rng.next_f32() * 2.0 - 1.0;
         let mut checked = [0usize; 2];
         for k in 0..4000 {
             let mut tris: Vec<[Vec3; 3]> = (0..BLOCK)

@@ -2,23 +2,9 @@
 
 use glam::Vec3;
 
+use super::test_rng::Rng;
 use super::watertight::ShearedRay;
 use super::*;
-
-/// Deterministic xorshift generator for test geometry.
-struct Rng(u64);
-
-impl Rng {
-    fn next_f32(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn vec(&mut self, lo: f32, hi: f32) -> Vec3 {
-        Vec3::new(self.next_f32(), self.next_f32(), self.next_f32()) * (hi - lo) + Vec3::splat(lo)
-    }
-}
 
 fn brute_force(tris: &[[Vec3; 3]], o: Vec3, d: Vec3, t_max: f32) -> Hit {
     let ray = ShearedRay::new(o, d);

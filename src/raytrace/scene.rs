@@ -290,6 +290,15 @@ impl RenderScene {
         &self.surfaces[id as usize]
     }
 
+    /// The surface id of primitive `p` (a triangle, or `triangles + s` for
+    /// sphere `s`).
+    pub fn primitive_surface(&self, p: u32) -> u32 {
+        match p.checked_sub(self.triangles.len() as u32) {
+            Some(s) => self.spheres[s as usize].surface,
+            None => self.triangles[p as usize].surface,
+        }
+    }
+
     /// The stack of glass a point is inside, outermost first: the spheres
     /// and closed glass objects around it (by the parity of crossings of a
     /// ray from it), larger ones outside smaller ones. Where a camera

@@ -319,13 +319,8 @@ mod tests {
     /// included.
     #[test]
     fn counted_sweeps_agree_with_the_sorted_sweep() {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = |m: u32| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state % m as u64) as f32
-        };
+        let mut rng = crate::kdtree::test_rng::Rng(0x9e37_79b9_7f4a_7c15);
+        let mut next = |m: u32| (rng.next_u64() % m as u64) as f32;
         let sah = Sah {
             lo: 0.0,
             hi: 16.0,
