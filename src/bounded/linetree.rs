@@ -199,12 +199,32 @@ impl Linetrees {
     /// The line is put on the lattice once, so each level of the descent
     /// is a bit test rather than a cell's midpoint in floating point (this
     /// walk runs for every pixel that reprojection leaves).
-    pub fn leaf_below(&self, mut i: u32, c: &LineCoords) -> u32 {
+    pub fn leaf_below(&self, i: u32, c: &LineCoords) -> u32 {
         let pair = &self.trees[self.cells[i as usize].tree as usize].pair;
-        let q = lattice_of(pair, c);
+        self.descend(i, &lattice_of(pair, c))
+    }
+
+    /// `leaf`, trying `hint` first: lines met one after another (a row of
+    /// pixels) mostly fall in the same leaf, and checking that a leaf holds
+    /// the line's lattice point is cheaper than descending to it. The
+    /// answer is `leaf`'s: a tree's leaves do not overlap on the lattice.
+    pub fn leaf_hinted(&self, t: u32, c: &LineCoords, hint: Option<u32>) -> u32 {
+        let root = self.trees[t as usize].root;
+        let q = lattice_of(&self.trees[t as usize].pair, c);
+        if let Some(h) = hint {
+            let cell = &self.cells[h as usize];
+            let leaf = !matches!(cell.state, CellState::Split { .. });
+            if cell.tree == t && leaf && holds_lattice_point(&cell.cell, &q) {
+                return h;
+            }
+        }
+        self.descend(root, &q)
+    }
+
+    fn descend(&self, mut i: u32, q: &[u32; 4]) -> u32 {
         while let CellState::Split { axes, first } = self.cells[i as usize].state {
             let cell = &self.cells[i as usize].cell;
-            i = first + child_number(cell, axes, &q);
+            i = first + child_number(cell, axes, q);
         }
         i
     }
@@ -376,6 +396,13 @@ fn lattice_of(pair: &FacePair, c: &LineCoords) -> [u32; 4] {
     })
 }
 
+/// Whether lattice point `q` lies in `cell`: the cell's index along each
+/// coordinate is the point's top `depth` bits there, as the descent reads
+/// them one level at a time.
+fn holds_lattice_point(cell: &CellBox, q: &[u32; 4]) -> bool {
+    (0..4).all(|a| q[a] >> (LATTICE_BITS - cell.depth[a] as u32) == cell.index[a])
+}
+
 /// Which child of `cell` (split along `axes`) holds the line at lattice
 /// coordinates `q`: the bit below the cell's depth of each halved one.
 fn child_number(cell: &CellBox, axes: u8, q: &[u32; 4]) -> u32 {
@@ -397,6 +424,54 @@ pub fn corner_ray(pair: &FacePair, cell: &CellBox, k: usize) -> (DVec3, DVec3) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A hint saves the descent only where it gives `leaf`'s own answer:
+    /// over a tree split unevenly (16 and 4 ways, to several depths), every
+    /// line with every kind of hint (its own leaf, a neighbour, a split
+    /// cell, another tree's cell, none).
+    #[test]
+    fn a_hinted_lookup_finds_the_leaf_the_descent_finds() {
+        let pair = FacePair::new(&crate::aabb::Aabb::new(Vec3::ZERO, Vec3::ONE), 5);
+        let mut trees = Linetrees::default();
+        let t = trees.tree(RootFace::Sphere(0), 5, || pair);
+        let other = trees.tree(RootFace::Sphere(1), 5, || pair);
+        let mut rng = crate::kdtree::test_rng::Rng(0x2545_f491_4f6c_dd1d);
+        let line = |rng: &mut crate::kdtree::test_rng::Rng| -> LineCoords {
+            std::array::from_fn(|a| {
+                let (lo, hi) = (pair.lo[a % 2], pair.hi[a % 2]);
+                lo + (hi - lo) * rng.next_f32() as f64
+            })
+        };
+        for round in 0..40 {
+            let c = line(&mut rng);
+            let leaf = trees.leaf(t, &c);
+            let axes = if round % 3 == 0 { 0b0101 } else { 0b1111 };
+            if (0..4)
+                .filter(|a| axes >> a & 1 == 1)
+                .all(|a| trees.cells[leaf as usize].cell.splittable(a))
+            {
+                trees.split(leaf, axes);
+            }
+        }
+        let (mut hits, mut n) = (0, 0);
+        let mut last = None;
+        for k in 0..20_000u32 {
+            let c = line(&mut rng);
+            let hint = match k % 5 {
+                0 => Some(trees.trees[other as usize].root),
+                1 => Some(trees.trees[t as usize].root),
+                2 => None,
+                _ => last,
+            };
+            let found = trees.leaf_hinted(t, &c, hint);
+            assert_eq!(found, trees.leaf(t, &c), "line {c:?}, hint {hint:?}");
+            hits += (Some(found) == hint) as u32;
+            n += 1;
+            last = Some(found);
+        }
+        // Some hints were right, so the shortcut was taken.
+        assert!(hits > 0 && hits < n, "{hits} of {n}");
+    }
 
     #[test]
     fn a_sixteen_way_split_needs_65_new_rays_and_a_four_way_split_20() {

@@ -358,13 +358,23 @@ impl BoundedRenderer {
         // Rounds of builds until every pixel has an accepted leaf or a
         // rejected one that stays.
         let t2 = Instant::now();
+        // In pixel order, each pixel's lookup starts from its left
+        // neighbour's leaf.
+        let trees = &self.trees;
         let mut round: Vec<PixelLeaf> = leaves
-            .par_iter()
-            .map(|&(i, tree, coords, face, hit)| (i, self.trees.leaf(tree, &coords), coords, face, hit))
+            .par_chunks(1024)
+            .flat_map_iter(|chunk| {
+                let mut last = None;
+                chunk.iter().map(move |&(i, tree, coords, face, hit)| {
+                    let leaf = trees.leaf_hinted(tree, &coords, last);
+                    last = Some(leaf);
+                    (i, leaf, coords, face, hit)
+                })
+            })
             .collect();
         while !round.is_empty() {
-            round.par_sort_unstable_by_key(|r| (r.1, r.0));
-            let groups: Vec<(u32, std::ops::Range<usize>)> = group_by_cell(&round);
+            let groups;
+            (round, groups) = sort_by_cell(&round, self.trees.cells.len());
             let to_build: Vec<u32> = groups
                 .iter()
                 .filter(|(c, _)| matches!(self.trees.cells[*c as usize].state, CellState::Unbuilt))
@@ -847,17 +857,35 @@ impl BoundedRenderer {
 /// `claimed` of a pixel two reprojected cells claim.
 const CONFLICT: u32 = u32::MAX - 1;
 
-/// Runs of equal cells in a sorted round.
-fn group_by_cell(round: &[PixelLeaf]) -> Vec<(u32, std::ops::Range<usize>)> {
+/// A round ordered by cell, each cell's pixels kept in their order, and
+/// the run of each cell: a stable counting sort over the cell indices
+/// (`cells` of them), where a comparison sort of these 72-byte tuples by
+/// (cell, pixel) took a third of the build phase. A round lists its pixels
+/// in increasing order within each cell (the first in pixel order, later
+/// ones split from one cell's sorted run), so the order is that sort's.
+fn sort_by_cell(round: &[PixelLeaf], cells: usize) -> (Vec<PixelLeaf>, Vec<(u32, std::ops::Range<usize>)>) {
+    let mut next = vec![0u32; cells];
+    for r in round {
+        next[r.1 as usize] += 1;
+    }
     let mut groups = Vec::new();
-    let mut start = 0;
-    for i in 1..=round.len() {
-        if i == round.len() || round[i].1 != round[start].1 {
-            groups.push((round[start].1, start..i));
-            start = i;
+    let mut start = 0u32;
+    for (cell, slot) in next.iter_mut().enumerate() {
+        let count = std::mem::replace(slot, start);
+        if count > 0 {
+            groups.push((cell as u32, start as usize..(start + count) as usize));
+            start += count;
         }
     }
-    groups
+    let mut order = vec![0u32; round.len()];
+    for (k, r) in round.iter().enumerate() {
+        let slot = &mut next[r.1 as usize];
+        order[*slot as usize] = k as u32;
+        *slot += 1;
+    }
+    let sorted: Vec<PixelLeaf> = order.iter().map(|&k| round[k as usize]).collect();
+    debug_assert!(sorted.windows(2).all(|w| (w[0].1, w[0].0) < (w[1].1, w[1].0)));
+    (sorted, groups)
 }
 
 /// An extremal ray's sample: from the front face, in air.
@@ -1032,4 +1060,42 @@ fn count_paths(paths: &[PixelPath], stats: &mut FrameStats) {
     } else {
         0.0
     };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The counting sort orders a round as the comparison sort by (cell,
+    /// pixel) did, and its runs are that order's runs of equal cells.
+    #[test]
+    fn sort_by_cell_is_the_sort_by_cell_and_pixel() {
+        let mut rng = crate::kdtree::test_rng::Rng(0x853c_49e6_748f_ea9b);
+        for case in 0..200 {
+            let cells = 1 + (rng.next_u64() % 64) as usize;
+            let n = (rng.next_u64() % 300) as u32;
+            // Pixels in increasing order, as a round lists them.
+            let mut pixel = 0;
+            let round: Vec<PixelLeaf> = (0..n)
+                .map(|_| {
+                    pixel += 1 + (rng.next_u64() % 3) as u32;
+                    let cell = (rng.next_u64() % cells as u64) as u32;
+                    (pixel, cell, [0.0; 4], RootFace::Sphere(0), (1.0, 0))
+                })
+                .collect();
+            let (sorted, groups) = sort_by_cell(&round, cells);
+            let mut expected = round.clone();
+            expected.sort_unstable_by_key(|r| (r.1, r.0));
+            let key = |v: &[PixelLeaf]| v.iter().map(|r| (r.1, r.0)).collect::<Vec<_>>();
+            assert_eq!(key(&sorted), key(&expected), "case {case}");
+            let mut runs: Vec<(u32, std::ops::Range<usize>)> = Vec::new();
+            for (k, r) in expected.iter().enumerate() {
+                match runs.last_mut() {
+                    Some((c, range)) if *c == r.1 => range.end = k + 1,
+                    _ => runs.push((r.1, k..k + 1)),
+                }
+            }
+            assert_eq!(groups, runs, "case {case}");
+        }
+    }
 }

@@ -260,6 +260,6 @@ fn validate_params(p: &KdTreeParams) -> Result<()> {
 }
 
 #[cfg(test)]
-mod test_rng;
+pub(crate) mod test_rng;
 #[cfg(test)]
 mod tests;
