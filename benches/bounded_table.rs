@@ -34,7 +34,7 @@ use penumbra::bounded::measure::compare;
 use penumbra::bounded::{BoundedRenderer, BoundedSettings, FrameStats};
 use penumbra::device::Device;
 use penumbra::progress::{Bars, Progress};
-use penumbra::raytrace::{LightingOptions, RenderScene, WhittedRenderer, WhittedSettings};
+use penumbra::raytrace::{LightingOptions, Packets, RenderScene, WhittedRenderer, WhittedSettings};
 use penumbra::scene::CameraPath;
 use rayon::ThreadPool;
 
@@ -234,7 +234,7 @@ fn reference(
         paths_differ: 0,
         frames: Vec::new(),
     };
-    for (k, packets) in [true, false].into_iter().enumerate() {
+    for (k, packets) in [Packets::On, Packets::Off].into_iter().enumerate() {
         let settings = WhittedSettings {
             packets,
             ..BoundedSettings::default().whitted

@@ -34,7 +34,7 @@ use criterion::{BenchmarkId, Criterion, SamplingMode, Throughput, criterion_grou
 use penumbra::device::Device;
 use penumbra::gpu::GpuContext;
 use penumbra::progress::{Bars, Progress};
-use penumbra::raytrace::{LightingOptions, RenderScene, WhittedRenderer, WhittedSettings};
+use penumbra::raytrace::{LightingOptions, Packets, RenderScene, WhittedRenderer, WhittedSettings};
 
 /// Side of the images.
 const SIZE: u32 = 512;
@@ -72,7 +72,7 @@ fn bench_cpu(c: &mut Criterion, prepared: &mut [Prepared<'_>], threads: usize) {
     let progress = Progress::hidden();
     for p in prepared.iter_mut() {
         group.throughput(Throughput::Elements(p.rays));
-        for (mode, packets) in [("packets", true), ("single", false)] {
+        for (mode, packets) in [("packets", Packets::On), ("single", Packets::Off)] {
             let settings = WhittedSettings {
                 packets,
                 ..WhittedSettings::default()

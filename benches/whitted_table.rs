@@ -26,7 +26,7 @@ use std::path::PathBuf;
 use penumbra::device::{Device, Timing};
 use penumbra::gpu::GpuContext;
 use penumbra::progress::{Bars, Progress};
-use penumbra::raytrace::{LightingOptions, RayCounts, RenderScene, WhittedRenderer, WhittedSettings};
+use penumbra::raytrace::{LightingOptions, Packets, RayCounts, RenderScene, WhittedRenderer, WhittedSettings};
 use penumbra::scene::Camera;
 use rayon::ThreadPool;
 
@@ -91,7 +91,10 @@ fn measure(
     let render = |renderer: &mut WhittedRenderer| {
         let settings = WhittedSettings {
             max_depth,
-            packets: !matches!(config, Config::Cpu { packets: false, .. }),
+            packets: match config {
+                Config::Cpu { packets: false, .. } => Packets::Off,
+                _ => Packets::On,
+            },
             ..WhittedSettings::default()
         };
         match config {

@@ -85,6 +85,11 @@ fn knobs_change_what_they_should() {
     let single = rays("--packets off");
     assert_eq!(single["rays"], base["rays"], "packets change the speed, not the rays");
     assert_eq!(single["path"], "cpu-single");
+    let packets = rays("--packets on");
+    assert_eq!(packets["rays"], base["rays"]);
+    assert_eq!(packets["path"], "cpu-packets");
+    // auto: two triangles and three spheres are traced ray by ray.
+    assert_eq!(base["path"], "cpu-single");
     let fresnel = rays("--fresnel on");
     assert_eq!(fresnel["fresnel"], true);
     let tree = rays("--ray-tree 24,20");

@@ -12,7 +12,7 @@ use penumbra::device::Device;
 use penumbra::progress::{Bars, Progress};
 use penumbra::raytrace::ray_tree::RayKind;
 use penumbra::raytrace::scenes::shipped_scenes;
-use penumbra::raytrace::{LightingOptions, RenderScene, Rendered, WhittedRenderer, WhittedSettings};
+use penumbra::raytrace::{LightingOptions, Packets, RenderScene, Rendered, WhittedRenderer, WhittedSettings};
 use penumbra::scene::{Camera, Light, Scene, load_obj_file, load_scene_shaded};
 
 fn assets() -> PathBuf {
@@ -275,8 +275,8 @@ fn packets_and_single_rays_give_the_same_image() {
                 spp,
                 ..WhittedSettings::default()
             };
-            let a = render(&scene, &cam, (67, 45), &settings(true));
-            let b = render(&scene, &cam, (67, 45), &settings(false));
+            let a = render(&scene, &cam, (67, 45), &settings(Packets::On));
+            let b = render(&scene, &cam, (67, 45), &settings(Packets::Off));
             assert_eq!(a.pixels, b.pixels, "{} with {spp} samples", shipped_scene.name);
         }
     }

@@ -22,6 +22,6 @@ pub mod surface;
 pub mod whitted;
 
 pub use ray_tree::{LightCode, RayKind, RayNode, RayTree};
-pub use runner::{RayCounts, RenderStats, Rendered, WhittedRenderer, WhittedSettings};
+pub use runner::{PACKETS_FROM_TRIANGLES, Packets, RayCounts, RenderStats, Rendered, WhittedRenderer, WhittedSettings};
 pub use scene::{LightingOptions, RenderScene};
 pub use whitted::{PixelOut, Whitted, WhittedParams};

@@ -4,7 +4,7 @@
 use clap::{Args, ValueEnum};
 use glam::Vec3;
 
-use super::{LightingOptions, WhittedSettings};
+use super::{LightingOptions, Packets, WhittedSettings};
 use crate::error::{Error, Result};
 use crate::options::OnOff;
 use crate::scene::parse_vec3;
@@ -30,9 +30,10 @@ pub struct WhittedOptions {
     /// Radiance "R,G,B" of rays that leave the scene (over the scene file's; default black).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub background: Option<Vec3>,
-    /// CPU path: primary and shadow rays as MLRTA packets (off: every ray alone).
-    #[arg(long, value_enum, default_value_t = OnOff::On)]
-    pub packets: OnOff,
+    /// CPU path: primary and shadow rays as MLRTA packets, or every ray
+    /// alone (the same image); auto: packets from 8192 triangles up.
+    #[arg(long, value_enum, default_value_t = Packets::Auto)]
+    pub packets: Packets,
 }
 
 impl WhittedOptions {
@@ -43,7 +44,7 @@ impl WhittedOptions {
             spp: self.spp,
             seed,
             fresnel: self.fresnel.on(),
-            packets: self.packets.on(),
+            packets: self.packets,
         };
         settings.validate()?;
         Ok(settings)

@@ -36,8 +36,43 @@ pub struct WhittedSettings {
     /// the materials' constant coefficients.
     pub fresnel: bool,
     /// On the CPU, MLRTA packets for primary rays and point lights' shadow
-    /// rays (the same image, faster); off: every ray alone, as the GPU does.
-    pub packets: bool,
+    /// rays, or every ray alone as the GPU does: the same image, at
+    /// different speeds (`Packets`).
+    pub packets: Packets,
+}
+
+/// Whether the CPU path traces primary and point lights' shadow rays as
+/// MLRTA packets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Packets {
+    /// Packets for a tree of at least `PACKETS_FROM_TRIANGLES` triangles.
+    #[default]
+    Auto,
+    On,
+    Off,
+}
+
+/// From this many triangles `Packets::Auto` traces packets. Thirty-frame
+/// walks at 640x480, one thread, alternated (docs/results/whitted.md):
+/// single rays win on the textured checker-spheres (2 triangles, 9 to
+/// 17%), grazing (3,212, 16%), cow (5,804, 14%) and teapot (6,320, 20%);
+/// packets win on cornell-mirror-glass (3,992, 3 to 7%: the one scene
+/// this threshold misjudges), the tessellated twin (11,906, 9 to 14%),
+/// the kitchen interior (56,939, 10 to 30%) and the bunny (69,451, 3 to
+/// 10%). What decides is how much of the image a deep tree covers, which
+/// the count only roughly tells.
+pub const PACKETS_FROM_TRIANGLES: usize = 8192;
+
+impl Packets {
+    /// Whether a tree of `triangles` triangles is traced with packets.
+    pub fn used(self, triangles: usize) -> bool {
+        match self {
+            Packets::On => true,
+            Packets::Off => false,
+            Packets::Auto => triangles >= PACKETS_FROM_TRIANGLES,
+        }
+    }
 }
 
 impl Default for WhittedSettings {
@@ -47,7 +82,7 @@ impl Default for WhittedSettings {
             spp: 1,
             seed: 0,
             fresnel: false,
-            packets: true,
+            packets: Packets::Auto,
         }
     }
 }
@@ -271,7 +306,8 @@ impl WhittedRenderer {
     }
 
     /// Renders an image of `camera`: on a GPU the kernel, on the CPU the
-    /// twin (through packets where `settings.packets`).
+    /// twin (through packets where `settings.packets` says so for this
+    /// scene's tree).
     pub fn render(
         &mut self,
         camera: &Camera,
@@ -287,7 +323,8 @@ impl WhittedRenderer {
             tree,
             params: &params,
         };
-        let cpu_path = if settings.packets { "cpu-packets" } else { "cpu-single" };
+        let packets = settings.packets.used(self.tree.triangles.len());
+        let cpu_path = if packets { "cpu-packets" } else { "cpu-single" };
         let path = if self.gpu.state().is_some() { "gpu" } else { cpu_path };
         let timed = self.gpu.run(
             |ctx, g| {
@@ -295,7 +332,7 @@ impl WhittedRenderer {
                 Ok(GpuOutput { value: pixels, gpu_ms })
             },
             || {
-                if settings.packets {
+                if packets {
                     let prepared = match tables.take() {
                         Some(t) => Prepared::from_tables(tree, t),
                         None => Prepared::new(tree, &scene.mesh).0,
@@ -375,5 +412,20 @@ impl WhittedRenderer {
             .twin(&params)
             .shade(origin, dir.normalize(), media, None, Some(&mut tree));
         Ok((out.radiance, tree))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn auto_packets_start_at_the_threshold_and_on_off_are_obeyed() {
+        for triangles in [0, 2, PACKETS_FROM_TRIANGLES - 1, PACKETS_FROM_TRIANGLES, 1 << 20] {
+            assert!(Packets::On.used(triangles));
+            assert!(!Packets::Off.used(triangles));
+            assert_eq!(Packets::Auto.used(triangles), triangles >= PACKETS_FROM_TRIANGLES);
+        }
+        assert_eq!(WhittedSettings::default().packets, Packets::Auto);
     }
 }
