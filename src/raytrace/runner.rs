@@ -46,10 +46,12 @@ pub struct WhittedSettings {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum Packets {
-    /// Packets for a tree of at least `PACKETS_FROM_TRIANGLES` triangles.
+    /// Packets from 8192 triangles up (PACKETS_FROM_TRIANGLES), single rays below.
     #[default]
     Auto,
+    /// Always packets.
     On,
+    /// Every ray alone.
     Off,
 }
 
@@ -57,7 +59,7 @@ pub enum Packets {
 /// walks at 640x480, one thread, alternated (docs/results/whitted.md):
 /// single rays win on the textured checker-spheres (2 triangles, 9 to
 /// 17%), grazing (3,212, 16%), cow (5,804, 14%) and teapot (6,320, 20%);
-/// packets win on cornell-mirror-glass (3,992, 3 to 7%: the one scene
+/// packets win on cornell-mirror-glass (3,992, 2 to 7%: the one scene
 /// this threshold misjudges), the tessellated twin (11,906, 9 to 14%),
 /// the kitchen interior (56,939, 10 to 30%) and the bunny (69,451, 3 to
 /// 10%). What decides is how much of the image a deep tree covers, which
