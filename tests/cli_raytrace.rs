@@ -275,6 +275,8 @@ fn bounded_method_reports_paths_errors_and_checks_and_refuses_bad_knobs() {
     assert_eq!(j["error"]["violations"], 0, "{j}");
     assert_eq!(j["check"]["violations"], 0, "{j}");
     assert_eq!(j["per_frame"].as_array().map(|a| a.len()), Some(3));
+    assert_eq!(j["rays"]["slow_path_on"], "cpu", "{j}");
+    assert_eq!(j["bounded"]["slow_path"], "auto", "{j}");
     let image = image::open(&err).unwrap();
     assert_eq!((image.width(), image.height()), (160, 120));
     let good = scene("checker-spheres");
@@ -284,11 +286,33 @@ fn bounded_method_reports_paths_errors_and_checks_and_refuses_bad_knobs() {
         ("--memory-mb 0", vec!["--memory-mb"]),
         ("--min-pixels 0", vec!["--min-pixels"]),
         ("--spp 4", vec!["--spp", "one sample"]),
+        ("--slow-path gpu", vec!["--slow-path", "auto, device, cpu"]),
     ] {
         pen(
             &format!("raytrace --method bounded --width 48 --height 36 --scene {good} {args} --device cpu --json"),
             &[],
         )
         .bad_input(&phrases);
+    }
+    // On a GPU the slow path can be the Whitted kernel: the same image as
+    // the CPU twin's slow path, within the kernel's tolerance.
+    if gpu_available() {
+        let shot = |slow: &str| {
+            let out = dir.p(&format!("slow-{slow}.png"));
+            let r = pen(
+                &format!(
+                    "raytrace --method bounded --width 96 --height 72 --scene {good} --frames 2 \
+                     --slow-path {slow} --device gpu --out {out} --json"
+                ),
+                &[],
+            );
+            let j = r.ok().json();
+            (j["rays"]["slow_path_on"].clone(), image::open(&out).unwrap().to_rgb8())
+        };
+        let ((on_gpu, a), (on_cpu, b)) = (shot("device"), shot("cpu"));
+        assert_eq!((on_gpu.as_str(), on_cpu.as_str()), (Some("gpu"), Some("cpu")));
+        let worst = a.as_raw().iter().zip(b.as_raw()).map(|(x, y)| x.abs_diff(*y)).max();
+        println!("--slow-path device against cpu: worst 8-bit difference {worst:?}");
+        assert!(worst <= Some(1), "worst 8-bit difference {worst:?}");
     }
 }

@@ -13,6 +13,8 @@
 //!   of pixels, ray-tree signatures equal for >= 99.5%, rays of each kind
 //!   within 0.1%. (A ray that rounds onto another triangle at an edge
 //!   changes its pixel's tree; everything else is the same arithmetic.)
+//! * whitted_listed: bit-identical to the same pixels of the device's
+//!   whole-image render (the same kernel code, on either device).
 //! * interpolate: radiance per channel within 1e-5 x the cell's largest
 //!   corner value for every pixel (the same products and sums; a GPU
 //!   compiler may fuse them); the bounded renderer interpolates the same
@@ -419,8 +421,53 @@ fn interpolate_kernel_equals_cpu_twin_across_batches() {
 }
 
 #[test]
+fn whitted_listed_kernel_renders_the_image_pixels_it_is_given() {
+    use penumbra::device::Device;
+    use penumbra::progress::Bars;
+    use penumbra::raytrace::gpu::PIXELS_PER_BATCH;
+    use penumbra::raytrace::{LightingOptions, Packets, RenderScene, WhittedRenderer, WhittedSettings};
+    let scene = penumbra::scene::load_scene_shaded(&asset("raytrace").join("cornell-mirror-glass.json")).unwrap();
+    let camera = scene.camera.unwrap();
+    let (w, h) = (320, 240);
+    // Every pixel once, scrambled, then some twice: more than one batch.
+    let n = w * h;
+    let mut list: Vec<u32> = (0..n).map(|i| (i * 7_919) % n).collect();
+    list.extend((0..n).step_by(13));
+    assert!(list.len() > PIXELS_PER_BATCH);
+    let settings = WhittedSettings {
+        packets: Packets::Off,
+        ..WhittedSettings::default()
+    };
+    let compare = |device: &Device| {
+        let rs = RenderScene::new(&scene, 0, &LightingOptions::default()).unwrap();
+        let mut r = WhittedRenderer::new(device, rs, Bars::Hidden).unwrap();
+        let image = r.render(&camera, w, h, &settings, &Progress::hidden()).unwrap();
+        let params = r.params(&camera, w, h, &settings).unwrap();
+        let listed = r.render_listed(&params, &list, &Progress::hidden()).unwrap().value;
+        assert_eq!(listed.len(), list.len());
+        let differ = list
+            .iter()
+            .zip(&listed)
+            .filter(|&(&i, p)| bytemuck::bytes_of(p) != bytemuck::bytes_of(&image.pixels[i as usize]))
+            .count();
+        println!(
+            "whitted_listed on {}: {} listed pixels, {differ} differ from the image's",
+            image.stats.path,
+            list.len()
+        );
+        assert_eq!(differ, 0);
+        // Outside the image: an error, not a read out of bounds.
+        assert!(r.render_listed(&params, &[n], &Progress::hidden()).is_err());
+    };
+    compare(&Device::cpu());
+    if let Some(ctx) = gpu() {
+        compare(&Device::gpu(ctx));
+    }
+}
+
+#[test]
 fn bounded_renderer_interpolates_alike_on_gpu_and_cpu() {
-    use penumbra::bounded::{BoundedRenderer, BoundedSettings, PixelPath};
+    use penumbra::bounded::{BoundedRenderer, BoundedSettings, PixelPath, SlowPath};
     use penumbra::device::Device;
     use penumbra::progress::Bars;
     use penumbra::raytrace::{LightingOptions, RenderScene, WhittedRenderer};
@@ -430,25 +477,63 @@ fn bounded_renderer_interpolates_alike_on_gpu_and_cpu() {
     let render = |device: &Device| {
         let rs = RenderScene::new(&scene, 0, &LightingOptions::default()).unwrap();
         let w = WhittedRenderer::new(device, rs, Bars::Hidden).unwrap();
-        let mut b = BoundedRenderer::new(w, BoundedSettings::default()).unwrap();
+        // `auto` keeps the slow path on the CPU on a software adapter.
+        let auto = BoundedRenderer::new(w, BoundedSettings::default()).unwrap();
+        let software = auto.whitted.context().is_some_and(|c| c.is_software());
+        assert_eq!(auto.slow_path_on_gpu(), device.is_gpu() && !software);
+        let settings = BoundedSettings {
+            slow_path: SlowPath::Device,
+            ..BoundedSettings::default()
+        };
+        let mut b = BoundedRenderer::new(auto.whitted, settings).unwrap();
+        assert_eq!(b.slow_path_on_gpu(), device.is_gpu());
         // The second frame reprojects the first's cells.
-        [
+        let frames = [
             b.render(&camera, 320, 240).unwrap(),
             b.render(&camera, 320, 240).unwrap(),
-        ]
+        ];
+        let settings = BoundedSettings::default().whitted;
+        let exact = b
+            .whitted
+            .render(&camera, 320, 240, &settings, &Progress::hidden())
+            .unwrap();
+        (frames, exact.radiance())
     };
-    let (cpu, gpu_frames) = (render(&Device::cpu()), render(&Device::gpu(ctx)));
+    let ((cpu, _), (gpu_frames, gpu_exact)) = (render(&Device::cpu()), render(&Device::gpu(ctx)));
     let (mut worst, mut interpolated) = (0f32, 0);
+    let (mut traced, mut traced_off, mut traced_worst) = (0, 0, 0f32);
     for (cpu, gpu_frame) in cpu.iter().zip(&gpu_frames) {
         assert_eq!(cpu.paths, gpu_frame.paths);
-        for ((a, b), path) in cpu.radiance.iter().zip(&gpu_frame.radiance).zip(&cpu.paths) {
-            if matches!(path, PixelPath::Interpolated | PixelPath::Reprojected) {
-                interpolated += 1;
-                worst = worst.max(((*a - *b).abs() / a.abs().max(Vec3::splat(1e-3))).max_element());
+        for (i, ((a, b), path)) in cpu.radiance.iter().zip(&gpu_frame.radiance).zip(&cpu.paths).enumerate() {
+            let d = ((*a - *b).abs() / a.abs().max(Vec3::splat(1e-3))).max_element();
+            match path {
+                PixelPath::Interpolated | PixelPath::Reprojected => {
+                    interpolated += 1;
+                    worst = worst.max(d);
+                }
+                // The slow path on a GPU is the Whitted kernel: its pixels
+                // are the GPU's exact image's, bit for bit, and the CPU's
+                // within the Whitted kernel's tolerance.
+                PixelPath::Traced(_) => {
+                    traced += 1;
+                    assert_eq!(*b, gpu_exact[i], "traced pixel {i}");
+                    traced_worst = traced_worst.max(d);
+                    traced_off += (((*a - *b).abs() / a.abs().max(Vec3::ONE)).max_element() > 1e-3) as usize;
+                }
+                _ => {}
             }
         }
     }
-    println!("bounded: {interpolated} interpolated pixels, worst relative difference GPU-CPU {worst:.2e}");
+    println!(
+        "bounded: {interpolated} interpolated pixels, worst relative difference GPU-CPU {worst:.2e}; \
+         {traced} traced pixels (the GPU's identical to its Whitted image), worst GPU-CPU {traced_worst:.2e}, \
+         {traced_off} above 1e-3"
+    );
     assert!(interpolated > 500, "only {interpolated} pixels interpolated");
     assert!(worst <= 1e-5, "worst {worst}");
+    assert!(traced > 500, "only {traced} pixels traced");
+    assert!(
+        traced_off * 1000 <= traced,
+        "{traced_off} of {traced} traced pixels differ"
+    );
 }

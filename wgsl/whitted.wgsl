@@ -13,6 +13,8 @@
 // triangle_shading: 2 words4 per triangle: (surface, normal indices),
 //                   (object, face, -, -).
 // pixels: per pixel (radiance, signature, rays by kind).
+// pixel_list: the pixels `whitted_listed` renders, any order (the bounded
+//             renderer's slow path); `whitted` renders a range instead.
 
 struct WhittedParams {
     eye: vec3<f32>,
@@ -53,6 +55,7 @@ struct PixelOut {
 @group(1) @binding(2) var<storage, read> shading_normals: array<vec4<f32>>;
 @group(1) @binding(3) var<storage, read> records: array<vec4<u32>>;
 @group(1) @binding(4) var<storage, read_write> pixels: array<PixelOut>;
+@group(1) @binding(5) var<storage, read> pixel_list: array<u32>;
 
 const MAX_DEPTH: u32 = 16u;
 const STACK_SIZE: u32 = 17u;
@@ -625,13 +628,9 @@ fn pixel_dir(pixel: u32, sample: u32) -> vec3<f32> {
     return normalize(params.forward + sx * params.right + sy * params.up);
 }
 
-@compute @workgroup_size(64)
-fn whitted(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let k = gid.x + gid.y * params.row_pitch;
-    if (k >= params.pixel_count) {
-        return;
-    }
-    let pixel = params.first_pixel + k;
+// Whitted::whitted: every sample of one pixel, averaged; the ray tree's
+// signature is the first sample's.
+fn render_pixel(pixel: u32) -> PixelOut {
     var media: Media;
     media.ids = params.media;
     media.len = params.media_len;
@@ -648,5 +647,25 @@ fn whitted(@builtin(global_invocation_id) gid: vec3<u32>) {
         out.rays = out.rays + r.rays;
     }
     out.radiance = sum / f32(params.spp);
-    pixels[k] = out;
+    return out;
+}
+
+// The pixels first_pixel ..+ pixel_count.
+@compute @workgroup_size(64)
+fn whitted(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = gid.x + gid.y * params.row_pitch;
+    if (k >= params.pixel_count) {
+        return;
+    }
+    pixels[k] = render_pixel(params.first_pixel + k);
+}
+
+// The pixels pixel_list[0 ..pixel_count], in the list's order.
+@compute @workgroup_size(64)
+fn whitted_listed(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = gid.x + gid.y * params.row_pitch;
+    if (k >= params.pixel_count) {
+        return;
+    }
+    pixels[k] = render_pixel(pixel_list[k]);
 }

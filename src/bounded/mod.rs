@@ -20,4 +20,6 @@ pub mod sequence;
 pub mod shaft;
 
 pub use predicate::{BoundKind, Failure};
-pub use runner::{BoundedFrame, BoundedRenderer, BoundedSettings, FrameStats, PixelPath, SplitKind, TraceReason};
+pub use runner::{
+    BoundedFrame, BoundedRenderer, BoundedSettings, FrameStats, PixelPath, SlowPath, SplitKind, TraceReason,
+};

@@ -5,7 +5,7 @@ use clap::Args;
 
 use super::runner::DEFAULT_FLOOR;
 use super::sequence::Measures;
-use super::{BoundKind, BoundedSettings, SplitKind};
+use super::{BoundKind, BoundedSettings, SlowPath, SplitKind};
 use crate::error::{Error, Result};
 use crate::options::{Applies, OnOff, applies};
 use crate::raytrace::WhittedSettings;
@@ -36,6 +36,9 @@ pub struct BoundedOptions {
     /// bounded: a failed cell is split only if at least this many pixels per child ask for it.
     #[arg(long, default_value_t = BoundedSettings::default().min_pixels, allow_negative_numbers = true)]
     pub min_pixels: u32,
+    /// bounded: on a GPU, trace the pixels that are not interpolated with the Whitted kernel or on the CPU.
+    #[arg(long, value_enum, default_value_t = SlowPath::Auto)]
+    pub slow_path: SlowPath,
     /// bounded: also render every frame exactly and report the error and the speed-up.
     #[arg(long)]
     pub reference: bool,
@@ -60,6 +63,7 @@ impl BoundedOptions {
             span: self.span.on(),
             memory_mb: self.memory_mb,
             min_pixels: self.min_pixels,
+            slow_path: self.slow_path,
             whitted,
         };
         s.validate()?;
@@ -77,6 +81,7 @@ impl BoundedOptions {
             "span",
             "memory_mb",
             "min_pixels",
+            "slow_path",
             "reference",
             "check",
         ];

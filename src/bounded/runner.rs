@@ -55,6 +55,20 @@ pub enum SplitKind {
     Four,
 }
 
+/// Where the slow path's pixels are traced when the renderer runs on a GPU
+/// (on the CPU they always are on the CPU).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SlowPath {
+    /// The Whitted kernel on a hardware GPU; the CPU twin on a software adapter (lavapipe), where the kernel is slower than the CPU on the same cores.
+    #[default]
+    Auto,
+    /// The Whitted kernel over the list of pixels, on the renderer's GPU.
+    Device,
+    /// The CPU twin, from the primary hit pixel assignment traced.
+    Cpu,
+}
+
 /// The knobs of the bounded-error renderer.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct BoundedSettings {
@@ -75,6 +89,8 @@ pub struct BoundedSettings {
     /// A rejected cell is split only if at least this many pixels per child
     /// asked for it (section 7's cost model).
     pub min_pixels: u32,
+    /// Where traced pixels are traced on a GPU.
+    pub slow_path: SlowPath,
     pub whitted: WhittedSettings,
 }
 
@@ -98,6 +114,7 @@ impl Default for BoundedSettings {
             // of a 10-frame walk by 25 to 30% (checker-spheres,
             // cornell-mirror-glass) at the same guarantee.
             min_pixels: 4,
+            slow_path: SlowPath::Auto,
             whitted: WhittedSettings::default(),
         }
     }
@@ -450,23 +467,7 @@ impl BoundedRenderer {
         }
         stats.interpolate_ms = elapsed_ms(t4);
         let t3 = Instant::now();
-        let twin = self.whitted.twin(&params);
-        let media = Media::from_ids(&params.media[..params.media_len as usize]);
-        let traced: Vec<(u32, Vec3, u32)> = slow
-            .par_iter()
-            .with_min_len(64)
-            .map(|&(i, hit)| {
-                let (o, d) = pixel_ray(&params, i, 0);
-                let first = hit.map(|(t, p)| twin.facing(o, d, t, p));
-                let blocked = vec![None; params.light_count as usize];
-                let given = FirstHit {
-                    facing: first,
-                    blocked: &blocked,
-                };
-                let out = twin.shade(o, d, media, hit.map(|_| &given), None);
-                (i, out.radiance, out.rays.iter().sum::<u32>())
-            })
-            .collect();
+        let traced = self.trace_slow(&params, &slow)?;
         for (i, r, rays) in traced {
             radiance[i as usize] = r;
             stats.rays_traced_slow_path += rays as u64;
@@ -709,6 +710,52 @@ impl BoundedRenderer {
             }
         }
         (count, dropped)
+    }
+
+    /// Whether `trace_slow` runs the Whitted kernel (`SlowPath`).
+    pub fn slow_path_on_gpu(&self) -> bool {
+        match (self.whitted.context(), self.settings.slow_path) {
+            (None, _) | (_, SlowPath::Cpu) => false,
+            (Some(_), SlowPath::Device) => true,
+            // A software adapter runs the kernel on the same cores as the
+            // CPU twin, with a dispatch and no primary hit given: 12 times
+            // slower on lavapipe (docs/results/bounded.md, "Slow path on a
+            // GPU").
+            (Some(ctx), SlowPath::Auto) => !ctx.is_software(),
+        }
+    }
+
+    /// The slow path: each pixel's radiance and rays traced exactly. On a
+    /// GPU, the Whitted kernel over the list of pixels (the pixels of the
+    /// GPU's `--method whitted` image, bit for bit); on the CPU, the twin
+    /// from the pixel's primary hit where assignment traced it.
+    fn trace_slow(&mut self, params: &WhittedParams, slow: &[PixelToTrace]) -> Result<Vec<(u32, Vec3, u32)>> {
+        if self.slow_path_on_gpu() {
+            let list: Vec<u32> = slow.iter().map(|&(i, _)| i).collect();
+            let out = self.whitted.render_listed(params, &list, &Progress::hidden())?;
+            return Ok(list
+                .iter()
+                .zip(&out.value)
+                .map(|(&i, p)| (i, Vec3::from_array(p.radiance), p.rays.iter().sum()))
+                .collect());
+        }
+        let twin = self.whitted.twin(params);
+        let media = Media::from_ids(&params.media[..params.media_len as usize]);
+        Ok(slow
+            .par_iter()
+            .with_min_len(64)
+            .map(|&(i, hit)| {
+                let (o, d) = pixel_ray(params, i, 0);
+                let first = hit.map(|(t, p)| twin.facing(o, d, t, p));
+                let blocked = vec![None; params.light_count as usize];
+                let given = FirstHit {
+                    facing: first,
+                    blocked: &blocked,
+                };
+                let out = twin.shade(o, d, media, hit.map(|_| &given), None);
+                (i, out.radiance, out.rays.iter().sum::<u32>())
+            })
+            .collect())
     }
 
     /// Interpolates every pixel that has a cell: its position in the cell

@@ -55,6 +55,9 @@ pub struct FrameReport {
 pub struct SequenceRays {
     pub slow_path: u64,
     pub extremal: u64,
+    /// Where the slow path traced: "gpu" (the Whitted kernel) or "cpu"
+    /// (`SlowPath` resolved for the renderer's device).
+    pub slow_path_on: &'static str,
 }
 
 /// Sums over the frames of a sequence.
@@ -192,6 +195,7 @@ impl SequenceReport {
 
     fn finish(&mut self, renderer: &BoundedRenderer, checked: bool) {
         self.rays.extremal = self.extremal_rays_traced;
+        self.rays.slow_path_on = if renderer.slow_path_on_gpu() { "gpu" } else { "cpu" };
         self.success_rate = if self.surfaces == 0 {
             0.0
         } else {

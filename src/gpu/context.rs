@@ -280,6 +280,12 @@ impl GpuContext {
         }
     }
 
+    /// Whether the device is a software adapter (lavapipe, llvmpipe GL):
+    /// its kernels run on the CPU's own cores.
+    pub fn is_software(&self) -> bool {
+        is_software(&self.device.adapter_info())
+    }
+
     /// "name (backend)", as reports name the adapter.
     pub fn label(&self) -> String {
         format!("{} ({})", self.name, self.backend)

@@ -1,7 +1,8 @@
 //! The `whitted.wgsl` pass: the scene's shading data uploaded once
-//! (`prepare_scene`), then a batch of pixels at a time (`prepare`,
-//! `record`), over the kd-tree's bind group. Follows glyphon's split as
-//! every kd-tree pass does (`kdtree::pass`).
+//! (`prepare_scene`), then a batch of pixels at a time (`prepare` for a
+//! range of the image, `prepare_listed` for a list of pixels; `record`),
+//! over the kd-tree's bind group. Follows glyphon's split as every kd-tree
+//! pass does (`kdtree::pass`).
 
 use std::ops::Range;
 
@@ -19,14 +20,20 @@ use crate::kdtree::pass::{Dispatch, TreeBatch, TreeKernelSet, TreeKernels, TreeP
 use crate::progress::Progress;
 
 /// The pass's io: params, per-triangle shading (two words4), shading
-/// normals, the scene's records (surfaces, lights, spheres), pixels out.
+/// normals, the scene's records (surfaces, lights, spheres), pixels out,
+/// and the pixels `whitted_listed` renders.
 const WHITTED_IO: &[Io] = &[
     Io::Uniform(0, "whitted params", std::mem::size_of::<WhittedParams>() as u64),
     Io::In(1, "triangle shading"),
     Io::In(2, "shading normals"),
     Io::In(3, "scene records"),
     Io::Out(4, "pixels"),
+    Io::In(5, "pixel list"),
 ];
+
+/// The kernel's entry points, in `WhittedKernels`' order.
+const RANGE_ENTRY: usize = 0;
+const LISTED_ENTRY: usize = 1;
 
 /// Pixels per dispatch: short dispatches on a software rasteriser, and far
 /// below any device's limits (32 bytes a pixel).
@@ -41,7 +48,7 @@ impl Kernels for WhittedKernels {
             device,
             &crate::wgsl::WHITTED_MODULE,
             WHITTED_IO,
-            &["whitted"],
+            &["whitted", "whitted_listed"],
             log,
         ))
     }
@@ -80,12 +87,51 @@ impl TreePass<WhittedKernels> {
         let io = self.io();
         io.write(device, queue, 1, non_empty(bytemuck::cast_slice(&scene.triangles)))?;
         io.write(device, queue, 2, non_empty(bytemuck::cast_slice(&scene.normals)))?;
-        io.write(device, queue, 3, non_empty(&records))
+        io.write(device, queue, 3, non_empty(&records))?;
+        // Bound by both entry points; `prepare_listed` grows it.
+        io.reserve(device, 5, 16)
     }
 
     /// Prepares the pixels `params.first_pixel ..+ params.pixel_count`
     /// (`row_pitch` is set here).
     pub fn prepare(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, params: &WhittedParams) -> Result<()> {
+        self.prepare_entry(device, queue, params, RANGE_ENTRY)
+    }
+
+    /// Prepares the pixels `list` of the image `params` describes (its
+    /// `first_pixel` and `pixel_count` are set here): the outputs come in
+    /// the list's order.
+    pub fn prepare_listed(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        params: &WhittedParams,
+        list: &[u32],
+    ) -> Result<()> {
+        let total = params.width as u64 * params.height as u64;
+        if let Some(&p) = list.iter().find(|&&p| p as u64 >= total) {
+            return Err(Error::param(
+                "pixels",
+                format!("pixel {p} is outside the {}x{} image", params.width, params.height),
+            ));
+        }
+        self.io()
+            .write(device, queue, 5, non_empty(bytemuck::cast_slice(list)))?;
+        let params = WhittedParams {
+            first_pixel: 0,
+            pixel_count: list.len() as u32,
+            ..*params
+        };
+        self.prepare_entry(device, queue, &params, LISTED_ENTRY)
+    }
+
+    fn prepare_entry(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        params: &WhittedParams,
+        entry: usize,
+    ) -> Result<()> {
         let n = params.pixel_count;
         let (gx, gy, pitch) = dispatch_grid(n, device.limits().max_compute_workgroups_per_dimension);
         let params = WhittedParams {
@@ -99,7 +145,7 @@ impl TreePass<WhittedKernels> {
         self.set_dispatch(
             device,
             Dispatch {
-                entry: 0,
+                entry,
                 grid: (gx, gy),
                 clear: None,
                 results: vec![(4, bytes)],
@@ -151,6 +197,40 @@ impl Batched<WhittedPass> {
         if pixels.len() != total {
             return Err(Error::internal(
                 "the whitted kernel returned the wrong number of pixels",
+            ));
+        }
+        Ok((pixels, gpu_ms))
+    }
+
+    /// Renders the pixels `list` of the image `params` describes
+    /// (blocking), in batches, in the list's order; the kernels' time where
+    /// the device has timestamps. Each pixel is the one `render` gives, bit
+    /// for bit (the same kernel code).
+    pub fn render_listed(
+        &mut self,
+        ctx: &GpuContext,
+        tree: &GpuKdTree,
+        params: &WhittedParams,
+        list: &[u32],
+        progress: &Progress,
+    ) -> Result<(Vec<PixelOut>, Option<f64>)> {
+        let mut pixels = Vec::with_capacity(list.len());
+        let plan = BatchPlan::new(list.len(), PIXELS_PER_BATCH, 1);
+        let mut batch = TreeBatch {
+            pass: &mut self.pass,
+            tree,
+            prepare: |pass: &mut WhittedPass, ctx: &GpuContext, items: Range<usize>| {
+                pass.prepare_listed(&ctx.device, &ctx.queue, params, &list[items])
+            },
+        };
+        let take = |items: Range<usize>, out: &[PixelOut]| {
+            pixels.extend_from_slice(&out[..items.len()]);
+            Ok(())
+        };
+        let gpu_ms = run_batches(ctx, &mut batch, &mut self.readback, plan, progress, take)?;
+        if pixels.len() != list.len() {
+            return Err(Error::internal(
+                "the whitted kernel returned the wrong number of listed pixels",
             ));
         }
         Ok((pixels, gpu_ms))

@@ -376,6 +376,42 @@ impl WhittedRenderer {
         })
     }
 
+    /// Renders only the pixels `list` (indices into the row-major image
+    /// `params` describes, any order) and returns them in the list's order:
+    /// on a GPU the kernel's `whitted_listed` entry, on the CPU the twin one
+    /// ray at a time. Each pixel is the one `render` gives on a GPU, and the
+    /// single-ray path's on the CPU, bit for bit. The bounded renderer's
+    /// slow path on a GPU.
+    pub fn render_listed(
+        &mut self,
+        params: &WhittedParams,
+        list: &[u32],
+        progress: &Progress,
+    ) -> Result<crate::device::Timed<Vec<PixelOut>>> {
+        let total = params.width as u64 * params.height as u64;
+        if let Some(&p) = list.iter().find(|&&p| p as u64 >= total) {
+            return Err(Error::param(
+                "pixels",
+                format!("pixel {p} is outside the {}x{} image", params.width, params.height),
+            ));
+        }
+        let twin = Whitted {
+            scene: &self.scene,
+            tree: &self.tree,
+            params,
+        };
+        self.gpu.run(
+            |ctx, g| {
+                let (pixels, gpu_ms) = g.pass.render_listed(ctx, &g.tree, params, list, progress)?;
+                Ok(GpuOutput { value: pixels, gpu_ms })
+            },
+            || {
+                use rayon::prelude::*;
+                Ok(list.par_iter().with_min_len(64).map(|&i| twin.whitted(i)).collect())
+            },
+        )
+    }
+
     /// The radiance and ray tree of sample `sample` of pixel (x, y) of an
     /// image of `camera` (CPU).
     pub fn pixel_tree(
