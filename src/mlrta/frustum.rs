@@ -164,18 +164,20 @@ pub struct Frustum {
 /// The sign class of a direction: bit a set when component a is negative;
 /// `None` when a component is zero (or not finite) and the ray can join no
 /// group.
+#[inline]
 pub fn sign_class(d: Vec3) -> Option<u8> {
+    // On the bits, without a branch per component (this runs for every ray
+    // of every packet): a component is usable when its magnitude bits are
+    // neither zero (either zero) nor those of an infinity or a NaN.
+    let mut usable = true;
     let mut class = 0u8;
-    for a in 0..3 {
-        let c = d[a];
-        if !(c != 0.0 && c.is_finite()) {
-            return None;
-        }
-        if c < 0.0 {
-            class |= 1 << a;
-        }
+    for (a, c) in d.to_array().into_iter().enumerate() {
+        let bits = c.to_bits();
+        let magnitude = bits & 0x7fff_ffff;
+        usable &= magnitude != 0 && magnitude < 0x7f80_0000;
+        class |= ((bits >> 31) as u8) << a;
     }
-    Some(class)
+    usable.then_some(class)
 }
 
 impl Frustum {
@@ -360,6 +362,36 @@ impl Frustum {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sign_class_on_the_bits_is_the_definition() {
+        let values = [
+            1.0,
+            -1.0,
+            0.0,
+            -0.0,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            1e-45,
+            -1e-45,
+            f32::MAX,
+            f32::MIN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            -f32::NAN,
+        ];
+        for &x in &values {
+            for &y in &values {
+                for &z in &values {
+                    let d = Vec3::new(x, y, z);
+                    let usable = d.to_array().iter().all(|&c| c != 0.0 && c.is_finite());
+                    let class = (x < 0.0) as u8 | ((y < 0.0) as u8) << 1 | ((z < 0.0) as u8) << 2;
+                    assert_eq!(sign_class(d), usable.then_some(class), "{d:?}");
+                }
+            }
+        }
+    }
 
     fn grid_dirs(center: Vec3, spread: f32, n: usize) -> Vec<Vec3> {
         let mut v = Vec::new();

@@ -99,7 +99,10 @@ pub struct Packet {
 
 impl Packet {
     /// A packet of `dirs` from `origin`, or `None` if the directions do not
-    /// share one sign class (or there are none, or more than 16).
+    /// share one sign class (or there are none, or more than 16). Inlined
+    /// into its callers, so that inside a dispatched kernel its loops over
+    /// lanes use the kernel's registers.
+    #[inline(always)]
     pub fn new(origin: Vec3, dirs: &[Vec3], t_max: f32) -> Option<Packet> {
         let n = dirs.len();
         if n == 0 || n > PACKET {
@@ -124,15 +127,43 @@ impl Packet {
             bounds.add(own[r], Vec3::new(inv[0][r], inv[1][r], inv[2][r]))?;
         }
         // ShearedRay::new lane by lane: the axes, then the constants (the
-        // same divisions as there, so that hits are bit-identical).
-        let k = own.map(shear_axes);
-        let (mut sx, mut sy, mut sz) = ([0.0f32; PACKET], [0.0f32; PACKET], [0.0f32; PACKET]);
+        // same divisions as there, so that hits are bit-identical). The
+        // lanes share their signs, so they share the axes when they share
+        // the dominant one (the usual case: then the constants are divisions
+        // of whole rows, and `sz` is the row of reciprocals made above).
+        let k0 = shear_axes(own[0]);
+        let mut same_dominant = true;
         for r in 0..PACKET {
-            let [kx, ky, kz] = k[r];
-            sx[r] = d[kx][r] / d[kz][r];
-            sy[r] = d[ky][r] / d[kz][r];
-            sz[r] = 1.0 / d[kz][r];
+            let (x, y, z) = (d[0][r].abs(), d[1][r].abs(), d[2][r].abs());
+            // `shear_axes`' choice, as selects.
+            let kz = if x >= y && x >= z {
+                0
+            } else if y >= z {
+                1
+            } else {
+                2
+            };
+            same_dominant &= kz == k0[2];
         }
+        let (mut sx, mut sy) = ([0.0f32; PACKET], [0.0f32; PACKET]);
+        let (k, sz) = if same_dominant {
+            let [kx, ky, kz] = k0;
+            for r in 0..PACKET {
+                sx[r] = d[kx][r] / d[kz][r];
+                sy[r] = d[ky][r] / d[kz][r];
+            }
+            ([k0; PACKET], inv[kz])
+        } else {
+            let k = own.map(shear_axes);
+            let mut sz = [0.0f32; PACKET];
+            for r in 0..PACKET {
+                let [kx, ky, kz] = k[r];
+                sx[r] = d[kx][r] / d[kz][r];
+                sy[r] = d[ky][r] / d[kz][r];
+                sz[r] = 1.0 / d[kz][r];
+            }
+            (k, sz)
+        };
         let common_axes = k[..n].iter().all(|x| *x == k[0]);
         Some(Packet {
             frustum: bounds.finish(origin, t_max)?,
@@ -319,7 +350,7 @@ pub fn trace_packet(
         type Out = [Hit; PACKET];
         #[inline(always)]
         fn run<V: Lanes>(self) -> [Hit; PACKET] {
-            trace_packet_in::<V>(self.p, self.packet, self.entry, self.any_hit, self.counts)
+            trace_packet_lanes::<V>(self.p, self.packet, self.entry, self.any_hit, self.counts)
         }
     }
     dispatch(
@@ -334,9 +365,9 @@ pub fn trace_packet(
     )
 }
 
-/// `trace_packet` in lanes `V`.
+/// `trace_packet` in lanes `V` (inside a dispatched kernel).
 #[inline(always)]
-fn trace_packet_in<V: Lanes>(
+pub(crate) fn trace_packet_lanes<V: Lanes>(
     p: &Prepared,
     packet: &Packet,
     entry: &EntryPoint,
@@ -527,5 +558,53 @@ fn trace_packet_in<V: Lanes>(
                 break;
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kdtree::test_rng::Rng;
+
+    /// Each lane's shear constants are `ShearedRay::in_frame`'s, bit for
+    /// bit, whether the lanes share their dominant axis or not (ties of
+    /// magnitudes included).
+    #[test]
+    fn lanes_shear_as_single_rays_do() {
+        let mut rng = Rng(7);
+        let frame = Frame {
+            origin: Vec3::new(0.5, -2.0, 3.0),
+            scale: 4.0,
+            inv_scale: 0.25,
+        };
+        let (mut mixed, mut common) = (0, 0);
+        for case in 0..2000 {
+            let n = 1 + case % PACKET;
+            // Same signs; magnitudes near one another so that the dominant
+            // axis changes within a packet; some exact ties.
+            let dirs: Vec<Vec3> = (0..n)
+                .map(|i| {
+                    let mut v = Vec3::new(0.5 + rng.next_f32(), 0.5 + rng.next_f32(), 0.5 + rng.next_f32());
+                    if case % 3 == 0 && i % 2 == 0 {
+                        v.y = v.x;
+                    }
+                    v.normalize()
+                })
+                .collect();
+            let p = Packet::new(Vec3::ZERO, &dirs, f32::INFINITY).unwrap();
+            if p.common_axes {
+                common += 1
+            } else {
+                mixed += 1
+            }
+            for (r, &d) in dirs.iter().enumerate() {
+                let lane = p.sheared(r, &frame);
+                let single = ShearedRay::in_frame(Vec3::new(0.125, -0.5, 0.75), d, 4.0);
+                assert_eq!((lane.kx, lane.ky, lane.kz), (single.kx, single.ky, single.kz), "{d:?}");
+                let bits = |s: &ShearedRay| [s.sx, s.sy, s.sz].map(f32::to_bits);
+                assert_eq!(bits(&lane), bits(&single), "{d:?}");
+            }
+        }
+        assert!(mixed > 100 && common > 100, "{mixed} mixed, {common} common packets");
     }
 }

@@ -18,9 +18,10 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::mlrta::entry_point::{EntryPoint, entry_point};
 use crate::mlrta::frustum::{Frustum, sign_class};
-use crate::mlrta::packet::{MlrtaCounts, PACKET, Packet, trace_packet};
+use crate::mlrta::packet::{MlrtaCounts, PACKET, Packet, trace_packet_lanes};
 use crate::mlrta::prepared::Prepared;
 use crate::ray::{Hit, Ray};
+use crate::simd::{Isa, Kernel, Lanes, dispatch};
 
 /// `MlrtaParams::min_tile` unless chosen.
 pub const DEFAULT_MIN_TILE: u32 = 32;
@@ -430,11 +431,9 @@ impl Rect {
 /// (one, unless the tile diverges) as packets, rays with a zero direction
 /// component alone.
 fn trace_block(ctx: &Ctx, block: Rect, entry: &EntryPoint, out: &mut TileOut) {
-    let mut ids = [0u32; PACKET];
     let mut dirs = [Vec3::ZERO; PACKET];
     let mut m = 0;
     for i in pixels(block, ctx.width) {
-        ids[m] = i;
         dirs[m] = ctx.rays[i as usize].d();
         m += 1;
     }
@@ -445,8 +444,11 @@ fn trace_block(ctx: &Ctx, block: Rect, entry: &EntryPoint, out: &mut TileOut) {
         any_hit: false,
     };
     let hits = trace_group(ctx.p, &group, entry, None, &mut out.counts);
-    for (k, &i) in ids[..m].iter().enumerate() {
-        out.hits[out.rect.local(i, ctx.width)] = hits[k];
+    // The block's rows in the tile's buffer (no division per pixel).
+    let (r, w) = (out.rect, block.w as usize);
+    for (row, y) in (block.y..block.y + block.h).enumerate() {
+        let at = ((y - r.y) * r.w + (block.x - r.x)) as usize;
+        out.hits[at..at + w].copy_from_slice(&hits[row * w..(row + 1) * w]);
     }
 }
 
@@ -565,6 +567,44 @@ pub fn trace_group(
     search: Option<Option<u32>>,
     counts: &mut MlrtaCounts,
 ) -> [Hit; PACKET] {
+    // The whole group in one instruction set: the packets' set-up (signs,
+    // reciprocals, frustum bounds, shear constants) is loops over lanes
+    // that the compiler vectorises only with the wider registers enabled.
+    struct TraceGroup<'a> {
+        p: &'a Prepared<'a>,
+        g: &'a Group<'a>,
+        start: &'a EntryPoint,
+        search: Option<Option<u32>>,
+        counts: &'a mut MlrtaCounts,
+    }
+    impl Kernel for TraceGroup<'_> {
+        type Out = [Hit; PACKET];
+        #[inline(always)]
+        fn run<V: Lanes>(self) -> [Hit; PACKET] {
+            trace_group_in::<V>(self.p, self.g, self.start, self.search, self.counts)
+        }
+    }
+    dispatch(
+        Isa::best(),
+        TraceGroup {
+            p,
+            g,
+            start,
+            search,
+            counts,
+        },
+    )
+}
+
+/// `trace_group` in lanes `V`.
+#[inline(always)]
+fn trace_group_in<V: Lanes>(
+    p: &Prepared,
+    g: &Group,
+    start: &EntryPoint,
+    search: Option<Option<u32>>,
+    counts: &mut MlrtaCounts,
+) -> [Hit; PACKET] {
     let mut result = [Hit::MISS; PACKET];
     // Lanes by sign class (8 = a zero component); most groups have one class.
     let mut class_of = [8u8; PACKET];
@@ -599,7 +639,7 @@ pub fn trace_group(
             }
         };
         let Some(entry) = entry else { continue };
-        let h = trace_packet(p, &packet, &entry, g.any_hit, counts);
+        let h = trace_packet_lanes::<V>(p, &packet, &entry, g.any_hit, counts);
         for (j, &k) in lanes.iter().enumerate() {
             result[k] = if entry.speculative && !h[j].is_hit() {
                 single(k, counts)
