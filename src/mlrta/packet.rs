@@ -133,8 +133,8 @@ impl Packet {
         // of whole rows, and `sz` is the row of reciprocals made above).
         let k0 = shear_axes(own[0]);
         let mut same_dominant = true;
-        for r in 0..PACKET {
-            let (x, y, z) = (d[0][r].abs(), d[1][r].abs(), d[2][r].abs());
+        for ((x, y), z) in d[0].iter().zip(&d[1]).zip(&d[2]) {
+            let (x, y, z) = (x.abs(), y.abs(), z.abs());
             // `shear_axes`' choice, as selects.
             let kz = if x >= y && x >= z {
                 0
