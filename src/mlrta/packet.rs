@@ -218,8 +218,12 @@ impl Packet {
 }
 
 /// Active lanes above which a triangle is tested in all sixteen lanes at
-/// once rather than lane by lane.
-const LANE_BY_LANE: u32 = 2;
+/// once rather than lane by lane. 1 (was 2) since the packets' set-up moved
+/// into the kernel: 1024x1024 primary rays, one thread, best of 2-3
+/// alternated rounds, bunny 50.2 -> 49.5 ms, dragon100k 52.5 -> 51.1,
+/// kitchen 62.8 -> 61.8 with AVX2; bunny 65.4 -> 64.4 with SSE, 83.8 ->
+/// 84.7 in the scalar lanes (noise); 4 was slower (53.8 ms).
+const LANE_BY_LANE: u32 = 1;
 
 /// The packet's per-lane constants as vectors of lanes `V`, made once per
 /// packet: the leaves' slab tests and triangle tests run on them.
