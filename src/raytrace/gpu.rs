@@ -108,13 +108,7 @@ impl TreePass<WhittedKernels> {
         params: &WhittedParams,
         list: &[u32],
     ) -> Result<()> {
-        let total = params.width as u64 * params.height as u64;
-        if let Some(&p) = list.iter().find(|&&p| p as u64 >= total) {
-            return Err(Error::param(
-                "pixels",
-                format!("pixel {p} is outside the {}x{} image", params.width, params.height),
-            ));
-        }
+        super::whitted::check_pixels(params, list)?;
         self.io()
             .write(device, queue, 5, non_empty(bytemuck::cast_slice(list)))?;
         let params = WhittedParams {

@@ -388,13 +388,7 @@ impl WhittedRenderer {
         list: &[u32],
         progress: &Progress,
     ) -> Result<crate::device::Timed<Vec<PixelOut>>> {
-        let total = params.width as u64 * params.height as u64;
-        if let Some(&p) = list.iter().find(|&&p| p as u64 >= total) {
-            return Err(Error::param(
-                "pixels",
-                format!("pixel {p} is outside the {}x{} image", params.width, params.height),
-            ));
-        }
+        super::whitted::check_pixels(params, list)?;
         let twin = Whitted {
             scene: &self.scene,
             tree: &self.tree,

@@ -738,3 +738,16 @@ pub fn pixel_ray(params: &WhittedParams, pixel: u32, sample: u32) -> (Vec3, Vec3
     let d = Vec3::from_array(params.forward) + sx * Vec3::from_array(params.right) + sy * Vec3::from_array(params.up);
     (Vec3::from_array(params.eye), d.normalize())
 }
+
+/// An error naming the first of `pixels` outside the image `params`
+/// describes (a list of pixels to render).
+pub fn check_pixels(params: &WhittedParams, pixels: &[u32]) -> crate::error::Result<()> {
+    let total = params.width as u64 * params.height as u64;
+    match pixels.iter().find(|&&p| p as u64 >= total) {
+        Some(&p) => Err(crate::error::Error::param(
+            "pixels",
+            format!("pixel {p} is outside the {}x{} image", params.width, params.height),
+        )),
+        None => Ok(()),
+    }
+}
