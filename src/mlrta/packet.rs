@@ -160,7 +160,7 @@ impl Packet {
                 let [kx, ky, kz] = k[r];
                 sx[r] = d[kx][r] / d[kz][r];
                 sy[r] = d[ky][r] / d[kz][r];
-                sz[r] = 1.0 / d[kz][r];
+                sz[r] = inv[kz][r];
             }
             (k, sz)
         };

@@ -169,31 +169,14 @@ impl Batched<WhittedPass> {
         progress: &Progress,
     ) -> Result<(Vec<PixelOut>, Option<f64>)> {
         let total = params.width as usize * params.height as usize;
-        let mut pixels = Vec::with_capacity(total);
-        let plan = BatchPlan::new(total, PIXELS_PER_BATCH, 1);
-        let mut batch = TreeBatch {
-            pass: &mut self.pass,
-            tree,
-            prepare: |pass: &mut WhittedPass, ctx: &GpuContext, items: Range<usize>| {
-                let batch = WhittedParams {
-                    first_pixel: items.start as u32,
-                    pixel_count: items.len() as u32,
-                    ..*params
-                };
-                pass.prepare(&ctx.device, &ctx.queue, &batch)
-            },
-        };
-        let take = |items: Range<usize>, out: &[PixelOut]| {
-            pixels.extend_from_slice(&out[..items.len()]);
-            Ok(())
-        };
-        let gpu_ms = run_batches(ctx, &mut batch, &mut self.readback, plan, progress, take)?;
-        if pixels.len() != total {
-            return Err(Error::internal(
-                "the whitted kernel returned the wrong number of pixels",
-            ));
-        }
-        Ok((pixels, gpu_ms))
+        self.render_batches(ctx, tree, total, progress, |pass, ctx, items| {
+            let batch = WhittedParams {
+                first_pixel: items.start as u32,
+                pixel_count: items.len() as u32,
+                ..*params
+            };
+            pass.prepare(&ctx.device, &ctx.queue, &batch)
+        })
     }
 
     /// Renders the pixels `list` of the image `params` describes
@@ -208,23 +191,36 @@ impl Batched<WhittedPass> {
         list: &[u32],
         progress: &Progress,
     ) -> Result<(Vec<PixelOut>, Option<f64>)> {
-        let mut pixels = Vec::with_capacity(list.len());
-        let plan = BatchPlan::new(list.len(), PIXELS_PER_BATCH, 1);
+        self.render_batches(ctx, tree, list.len(), progress, |pass, ctx, items| {
+            pass.prepare_listed(&ctx.device, &ctx.queue, params, &list[items])
+        })
+    }
+
+    /// `count` pixels in batches, each batch's range of them uploaded by
+    /// `prepare`; the pixels in order and the kernels' time.
+    fn render_batches(
+        &mut self,
+        ctx: &GpuContext,
+        tree: &GpuKdTree,
+        count: usize,
+        progress: &Progress,
+        prepare: impl FnMut(&mut WhittedPass, &GpuContext, Range<usize>) -> Result<()>,
+    ) -> Result<(Vec<PixelOut>, Option<f64>)> {
+        let mut pixels = Vec::with_capacity(count);
+        let plan = BatchPlan::new(count, PIXELS_PER_BATCH, 1);
         let mut batch = TreeBatch {
             pass: &mut self.pass,
             tree,
-            prepare: |pass: &mut WhittedPass, ctx: &GpuContext, items: Range<usize>| {
-                pass.prepare_listed(&ctx.device, &ctx.queue, params, &list[items])
-            },
+            prepare,
         };
         let take = |items: Range<usize>, out: &[PixelOut]| {
             pixels.extend_from_slice(&out[..items.len()]);
             Ok(())
         };
         let gpu_ms = run_batches(ctx, &mut batch, &mut self.readback, plan, progress, take)?;
-        if pixels.len() != list.len() {
+        if pixels.len() != count {
             return Err(Error::internal(
-                "the whitted kernel returned the wrong number of listed pixels",
+                "the whitted kernel returned the wrong number of pixels",
             ));
         }
         Ok((pixels, gpu_ms))
