@@ -213,12 +213,7 @@ impl SceneGeometry {
     /// `None` where it misses.
     pub fn root_hit(&self, root: crate::bounded::predicate::RootFace, o: DVec3, d: DVec3) -> Option<(f64, u32)> {
         use crate::bounded::predicate::RootFace;
-        let plane = |p: u32| {
-            let poly = &self.polygons[p as usize];
-            let den = poly.normal.dot(d);
-            let t = (poly.w - poly.normal.dot(o)) / den;
-            (den != 0.0 && t > 0.0).then_some(t)
-        };
+        let plane = |p: u32| self.plane_distance(p, o, d);
         match root {
             // The triangle of the polygon the point lies in: the renderer
             // shades a point clamped into the triangle it is given. (Outside
@@ -246,6 +241,27 @@ impl SceneGeometry {
 
     /// How far `x` (in the triangle's plane) lies outside triangle `t`: the
     /// most negative barycentric coordinate, 0 inside.
+    /// Where `o + t d` meets polygon `p`'s plane, `t > 0`.
+    fn plane_distance(&self, p: u32, o: DVec3, d: DVec3) -> Option<f64> {
+        let poly = &self.polygons[p as usize];
+        let den = poly.normal.dot(d);
+        let t = (poly.w - poly.normal.dot(o)) / den;
+        (den != 0.0 && t > 0.0).then_some(t)
+    }
+
+    /// `root_hit`'s distance, with a primitive of the root's surface that
+    /// need not be the triangle holding the point: what a texture lookup
+    /// needs (a polygon's triangles are one OBJ face, one surface), without
+    /// searching the polygon's triangles for it.
+    pub fn root_distance(&self, root: crate::bounded::predicate::RootFace, o: DVec3, d: DVec3) -> Option<(f64, u32)> {
+        match root {
+            crate::bounded::predicate::RootFace::Polygon(p) => self
+                .plane_distance(p, o, d)
+                .map(|t| (t, self.polygon_triangles[p as usize][0])),
+            _ => self.root_hit(root, o, d),
+        }
+    }
+
     fn outside_by(&self, t: u32, x: DVec3) -> f64 {
         let [v0, v1, v2] = self.triangle_vertices[t as usize];
         let (e1, e2, vp) = (v1 - v0, v2 - v0, x - v0);

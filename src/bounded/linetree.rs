@@ -11,6 +11,7 @@
 // foldhash: lattice keys have long runs of zero low bits, which FxHash
 // buckets badly and SipHash hashes slowly; a fixed seed keeps runs repeatable.
 pub(crate) type HashMap<K, V> = std::collections::HashMap<K, V, foldhash::fast::FixedState>;
+pub(crate) type HashSet<K> = std::collections::HashSet<K, foldhash::fast::FixedState>;
 
 use glam::{DVec3, Vec3};
 

@@ -29,7 +29,7 @@ use crate::bounded::geometry::SceneGeometry;
 use crate::bounded::gpu::InterpolatePass;
 use crate::bounded::interpolate::{PixelJob, interpolate_pixels};
 use crate::bounded::linespace::{FacePair, LineCoords, pair_index};
-use crate::bounded::linetree::{CellState, HashMap, Interpolant, Linetrees, Sample, corner_ray};
+use crate::bounded::linetree::{CellState, HashSet, Interpolant, Linetrees, Sample, corner_ray};
 use crate::bounded::predicate::{BoundKind, Corners, Failure, Predicate, RootFace};
 use crate::bounded::shaft::{End, Exclude, Shafts};
 use crate::device::elapsed_ms;
@@ -38,9 +38,10 @@ use crate::gpu::GpuContext;
 use crate::gpu::batch::Batched;
 use crate::progress::Progress;
 use crate::raytrace::offset::max_abs;
+use crate::raytrace::pixel_rays::PixelRays;
 use crate::raytrace::ray_tree::RayTree;
 use crate::raytrace::surface::Surface as Shading;
-use crate::raytrace::whitted::{FirstHit, Media, Whitted, WhittedParams, pixel_ray};
+use crate::raytrace::whitted::{FirstHit, Media, Whitted, WhittedParams};
 use crate::raytrace::{RenderScene, WhittedRenderer, WhittedSettings};
 use crate::scene::Camera;
 
@@ -278,9 +279,15 @@ enum Found {
     Background,
     Traced(TraceReason, Option<(f32, u32)>),
     Leaf {
-        tree: u32,
+        leaf: u32,
         coords: LineCoords,
         face: RootFace,
+        hit: (f32, u32),
+    },
+    /// The hit's linetree is not made yet (`assign` makes it).
+    NoTree {
+        face: RootFace,
+        d: Vec3,
         hit: (f32, u32),
     },
 }
@@ -309,7 +316,8 @@ impl BoundedRenderer {
         let n = width as usize * height as usize;
         let mut stats = FrameStats::default();
         let mut paths = vec![PixelPath::Background; n];
-        let mut assigned: Vec<Option<Assigned>> = vec![None; n];
+        // Pixels interpolated in the cell assignment found, with their place.
+        let mut assigned: Vec<(u32, Assigned)> = Vec::new();
         // Pixels left to trace, with their primary hit where known.
         let mut slow: Vec<(u32, Option<(f32, u32)>)> = Vec::new();
         let exact = self.settings.epsilon == 0.0 || params.media_len > 0;
@@ -337,11 +345,13 @@ impl BoundedRenderer {
             });
         }
 
+        let rays = PixelRays::new(&params);
         // 1. Fast path.
         let t0 = Instant::now();
         let mut claimed = vec![u32::MAX; n];
         if self.settings.reproject && !exact {
-            (stats.cells_reprojected, stats.reproject_dropped) = self.reproject(&params, camera.eye, &mut claimed);
+            (stats.cells_reprojected, stats.reproject_dropped) =
+                self.reproject(&params, &rays, camera.eye, &mut claimed);
         }
         for (i, &c) in claimed.iter().enumerate() {
             if c < CONFLICT {
@@ -353,8 +363,9 @@ impl BoundedRenderer {
         // 2. Pixel assignment.
         let t1 = Instant::now();
         let todo: Vec<u32> = (0..n as u32).filter(|&i| claimed[i as usize] >= CONFLICT).collect();
-        let found = self.assign(&params, &todo, exact);
-        let mut leaves: Vec<PixelLeaf> = Vec::new();
+        let found = self.assign(&params, &rays, &todo, exact);
+        // The pixels with a leaf, in pixel order.
+        let mut round: Vec<PixelLeaf> = Vec::with_capacity(found.len());
         for (&i, f) in todo.iter().zip(&found) {
             match *f {
                 Found::Background => paths[i as usize] = PixelPath::Background,
@@ -363,11 +374,12 @@ impl BoundedRenderer {
                     slow.push((i, hit));
                 }
                 Found::Leaf {
-                    tree,
+                    leaf,
                     coords,
                     face,
                     hit,
-                } => leaves.push((i, tree, coords, face, hit)),
+                } => round.push((i, leaf, coords, face, hit)),
+                Found::NoTree { .. } => return Err(Error::internal("a pixel's linetree was not made")),
             }
         }
         stats.assign_ms = elapsed_ms(t1);
@@ -375,20 +387,6 @@ impl BoundedRenderer {
         // Rounds of builds until every pixel has an accepted leaf or a
         // rejected one that stays.
         let t2 = Instant::now();
-        // In pixel order, each pixel's lookup starts from its left
-        // neighbour's leaf.
-        let trees = &self.trees;
-        let mut round: Vec<PixelLeaf> = leaves
-            .par_chunks(1024)
-            .flat_map_iter(|chunk| {
-                let mut last = None;
-                chunk.iter().map(move |&(i, tree, coords, face, hit)| {
-                    let leaf = trees.leaf_hinted(tree, &coords, last);
-                    last = Some(leaf);
-                    (i, leaf, coords, face, hit)
-                })
-            })
-            .collect();
         while !round.is_empty() {
             let groups;
             (round, groups) = sort_by_cell(&round, self.trees.cells.len());
@@ -411,11 +409,14 @@ impl BoundedRenderer {
                         for &(i, _, coords, face, hit) in pixels {
                             if face == root {
                                 paths[i as usize] = PixelPath::Interpolated;
-                                assigned[i as usize] = Some(Assigned {
-                                    cell,
-                                    local: c.local(&pair, &coords),
-                                    hit: Some(hit),
-                                });
+                                assigned.push((
+                                    i,
+                                    Assigned {
+                                        cell,
+                                        local: c.local(&pair, &coords),
+                                        hit: Some(hit),
+                                    },
+                                ));
                             } else {
                                 paths[i as usize] = PixelPath::Traced(TraceReason::Mismatch);
                                 slow.push((i, Some(hit)));
@@ -460,14 +461,14 @@ impl BoundedRenderer {
         // texture's edges that interpolation hands back).
         let t4 = Instant::now();
         let mut radiance = vec![Vec3::from_array(params.background); n];
-        let (pixel_cells, edges) = self.interpolate_all(&params, &claimed, &assigned, &mut radiance)?;
+        let (pixel_cells, edges) = self.interpolate_all(&params, &rays, &claimed, &assigned, &mut radiance)?;
         for (i, hit) in edges {
             paths[i as usize] = PixelPath::Traced(TraceReason::TextureEdge);
             slow.push((i, hit));
         }
         stats.interpolate_ms = elapsed_ms(t4);
         let t3 = Instant::now();
-        let traced = self.trace_slow(&params, &slow)?;
+        let traced = self.trace_slow(&params, &rays, &slow)?;
         for (i, r, rays) in traced {
             radiance[i as usize] = r;
             stats.rays_traced_slow_path += rays as u64;
@@ -478,10 +479,22 @@ impl BoundedRenderer {
         }
 
         // Bookkeeping: what reprojection tries next, memory.
-        let mut used: Vec<u32> = assigned.iter().flatten().map(|a| a.cell).collect();
-        used.extend(claimed.iter().copied().filter(|&c| c < CONFLICT));
-        used.par_sort_unstable();
-        used.dedup();
+        // The cells used, each once, in increasing order: marked in a
+        // bitset, then read off it (sorting every pixel's cell was a
+        // sequential tenth of the frame's bookkeeping).
+        let mut marks = vec![0u64; self.trees.cells.len().div_ceil(64)];
+        let pixel_cells_used = assigned.iter().map(|(_, a)| a.cell);
+        for c in pixel_cells_used.chain(claimed.iter().copied().filter(|&c| c < CONFLICT)) {
+            marks[c as usize / 64] |= 1 << (c % 64);
+        }
+        let mut used = Vec::new();
+        for (w, &bits) in marks.iter().enumerate() {
+            let mut b = bits;
+            while b != 0 {
+                used.push(w as u32 * 64 + b.trailing_zeros());
+                b &= b - 1;
+            }
+        }
         for &c in &used {
             self.trees.cells[c as usize].used = self.frame;
         }
@@ -511,57 +524,86 @@ impl BoundedRenderer {
     }
 
     /// Which leaf each pixel's line falls in (or why it has none).
-    fn assign(&mut self, params: &WhittedParams, todo: &[u32], exact: bool) -> Vec<Found> {
+    fn assign(&mut self, params: &WhittedParams, rays: &PixelRays, todo: &[u32], exact: bool) -> Vec<Found> {
         let twin = self.whitted.twin(params);
         let eye = Vec3::from_array(params.eye).as_dvec3();
-        let first: Vec<(u32, Vec3, PrimaryHit)> = todo
-            .par_iter()
-            .with_min_len(256)
-            .map(|&i| {
-                let (o, d) = pixel_ray(params, i, 0);
-                (i, d, twin.closest(o, d, f32::INFINITY, None))
-            })
-            .collect();
-        // Make the trees the hits need, then find leaves in parallel.
         let scene = self.whitted.scene();
-        let geometry = &self.geometry;
-        let mut keys: Vec<(RootFace, usize)> = first
+        // One pass: the primary hit, its linetree, the line and its leaf
+        // (in pixel order, each lookup starting from the previous pixel's
+        // leaf). A hit whose tree is not made yet waits for it.
+        let (trees, geometry) = (&self.trees, &self.geometry);
+        let mut found = vec![Found::Background; todo.len()];
+        found
+            .par_chunks_mut(1024)
+            .zip(todo.par_chunks(1024))
+            .for_each(|(out, chunk)| {
+                let mut last = None;
+                for (f, &i) in out.iter_mut().zip(chunk) {
+                    let (o, d) = rays.ray(i);
+                    let hit = twin.closest(o, d, f32::INFINITY, None);
+                    let Some((t, p)) = hit else {
+                        continue;
+                    };
+                    if exact {
+                        *f = Found::Traced(TraceReason::Exact, hit);
+                        continue;
+                    }
+                    let face = RootFace::of(geometry, scene, p);
+                    let Some(tree) = trees.find(face, pair_index(d)) else {
+                        *f = Found::NoTree { face, d, hit: (t, p) };
+                        continue;
+                    };
+                    let pair = &trees.trees[tree as usize].pair;
+                    // The eye may be between the faces: the line is what counts.
+                    let Some(coords) = pair.coords(eye, d.as_dvec3()) else {
+                        *f = Found::Traced(TraceReason::Eye, hit);
+                        continue;
+                    };
+                    let leaf = trees.leaf_hinted(tree, &coords, last);
+                    last = Some(leaf);
+                    *f = Found::Leaf {
+                        leaf,
+                        coords,
+                        face,
+                        hit: (t, p),
+                    };
+                }
+            });
+        // The trees still missing (mostly in the first frame), made in the
+        // order of their keys; their pixels' leaf is the new root.
+        let mut keys: Vec<(RootFace, usize)> = found
             .iter()
-            .filter_map(|(_, d, h)| h.map(|(_, p)| (RootFace::of(geometry, scene, p), pair_index(*d))))
+            .filter_map(|f| match *f {
+                Found::NoTree { face, d, .. } => Some((face, pair_index(d))),
+                _ => None,
+            })
+            .collect::<HashSet<_>>()
+            .into_iter()
             .collect();
+        if keys.is_empty() {
+            return found;
+        }
         keys.sort_unstable();
-        keys.dedup();
         for (surface, pair) in keys {
             let bounds = self.geometry.bounds(surface);
             self.trees.tree(surface, pair, || FacePair::new(&bounds, pair));
         }
-        let (trees, geometry) = (&self.trees, &self.geometry);
-        first
-            .par_iter()
-            .with_min_len(256)
-            .map(|&(_, d, hit)| {
-                let Some((t, p)) = hit else {
-                    return Found::Background;
-                };
-                if exact {
-                    return Found::Traced(TraceReason::Exact, hit);
-                }
-                let face = RootFace::of(geometry, scene, p);
+        let trees = &self.trees;
+        found.par_iter_mut().with_min_len(256).for_each(|f| {
+            if let Found::NoTree { face, d, hit } = *f {
                 let tree = trees.find(face, pair_index(d)).expect("made above");
-                let pair = &trees.trees[tree as usize].pair;
-                let dir = d.as_dvec3();
-                // The eye may be between the faces: the line is what counts.
-                let Some(coords) = pair.coords(eye, dir) else {
-                    return Found::Traced(TraceReason::Eye, hit);
+                *f = match trees.trees[tree as usize].pair.coords(eye, d.as_dvec3()) {
+                    Some(coords) => Found::Leaf {
+                        leaf: trees.leaf(tree, &coords),
+                        coords,
+                        face,
+                        hit,
+                    },
+                    None => Found::Traced(TraceReason::Eye, Some(hit)),
                 };
-                Found::Leaf {
-                    tree,
-                    coords,
-                    face,
-                    hit: (t, p),
-                }
-            })
-            .collect()
+            }
+        });
+        found
     }
 
     /// Traces the missing extremal rays of `cells` and judges them.
@@ -655,7 +697,13 @@ impl BoundedRenderer {
 
     /// Claims pixels for the cells of the last frame whose shafts from the
     /// eye are clear; `claimed[pixel]` becomes the cell, or `CONFLICT`.
-    fn reproject(&self, params: &WhittedParams, eye: Vec3, claimed: &mut [u32]) -> (usize, [usize; 3]) {
+    fn reproject(
+        &self,
+        params: &WhittedParams,
+        rays: &PixelRays,
+        eye: Vec3,
+        claimed: &mut [u32],
+    ) -> (usize, [usize; 3]) {
         let scene = self.whitted.scene();
         let shafts = Shafts {
             scene,
@@ -693,7 +741,10 @@ impl BoundedRenderer {
                 if !shafts.clear(&AVec3::constant(eye_d), &d, End::At(Aff::constant(1.0)), &[exclude]) {
                     return (Vec::new(), 1);
                 }
-                (pixels_in_cell(params, pair, &cell.cell, interp.accepted.hits, eye_d), 2)
+                (
+                    pixels_in_cell(params, rays, pair, &cell.cell, interp.accepted.hits, eye_d),
+                    2,
+                )
             })
             .collect();
         let mut count = 0;
@@ -729,7 +780,12 @@ impl BoundedRenderer {
     /// GPU, the Whitted kernel over the list of pixels (the pixels of the
     /// GPU's `--method whitted` image, bit for bit); on the CPU, the twin
     /// from the pixel's primary hit where assignment traced it.
-    fn trace_slow(&mut self, params: &WhittedParams, slow: &[PixelToTrace]) -> Result<Vec<(u32, Vec3, u32)>> {
+    fn trace_slow(
+        &mut self,
+        params: &WhittedParams,
+        rays: &PixelRays,
+        slow: &[PixelToTrace],
+    ) -> Result<Vec<(u32, Vec3, u32)>> {
         if self.slow_path_on_gpu() {
             let list: Vec<u32> = slow.iter().map(|&(i, _)| i).collect();
             let out = self.whitted.render_listed(params, &list, &Progress::hidden())?;
@@ -744,17 +800,18 @@ impl BoundedRenderer {
         Ok(slow
             .par_iter()
             .with_min_len(64)
-            .map(|&(i, hit)| {
-                let (o, d) = pixel_ray(params, i, 0);
-                let first = hit.map(|(t, p)| twin.facing(o, d, t, p));
-                let blocked = vec![None; params.light_count as usize];
-                let given = FirstHit {
-                    facing: first,
-                    blocked: &blocked,
-                };
-                let out = twin.shade(o, d, media, hit.map(|_| &given), None);
-                (i, out.radiance, out.rays.iter().sum::<u32>())
-            })
+            // No shadow test is given: one list of unknowns per worker
+            // (one per pixel was an allocation each).
+            .map_init(
+                || vec![None; params.light_count as usize],
+                |blocked, &(i, hit)| {
+                    let (o, d) = rays.ray(i);
+                    let first = hit.map(|(t, p)| twin.facing(o, d, t, p));
+                    let given = FirstHit { facing: first, blocked };
+                    let out = twin.shade(o, d, media, hit.map(|_| &given), None);
+                    (i, out.radiance, out.rays.iter().sum::<u32>())
+                },
+            )
             .collect())
     }
 
@@ -768,53 +825,61 @@ impl BoundedRenderer {
     fn interpolate_all(
         &mut self,
         params: &WhittedParams,
+        rays: &PixelRays,
         claimed: &[u32],
-        assigned: &[Option<Assigned>],
+        assigned: &[(u32, Assigned)],
         out: &mut [Vec3],
     ) -> Result<(Vec<u32>, Vec<PixelToTrace>)> {
         let eye = Vec3::from_array(params.eye).as_dvec3();
         // Per pixel: its cell and place in it, and its texture factor (or
         // `None`: at a texture's edge).
-        let found: Vec<(u32, Assigned, Option<Vec3>)> = (0..out.len())
-            .into_par_iter()
+        let textured = |i: u32, a: Assigned, ray: Option<(Vec3, Vec3)>| {
+            let CellState::Valid(interp) = &self.trees.cells[a.cell as usize].state else {
+                return None;
+            };
+            let texture = match interp.diffuse {
+                Some(_) => {
+                    let ray = ray.unwrap_or_else(|| rays.ray(i));
+                    self.pixel_texture(ray, interp.accepted.root, a.hit)
+                }
+                None => Some(Vec3::ONE),
+            };
+            Some((i, a, texture))
+        };
+        // The reprojected pixels: their place in the cell from their line.
+        let reprojected: Vec<u32> = (0..claimed.len() as u32)
+            .filter(|&i| claimed[i as usize] < CONFLICT)
+            .collect();
+        let from_assigned: Vec<Option<(u32, Assigned, Option<Vec3>)>> = assigned
+            .par_iter()
             .with_min_len(256)
-            .filter_map(|i| {
-                let mut ray = None;
-                let a = match (claimed[i], assigned[i]) {
-                    (_, Some(a)) => a,
-                    (c, None) if c < CONFLICT => {
-                        let cell = &self.trees.cells[c as usize];
-                        let pair = &self.trees.trees[cell.tree as usize].pair;
-                        let (_, d) = *ray.insert(pixel_ray(params, i as u32, 0));
-                        let coords = pair.coords(eye, d.as_dvec3())?;
-                        Assigned {
-                            cell: c,
-                            local: cell.cell.local(pair, &coords),
-                            hit: None,
-                        }
-                    }
-                    _ => return None,
+            .map(|&(i, a)| textured(i, a, None))
+            .collect();
+        let from_reprojected: Vec<Option<(u32, Assigned, Option<Vec3>)>> = reprojected
+            .par_iter()
+            .with_min_len(256)
+            .map(|&i| {
+                let c = claimed[i as usize];
+                let cell = &self.trees.cells[c as usize];
+                let pair = &self.trees.trees[cell.tree as usize].pair;
+                let ray = rays.ray(i);
+                let coords = pair.coords(eye, ray.1.as_dvec3())?;
+                let a = Assigned {
+                    cell: c,
+                    local: cell.cell.local(pair, &coords),
+                    hit: None,
                 };
-                let CellState::Valid(interp) = &self.trees.cells[a.cell as usize].state else {
-                    return None;
-                };
-                let texture = match interp.diffuse {
-                    Some(_) => {
-                        let ray = ray.unwrap_or_else(|| pixel_ray(params, i as u32, 0));
-                        self.pixel_texture(ray, interp.accepted.root, a.hit)
-                    }
-                    None => Some(Vec3::ONE),
-                };
-                Some((i as u32, a, texture))
+                textured(i, a, Some(ray))
             })
             .collect();
+        let found = from_assigned.iter().chain(&from_reprojected).flatten();
         let mut edges = Vec::new();
         // One slot per cell (two where textured), in order of first use.
-        let mut slot_of: HashMap<u32, u32> = HashMap::default();
+        let mut slot_of = vec![u32::MAX; self.trees.cells.len()];
         let mut corners: Vec<[f32; 4]> = Vec::new();
-        let mut jobs: Vec<PixelJob> = Vec::with_capacity(found.len());
-        let mut job_cells: Vec<u32> = Vec::with_capacity(found.len());
-        for &(pixel, a, texture) in &found {
+        let mut jobs: Vec<PixelJob> = Vec::with_capacity(assigned.len() + reprojected.len());
+        let mut job_cells: Vec<u32> = Vec::with_capacity(jobs.capacity());
+        for &(pixel, a, texture) in found {
             let Some(texture) = texture else {
                 edges.push((pixel, a.hit));
                 continue;
@@ -822,14 +887,15 @@ impl BoundedRenderer {
             let CellState::Valid(interp) = &self.trees.cells[a.cell as usize].state else {
                 unreachable!("filtered above")
             };
-            let slot = *slot_of.entry(a.cell).or_insert_with(|| {
-                let first = (corners.len() / 16) as u32;
+            let slot = &mut slot_of[a.cell as usize];
+            if *slot == u32::MAX {
+                *slot = (corners.len() / 16) as u32;
                 corners.extend(interp.radiance.iter().map(|r| r.extend(0.0).to_array()));
                 if let Some(d) = &interp.diffuse {
                     corners.extend(d.iter().map(|r| r.extend(0.0).to_array()));
                 }
-                first
-            });
+            }
+            let slot = *slot;
             jobs.push(PixelJob {
                 slot,
                 pixel,
@@ -861,7 +927,7 @@ impl BoundedRenderer {
         let (t, primitive) = match hit {
             Some(h) => h,
             None => {
-                let (t, p) = self.geometry.root_hit(root, o.as_dvec3(), d.as_dvec3())?;
+                let (t, p) = self.geometry.root_distance(root, o.as_dvec3(), d.as_dvec3())?;
                 (t as f32, p)
             }
         };
@@ -979,6 +1045,7 @@ fn textured_split(scene: &RenderScene, s: &Sample) -> (Vec3, Vec3) {
 /// of its hits, where every such pixel's ray lands), each pixel then tested.
 fn pixels_in_cell(
     params: &WhittedParams,
+    rays: &PixelRays,
     pair: &FacePair,
     cell: &crate::bounded::linespace::CellBox,
     (hits_lo, hits_hi): (DVec3, DVec3),
@@ -1035,7 +1102,7 @@ fn pixels_in_cell(
     for y in y0..y1 {
         for x in x0..x1 {
             let i = y * params.width + x;
-            let (_, d) = pixel_ray(params, i, 0);
+            let (_, d) = rays.ray(i);
             let oriented = (d[pair.axis] > 0.0) == pair.positive;
             if oriented && pair.coords(eye, d.as_dvec3()).is_some_and(|c| cell.contains(pair, &c)) {
                 out.push(i);
@@ -1073,8 +1140,10 @@ fn span_fill(width: u32, claimed: &[u32], radiance: &mut [Vec3], paths: &mut [Pi
 fn count_paths(paths: &[PixelPath], stats: &mut FrameStats) {
     let p = &mut stats.pixels;
     // Counted by reason first, named once per reason (naming through
-    // serde per pixel cost 1% of a frame).
-    let mut reasons: std::collections::HashMap<TraceReason, u64> = Default::default();
+    // serde per pixel cost 1% of a frame); the few reasons in a list, the
+    // last one tried first (hashing each traced pixel's reason cost 1%).
+    let mut reasons: Vec<(TraceReason, u64)> = Vec::new();
+    let mut last = 0;
     for path in paths {
         match path {
             PixelPath::Reprojected => p.reprojected += 1,
@@ -1083,7 +1152,16 @@ fn count_paths(paths: &[PixelPath], stats: &mut FrameStats) {
             PixelPath::Background => p.background += 1,
             PixelPath::Traced(why) => {
                 p.traced += 1;
-                *reasons.entry(*why).or_default() += 1;
+                if reasons.get(last).is_none_or(|r| r.0 != *why) {
+                    last = match reasons.iter().position(|r| r.0 == *why) {
+                        Some(k) => k,
+                        None => {
+                            reasons.push((*why, 0));
+                            reasons.len() - 1
+                        }
+                    };
+                }
+                reasons[last].1 += 1;
             }
         }
     }

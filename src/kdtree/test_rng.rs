@@ -21,3 +21,22 @@ impl Rng {
         Vec3::new(self.next_f32(), self.next_f32(), self.next_f32()) * (hi - lo) + Vec3::splat(lo)
     }
 }
+
+/// Floats where IEEE rules bite: signed zeros and ones, the smallest
+/// normal and subnormal magnitudes, the extremes, infinities and NaNs.
+pub(crate) const SPECIAL_F32: [f32; 14] = [
+    1.0,
+    -1.0,
+    0.0,
+    -0.0,
+    f32::MIN_POSITIVE,
+    -f32::MIN_POSITIVE,
+    1e-45,
+    -1e-45,
+    f32::MAX,
+    f32::MIN,
+    f32::INFINITY,
+    f32::NEG_INFINITY,
+    f32::NAN,
+    -f32::NAN,
+];

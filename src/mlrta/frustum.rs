@@ -365,22 +365,7 @@ mod tests {
 
     #[test]
     fn sign_class_on_the_bits_is_the_definition() {
-        let values = [
-            1.0,
-            -1.0,
-            0.0,
-            -0.0,
-            f32::MIN_POSITIVE,
-            -f32::MIN_POSITIVE,
-            1e-45,
-            -1e-45,
-            f32::MAX,
-            f32::MIN,
-            f32::INFINITY,
-            f32::NEG_INFINITY,
-            f32::NAN,
-            -f32::NAN,
-        ];
+        let values = crate::kdtree::test_rng::SPECIAL_F32;
         for &x in &values {
             for &y in &values {
                 for &z in &values {

@@ -11,6 +11,7 @@ pub mod offset;
 pub mod optics;
 pub mod options;
 pub mod packets;
+pub mod pixel_rays;
 pub mod ray_tree;
 pub mod report;
 pub mod runner;

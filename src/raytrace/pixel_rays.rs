@@ -1,0 +1,54 @@
+//! Camera rays of many pixels of one image (`whitted::pixel_ray`), with
+//! the per-column and per-row work done once.
+
+use glam::Vec3;
+
+use super::whitted::{WhittedParams, pixel_ray};
+
+/// `pixel_ray(params, pixel, 0)` for many pixels of one image: with one
+/// sample per pixel a pixel's screen coordinates depend on its column or
+/// its row alone, so they are computed once per column and per row, by
+/// the same operations (the same bits); the direction is then
+/// `pixel_ray`'s sum and normalisation. (With several samples the first is
+/// jittered per pixel, and `ray` calls `pixel_ray`.)
+pub struct PixelRays {
+    params: WhittedParams,
+    /// Per column and per row; empty when `spp > 1`.
+    sx: Vec<f32>,
+    sy: Vec<f32>,
+}
+
+impl PixelRays {
+    pub fn new(params: &WhittedParams) -> PixelRays {
+        let (sx, sy) = if params.spp == 1 {
+            (
+                (0..params.width)
+                    .map(|x| 2.0 * (x as f32 + 0.5) / params.width as f32 - 1.0)
+                    .collect(),
+                (0..params.height)
+                    .map(|y| 1.0 - 2.0 * (y as f32 + 0.5) / params.height as f32)
+                    .collect(),
+            )
+        } else {
+            (Vec::new(), Vec::new())
+        };
+        PixelRays {
+            params: *params,
+            sx,
+            sy,
+        }
+    }
+
+    /// `pixel_ray(params, pixel, 0)`.
+    #[inline]
+    pub fn ray(&self, pixel: u32) -> (Vec3, Vec3) {
+        if self.sx.is_empty() {
+            return pixel_ray(&self.params, pixel, 0);
+        }
+        let p = &self.params;
+        let (x, y) = (pixel % p.width, pixel / p.width);
+        let (sx, sy) = (self.sx[x as usize], self.sy[y as usize]);
+        let d = Vec3::from_array(p.forward) + sx * Vec3::from_array(p.right) + sy * Vec3::from_array(p.up);
+        (Vec3::from_array(p.eye), d.normalize())
+    }
+}
