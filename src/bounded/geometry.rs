@@ -239,8 +239,6 @@ impl SceneGeometry {
         }
     }
 
-    /// How far `x` (in the triangle's plane) lies outside triangle `t`: the
-    /// most negative barycentric coordinate, 0 inside.
     /// Where `o + t d` meets polygon `p`'s plane, `t > 0`.
     fn plane_distance(&self, p: u32, o: DVec3, d: DVec3) -> Option<f64> {
         let poly = &self.polygons[p as usize];
@@ -262,6 +260,8 @@ impl SceneGeometry {
         }
     }
 
+    /// How far `x` (in the triangle's plane) lies outside triangle `t`: the
+    /// most negative barycentric coordinate, 0 inside.
     fn outside_by(&self, t: u32, x: DVec3) -> f64 {
         let [v0, v1, v2] = self.triangle_vertices[t as usize];
         let (e1, e2, vp) = (v1 - v0, v2 - v0, x - v0);

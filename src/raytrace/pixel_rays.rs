@@ -52,3 +52,31 @@ impl PixelRays {
         (Vec3::from_array(p.eye), d.normalize())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every pixel's ray is `pixel_ray`'s bit for bit: odd and even sizes,
+    /// a skewed camera frame, one sample (tabulated) and two (jittered).
+    #[test]
+    fn rays_are_pixel_ray_bit_for_bit() {
+        for (width, height, spp) in [(7, 5, 1), (64, 48, 1), (33, 17, 2)] {
+            let mut params: WhittedParams = bytemuck::Zeroable::zeroed();
+            params.eye = [0.3, -1.7, 4.1];
+            params.forward = [0.11, -0.23, -0.97];
+            params.right = [0.713, 0.02, 0.081];
+            params.up = [-0.05, 0.391, -0.09];
+            (params.width, params.height, params.spp, params.seed) = (width, height, spp, 24301);
+            let rays = PixelRays::new(&params);
+            for pixel in 0..width * height {
+                let (a, b) = (rays.ray(pixel), pixel_ray(&params, pixel, 0));
+                assert_eq!(
+                    (a.0.to_array().map(f32::to_bits), a.1.to_array().map(f32::to_bits)),
+                    (b.0.to_array().map(f32::to_bits), b.1.to_array().map(f32::to_bits)),
+                    "{width}x{height}, {spp} spp, pixel {pixel}"
+                );
+            }
+        }
+    }
+}
