@@ -13,6 +13,7 @@ pub mod color;
 pub mod device;
 pub mod error;
 pub mod field;
+pub mod float;
 pub mod gpu;
 pub mod image_out;
 pub mod kdtree;

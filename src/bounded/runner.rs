@@ -349,7 +349,7 @@ impl BoundedRenderer {
         // 1. Fast path.
         let t0 = Instant::now();
         let mut claimed = vec![u32::MAX; n];
-        if self.settings.reproject && !exact {
+        if self.settings.reproject {
             (stats.cells_reprojected, stats.reproject_dropped) =
                 self.reproject(&params, &rays, camera.eye, &mut claimed);
         }
@@ -363,7 +363,7 @@ impl BoundedRenderer {
         // 2. Pixel assignment.
         let t1 = Instant::now();
         let todo: Vec<u32> = (0..n as u32).filter(|&i| claimed[i as usize] >= CONFLICT).collect();
-        let found = self.assign(&params, &rays, &todo, exact);
+        let found = self.assign(&params, &rays, &todo);
         // The pixels with a leaf, in pixel order.
         let mut round: Vec<PixelLeaf> = Vec::with_capacity(found.len());
         for (&i, f) in todo.iter().zip(&found) {
@@ -524,7 +524,7 @@ impl BoundedRenderer {
     }
 
     /// Which leaf each pixel's line falls in (or why it has none).
-    fn assign(&mut self, params: &WhittedParams, rays: &PixelRays, todo: &[u32], exact: bool) -> Vec<Found> {
+    fn assign(&mut self, params: &WhittedParams, rays: &PixelRays, todo: &[u32]) -> Vec<Found> {
         let twin = self.whitted.twin(params);
         let eye = Vec3::from_array(params.eye).as_dvec3();
         let scene = self.whitted.scene();
@@ -544,10 +544,6 @@ impl BoundedRenderer {
                     let Some((t, p)) = hit else {
                         continue;
                     };
-                    if exact {
-                        *f = Found::Traced(TraceReason::Exact, hit);
-                        continue;
-                    }
                     let face = RootFace::of(geometry, scene, p);
                     let Some(tree) = trees.find(face, pair_index(d)) else {
                         *f = Found::NoTree { face, d, hit: (t, p) };

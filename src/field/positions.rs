@@ -22,6 +22,8 @@ use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
 
 use glam::Vec3;
 
+use crate::float::floor;
+
 use crate::sampling::atan::atan_unit;
 
 /// The positional samples: `side * side` points on the unit sphere.
@@ -66,16 +68,6 @@ pub fn sphere_to_square(d: Vec3) -> [f32; 2] {
     let below = d.z < 0.0;
     let (u, v) = (if below { 1.0 - v } else { u }, if below { 1.0 - u } else { v });
     [u.copysign(d.x), v.copysign(d.y)]
-}
-
-/// `x.floor()` for |x| < 2^31 without the libm call it is on x86-64's
-/// baseline (no SSE4.1 rounding); the lookups floor per ray. NaN gives 0
-/// where `floor` gives NaN: both cast to index 0, and the fraction x - floor
-/// is NaN either way.
-#[inline(always)]
-fn floor(x: f32) -> f32 {
-    let t = x as i32 as f32;
-    if t > x { t - 1.0 } else { t }
 }
 
 impl OctahedralGrid {

@@ -28,6 +28,8 @@
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
+use crate::float::floor;
+
 use crate::scene::Material;
 
 /// `Surface::flags`: lit by the lights and the ambient term (else the
@@ -185,53 +187,9 @@ impl Surface {
     }
 }
 
-/// `f32::floor`, bit for bit, without the library call that `floor`
-/// compiles to on x86-64 below SSE4.1 (a checker lookup took seven, in the
-/// renderer's hit shading and in the bounded renderer's texture test).
-#[inline(always)]
-fn floor(x: f32) -> f32 {
-    // From 2^23 up (and infinities, NaN) every f32 is its own floor.
-    if x.abs() >= 8_388_608.0 || x.is_nan() {
-        return x;
-    }
-    let t = x as i32 as f32;
-    // Truncation rounded up below zero; the sign keeps floor(-0.0) = -0.0.
-    (if t > x { t - 1.0 } else { t }).copysign(x)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn floor_is_the_library_floor_bit_for_bit() {
-        let mut xs = crate::kdtree::test_rng::SPECIAL_F32.to_vec();
-        xs.extend([
-            0.5,
-            -0.5,
-            8_388_607.5,
-            -8_388_607.5,
-            8_388_608.0,
-            -8_388_608.0,
-            8_388_609.0,
-            -8_388_609.0,
-        ]);
-        // Every integer near zero and its neighbours, then bit patterns
-        // spread over the whole range.
-        for k in -300..300 {
-            let k = k as f32 * 0.25;
-            xs.extend([k, k.next_up(), k.next_down()]);
-        }
-        let mut rng = crate::kdtree::test_rng::Rng(0x2545_f491_4f6c_dd1d);
-        xs.extend((0..1_000_000).map(|_| f32::from_bits(rng.next_u64() as u32)));
-        for x in xs {
-            let (a, b) = (floor(x), x.floor());
-            assert!(
-                a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
-                "floor({x:e}) = {a:e}, the library's {b:e}"
-            );
-        }
-    }
 
     fn material(illum: u32) -> Material {
         Material {
