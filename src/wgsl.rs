@@ -42,6 +42,8 @@ pub const SSAO_ESTIMATE: WgslFile = wgsl_file!("ssao_estimate.wgsl");
 pub const SSAO_FILTER: WgslFile = wgsl_file!("ssao_filter.wgsl");
 pub const SSAO_INDIRECT: WgslFile = wgsl_file!("ssao_indirect.wgsl");
 pub const SH_TRANSFER: WgslFile = wgsl_file!("sh_transfer.wgsl");
+pub const WHITTED_PIXELS: WgslFile = wgsl_file!("whitted_pixels.wgsl");
+pub const WHITTED_TREES: WgslFile = wgsl_file!("whitted_trees.wgsl");
 pub const WHITTED: WgslFile = wgsl_file!("whitted.wgsl");
 pub const INTERPOLATE: WgslFile = wgsl_file!("interpolate.wgsl");
 
@@ -67,6 +69,8 @@ pub const FILES: &[WgslFile] = &[
     SSAO_FILTER,
     SSAO_INDIRECT,
     SH_TRANSFER,
+    WHITTED_PIXELS,
+    WHITTED_TREES,
     WHITTED,
     INTERPOLATE,
 ];
@@ -90,7 +94,14 @@ pub const AO_RAYS_MODULE: Composition = Composition {
 
 pub const WHITTED_MODULE: Composition = Composition {
     name: "whitted",
-    parts: &[SAMPLING, KDTREE_TRAVERSE, WHITTED],
+    parts: &[SAMPLING, KDTREE_TRAVERSE, WHITTED_PIXELS, WHITTED],
+};
+
+/// `whitted.wgsl` with its ray-tree recording compiled in, for its
+/// `whitted_trees` entry.
+pub const WHITTED_TREES_MODULE: Composition = Composition {
+    name: "whitted_trees",
+    parts: &[SAMPLING, KDTREE_TRAVERSE, WHITTED_TREES, WHITTED],
 };
 
 pub const INTERPOLATE_MODULE: Composition = Composition {
@@ -165,6 +176,7 @@ pub const MODULES: &[Composition] = &[
     SSAO_INDIRECT_MODULE,
     SH_TRANSFER_MODULE,
     WHITTED_MODULE,
+    WHITTED_TREES_MODULE,
     INTERPOLATE_MODULE,
 ];
 

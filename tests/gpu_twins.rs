@@ -19,6 +19,9 @@
 //!   corner value for every pixel (the same products and sums; a GPU
 //!   compiler may fuse them); the bounded renderer interpolates the same
 //!   pixels on either device, within the same tolerance.
+//! * whitted_trees: the same ray-tree topology for >= 99.5% of rays, the
+//!   same occluders, radiance within the whitted tolerance, node
+//!   coordinates within 1e-4 x max(1, |x|).
 
 mod common;
 
@@ -492,6 +495,16 @@ fn bounded_renderer_interpolates_alike_on_gpu_and_cpu() {
             b.render(&camera, 320, 240).unwrap(),
             b.render(&camera, 320, 240).unwrap(),
         ];
+        // The extremal rays go through `whitted_trees` on the GPU too.
+        for f in &frames {
+            let on_gpu = if device.is_gpu() {
+                f.stats.extremal_rays_traced
+            } else {
+                0
+            };
+            assert_eq!(f.stats.extremal_rays_on_gpu, on_gpu);
+        }
+        assert!(frames[0].stats.extremal_rays_traced > 0);
         let settings = BoundedSettings::default().whitted;
         let exact = b
             .whitted
@@ -536,4 +549,96 @@ fn bounded_renderer_interpolates_alike_on_gpu_and_cpu() {
         traced_off * 1000 <= traced,
         "{traced_off} of {traced} traced pixels differ"
     );
+}
+
+/// `whitted_trees` against its twin (`Whitted::trace_tree`, the bounded
+/// renderer's extremal rays on the CPU): rays from a sphere around each
+/// shipped scene into its box, each from the root hit the CPU finds. The
+/// same topology (objects, faces, surfaces, light codes, children) for
+/// at least 99.5% of the rays and the same occluders; where it is the
+/// same, radiance and the root's diffuse terms per channel within 1e-3 x
+/// max(1, abs(L)) (the Whitted kernel's tolerance), and every node's origin,
+/// direction, weight, t and point within 1e-4 x max(1, |x|).
+#[test]
+fn whitted_trees_kernel_records_the_twins_ray_trees() {
+    use penumbra::device::Device;
+    use penumbra::progress::Bars;
+    use penumbra::raytrace::ray_tree::RayTree;
+    use penumbra::raytrace::scene::MISS;
+    use penumbra::raytrace::tree_records::TreeRay;
+    use penumbra::raytrace::{LightingOptions, RenderScene, WhittedRenderer, WhittedSettings};
+    let Some(ctx) = gpu() else { return };
+    let close = |a: Vec3, b: Vec3, tol: f32| ((a - b).abs() / a.abs().max(Vec3::ONE)).max_element() <= tol;
+    for name in [
+        "checker-spheres",
+        "checker-spheres-tessellated",
+        "cornell-mirror-glass",
+        "tir-block",
+        "grazing",
+    ] {
+        let scene = penumbra::scene::load_scene_shaded(&asset("raytrace").join(format!("{name}.json"))).unwrap();
+        let camera = scene.camera.unwrap();
+        let rs = RenderScene::new(&scene, 0, &LightingOptions::default()).unwrap();
+        let mut r = WhittedRenderer::new(&Device::gpu(ctx.clone()), rs, Bars::Hidden).unwrap();
+        let params = r.params(&camera, 64, 64, &WhittedSettings::default()).unwrap();
+        let (lo, hi) = (r.bounds().min, r.bounds().max);
+        let (centre, radius) = ((lo + hi) * 0.5, (hi - lo).length());
+        let mut rng = Rng(0x7ee5);
+        let twin = r.twin(&params);
+        let rays: Vec<TreeRay> = (0..4000)
+            .map(|_| {
+                let u = Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5);
+                let o = centre + radius * u.normalize_or(Vec3::Y);
+                let target = lo + (hi - lo) * Vec3::new(rng.f32(), rng.f32(), rng.f32());
+                let d = (target - o).normalize();
+                let (t, primitive) = twin.closest(o, d, f32::INFINITY, None).unwrap_or((0.0, MISS));
+                TreeRay {
+                    origin: o.to_array(),
+                    root_t: t,
+                    dir: d.to_array(),
+                    root_primitive: primitive,
+                }
+            })
+            .collect();
+        let cpu: Vec<_> = rays.iter().map(|ray| twin.trace_tree(ray)).collect();
+        let gpu = r.trace_trees(&params, &rays).unwrap().expect("a GPU renderer");
+        assert_eq!(gpu.len(), rays.len());
+        let (mut topology, mut overflow, mut nodes, mut worst_l, mut worst_x) = (0, 0, 0, 0f32, 0f32);
+        for ((out, tree), g) in cpu.iter().zip(&gpu) {
+            let Some((radiance, diffuse, g)) = g else {
+                overflow += 1;
+                continue;
+            };
+            if !tree.same_topology(g) {
+                topology += 1;
+                continue;
+            }
+            let occluders = |t: &RayTree| t.nodes.iter().map(|n| n.occluders.clone()).collect::<Vec<_>>();
+            assert_eq!(occluders(tree), occluders(g), "{name}: occluders");
+            for (l, gl) in [(out.radiance, *radiance), (out.diffuse, *diffuse)] {
+                let d = ((l - gl).abs() / l.abs().max(Vec3::ONE)).max_element();
+                worst_l = worst_l.max(d);
+            }
+            for (a, b) in tree.nodes.iter().zip(&g.nodes) {
+                nodes += 1;
+                let mut pairs = vec![(a.origin, b.origin), (a.dir, b.dir), (a.weight, b.weight)];
+                if let (Some(ha), Some(hb)) = (a.hit, b.hit) {
+                    pairs.push((ha.point, hb.point));
+                    pairs.push((Vec3::splat(ha.t), Vec3::splat(hb.t)));
+                }
+                for (x, y) in pairs {
+                    worst_x = worst_x.max(((x - y).abs() / x.abs().max(Vec3::ONE)).max_element());
+                    assert!(close(x, y, 1e-4) || x.is_nan(), "{name}: {x} against {y}");
+                }
+            }
+        }
+        println!(
+            "whitted_trees on {name}: {} rays, {nodes} nodes compared, {topology} differ in topology, {overflow} \
+             overflowed; worst relative radiance difference {worst_l:.2e}, worst node coordinate {worst_x:.2e}",
+            rays.len()
+        );
+        assert_eq!(overflow, 0, "{name}");
+        assert!(topology * 200 <= rays.len(), "{name}: {topology} trees differ");
+        assert!(worst_l <= 1e-3, "{name}: radiance differs by {worst_l}");
+    }
 }

@@ -2,7 +2,8 @@
 // Whitted::whitted in src/raytrace/whitted.rs (with src/raytrace/optics.rs,
 // offset.rs, sphere.rs and ray_tree.rs's signature), written in the same
 // order of operations over the same data. src/raytrace/gpu.rs drives it.
-// Composed after sampling.wgsl and kdtree_traverse.wgsl.
+// Composed after sampling.wgsl, kdtree_traverse.wgsl and whitted_pixels.wgsl
+// or whitted_trees.wgsl (RECORD_TREES: whether shade can record trees).
 //
 // A pixel's samples are traced one after another; each sample's ray tree is
 // walked depth first with an explicit stack (WGSL has no recursion).
@@ -12,9 +13,20 @@
 //          their bits.
 // triangle_shading: 2 words4 per triangle: (surface, normal indices),
 //                   (object, face, -, -).
-// pixels: per pixel (radiance, signature, rays by kind).
+// pixels: per pixel two words4 (radiance, signature), (rays by kind); for
+//         `whitted_trees`, per ray a slot of ray-tree records (below).
 // pixel_list: the pixels `whitted_listed` renders, any order (the bounded
 //             renderer's slow path); `whitted` renders a range instead.
+//             For `whitted_trees`, 8 words per ray: origin, the root's t;
+//             direction, the root's primitive (the bounded renderer's
+//             extremal rays, whose first hit is given).
+//
+// Ray-tree records (src/raytrace/tree_records.rs writes the CPU twin's and
+// reads both), per ray `params.tree_stride * params.tree_capacity + 2`
+// words4: (radiance, node count or TREE_OVERFLOW), (diffuse, 0), then
+// per node, in the order the stack pops them: (flags, parent, object,
+// face), (surface, primitive, t, 0), origin, direction, weight, point, and
+// the light words, each light's code then each light's occluder.
 
 struct WhittedParams {
     eye: vec3<f32>,
@@ -39,9 +51,9 @@ struct WhittedParams {
     row_pitch: u32,
     lights_at: u32,
     spheres_at: u32,
+    tree_capacity: u32,
+    tree_stride: u32,
     _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
 }
 
 struct PixelOut {
@@ -54,7 +66,7 @@ struct PixelOut {
 @group(1) @binding(1) var<storage, read> triangle_shading: array<vec4<u32>>;
 @group(1) @binding(2) var<storage, read> shading_normals: array<vec4<f32>>;
 @group(1) @binding(3) var<storage, read> records: array<vec4<u32>>;
-@group(1) @binding(4) var<storage, read_write> pixels: array<PixelOut>;
+@group(1) @binding(4) var<storage, read_write> pixels: array<vec4<u32>>;
 @group(1) @binding(5) var<storage, read> pixel_list: array<u32>;
 
 const MAX_DEPTH: u32 = 16u;
@@ -77,6 +89,19 @@ const CODE_FACES_AWAY: u32 = 0u;
 const CODE_VISIBLE: u32 = 1u;
 const CODE_BLOCKED: u32 = 2u;
 const CODE_FILTERED: u32 = 3u;
+// shade's `slot` when no tree is recorded, and its root primitive when the
+// root is traced rather than given.
+const NO_SLOT: u32 = 0xffffffffu;
+const TRACE_ROOT: u32 = 0xfffffffeu;
+const TREE_HEADER_WORDS4: u32 = 2u;
+const TREE_OVERFLOW: u32 = 0xffffffffu;
+// A node's flags word: kind | depth << 2 | these.
+const NODE_REFLECTED: u32 = 0x100u;
+const NODE_REFRACTED: u32 = 0x200u;
+const NODE_TIR: u32 = 0x400u;
+const NODE_FRONT: u32 = 0x800u;
+const NODE_HIT: u32 = 0x1000u;
+const NODE_LIT: u32 = 0x2000u;
 
 struct Surface {
     ka: vec3<f32>,
@@ -294,6 +319,8 @@ struct PathRay {
     dir: vec3<f32>,
     kind: u32,
     weight: vec3<f32>,
+    // The node that spawned it, where a tree is recorded.
+    parent: u32,
     media: Media,
 }
 
@@ -447,8 +474,17 @@ fn transmittance(o: vec3<f32>, d: vec3<f32>, t_max: f32, finite: bool) -> vec4<f
     return vec4<f32>(0.0, 0.0, 0.0, f32(CODE_BLOCKED));
 }
 
-// Light j's radiance (xyz) and code (w) at the lifted point.
-fn light_term(j: u32, lifted: vec3<f32>, n_g: vec3<f32>, n_s: vec3<f32>, d: vec3<f32>, surf: Surface, kd: vec3<f32>) -> vec4<f32> {
+// Light j at a lifted point: its radiance, its code, and the part of the
+// radiance the surface's (untextured) kd makes, which a textured root's
+// interpolant keeps apart (RayOut::diffuse).
+struct LightOut {
+    radiance: vec3<f32>,
+    code: u32,
+    diffuse: vec3<f32>,
+}
+
+fn light_term(j: u32, lifted: vec3<f32>, n_g: vec3<f32>, n_s: vec3<f32>, d: vec3<f32>, surf: Surface, kd: vec3<f32>) -> LightOut {
+    let none = LightOut(vec3<f32>(0.0), CODE_FACES_AWAY, vec3<f32>(0.0));
     let light = load_light(j);
     var l: vec3<f32>;
     var dist2 = 1.0;
@@ -469,51 +505,109 @@ fn light_term(j: u32, lifted: vec3<f32>, n_g: vec3<f32>, n_s: vec3<f32>, d: vec3
     }
     let cos_p = dot(n_s, l);
     if (dot(n_g, l) <= 0.0 || cos_p <= 0.0) {
-        return vec4<f32>(0.0, 0.0, 0.0, f32(CODE_FACES_AWAY));
+        return none;
     }
     var emitted = 1.0;
     if (any(light.normal != vec3<f32>(0.0))) {
         emitted = -dot(light.normal, l);
         if (emitted <= 0.0) {
-            return vec4<f32>(0.0, 0.0, 0.0, f32(CODE_FACES_AWAY));
+            return none;
         }
     }
     let seen = transmittance(start, dir, t_max, !directional);
     if (u32(seen.w) == CODE_BLOCKED) {
-        return seen;
+        return LightOut(vec3<f32>(0.0), CODE_BLOCKED, vec3<f32>(0.0));
     }
-    let e = light.intensity * (emitted / dist2);
+    let irradiance = seen.xyz * (light.intensity * (emitted / dist2));
     let h = normalize(l - d);
     let n_h = dot(n_s, h);
     var spec = vec3<f32>(0.0);
     if (n_h > 0.0) {
         spec = surf.ks * pow(n_h, surf.ns);
     }
-    return vec4<f32>(seen.xyz * e * (kd * cos_p + spec), seen.w);
+    return LightOut(irradiance * (kd * cos_p + spec), u32(seen.w), irradiance * (surf.kd * cos_p));
+}
+
+// The primitive nearest light j on a blocked or filtered shadow ray from
+// the lifted point (MISS_INDEX for another code): the occluder a ray tree
+// records (Whitted::occluder).
+fn occluder(j: u32, lifted: vec3<f32>, code: u32) -> u32 {
+    if (code != CODE_BLOCKED && code != CODE_FILTERED) {
+        return MISS_INDEX;
+    }
+    let light = load_light(j);
+    if (light.kind == DIRECTIONAL) {
+        return closest(lifted, -light.position, T_INFINITE).primitive;
+    }
+    return closest(light.position, -(light.position - lifted), 1.0).primitive;
 }
 
 struct RayOut {
     radiance: vec3<f32>,
     signature: u32,
     rays: vec4<u32>,
+    // A recorded tree's root: its ambient and diffuse terms before the
+    // texture (Whitted::shade's `diffuse`).
+    diffuse: vec3<f32>,
 }
 
-fn shade(o: vec3<f32>, d: vec3<f32>, media: Media) -> RayOut {
+// Where node n of the tree recorded at `slot` starts (words4).
+fn node_at(slot: u32, n: u32) -> u32 {
+    return slot + TREE_HEADER_WORDS4 + n * params.tree_stride;
+}
+
+fn write_vec3(at: u32, v: vec3<f32>) {
+    pixels[at] = vec4<u32>(bitcast<vec3<u32>>(v), 0u);
+}
+
+// The fields of node n that are known when its ray is popped.
+fn write_ray(slot: u32, n: u32, ray: PathRay) {
+    let at = node_at(slot, n);
+    pixels[at] = vec4<u32>(ray.kind | (ray.depth << 2u), ray.parent, MISS_INDEX, MISS_INDEX);
+    pixels[at + 1u] = vec4<u32>(MISS_INDEX, MISS_INDEX, 0u, 0u);
+    write_vec3(at + 2u, ray.origin);
+    write_vec3(at + 3u, ray.dir);
+    write_vec3(at + 4u, ray.weight);
+    write_vec3(at + 5u, vec3<f32>(0.0));
+}
+
+// Word w of node n's light words (codes, then occluders).
+fn write_light_word(slot: u32, n: u32, w: u32, value: u32) {
+    pixels[node_at(slot, n) + 6u + w / 4u][w % 4u] = value;
+}
+
+// The radiance of the ray o + t d (unit d) that starts inside `media`
+// (Whitted::shade). With `slot` other than NO_SLOT its ray tree is written
+// there, and the root's hit is `root` (TRACE_ROOT: traced as any other).
+fn shade(o: vec3<f32>, d: vec3<f32>, media: Media, root: Closest, slot: u32) -> RayOut {
     var stack: array<PathRay, STACK_SIZE>;
-    stack[0] = PathRay(o, 0u, d, KIND_PRIMARY, vec3<f32>(1.0), media);
+    stack[0] = PathRay(o, 0u, d, KIND_PRIMARY, vec3<f32>(1.0), MISS_INDEX, media);
     var len = 1u;
     var out: RayOut;
     out.radiance = vec3<f32>(0.0);
     out.signature = FNV_OFFSET;
     out.rays = vec4<u32>(0u);
+    out.diffuse = vec3<f32>(0.0);
     let fresnel = (params.flags & FRESNEL) != 0u;
+    let recording = RECORD_TREES && slot != NO_SLOT;
+    var nodes = 0u;
     while (len > 0u) {
         len = len - 1u;
         let ray = stack[len];
+        // This node's index, and whether it fits the slot.
+        let node = nodes;
+        nodes = nodes + 1u;
+        let record = recording && node < params.tree_capacity;
+        if (record) {
+            write_ray(slot, node, ray);
+        }
         // Slots: primary 0, shadow 1, reflection 2, refraction 3.
         out.rays[select(ray.kind + 1u, 0u, ray.kind == KIND_PRIMARY)] += 1u;
         var sig = fnv_word(out.signature, ray.kind | (ray.depth << 2u));
-        let c = closest(ray.origin, ray.dir, T_INFINITE);
+        var c = root;
+        if (ray.depth != 0u || root.primitive == TRACE_ROOT) {
+            c = closest(ray.origin, ray.dir, T_INFINITE);
+        }
         if (c.primitive == MISS_INDEX) {
             out.radiance = out.radiance + ray.weight * params.background;
             sig = fnv_word(fnv_word(fnv_word(sig, MISS_INDEX), MISS_INDEX), MISS_INDEX);
@@ -532,18 +626,32 @@ fn shade(o: vec3<f32>, d: vec3<f32>, media: Media) -> RayOut {
         let lifted = offset_point(hit.point, n_g, hit.magnitude);
         var local = surf.ke;
         let tex = texture(surf, hit.point);
-        if ((surf.flags & LIT) != 0u) {
+        let lit = (surf.flags & LIT) != 0u;
+        if (lit) {
             local = local + surf.ka * tex * params.ambient;
+            if (ray.depth == 0u) {
+                out.diffuse = surf.ka * params.ambient;
+            }
             let kd = surf.kd * tex;
             for (var j = 0u; j < params.light_count; j = j + 1u) {
                 shadow_rays = 0u;
                 let term = light_term(j, lifted, n_g, n_s, ray.dir, surf, kd);
                 out.rays.y += shadow_rays;
-                sig = fnv_word(sig, (j << 2u) | u32(term.w));
-                local = local + term.xyz;
+                sig = fnv_word(sig, (j << 2u) | term.code);
+                local = local + term.radiance;
+                if (ray.depth == 0u) {
+                    out.diffuse = out.diffuse + term.diffuse;
+                }
+                if (record) {
+                    write_light_word(slot, node, j, term.code);
+                    write_light_word(slot, node, params.light_count + j, occluder(j, lifted, term.code));
+                }
             }
         } else {
             local = local + surf.kd * tex;
+            if (ray.depth == 0u) {
+                out.diffuse = surf.kd;
+            }
         }
         out.radiance = out.radiance + ray.weight * local;
 
@@ -599,18 +707,32 @@ fn shade(o: vec3<f32>, d: vec3<f32>, media: Media) -> RayOut {
                 if (dot(r, n_g) <= 0.0) {
                     r = reflect_dir(ray.dir, n_g);
                 }
-                stack[len] = PathRay(lifted, ray.depth + 1u, r, KIND_REFLECTION, ray.weight * kr, ray.media);
+                stack[len] = PathRay(lifted, ray.depth + 1u, r, KIND_REFLECTION, ray.weight * kr, node, ray.media);
                 len = len + 1u;
                 reflected = true;
             }
             if (transmits && max(kt.x, max(kt.y, kt.z)) > 0.0) {
                 let origin = offset_point(hit.point, -n_g, hit.magnitude);
-                stack[len] = PathRay(origin, ray.depth + 1u, t_dir, KIND_REFRACTION, ray.weight * kt, inner);
+                stack[len] = PathRay(origin, ray.depth + 1u, t_dir, KIND_REFRACTION, ray.weight * kt, node, inner);
                 len = len + 1u;
                 refracted = true;
             }
         }
         out.signature = fnv_word(sig, u32(reflected) | (u32(refracted) << 1u) | (u32(tir) << 2u));
+        if (record) {
+            let at = node_at(slot, node);
+            var flags = ray.kind | (ray.depth << 2u) | NODE_HIT;
+            flags = flags | select(0u, NODE_REFLECTED, reflected) | select(0u, NODE_REFRACTED, refracted);
+            flags = flags | select(0u, NODE_TIR, tir) | select(0u, NODE_FRONT, front) | select(0u, NODE_LIT, lit);
+            pixels[at] = vec4<u32>(flags, ray.parent, hit.object, hit.face);
+            pixels[at + 1u] = vec4<u32>(hit.surface, c.primitive, bitcast<u32>(c.t), 0u);
+            write_vec3(at + 5u, hit.point);
+        }
+    }
+    if (recording) {
+        let count = select(TREE_OVERFLOW, nodes, nodes <= params.tree_capacity);
+        pixels[slot] = vec4<u32>(bitcast<vec3<u32>>(out.radiance), count);
+        pixels[slot + 1u] = vec4<u32>(bitcast<vec3<u32>>(out.diffuse), 0u);
     }
     return out;
 }
@@ -628,6 +750,11 @@ fn pixel_dir(pixel: u32, sample: u32) -> vec3<f32> {
     return normalize(params.forward + sx * params.right + sy * params.up);
 }
 
+fn write_pixel(k: u32, p: PixelOut) {
+    pixels[2u * k] = vec4<u32>(bitcast<vec3<u32>>(p.radiance), p.signature);
+    pixels[2u * k + 1u] = p.rays;
+}
+
 // Whitted::whitted: every sample of one pixel, averaged; the ray tree's
 // signature is the first sample's.
 fn render_pixel(pixel: u32) -> PixelOut {
@@ -639,7 +766,7 @@ fn render_pixel(pixel: u32) -> PixelOut {
     out.signature = 0u;
     out.rays = vec4<u32>(0u);
     for (var s = 0u; s < params.spp; s = s + 1u) {
-        let r = shade(params.eye, pixel_dir(pixel, s), media);
+        let r = shade(params.eye, pixel_dir(pixel, s), media, Closest(0.0, TRACE_ROOT), NO_SLOT);
         sum = sum + r.radiance;
         if (s == 0u) {
             out.signature = r.signature;
@@ -657,7 +784,7 @@ fn whitted(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (k >= params.pixel_count) {
         return;
     }
-    pixels[k] = render_pixel(params.first_pixel + k);
+    write_pixel(k, render_pixel(params.first_pixel + k));
 }
 
 // The pixels pixel_list[0 ..pixel_count], in the list's order.
@@ -667,5 +794,26 @@ fn whitted_listed(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (k >= params.pixel_count) {
         return;
     }
-    pixels[k] = render_pixel(pixel_list[k]);
+    write_pixel(k, render_pixel(pixel_list[k]));
+}
+
+// The rays in pixel_list[8k ..8k + 8] (origin, root t, direction, root
+// primitive), each from a root hit given (the bounded renderer's extremal
+// rays: trace_sample in src/bounded/runner.rs), in air; their ray trees
+// recorded, one slot each.
+@compute @workgroup_size(64)
+fn whitted_trees(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = gid.x + gid.y * params.row_pitch;
+    if (k >= params.pixel_count) {
+        return;
+    }
+    let b = 8u * k;
+    let o = bitcast<vec3<f32>>(vec3<u32>(pixel_list[b], pixel_list[b + 1u], pixel_list[b + 2u]));
+    let d = bitcast<vec3<f32>>(vec3<u32>(pixel_list[b + 4u], pixel_list[b + 5u], pixel_list[b + 6u]));
+    let root = Closest(bitcast<f32>(pixel_list[b + 3u]), pixel_list[b + 7u]);
+    var air: Media;
+    air.ids = vec4<u32>(0u);
+    air.len = 0u;
+    let slot = k * (params.tree_capacity * params.tree_stride + TREE_HEADER_WORDS4);
+    shade(o, d, air, root, slot);
 }

@@ -36,7 +36,7 @@ pub struct BoundedOptions {
     /// bounded: a failed cell is split only if at least this many pixels per child ask for it.
     #[arg(long, default_value_t = BoundedSettings::default().min_pixels, allow_negative_numbers = true)]
     pub min_pixels: u32,
-    /// bounded: on a GPU, trace the pixels that are not interpolated with the Whitted kernel or on the CPU.
+    /// bounded: on a GPU, trace the pixels that are not interpolated and the extremal rays' trees with the Whitted kernel or on the CPU.
     #[arg(long, value_enum, default_value_t = SlowPath::Auto)]
     pub slow_path: SlowPath,
     /// bounded: also render every frame exactly and report the error and the speed-up.

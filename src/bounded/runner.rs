@@ -18,6 +18,7 @@
 //! Builds run in rounds over all the cells the frame asks for, so the
 //! extremal rays and the predicates of a round run in parallel.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use glam::{DVec3, Vec3};
@@ -39,8 +40,9 @@ use crate::gpu::batch::Batched;
 use crate::progress::Progress;
 use crate::raytrace::offset::max_abs;
 use crate::raytrace::pixel_rays::PixelRays;
-use crate::raytrace::ray_tree::RayTree;
+use crate::raytrace::scene::MISS;
 use crate::raytrace::surface::Surface as Shading;
+use crate::raytrace::tree_records::TreeRay;
 use crate::raytrace::whitted::{FirstHit, Media, Whitted, WhittedParams};
 use crate::raytrace::{RenderScene, WhittedRenderer, WhittedSettings};
 use crate::scene::Camera;
@@ -56,17 +58,17 @@ pub enum SplitKind {
     Four,
 }
 
-/// Where the slow path's pixels are traced when the renderer runs on a GPU
-/// (on the CPU they always are on the CPU).
+/// Where the slow path's pixels and the extremal rays are traced when the
+/// renderer runs on a GPU (on the CPU they always are on the CPU).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, clap::ValueEnum, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum SlowPath {
     /// The Whitted kernel on a hardware GPU; the CPU twin on a software adapter (lavapipe), where the kernel is slower than the CPU on the same cores.
     #[default]
     Auto,
-    /// The Whitted kernel over the list of pixels, on the renderer's GPU.
+    /// The Whitted kernel over the list of pixels and the extremal rays (their ray trees), on the renderer's GPU.
     Device,
-    /// The CPU twin, from the primary hit pixel assignment traced.
+    /// The CPU twin, from the primary hit pixel assignment traced (and for the extremal rays).
     Cpu,
 }
 
@@ -216,6 +218,10 @@ pub struct FrameStats {
     /// were shared with built cells).
     pub extremal_rays_requested: u64,
     pub extremal_rays_traced: u64,
+    /// Of those, traced by the Whitted kernel's `whitted_trees` (the rest
+    /// on the CPU: no GPU, `SlowPath` chose the CPU, or a tree overflowed
+    /// its slot).
+    pub extremal_rays_on_gpu: u64,
     pub rays_traced_slow_path: u64,
     pub memory_bytes: usize,
     pub memory_peak_bytes: usize,
@@ -395,7 +401,7 @@ impl BoundedRenderer {
                 .filter(|(c, _)| matches!(self.trees.cells[*c as usize].state, CellState::Unbuilt))
                 .map(|(c, _)| *c)
                 .collect();
-            self.build(&params, &to_build, &mut stats);
+            self.build(&params, &to_build, &mut stats)?;
             let mut next = Vec::new();
             for (cell, range) in groups {
                 let pixels = &round[range];
@@ -603,11 +609,10 @@ impl BoundedRenderer {
     }
 
     /// Traces the missing extremal rays of `cells` and judges them.
-    fn build(&mut self, params: &WhittedParams, cells: &[u32], stats: &mut FrameStats) {
+    fn build(&mut self, params: &WhittedParams, cells: &[u32], stats: &mut FrameStats) -> Result<()> {
         if cells.is_empty() {
-            return;
+            return Ok(());
         }
-        let twin = self.whitted.twin(params);
         // The missing extremal rays, each once.
         let mut missing: Vec<(u128, u32, usize)> = Vec::new();
         for &c in cells {
@@ -623,15 +628,44 @@ impl BoundedRenderer {
         missing.dedup_by_key(|m| m.0);
         stats.extremal_rays_traced += missing.len() as u64;
         let (trees, geometry) = (&self.trees, &self.geometry);
-        let traced: Vec<(u128, Sample)> = missing
+        // Each missing ray with its root (the linetree's surface).
+        let rays: Vec<(u128, RootFace, DVec3, DVec3)> = missing
             .par_iter()
             .map(|&(key, c, k)| {
                 let cell = &trees.cells[c as usize];
                 let tree = &trees.trees[cell.tree as usize];
                 let (o, d) = corner_ray(&tree.pair, &cell.cell, k);
-                (key, trace_sample(&twin, geometry, tree.surface, o, d))
+                (key, tree.surface, o, d)
             })
             .collect();
+        let on_device = if self.slow_path_on_gpu() {
+            let given: Vec<TreeRay> = rays
+                .iter()
+                .map(|&(_, root, o, d)| tree_ray(geometry, root, o, d))
+                .collect();
+            self.whitted.trace_trees(params, &given)?
+        } else {
+            None
+        };
+        let twin = self.whitted.twin(params);
+        let geometry = &self.geometry;
+        let on_gpu = AtomicU64::new(0);
+        let traced: Vec<(u128, Sample)> = rays
+            .par_iter()
+            .enumerate()
+            .map(|(i, &(key, root, o, d))| {
+                // The kernel's tree, or the twin's where there is none or
+                // it overflowed its slot.
+                let gpu = on_device.as_ref().and_then(|t| t[i].clone());
+                on_gpu.fetch_add(gpu.is_some() as u64, Ordering::Relaxed);
+                let sample = match gpu {
+                    Some((radiance, diffuse, tree)) => Sample::new(radiance, diffuse, tree),
+                    None => trace_sample(&twin, geometry, root, o, d),
+                };
+                (key, sample)
+            })
+            .collect();
+        stats.extremal_rays_on_gpu += on_gpu.into_inner();
         for (key, s) in traced {
             self.trees.insert_sample(key, s);
         }
@@ -689,6 +723,7 @@ impl BoundedRenderer {
         for (c, state) in verdicts {
             self.trees.settle(c, state);
         }
+        Ok(())
     }
 
     /// Claims pixels for the cells of the last frame whose shafts from the
@@ -997,23 +1032,27 @@ fn sort_by_cell(round: &[PixelLeaf], cells: usize) -> (Vec<PixelLeaf>, Vec<(u32,
     (sorted, groups)
 }
 
+/// An extremal ray as the Whitted kernel's `whitted_trees` takes it: its
+/// root hit found here as `trace_sample` finds it.
+fn tree_ray(geometry: &SceneGeometry, root: RootFace, o: DVec3, d: DVec3) -> TreeRay {
+    let (t, primitive) = geometry
+        .root_hit(root, o, d)
+        .map_or((0.0, MISS), |(t, p)| (t as f32, p));
+    TreeRay {
+        origin: o.as_vec3().to_array(),
+        root_t: t,
+        dir: d.as_vec3().to_array(),
+        root_primitive: primitive,
+    }
+}
+
 /// An extremal ray's sample: from the front face, in air.
 /// The radiance leaving a linetree's root surface along the line `o + t d`
 /// and its ray tree: the line's first hit is put on the root (what lies
 /// between the front face and the root is no part of the interpolant:
 /// pixel assignment is exact, and reprojection culls the eye's own shaft).
 fn trace_sample(twin: &Whitted, geometry: &SceneGeometry, root: RootFace, o: DVec3, d: DVec3) -> Sample {
-    let (o32, d32) = (o.as_vec3(), d.as_vec3());
-    let facing = geometry
-        .root_hit(root, o, d)
-        .map(|(t, primitive)| twin.facing(o32, d32, t as f32, primitive));
-    let blocked = vec![None; twin.params.light_count as usize];
-    let given = FirstHit {
-        facing,
-        blocked: &blocked,
-    };
-    let mut tree = RayTree::default();
-    let out = twin.shade(o32, d32, Media::default(), Some(&given), Some(&mut tree));
+    let (out, tree) = twin.trace_tree(&tree_ray(geometry, root, o, d));
     Sample::new(out.radiance, out.diffuse, tree)
 }
 

@@ -55,6 +55,8 @@ pub struct FrameReport {
 pub struct SequenceRays {
     pub slow_path: u64,
     pub extremal: u64,
+    /// Extremal rays whose trees the Whitted kernel traced (`whitted_trees`).
+    pub extremal_on_gpu: u64,
     /// Where the slow path traced: "gpu" (the Whitted kernel) or "cpu"
     /// (`SlowPath` resolved for the renderer's device).
     pub slow_path_on: &'static str,
@@ -72,6 +74,7 @@ pub struct SequenceReport {
     pub success_rate: f64,
     pub extremal_rays_requested: u64,
     pub extremal_rays_traced: u64,
+    pub extremal_rays_on_gpu: u64,
     pub memory_peak_bytes: usize,
     pub cells: usize,
     pub leaves: usize,
@@ -163,6 +166,7 @@ impl SequenceReport {
         self.interpolated += p.reprojected + p.span_filled + p.interpolated;
         self.extremal_rays_requested += s.extremal_rays_requested;
         self.extremal_rays_traced += s.extremal_rays_traced;
+        self.extremal_rays_on_gpu += s.extremal_rays_on_gpu;
         self.rays.slow_path += s.rays_traced_slow_path;
         if let (Some(ms), Some(e)) = (entry.measured.reference_ms, &entry.measured.error) {
             self.add_reference(ms, e);
@@ -195,6 +199,7 @@ impl SequenceReport {
 
     fn finish(&mut self, renderer: &BoundedRenderer, checked: bool) {
         self.rays.extremal = self.extremal_rays_traced;
+        self.rays.extremal_on_gpu = self.extremal_rays_on_gpu;
         self.rays.slow_path_on = if renderer.slow_path_on_gpu() { "gpu" } else { "cpu" };
         self.success_rate = if self.surfaces == 0 {
             0.0

@@ -126,6 +126,9 @@ pub struct Pipelines {
     layout: wgpu::PipelineLayout,
     shader: OnceLock<wgpu::ShaderModule>,
     entries: Vec<(&'static str, usize, OnceLock<wgpu::ComputePipeline>)>,
+    /// Per entry point, the variant of the module it is compiled from,
+    /// where it has its own.
+    variants: Vec<Option<Composition>>,
     log: Arc<PipelineLog>,
 }
 
@@ -136,12 +139,16 @@ impl Pipelines {
         let (entry, logged, cell) = &self.entries[i];
         cell.get_or_init(|| {
             let start = Instant::now();
-            let shader = self.shader.get_or_init(|| {
+            let compile = |m: &Composition| {
                 self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some(self.module.name),
-                    source: wgpu::ShaderSource::Wgsl(self.module.source().into()),
+                    label: Some(m.name),
+                    source: wgpu::ShaderSource::Wgsl(m.source().into()),
                 })
-            });
+            };
+            let own = self.variants[i].as_ref().map(compile);
+            let shader = own
+                .as_ref()
+                .unwrap_or_else(|| self.shader.get_or_init(|| compile(&self.module)));
             let pipeline = self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(entry),
                 layout: Some(&self.layout),
@@ -153,6 +160,14 @@ impl Pipelines {
             self.log.compiled(*logged, crate::device::elapsed_ms(start));
             pipeline
         })
+    }
+
+    /// Compiles entry point `i` from `variant` (the same bindings) instead
+    /// of the module (before its first `get`): where one entry needs code
+    /// the others must not carry.
+    pub fn set_variant(&mut self, i: usize, variant: Composition) {
+        debug_assert!(!self.is_compiled(i));
+        self.variants[i] = Some(variant);
     }
 
     /// Whether entry point `i` has been compiled.
@@ -186,6 +201,7 @@ pub fn compute_pipelines(
         module: *module,
         layout,
         shader: OnceLock::new(),
+        variants: vec![None; entry_points.len()],
         entries,
         log: Arc::clone(log),
     }

@@ -7,6 +7,7 @@
 use std::ops::Range;
 
 use super::scene::RenderScene;
+use super::tree_records::{HEADER_WORDS4, TreeLayout, TreeRay};
 use super::whitted::{PixelOut, WhittedParams};
 use crate::error::{Error, Result};
 use crate::gpu::batch::{BatchPlan, Batched, run_batches};
@@ -20,8 +21,10 @@ use crate::kdtree::pass::{Dispatch, TreeBatch, TreeKernelSet, TreeKernels, TreeP
 use crate::progress::Progress;
 
 /// The pass's io: params, per-triangle shading (two words4), shading
-/// normals, the scene's records (surfaces, lights, spheres), pixels out,
-/// and the pixels `whitted_listed` renders.
+/// normals, the scene's records (surfaces, lights, spheres), pixels out
+/// (or `whitted_trees`' slots), and the pixels `whitted_listed` renders
+/// (or `whitted_trees`' rays). Eight storage bindings with the kd-tree's,
+/// WebGPU's default limit, so its outputs and inputs share two.
 const WHITTED_IO: &[Io] = &[
     Io::Uniform(0, "whitted params", std::mem::size_of::<WhittedParams>() as u64),
     Io::In(1, "triangle shading"),
@@ -34,6 +37,7 @@ const WHITTED_IO: &[Io] = &[
 /// The kernel's entry points, in `WhittedKernels`' order.
 const RANGE_ENTRY: usize = 0;
 const LISTED_ENTRY: usize = 1;
+const TREES_ENTRY: usize = 2;
 
 /// Pixels per dispatch: short dispatches on a software rasteriser, and far
 /// below any device's limits (32 bytes a pixel).
@@ -44,13 +48,20 @@ pub struct WhittedKernels(TreeKernels);
 
 impl Kernels for WhittedKernels {
     fn build(device: &wgpu::Device, log: &Arc<PipelineLog>) -> WhittedKernels {
-        WhittedKernels(TreeKernels::build(
+        let mut kernels = TreeKernels::build(
             device,
             &crate::wgsl::WHITTED_MODULE,
             WHITTED_IO,
-            &["whitted", "whitted_listed"],
+            &["whitted", "whitted_listed", "whitted_trees"],
             log,
-        ))
+        );
+        // Only `whitted_trees` records trees: with the recording compiled
+        // into the pixel entries (even behind a pipeline-overridable
+        // constant set to false), lavapipe ran them 18 times slower.
+        kernels
+            .pipelines
+            .set_variant(TREES_ENTRY, crate::wgsl::WHITTED_TREES_MODULE);
+        WhittedKernels(kernels)
     }
 }
 
@@ -119,6 +130,28 @@ impl TreePass<WhittedKernels> {
         self.prepare_entry(device, queue, &params, LISTED_ENTRY)
     }
 
+    /// Prepares the rays `rays` of `whitted_trees`, each tree written into
+    /// a slot of `layout` (`params`' pixel range is set here).
+    pub fn prepare_trees(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        params: &WhittedParams,
+        layout: &TreeLayout,
+        rays: &[TreeRay],
+    ) -> Result<()> {
+        self.io()
+            .write(device, queue, 5, non_empty(bytemuck::cast_slice(rays)))?;
+        let params = WhittedParams {
+            first_pixel: 0,
+            pixel_count: rays.len() as u32,
+            tree_capacity: layout.capacity,
+            tree_stride: layout.stride,
+            ..*params
+        };
+        self.prepare_entry(device, queue, &params, TREES_ENTRY)
+    }
+
     fn prepare_entry(
         &mut self,
         device: &wgpu::Device,
@@ -132,7 +165,12 @@ impl TreePass<WhittedKernels> {
             row_pitch: pitch,
             ..*params
         };
-        let bytes = n as u64 * std::mem::size_of::<PixelOut>() as u64;
+        let item_bytes = if entry == TREES_ENTRY {
+            16 * (HEADER_WORDS4 as u64 + params.tree_capacity as u64 * params.tree_stride as u64)
+        } else {
+            std::mem::size_of::<PixelOut>() as u64
+        };
+        let bytes = n as u64 * item_bytes;
         let io = self.io();
         io.write(device, queue, 0, bytemuck::bytes_of(&params))?;
         io.reserve(device, 4, bytes.max(32))?;
@@ -194,6 +232,44 @@ impl Batched<WhittedPass> {
         self.render_batches(ctx, tree, list.len(), progress, |pass, ctx, items| {
             pass.prepare_listed(&ctx.device, &ctx.queue, params, &list[items])
         })
+    }
+
+    /// Traces `rays` (blocking) in batches that keep a batch's slots under
+    /// half the device's largest storage binding: each ray's slot of
+    /// `layout` (`tree_records::decode` reads it) in the rays' order, and
+    /// the kernels' time.
+    pub fn trace_trees(
+        &mut self,
+        ctx: &GpuContext,
+        tree: &GpuKdTree,
+        params: &WhittedParams,
+        layout: &TreeLayout,
+        rays: &[TreeRay],
+        progress: &Progress,
+    ) -> Result<(Vec<[u32; 4]>, Option<f64>)> {
+        let slot_bytes = 16 * layout.slot_words4() as u64;
+        let largest = ctx.device.limits().max_storage_buffer_binding_size / 2;
+        let per_batch = (largest / slot_bytes).clamp(1, PIXELS_PER_BATCH as u64) as usize;
+        let mut slots = Vec::with_capacity(rays.len() * layout.slot_words4());
+        let plan = BatchPlan::new(rays.len(), per_batch, 1);
+        let mut batch = TreeBatch {
+            pass: &mut self.pass,
+            tree,
+            prepare: |pass: &mut WhittedPass, ctx: &GpuContext, items: Range<usize>| {
+                pass.prepare_trees(&ctx.device, &ctx.queue, params, layout, &rays[items])
+            },
+        };
+        let take = |items: Range<usize>, out: &[[u32; 4]]| {
+            slots.extend_from_slice(&out[..items.len() * layout.slot_words4()]);
+            Ok(())
+        };
+        let gpu_ms = run_batches(ctx, &mut batch, &mut self.readback, plan, progress, take)?;
+        if slots.len() != rays.len() * layout.slot_words4() {
+            return Err(Error::internal(
+                "the whitted kernel returned the wrong number of ray trees",
+            ));
+        }
+        Ok((slots, gpu_ms))
     }
 
     /// `count` pixels in batches, each batch's range of them uploaded by

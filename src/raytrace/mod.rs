@@ -20,6 +20,7 @@ pub mod scenes;
 pub mod sequence;
 pub mod sphere;
 pub mod surface;
+pub mod tree_records;
 pub mod whitted;
 
 pub use ray_tree::{LightCode, RayKind, RayNode, RayTree};

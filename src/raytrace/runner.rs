@@ -10,6 +10,7 @@ use super::gpu::WhittedBatches;
 use super::packets::render_packets;
 use super::ray_tree::RayTree;
 use super::scene::RenderScene;
+use super::tree_records::{self, TreeLayout, TreeRay};
 use super::whitted::{FRESNEL, MAX_DEPTH, Media, PixelOut, Whitted, WhittedParams, pixel_ray};
 use crate::aabb::Aabb;
 use crate::device::{Device, GpuOutput, OnDevice, Timing};
@@ -294,7 +295,9 @@ impl WhittedRenderer {
             row_pitch: 0,
             lights_at,
             spheres_at,
-            _pad: [0; 3],
+            tree_capacity: 0,
+            tree_stride: 0,
+            _pad: 0,
         })
     }
 
@@ -404,6 +407,31 @@ impl WhittedRenderer {
                 Ok(list.par_iter().with_min_len(64).map(|&i| twin.whitted(i)).collect())
             },
         )
+    }
+
+    /// The radiance, root diffuse terms (`Whitted::shade`'s `diffuse`) and
+    /// ray tree of each of `rays`, in air from its given root hit, through
+    /// the kernel's `whitted_trees` entry (blocking; `Ok(None)` on the CPU,
+    /// where the caller traces them with the twin). A ray whose tree does not
+    /// fit its slot comes back `None`.
+    #[allow(clippy::type_complexity)]
+    pub fn trace_trees(
+        &mut self,
+        params: &WhittedParams,
+        rays: &[TreeRay],
+    ) -> Result<Option<Vec<Option<(Vec3, Vec3, RayTree)>>>> {
+        let OnDevice::Gpu { ctx, state: g } = &mut self.gpu else {
+            return Ok(None);
+        };
+        let layout = TreeLayout::new(params.max_depth, params.light_count);
+        let (slots, _) = g
+            .pass
+            .trace_trees(ctx, &g.tree, params, &layout, rays, &Progress::hidden())?;
+        let trees = slots
+            .chunks_exact(layout.slot_words4())
+            .map(|slot| tree_records::decode(&layout, slot))
+            .collect();
+        Ok(Some(trees))
     }
 
     /// The radiance and ray tree of sample `sample` of pixel (x, y) of an

@@ -20,6 +20,7 @@
 
 use glam::Vec3;
 
+use super::tree_records::TreeRay;
 use crate::kdtree::KdTree;
 use crate::ray::Hit;
 use crate::raytrace::lights::{DIRECTIONAL, LightSample};
@@ -78,7 +79,11 @@ pub struct WhittedParams {
     /// surfaces come first, 8 words4 each; a light takes 3, a sphere 2).
     pub lights_at: u32,
     pub spheres_at: u32,
-    pub _pad: [u32; 3],
+    /// `whitted_trees`: nodes a ray's slot holds, and words4 per node
+    /// (`raytrace::tree_records`).
+    pub tree_capacity: u32,
+    pub tree_stride: u32,
+    pub _pad: u32,
 }
 
 /// One pixel's result, as the GPU writes it (32 bytes).
@@ -267,6 +272,21 @@ impl Whitted<'_> {
         }
         out.radiance = (sum / self.params.spp as f32).to_array();
         out
+    }
+
+    /// The CPU twin of the kernel's `whitted_trees`: the ray `r` in air
+    /// from its given root hit (no shadow test given), its tree recorded.
+    pub fn trace_tree(&self, r: &TreeRay) -> (RayOut, RayTree) {
+        let (o, d) = (Vec3::from_array(r.origin), Vec3::from_array(r.dir));
+        let facing = (r.root_primitive != super::scene::MISS).then(|| self.facing(o, d, r.root_t, r.root_primitive));
+        let blocked = vec![None; self.params.light_count as usize];
+        let given = FirstHit {
+            facing,
+            blocked: &blocked,
+        };
+        let mut tree = RayTree::default();
+        let out = self.shade(o, d, Media::default(), Some(&given), Some(&mut tree));
+        (out, tree)
     }
 
     /// The radiance of the ray `o + t d` (unit `d`) that starts inside
