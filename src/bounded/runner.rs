@@ -638,7 +638,7 @@ impl BoundedRenderer {
                 (key, tree.surface, o, d)
             })
             .collect();
-        let on_device = if self.slow_path_on_gpu() {
+        let on_device = if self.slow_path_on_gpu() && !rays.is_empty() {
             let given: Vec<TreeRay> = rays
                 .iter()
                 .map(|&(_, root, o, d)| tree_ray(geometry, root, o, d))
