@@ -21,7 +21,7 @@
 //!   pixels on either device, within the same tolerance.
 //! * whitted_trees: the same ray-tree topology for >= 99.5% of rays, the
 //!   same occluders, radiance within the whitted tolerance, node
-//!   coordinates within 1e-4 x max(1, |x|).
+//!   coordinates within 1e-3 x max(1, |x|) (errors grow down refraction chains).
 
 mod common;
 
@@ -558,7 +558,8 @@ fn bounded_renderer_interpolates_alike_on_gpu_and_cpu() {
 /// at least 99.5% of the rays and the same occluders; where it is the
 /// same, radiance and the root's diffuse terms per channel within 1e-3 x
 /// max(1, abs(L)) (the Whitted kernel's tolerance), and every node's origin,
-/// direction, weight, t and point within 1e-4 x max(1, |x|).
+/// direction, weight, t and point within 1e-3 x max(1, |x|) (as radiance:
+/// rounding differences grow down chains of refractions).
 #[test]
 fn whitted_trees_kernel_records_the_twins_ray_trees() {
     use penumbra::device::Device;
@@ -589,7 +590,11 @@ fn whitted_trees_kernel_records_the_twins_ray_trees() {
             .map(|_| {
                 let u = Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5);
                 let o = centre + radius * u.normalize_or(Vec3::Y);
-                let target = lo + (hi - lo) * Vec3::new(rng.f32(), rng.f32(), rng.f32());
+                // Half into the whole box, half into its middle fifth, where
+                // the balls and blocks are: deeper trees.
+                let spread = if rng.f32() < 0.5 { 1.0 } else { 0.2 };
+                let u = Vec3::new(rng.f32(), rng.f32(), rng.f32()) - 0.5;
+                let target = centre + (hi - lo) * spread * u;
                 let d = (target - o).normalize();
                 let (t, primitive) = twin.closest(o, d, f32::INFINITY, None).unwrap_or((0.0, MISS));
                 TreeRay {
@@ -604,11 +609,13 @@ fn whitted_trees_kernel_records_the_twins_ray_trees() {
         let gpu = r.trace_trees(&params, &rays).unwrap().expect("a GPU renderer");
         assert_eq!(gpu.len(), rays.len());
         let (mut topology, mut overflow, mut nodes, mut worst_l, mut worst_x) = (0, 0, 0, 0f32, 0f32);
+        let deepest = cpu.iter().map(|(_, t)| t.nodes.len()).max().unwrap_or(0);
         for ((out, tree), g) in cpu.iter().zip(&gpu) {
-            let Some((radiance, diffuse, g)) = g else {
+            let Some(g) = g else {
                 overflow += 1;
                 continue;
             };
+            let (radiance, diffuse, g) = (&g.radiance, &g.diffuse, &g.tree);
             if !tree.same_topology(g) {
                 topology += 1;
                 continue;
@@ -628,13 +635,14 @@ fn whitted_trees_kernel_records_the_twins_ray_trees() {
                 }
                 for (x, y) in pairs {
                     worst_x = worst_x.max(((x - y).abs() / x.abs().max(Vec3::ONE)).max_element());
-                    assert!(close(x, y, 1e-4) || x.is_nan(), "{name}: {x} against {y}");
+                    assert!(close(x, y, 1e-3) || x.is_nan(), "{name}: {x} against {y}");
                 }
             }
         }
         println!(
             "whitted_trees on {name}: {} rays, {nodes} nodes compared, {topology} differ in topology, {overflow} \
-             overflowed; worst relative radiance difference {worst_l:.2e}, worst node coordinate {worst_x:.2e}",
+             overflowed, largest tree {deepest} nodes; worst relative radiance difference {worst_l:.2e}, worst node \
+             coordinate {worst_x:.2e}",
             rays.len()
         );
         assert_eq!(overflow, 0, "{name}");

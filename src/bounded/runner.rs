@@ -659,7 +659,7 @@ impl BoundedRenderer {
                 let gpu = on_device.as_ref().and_then(|t| t[i].clone());
                 on_gpu.fetch_add(gpu.is_some() as u64, Ordering::Relaxed);
                 let sample = match gpu {
-                    Some((radiance, diffuse, tree)) => Sample::new(radiance, diffuse, tree),
+                    Some(r) => Sample::new(r.radiance, r.diffuse, r.tree),
                     None => trace_sample(&twin, geometry, root, o, d),
                 };
                 (key, sample)

@@ -10,7 +10,7 @@ use super::gpu::WhittedBatches;
 use super::packets::render_packets;
 use super::ray_tree::RayTree;
 use super::scene::RenderScene;
-use super::tree_records::{self, TreeLayout, TreeRay};
+use super::tree_records::{self, RecordedTree, TreeLayout, TreeRay};
 use super::whitted::{FRESNEL, MAX_DEPTH, Media, PixelOut, Whitted, WhittedParams, pixel_ray};
 use crate::aabb::Aabb;
 use crate::device::{Device, GpuOutput, OnDevice, Timing};
@@ -409,17 +409,16 @@ impl WhittedRenderer {
         )
     }
 
-    /// The radiance, root diffuse terms (`Whitted::shade`'s `diffuse`) and
-    /// ray tree of each of `rays`, in air from its given root hit, through
-    /// the kernel's `whitted_trees` entry (blocking; `Ok(None)` on the CPU,
-    /// where the caller traces them with the twin). A ray whose tree does not
-    /// fit its slot comes back `None`.
-    #[allow(clippy::type_complexity)]
+    /// The radiance, root diffuse terms and ray tree of each of `rays`, in
+    /// air from its given root hit, through the kernel's `whitted_trees`
+    /// entry (blocking; `Ok(None)` on the CPU, where the caller traces them
+    /// with the twin, `Whitted::trace_tree`). A ray whose tree does not fit
+    /// its slot comes back `None`.
     pub fn trace_trees(
         &mut self,
         params: &WhittedParams,
         rays: &[TreeRay],
-    ) -> Result<Option<Vec<Option<(Vec3, Vec3, RayTree)>>>> {
+    ) -> Result<Option<Vec<Option<RecordedTree>>>> {
         let OnDevice::Gpu { ctx, state: g } = &mut self.gpu else {
             return Ok(None);
         };

@@ -45,6 +45,16 @@ pub struct TreeRay {
     pub root_primitive: u32,
 }
 
+/// A ray's slot read back.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordedTree {
+    pub radiance: Vec3,
+    /// The root's ambient and diffuse terms before its texture
+    /// (`Whitted::shade`'s `diffuse`).
+    pub diffuse: Vec3,
+    pub tree: RayTree,
+}
+
 /// The shape of the slots for a render's depth and lights.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TreeLayout {
@@ -133,9 +143,8 @@ pub fn encode(layout: &TreeLayout, radiance: Vec3, diffuse: Vec3, tree: &RayTree
     slot
 }
 
-/// A slot read back: radiance, root diffuse terms and tree, or `None`
-/// where the tree overflowed the slot.
-pub fn decode(layout: &TreeLayout, slot: &[[u32; 4]]) -> Option<(Vec3, Vec3, RayTree)> {
+/// A slot read back, or `None` where the tree overflowed the slot.
+pub fn decode(layout: &TreeLayout, slot: &[[u32; 4]]) -> Option<RecordedTree> {
     let count = slot[0][3];
     if count == OVERFLOW {
         return None;
@@ -184,7 +193,11 @@ pub fn decode(layout: &TreeLayout, slot: &[[u32; 4]]) -> Option<(Vec3, Vec3, Ray
             tir: flags & TIR != 0,
         });
     }
-    Some((vec3(slot[0]), vec3(slot[1]), tree))
+    Some(RecordedTree {
+        radiance: vec3(slot[0]),
+        diffuse: vec3(slot[1]),
+        tree,
+    })
 }
 
 #[cfg(test)]
@@ -240,7 +253,11 @@ mod tests {
             assert_eq!(slot.len(), layout.slot_words4());
             assert_eq!(
                 decode(&layout, &slot),
-                Some((radiance, diffuse, tree.clone())),
+                Some(RecordedTree {
+                    radiance,
+                    diffuse,
+                    tree: tree.clone()
+                }),
                 "{lights} lights"
             );
             // One node more than the slot holds: decoded as overflow.
