@@ -8,9 +8,10 @@ use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::bounded::frame::{BoundedFrame, PixelPath, TraceReason};
 use crate::bounded::linetree::CellState;
 use crate::bounded::predicate::{Failure, RootFace};
-use crate::bounded::runner::{BoundedFrame, BoundedRenderer, PixelPath, TraceReason};
+use crate::bounded::runner::BoundedRenderer;
 use crate::raytrace::whitted::WhittedParams;
 use crate::sampling::hash_u32;
 

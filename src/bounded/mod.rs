@@ -6,6 +6,7 @@
 //! tree), reprojection of the previous frame's cells, and a memory cap.
 
 pub mod affine;
+pub mod frame;
 pub mod geometry;
 pub mod gpu;
 pub mod interpolate;
@@ -16,10 +17,13 @@ pub mod measure;
 pub mod options;
 pub mod predicate;
 pub mod runner;
+pub mod samples;
+pub mod screen;
 pub mod sequence;
+pub mod settings;
 pub mod shaft;
 
+pub use frame::{BoundedFrame, FrameStats, PixelPath, TraceReason};
 pub use predicate::{BoundKind, Failure};
-pub use runner::{
-    BoundedFrame, BoundedRenderer, BoundedSettings, FrameStats, PixelPath, SlowPath, SplitKind, TraceReason,
-};
+pub use runner::BoundedRenderer;
+pub use settings::{BoundedSettings, SlowPath, SplitKind};

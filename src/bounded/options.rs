@@ -3,8 +3,8 @@
 
 use clap::Args;
 
-use super::runner::DEFAULT_FLOOR;
 use super::sequence::Measures;
+use super::settings::DEFAULT_FLOOR;
 use super::{BoundKind, BoundedSettings, SlowPath, SplitKind};
 use crate::error::{Error, Result};
 use crate::options::{Applies, OnOff, applies};

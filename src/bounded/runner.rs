@@ -23,229 +23,30 @@ use std::time::Instant;
 
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
-use serde::Serialize;
 
 use crate::bounded::affine::{AVec3, Aff};
+use crate::bounded::frame::{BoundedFrame, FrameStats, PixelPath, TraceReason, count_paths};
 use crate::bounded::geometry::SceneGeometry;
 use crate::bounded::gpu::InterpolatePass;
 use crate::bounded::interpolate::{PixelJob, interpolate_pixels};
 use crate::bounded::linespace::{FacePair, LineCoords, pair_index};
 use crate::bounded::linetree::{CellState, HashSet, Interpolant, Linetrees, Sample, corner_ray};
-use crate::bounded::predicate::{BoundKind, Corners, Failure, Predicate, RootFace};
+use crate::bounded::predicate::{BoundKind, Corners, Predicate, RootFace};
+use crate::bounded::samples::{first_surface, textured_split, trace_sample, tree_ray};
+use crate::bounded::screen::{CONFLICT, pixels_in_cell, span_fill};
+use crate::bounded::settings::{BoundedSettings, SlowPath, SplitKind};
 use crate::bounded::shaft::{End, Exclude, Shafts};
 use crate::device::elapsed_ms;
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::gpu::batch::Batched;
 use crate::progress::Progress;
+use crate::raytrace::WhittedRenderer;
 use crate::raytrace::offset::max_abs;
 use crate::raytrace::pixel_rays::PixelRays;
-use crate::raytrace::scene::MISS;
-use crate::raytrace::surface::Surface as Shading;
 use crate::raytrace::tree_records::TreeRay;
-use crate::raytrace::whitted::{FirstHit, Media, Whitted, WhittedParams};
-use crate::raytrace::{RenderScene, WhittedRenderer, WhittedSettings};
+use crate::raytrace::whitted::{FirstHit, Media, WhittedParams};
 use crate::scene::Camera;
-
-/// How a failed cell is split.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
-pub enum SplitKind {
-    /// All four coordinates halved: 16 children (the paper).
-    #[default]
-    Sixteen,
-    /// One pair of coordinates, (a, c) or (b, d), halved, the one the
-    /// predicate blames: 4 children (the paper's section 8.6).
-    Four,
-}
-
-/// Where the slow path's pixels and the extremal rays are traced when the
-/// renderer runs on a GPU (on the CPU they always are on the CPU).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, clap::ValueEnum, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum SlowPath {
-    /// The Whitted kernel on a hardware GPU; the CPU twin on a software adapter (lavapipe), where the kernel is slower than the CPU on the same cores.
-    #[default]
-    Auto,
-    /// The Whitted kernel over the list of pixels and the extremal rays (their ray trees), on the renderer's GPU.
-    Device,
-    /// The CPU twin, from the primary hit pixel assignment traced (and for the extremal rays).
-    Cpu,
-}
-
-/// The knobs of the bounded-error renderer.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct BoundedSettings {
-    /// The relative error bound: an interpolated pixel is within
-    /// `epsilon * max(L, floor)` of the exact radiance `L`, per channel.
-    pub epsilon: f32,
-    /// The radiance below which the bound is absolute (`epsilon * floor`).
-    pub floor: f32,
-    pub bound: BoundKind,
-    pub split: SplitKind,
-    /// Reproject the previous frame's cells (the fast path).
-    pub reproject: bool,
-    /// Fill spans of reprojected pixels of one cell by screen-space
-    /// interpolation (section 6.2; outside the guarantee).
-    pub span: bool,
-    /// Memory cap of linetree cells and samples, in MiB.
-    pub memory_mb: f64,
-    /// A rejected cell is split only if at least this many pixels per child
-    /// asked for it (section 7's cost model).
-    pub min_pixels: u32,
-    /// Where traced pixels are traced on a GPU.
-    pub slow_path: SlowPath,
-    pub whitted: WhittedSettings,
-}
-
-/// `floor`'s default: one step of an 8-bit image of white 1.
-pub const DEFAULT_FLOOR: f32 = 1.0 / 255.0;
-
-impl Default for BoundedSettings {
-    fn default() -> Self {
-        BoundedSettings {
-            epsilon: 0.05,
-            floor: DEFAULT_FLOOR,
-            bound: BoundKind::Conservative,
-            split: SplitKind::Sixteen,
-            reproject: true,
-            span: false,
-            memory_mb: 1024.0,
-            // Section 7's cost model: a cell built costs some 4 new extremal
-            // rays (each a whole ray tree) and the predicate, 10 to 40
-            // tracings of a pixel; at 2 pixels per child most of that went
-            // on cells that served a handful of pixels. 4 cut the CPU time
-            // of a 10-frame walk by 25 to 30% (checker-spheres,
-            // cornell-mirror-glass) at the same guarantee.
-            min_pixels: 4,
-            slow_path: SlowPath::Auto,
-            whitted: WhittedSettings::default(),
-        }
-    }
-}
-
-impl BoundedSettings {
-    pub fn validate(&self) -> Result<()> {
-        self.whitted.validate()?;
-        if self.whitted.spp != 1 {
-            return Err(Error::param(
-                "spp",
-                "bounded-error rendering takes one sample per pixel (the guarantee is per ray)",
-            ));
-        }
-        if !(self.epsilon >= 0.0 && self.epsilon.is_finite()) {
-            return Err(Error::param(
-                "epsilon",
-                format!("must be >= 0 and finite, got {}", self.epsilon),
-            ));
-        }
-        if !(self.floor > 0.0 && self.floor.is_finite()) {
-            return Err(Error::param("floor", format!("must be positive, got {}", self.floor)));
-        }
-        if !(self.memory_mb > 0.0 && self.memory_mb.is_finite()) {
-            return Err(Error::param(
-                "memory_mb",
-                format!("must be positive, got {}", self.memory_mb),
-            ));
-        }
-        if self.min_pixels == 0 {
-            return Err(Error::param("min_pixels", "must be at least 1"));
-        }
-        Ok(())
-    }
-}
-
-/// Why a pixel was traced.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum TraceReason {
-    /// Its cell was rejected by this sub-test.
-    Failure(Failure),
-    /// The pixel's line misses its face pair's faces (no line
-    /// coordinates).
-    Eye,
-    /// Its ray hit another face of the object than the cell's rays.
-    Mismatch,
-    /// Epsilon 0, or the eye inside glass: the frame is the Whitted
-    /// renderer's own.
-    Exact,
-    /// Its hit lies within rounding of an edge of its surface's texture,
-    /// where the renderer's own hit point could fall in the other check.
-    TextureEdge,
-}
-
-/// How a pixel got its radiance.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum PixelPath {
-    Reprojected,
-    SpanFilled,
-    Interpolated,
-    /// Its ray left the scene: the background, exactly.
-    Background,
-    Traced(TraceReason),
-}
-
-/// Pixels by path.
-#[derive(Debug, Clone, Default, Serialize)]
-pub struct PathCounts {
-    pub reprojected: u64,
-    pub span_filled: u64,
-    pub interpolated: u64,
-    pub background: u64,
-    pub traced: u64,
-    /// Traced pixels by the reason.
-    pub traced_by: std::collections::BTreeMap<String, u64>,
-}
-
-/// What one frame did and cost.
-#[derive(Debug, Clone, Default, Serialize)]
-pub struct FrameStats {
-    pub pixels: PathCounts,
-    /// Share of pixels interpolated (fast path, span-filled or built) among
-    /// those that hit a surface.
-    pub success_rate: f64,
-    pub cells: usize,
-    pub leaves: usize,
-    pub valid_cells: usize,
-    pub cells_built: usize,
-    pub cells_split: usize,
-    pub cells_reprojected: usize,
-    /// Cells reprojection tried and dropped: the eye was not before their
-    /// front face, their shaft from the eye was not clear, or no pixel's
-    /// line fell in them any more.
-    pub reproject_dropped: [usize; 3],
-    /// Extremal rays asked for (16 per built cell) and traced (the rest
-    /// were shared with built cells).
-    pub extremal_rays_requested: u64,
-    pub extremal_rays_traced: u64,
-    /// Of those, traced by the Whitted kernel's `whitted_trees` (the rest
-    /// on the CPU: no GPU, `SlowPath` chose the CPU, or a tree overflowed
-    /// its slot).
-    pub extremal_rays_on_gpu: u64,
-    pub rays_traced_slow_path: u64,
-    pub memory_bytes: usize,
-    pub memory_peak_bytes: usize,
-    pub evicted_cells: usize,
-    pub frame_ms: f64,
-    pub reproject_ms: f64,
-    pub assign_ms: f64,
-    pub build_ms: f64,
-    pub trace_ms: f64,
-    pub interpolate_ms: f64,
-}
-
-/// A rendered frame.
-pub struct BoundedFrame {
-    pub width: u32,
-    pub height: u32,
-    pub camera: Camera,
-    pub radiance: Vec<Vec3>,
-    pub paths: Vec<PixelPath>,
-    /// The linetree cell (index into `Linetrees::cells`) each interpolated
-    /// or reprojected pixel took its radiance from, `u32::MAX` elsewhere.
-    pub cells: Vec<u32>,
-    pub stats: FrameStats,
-}
 
 /// A pixel's interpolation: its cell and coordinates in it.
 #[derive(Debug, Clone, Copy)]
@@ -998,9 +799,6 @@ impl BoundedRenderer {
     }
 }
 
-/// `claimed` of a pixel two reprojected cells claim.
-const CONFLICT: u32 = u32::MAX - 1;
-
 /// A round ordered by cell, each cell's pixels kept in their order, and
 /// the run of each cell: a stable counting sort over the cell indices
 /// (`cells` of them), where a comparison sort of these 72-byte tuples by
@@ -1030,196 +828,6 @@ fn sort_by_cell(round: &[PixelLeaf], cells: usize) -> (Vec<PixelLeaf>, Vec<(u32,
     let sorted: Vec<PixelLeaf> = order.iter().map(|&k| round[k as usize]).collect();
     debug_assert!(sorted.windows(2).all(|w| (w[0].1, w[0].0) < (w[1].1, w[1].0)));
     (sorted, groups)
-}
-
-/// An extremal ray as the Whitted kernel's `whitted_trees` takes it: its
-/// root hit found here as `trace_sample` finds it.
-fn tree_ray(geometry: &SceneGeometry, root: RootFace, o: DVec3, d: DVec3) -> TreeRay {
-    let (t, primitive) = geometry
-        .root_hit(root, o, d)
-        .map_or((0.0, MISS), |(t, p)| (t as f32, p));
-    TreeRay {
-        origin: o.as_vec3().to_array(),
-        root_t: t,
-        dir: d.as_vec3().to_array(),
-        root_primitive: primitive,
-    }
-}
-
-/// An extremal ray's sample: from the front face, in air.
-/// The radiance leaving a linetree's root surface along the line `o + t d`
-/// and its ray tree: the line's first hit is put on the root (what lies
-/// between the front face and the root is no part of the interpolant:
-/// pixel assignment is exact, and reprojection culls the eye's own shaft).
-fn trace_sample(twin: &Whitted, geometry: &SceneGeometry, root: RootFace, o: DVec3, d: DVec3) -> Sample {
-    let (out, tree) = twin.trace_tree(&tree_ray(geometry, root, o, d));
-    Sample::new(out.radiance, out.diffuse, tree)
-}
-
-/// The surface a sample's line hits first.
-fn first_surface<'a>(scene: &'a RenderScene, s: &Sample) -> Option<&'a Shading> {
-    let hit = s.tree.nodes.first()?.hit?;
-    Some(scene.surface(hit.surface))
-}
-
-/// A sample's radiance as `(base, diffuse)` with `radiance = base + T
-/// diffuse`, `T` the texture at its first hit (`(radiance, 0)` where that
-/// surface has no texture).
-fn textured_split(scene: &RenderScene, s: &Sample) -> (Vec3, Vec3) {
-    match s.tree.nodes.first().and_then(|n| n.hit) {
-        Some(hit) if scene.surface(hit.surface).textured() => {
-            let t = scene.surface(hit.surface).texture(hit.point);
-            (s.radiance - t * s.diffuse, s.diffuse)
-        }
-        _ => (s.radiance, Vec3::ZERO),
-    }
-}
-
-/// The pixels whose eye lines lie in the cell, oriented as its lines: the
-/// box of its faces' corners projected (or, with the eye between the faces,
-/// of its hits, where every such pixel's ray lands), each pixel then tested.
-fn pixels_in_cell(
-    params: &WhittedParams,
-    rays: &PixelRays,
-    pair: &FacePair,
-    cell: &crate::bounded::linespace::CellBox,
-    (hits_lo, hits_hi): (DVec3, DVec3),
-    eye: DVec3,
-) -> Vec<u32> {
-    let forward = Vec3::from_array(params.forward).as_dvec3();
-    let right = Vec3::from_array(params.right).as_dvec3();
-    let up = Vec3::from_array(params.up).as_dvec3();
-    let (w, h) = (params.width as f64, params.height as f64);
-    // Per group of corners (the front face's, the back face's; or the
-    // hits' box) the box of their image; a line of the cell crosses both
-    // faces, so its pixel lies in both boxes: their intersection is what
-    // is scanned (the union was several times the cell's pixels).
-    let mut lo = [[f64::INFINITY; 2]; 2];
-    let mut hi = [[f64::NEG_INFINITY; 2]; 2];
-    let before = pair.before_front(eye);
-    for k in 0..8usize {
-        let p = if !before {
-            DVec3::select(glam::BVec3::new(k & 1 == 1, k & 2 == 2, k & 4 == 4), hits_hi, hits_lo)
-        } else if k < 4 {
-            // The front face's four corners (a, b), then the back face's (c, d).
-            let c = cell.corner(pair, k);
-            pair.point(c[0], c[1], true)
-        } else {
-            let c = cell.corner(pair, (k - 4) << 2);
-            pair.point(c[2], c[3], false)
-        };
-        let v = p - eye;
-        let z = v.dot(forward);
-        if z <= 0.0 {
-            return Vec::new();
-        }
-        // Image coordinates of the direction (inverse of pixel_ray).
-        let sx = v.dot(right) / right.length_squared() / z;
-        let sy = v.dot(up) / up.length_squared() / z;
-        let (x, y) = ((sx + 1.0) * 0.5 * w, (1.0 - sy) * 0.5 * h);
-        // The hits' box is one group: both slots take all its corners.
-        let groups = if before { k / 4..k / 4 + 1 } else { 0..2 };
-        for g in groups {
-            lo[g] = [lo[g][0].min(x), lo[g][1].min(y)];
-            hi[g] = [hi[g][0].max(x), hi[g][1].max(y)];
-        }
-    }
-    let lo = [lo[0][0].max(lo[1][0]), lo[0][1].max(lo[1][1])];
-    let hi = [hi[0][0].min(hi[1][0]), hi[0][1].min(hi[1][1])];
-    if lo[0] > hi[0] || lo[1] > hi[1] {
-        return Vec::new();
-    }
-    let x0 = (lo[0].floor().max(0.0)) as u32;
-    let y0 = (lo[1].floor().max(0.0)) as u32;
-    let x1 = (hi[0].ceil().min(w)) as u32;
-    let y1 = (hi[1].ceil().min(h)) as u32;
-    let mut out = Vec::new();
-    for y in y0..y1 {
-        for x in x0..x1 {
-            let i = y * params.width + x;
-            let (_, d) = rays.ray(i);
-            let oriented = (d[pair.axis] > 0.0) == pair.positive;
-            if oriented && pair.coords(eye, d.as_dvec3()).is_some_and(|c| cell.contains(pair, &c)) {
-                out.push(i);
-            }
-        }
-    }
-    out
-}
-
-/// Section 6.2: along each row, a run of reprojected pixels of one cell
-/// is filled by screen-space interpolation between its ends.
-fn span_fill(width: u32, claimed: &[u32], radiance: &mut [Vec3], paths: &mut [PixelPath]) {
-    for (y, row) in claimed.chunks(width as usize).enumerate() {
-        let base = y * width as usize;
-        let mut x = 0;
-        while x < row.len() {
-            let c = row[x];
-            let mut end = x;
-            while end + 1 < row.len() && row[end + 1] == c {
-                end += 1;
-            }
-            if c < CONFLICT && end >= x + 2 {
-                let (a, b) = (radiance[base + x], radiance[base + end]);
-                for k in x + 1..end {
-                    let s = (k - x) as f32 / (end - x) as f32;
-                    radiance[base + k] = a.lerp(b, s);
-                    paths[base + k] = PixelPath::SpanFilled;
-                }
-            }
-            x = end + 1;
-        }
-    }
-}
-
-fn count_paths(paths: &[PixelPath], stats: &mut FrameStats) {
-    let p = &mut stats.pixels;
-    // Counted by reason first, named once per reason (naming through
-    // serde per pixel cost 1% of a frame); the few reasons in a list, the
-    // last one tried first (hashing each traced pixel's reason cost 1%).
-    let mut reasons: Vec<(TraceReason, u64)> = Vec::new();
-    let mut last = 0;
-    for path in paths {
-        match path {
-            PixelPath::Reprojected => p.reprojected += 1,
-            PixelPath::SpanFilled => p.span_filled += 1,
-            PixelPath::Interpolated => p.interpolated += 1,
-            PixelPath::Background => p.background += 1,
-            PixelPath::Traced(why) => {
-                p.traced += 1;
-                if reasons.get(last).is_none_or(|r| r.0 != *why) {
-                    last = match reasons.iter().position(|r| r.0 == *why) {
-                        Some(k) => k,
-                        None => {
-                            reasons.push((*why, 0));
-                            reasons.len() - 1
-                        }
-                    };
-                }
-                reasons[last].1 += 1;
-            }
-        }
-    }
-    for (why, count) in reasons {
-        let name = match why {
-            TraceReason::Failure(f) => serde_json::to_value(f)
-                .ok()
-                .and_then(|v| v.as_str().map(str::to_string))
-                .unwrap_or_default(),
-            TraceReason::Eye => "eye".into(),
-            TraceReason::Mismatch => "face_mismatch".into(),
-            TraceReason::Exact => "epsilon_zero".into(),
-            TraceReason::TextureEdge => "texture_edge".into(),
-        };
-        *p.traced_by.entry(name).or_default() += count;
-    }
-    let surfaces = (paths.len() as u64).saturating_sub(p.background);
-    let interpolated = p.reprojected + p.span_filled + p.interpolated;
-    stats.success_rate = if surfaces > 0 {
-        interpolated as f64 / surfaces as f64
-    } else {
-        0.0
-    };
 }
 
 #[cfg(test)]

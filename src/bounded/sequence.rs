@@ -8,8 +8,9 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
+use super::frame::{BoundedFrame, FrameStats};
 use super::measure::{CheckStats, ErrorStats, compare};
-use super::runner::{BoundedFrame, BoundedRenderer, FrameStats};
+use super::runner::BoundedRenderer;
 use crate::error::{Error, Result};
 use crate::progress::Progress;
 use crate::scene::Camera;
