@@ -413,12 +413,15 @@ impl WhittedRenderer {
     /// air from its given root hit, through the kernel's `whitted_trees`
     /// entry (blocking; `Ok(None)` on the CPU, where the caller traces them
     /// with the twin, `Whitted::trace_tree`). A ray whose tree does not fit
-    /// its slot comes back `None`.
+    /// its slot comes back `None`; a ray `tree_records::check_rays` rejects
+    /// is an error (exit 2), on either device.
     pub fn trace_trees(
         &mut self,
         params: &WhittedParams,
         rays: &[TreeRay],
     ) -> Result<Option<Vec<Option<RecordedTree>>>> {
+        let primitives = (self.scene.triangles.len() + self.scene.spheres.len()) as u32;
+        tree_records::check_rays(rays, primitives)?;
         let OnDevice::Gpu { ctx, state: g } = &mut self.gpu else {
             return Ok(None);
         };

@@ -55,6 +55,28 @@ pub struct RecordedTree {
     pub tree: RayTree,
 }
 
+/// Rejects a ray the kernel and its twin cannot trace: a non-finite
+/// origin or direction, a direction that is not unit length (within
+/// 1e-3), or a root primitive that is neither `MISS` nor one of the
+/// scene's `primitives` (triangles, then spheres), which the twin would
+/// index out of bounds.
+pub fn check_rays(rays: &[TreeRay], primitives: u32) -> crate::error::Result<()> {
+    for (i, r) in rays.iter().enumerate() {
+        let (o, d) = (Vec3::from_array(r.origin), Vec3::from_array(r.dir));
+        let problem = if !o.is_finite() || !d.is_finite() || !r.root_t.is_finite() {
+            "has a non-finite origin, direction or root t".to_string()
+        } else if (d.length() - 1.0).abs() > 1e-3 {
+            format!("has a direction of length {} (unit expected)", d.length())
+        } else if r.root_primitive != MISS && r.root_primitive >= primitives {
+            format!("names root primitive {} of {primitives}", r.root_primitive)
+        } else {
+            continue;
+        };
+        return Err(crate::error::Error::param("rays", format!("ray {i} {problem}")));
+    }
+    Ok(())
+}
+
 /// The shape of the slots for a render's depth and lights.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TreeLayout {
@@ -263,6 +285,71 @@ mod tests {
             // One node more than the slot holds: decoded as overflow.
             let small = TreeLayout { capacity: 4, ..layout };
             assert_eq!(decode(&small, &encode(&small, radiance, diffuse, &tree)), None);
+        }
+    }
+
+    #[test]
+    fn rays_the_twin_cannot_trace_are_errors_naming_the_ray() {
+        let good = TreeRay {
+            origin: [0.0, 1.0, 2.0],
+            root_t: 1.5,
+            dir: [0.0, 0.6, -0.8],
+            root_primitive: 4,
+        };
+        assert!(
+            check_rays(
+                &[
+                    good,
+                    TreeRay {
+                        root_primitive: MISS,
+                        ..good
+                    }
+                ],
+                5
+            )
+            .is_ok()
+        );
+        let bad = [
+            (
+                TreeRay {
+                    root_primitive: 5,
+                    ..good
+                },
+                "root primitive 5 of 5",
+            ),
+            (
+                TreeRay {
+                    origin: [f32::NAN, 0.0, 0.0],
+                    ..good
+                },
+                "non-finite",
+            ),
+            (
+                TreeRay {
+                    dir: [0.0, 0.0, f32::INFINITY],
+                    ..good
+                },
+                "non-finite",
+            ),
+            (
+                TreeRay {
+                    root_t: f32::NAN,
+                    ..good
+                },
+                "non-finite",
+            ),
+            (
+                TreeRay {
+                    dir: [0.0, 0.0, 2.0],
+                    ..good
+                },
+                "length 2",
+            ),
+            (TreeRay { dir: [0.0; 3], ..good }, "length 0"),
+        ];
+        for (ray, says) in bad {
+            let e = check_rays(&[good, ray], 5).unwrap_err().to_string();
+            assert!(e.contains("ray 1") && e.contains(says), "{e}");
         }
     }
 
