@@ -43,6 +43,11 @@ const TREES_ENTRY: usize = 2;
 /// below any device's limits (32 bytes a pixel).
 pub const PIXELS_PER_BATCH: usize = 1 << 16;
 
+/// Bytes of ray-tree slots per `whitted_trees` dispatch at most (a slot of
+/// a depth-5 tree with one light is 7 KB, mostly unused; a device with
+/// gigabyte bindings need not read back gigabytes at once).
+pub const TREES_BATCH_BYTES: u64 = 64 << 20;
+
 /// The pipeline of `whitted.wgsl` for one device.
 pub struct WhittedKernels(TreeKernels);
 
@@ -235,7 +240,8 @@ impl Batched<WhittedPass> {
     }
 
     /// Traces `rays` (blocking) in batches that keep a batch's slots under
-    /// half the device's largest storage binding: each ray's slot of
+    /// half the device's largest storage binding and `TREES_BATCH_BYTES`
+    /// (the slots are read back whole): each ray's slot of
     /// `layout` (`tree_records::decode` reads it) in the rays' order, and
     /// the kernels' time.
     pub fn trace_trees(
@@ -248,7 +254,7 @@ impl Batched<WhittedPass> {
         progress: &Progress,
     ) -> Result<(Vec<[u32; 4]>, Option<f64>)> {
         let slot_bytes = 16 * layout.slot_words4() as u64;
-        let largest = ctx.device.limits().max_storage_buffer_binding_size / 2;
+        let largest = (ctx.device.limits().max_storage_buffer_binding_size / 2).min(TREES_BATCH_BYTES);
         let per_batch = (largest / slot_bytes).clamp(1, PIXELS_PER_BATCH as u64) as usize;
         let mut slots = Vec::with_capacity(rays.len() * layout.slot_words4());
         let plan = BatchPlan::new(rays.len(), per_batch, 1);
