@@ -18,10 +18,9 @@
 //! Builds run in rounds over all the cells the frame asks for, so the
 //! extremal rays and the predicates of a round run in parallel.
 
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::bounded::affine::{AVec3, Aff};
@@ -32,7 +31,7 @@ use crate::bounded::interpolate::{PixelJob, interpolate_pixels};
 use crate::bounded::linespace::{FacePair, LineCoords, pair_index};
 use crate::bounded::linetree::{CellState, HashSet, Interpolant, Linetrees, Sample, corner_ray};
 use crate::bounded::predicate::{BoundKind, Corners, Predicate, RootFace};
-use crate::bounded::samples::{first_surface, textured_split, trace_sample, tree_ray};
+use crate::bounded::samples::{first_surface, textured_split, trace_sample, tree_ray, twin_sample};
 use crate::bounded::screen::{CONFLICT, pixels_in_cell, span_fill};
 use crate::bounded::settings::{BoundedSettings, SlowPath, SplitKind};
 use crate::bounded::shaft::{End, Exclude, Shafts};
@@ -429,44 +428,35 @@ impl BoundedRenderer {
         missing.dedup_by_key(|m| m.0);
         stats.extremal_rays_traced += missing.len() as u64;
         let (trees, geometry) = (&self.trees, &self.geometry);
-        // Each missing ray with its root (the linetree's surface).
-        let rays: Vec<(u128, RootFace, DVec3, DVec3)> = missing
+        // Each missing ray with its root hit (on the linetree's surface).
+        let (keys, rays): (Vec<u128>, Vec<TreeRay>) = missing
             .par_iter()
             .map(|&(key, c, k)| {
                 let cell = &trees.cells[c as usize];
                 let tree = &trees.trees[cell.tree as usize];
                 let (o, d) = corner_ray(&tree.pair, &cell.cell, k);
-                (key, tree.surface, o, d)
+                (key, tree_ray(geometry, tree.surface, o, d))
             })
-            .collect();
-        let on_device = if self.slow_path_on_gpu() && !rays.is_empty() {
-            let given: Vec<TreeRay> = rays
-                .iter()
-                .map(|&(_, root, o, d)| tree_ray(geometry, root, o, d))
-                .collect();
-            self.whitted.trace_trees(params, &given)?
+            .unzip();
+        let mut on_device = if self.slow_path_on_gpu() && !rays.is_empty() {
+            self.whitted.trace_trees(params, &rays)?.unwrap_or_default()
         } else {
-            None
+            Vec::new()
         };
+        stats.extremal_rays_on_gpu += on_device.iter().flatten().count() as u64;
+        // The twin traces what the kernel did not (no GPU, or a tree that
+        // overflowed its slot).
+        on_device.resize_with(rays.len(), || None);
         let twin = self.whitted.twin(params);
-        let geometry = &self.geometry;
-        let on_gpu = AtomicU64::new(0);
-        let traced: Vec<(u128, Sample)> = rays
+        let traced: Vec<Sample> = rays
             .par_iter()
-            .enumerate()
-            .map(|(i, &(key, root, o, d))| {
-                // The kernel's tree, or the twin's where there is none or
-                // it overflowed its slot.
-                let gpu = on_device.as_ref().and_then(|t| t[i].clone());
-                on_gpu.fetch_add(gpu.is_some() as u64, Ordering::Relaxed);
-                let sample = match gpu {
-                    Some(r) => Sample::new(r.radiance, r.diffuse, r.tree),
-                    None => trace_sample(&twin, geometry, root, o, d),
-                };
-                (key, sample)
+            .zip(on_device)
+            .map(|(ray, gpu)| match gpu {
+                Some(r) => Sample::new(r.radiance, r.diffuse, r.tree),
+                None => twin_sample(&twin, ray),
             })
             .collect();
-        stats.extremal_rays_on_gpu += on_gpu.into_inner();
+        let traced = keys.into_iter().zip(traced);
         for (key, s) in traced {
             self.trees.insert_sample(key, s);
         }

@@ -34,7 +34,12 @@ pub(crate) fn tree_ray(geometry: &SceneGeometry, root: RootFace, o: DVec3, d: DV
 /// between the front face and the root is no part of the interpolant:
 /// pixel assignment is exact, and reprojection culls the eye's own shaft).
 pub(crate) fn trace_sample(twin: &Whitted, geometry: &SceneGeometry, root: RootFace, o: DVec3, d: DVec3) -> Sample {
-    let (out, tree) = twin.trace_tree(&tree_ray(geometry, root, o, d));
+    twin_sample(twin, &tree_ray(geometry, root, o, d))
+}
+
+/// The sample of a ray whose root hit is found (`tree_ray`), by the twin.
+pub(crate) fn twin_sample(twin: &Whitted, ray: &TreeRay) -> Sample {
+    let (out, tree) = twin.trace_tree(ray);
     Sample::new(out.radiance, out.diffuse, tree)
 }
 

@@ -7,7 +7,7 @@
 use std::ops::Range;
 
 use super::scene::RenderScene;
-use super::tree_records::{HEADER_WORDS4, TreeLayout, TreeRay};
+use super::tree_records::{TreeLayout, TreeRay};
 use super::whitted::{PixelOut, WhittedParams};
 use crate::error::{Error, Result};
 use crate::gpu::batch::{BatchPlan, Batched, run_batches};
@@ -38,6 +38,9 @@ const WHITTED_IO: &[Io] = &[
 const RANGE_ENTRY: usize = 0;
 const LISTED_ENTRY: usize = 1;
 const TREES_ENTRY: usize = 2;
+
+/// Bytes of one pixel's output (`PixelOut`).
+const PIXEL_BYTES: u64 = std::mem::size_of::<PixelOut>() as u64;
 
 /// Pixels per dispatch: short dispatches on a software rasteriser, and far
 /// below any device's limits (32 bytes a pixel).
@@ -111,7 +114,7 @@ impl TreePass<WhittedKernels> {
     /// Prepares the pixels `params.first_pixel ..+ params.pixel_count`
     /// (`row_pitch` is set here).
     pub fn prepare(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, params: &WhittedParams) -> Result<()> {
-        self.prepare_entry(device, queue, params, RANGE_ENTRY)
+        self.prepare_entry(device, queue, params, RANGE_ENTRY, PIXEL_BYTES)
     }
 
     /// Prepares the pixels `list` of the image `params` describes (its
@@ -132,7 +135,7 @@ impl TreePass<WhittedKernels> {
             pixel_count: list.len() as u32,
             ..*params
         };
-        self.prepare_entry(device, queue, &params, LISTED_ENTRY)
+        self.prepare_entry(device, queue, &params, LISTED_ENTRY, PIXEL_BYTES)
     }
 
     /// Prepares the rays `rays` of `whitted_trees`, each tree written into
@@ -154,26 +157,24 @@ impl TreePass<WhittedKernels> {
             tree_stride: layout.stride,
             ..*params
         };
-        self.prepare_entry(device, queue, &params, TREES_ENTRY)
+        self.prepare_entry(device, queue, &params, TREES_ENTRY, 16 * layout.slot_words4() as u64)
     }
 
+    /// Prepares entry `entry` over `params.pixel_count` items, each
+    /// writing `item_bytes` of output.
     fn prepare_entry(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         params: &WhittedParams,
         entry: usize,
+        item_bytes: u64,
     ) -> Result<()> {
         let n = params.pixel_count;
         let (gx, gy, pitch) = dispatch_grid(n, device.limits().max_compute_workgroups_per_dimension);
         let params = WhittedParams {
             row_pitch: pitch,
             ..*params
-        };
-        let item_bytes = if entry == TREES_ENTRY {
-            16 * (HEADER_WORDS4 as u64 + params.tree_capacity as u64 * params.tree_stride as u64)
-        } else {
-            std::mem::size_of::<PixelOut>() as u64
         };
         let bytes = n as u64 * item_bytes;
         let io = self.io();

@@ -139,14 +139,9 @@ pub fn encode(layout: &TreeLayout, radiance: Vec3, diffuse: Vec3, tree: &RayTree
         if !node.lights.is_empty() {
             flags |= LIT;
         }
-        flags |= [
-            (node.reflected, REFLECTED),
-            (node.refracted, REFRACTED),
-            (node.tir, TIR),
-        ]
-        .iter()
-        .filter(|f| f.0)
-        .fold(0, |a, f| a | f.1);
+        flags |= if node.reflected { REFLECTED } else { 0 }
+            | if node.refracted { REFRACTED } else { 0 }
+            | if node.tir { TIR } else { 0 };
         slot[at] = [flags, node.parent.unwrap_or(MISS), object, face];
         slot[at + 1] = [surface, primitive, t, 0];
         slot[at + 2] = bits(node.origin);
