@@ -8,6 +8,7 @@
 pub mod aabb;
 pub mod ao;
 pub mod bounded;
+pub mod bvh;
 pub mod cli;
 pub mod color;
 pub mod device;

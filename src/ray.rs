@@ -2,6 +2,9 @@
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::aabb::Aabb;
 
 /// A ray `o + t d`. The direction need not be normalised: `t` is measured in
 /// units of `d`, as in the `trace-rays` file format.
@@ -49,4 +52,47 @@ impl Hit {
     pub fn is_hit(&self) -> bool {
         self.triangle != Hit::MISS_INDEX
     }
+}
+
+/// Traces rays in no particular order (a ray file) with `trace` (a batch of
+/// rays into their hits), in an order sorted by the octant of their
+/// direction and the Morton code of where they enter `bounds`, so that
+/// consecutive rays walk the same nodes while they are in cache; the hits
+/// come back in the rays' order. The rays are copied into the sorted order
+/// first: read through the permutation inside the trace loop, each ray's
+/// load missed the cache and waited behind the previous ray's walk (a fifth
+/// of the time on 1M random rays); a pass of independent loads overlaps them.
+pub fn trace_sorted(bounds: &Aabb, rays: &[Ray], trace: impl Fn(&[Ray], &mut [Hit]) + Sync) -> Vec<Hit> {
+    let extent = (bounds.max - bounds.min).max(Vec3::splat(f32::MIN_POSITIVE));
+    let mut keyed: Vec<(u64, u32)> = rays
+        .par_iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let entry = match bounds.clip_ray(r.o(), r.d(), 0.0, f32::INFINITY) {
+                Some((t0, _)) => r.o() + r.d() * t0,
+                None => r.o(),
+            };
+            let q = ((entry - bounds.min) / extent * 1023.0).clamp(Vec3::ZERO, Vec3::splat(1023.0));
+            let octant = (r.d().x < 0.0) as u64 | ((r.d().y < 0.0) as u64) << 1 | ((r.d().z < 0.0) as u64) << 2;
+            (octant << 30 | morton3(q.x as u32, q.y as u32, q.z as u32), i as u32)
+        })
+        .collect();
+    keyed.par_sort_unstable();
+    let sorted: Vec<Ray> = keyed.par_iter().map(|&(_, i)| rays[i as usize]).collect();
+    let mut traced = vec![Hit::MISS; rays.len()];
+    traced
+        .par_chunks_mut(1024)
+        .zip(sorted.par_chunks(1024))
+        .for_each(|(h, r)| trace(r, h));
+    let mut hits = vec![Hit::MISS; rays.len()];
+    for (&(_, i), h) in keyed.iter().zip(traced) {
+        hits[i as usize] = h;
+    }
+    hits
+}
+
+/// Interleaves the low 10 bits of x, y and z (a Morton code).
+fn morton3(x: u32, y: u32, z: u32) -> u64 {
+    let spread = |v: u32| (0..10).fold(0u64, |m, b| m | (((v >> b) & 1) as u64) << (3 * b));
+    spread(x) | spread(y) << 1 | spread(z) << 2
 }

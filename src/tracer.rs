@@ -3,12 +3,17 @@
 //! rays (reference AO, and the ground truth of fields, SSAO and PRT) run in
 //! the WGSL kernels on a GPU or in their CPU twins, with identical results;
 //! on a GPU the tree is uploaded once and the passes keep their buffers
-//! between calls.
+//! between calls. On the CPU, single rays go through the wide BVH
+//! (`bvh`) by default, built the first time they are traced; `Accel`
+//! chooses.
+
+use serde::Serialize;
 
 use crate::ao::gpu::AoRaysBatches;
 use crate::ao::raycast::ao_rays;
 use crate::ao::{AoPoint, AoSettings, VisibilityMasks};
-use crate::device::{Device, GpuOutput, OnDevice, Timed};
+use crate::bvh::Bvh8;
+use crate::device::{Device, GpuOutput, OnDevice, Timed, elapsed_ms};
 use crate::error::Result;
 use crate::gpu::GpuContext;
 use crate::kdtree::gpu::{GpuKdTree, TraceMode, TraceRaysBatches};
@@ -35,10 +40,36 @@ pub struct GpuTracer {
     ao: Option<AoRaysBatches>,
 }
 
-/// A kd-tree and, on a GPU, its upload and passes.
+/// The structure single rays walk on the CPU (the GPU kernels walk the
+/// kd-tree). The hits are the same; where two triangles are hit at exactly
+/// the same t, the BVH reports the one of smaller index.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Accel {
+    /// The wide BVH (`bvh`): two to three times the kd-tree's speed on
+    /// single rays, built in about a fifth of the kd-tree's time.
+    #[default]
+    Bvh,
+    /// The kd-tree's single-ray walk (the MLRTA paper's foundation).
+    Kdtree,
+}
+
+/// What the BVH cost and holds (JSON `bvh`).
+#[derive(Debug, Clone, Serialize)]
+pub struct BvhStats {
+    pub build_ms: f64,
+    pub nodes: usize,
+    pub leaf_blocks: usize,
+    pub bytes: usize,
+}
+
+/// A kd-tree and, on a GPU, its upload and passes; on the CPU, the BVH of
+/// its triangles once single rays need it.
 pub struct Tracer {
     tree: KdTree,
     gpu: OnDevice<GpuTracer>,
+    accel: Accel,
+    bvh: Option<(Bvh8, BvhStats)>,
 }
 
 impl Tracer {
@@ -57,7 +88,56 @@ impl Tracer {
                 ao: None,
             })
         })?;
-        Ok(Tracer { tree, gpu })
+        Ok(Tracer {
+            tree,
+            gpu,
+            accel: Accel::default(),
+            bvh: None,
+        })
+    }
+
+    /// The structure of single rays on the CPU.
+    #[must_use]
+    pub fn with_accel(mut self, accel: Accel) -> Tracer {
+        self.accel = accel;
+        self
+    }
+
+    /// The BVH's cost, once it has been built.
+    pub fn bvh_stats(&self) -> Option<&BvhStats> {
+        self.bvh.as_ref().map(|(_, s)| s)
+    }
+
+    /// Builds the BVH if single rays on the CPU will walk it (before any
+    /// clock starts: its build is reported apart, as the kd-tree's).
+    fn ready_bvh(&mut self) -> Option<&Bvh8> {
+        if self.accel != Accel::Bvh || self.gpu.state().is_some() {
+            return None;
+        }
+        if self.bvh.is_none() {
+            let start = std::time::Instant::now();
+            let bvh = Bvh8::from_tree(&self.tree);
+            let stats = BvhStats {
+                build_ms: elapsed_ms(start),
+                nodes: bvh.nodes.len(),
+                leaf_blocks: bvh.blocks.len(),
+                bytes: bvh.memory_bytes(),
+            };
+            self.bvh = Some((bvh, stats));
+        }
+        self.bvh.as_ref().map(|(b, _)| b)
+    }
+
+    /// Whether a segment from `origin` along `dir` hits anything at `0 < t
+    /// < t_max`, on the CPU (shadow rays of single-ray images), as a
+    /// function threads can share.
+    pub fn any_hit_fn(&mut self) -> impl Fn(glam::Vec3, glam::Vec3, f32) -> bool + Sync + '_ {
+        self.ready_bvh();
+        let (tree, bvh) = (&self.tree, self.bvh.as_ref().map(|(b, _)| b));
+        move |o, d, t_max| match bvh {
+            Some(b) => b.any_hit(o, d, t_max),
+            None => tree.any_hit(o, d, t_max),
+        }
     }
 
     pub fn tree(&self) -> &KdTree {
@@ -75,15 +155,19 @@ impl Tracer {
     }
 
     /// `closest` for rays in no particular order (a ray file): on the CPU
-    /// they are traced in an order sorted by where they enter the tree
-    /// (`KdTree::trace_closest_incoherent`); the hits are the same.
+    /// the kd-tree traces them in an order sorted by where they enter it
+    /// (`KdTree::trace_closest_incoherent`); the BVH, whose nodes stay in
+    /// cache, gains nothing from the sort (measured: 2.93 sorted against
+    /// 3.01 Mrays/s on 1M random bunny rays) and takes them as they come.
     pub fn closest_incoherent(&mut self, rays: &[Ray]) -> Result<Timed<Vec<Hit>>> {
         self.closest_by(rays, KdTree::trace_closest_incoherent)
     }
 
-    /// Closest hits on the GPU, or by `cpu` on the CPU.
+    /// Closest hits on the GPU, on the CPU through the BVH, or else by
+    /// the kd-tree's `cpu`.
     fn closest_by(&mut self, rays: &[Ray], cpu: fn(&KdTree, &[Ray]) -> Vec<Hit>) -> Result<Timed<Vec<Hit>>> {
-        let tree = &self.tree;
+        self.ready_bvh();
+        let (tree, bvh) = (&self.tree, self.bvh.as_ref().map(|(b, _)| b));
         self.gpu.run(
             |ctx, g| {
                 let traced = g.trace(ctx, rays, TraceMode::Closest)?;
@@ -92,7 +176,7 @@ impl Tracer {
                     gpu_ms: traced.gpu_ms,
                 })
             },
-            || Ok(cpu(tree, rays)),
+            || Ok(bvh.map_or_else(|| cpu(tree, rays), |b| b.trace_closest(rays))),
         )
     }
 

@@ -158,36 +158,11 @@ impl KdTree {
     /// it enters the tree's box and which octant it points to, so that
     /// consecutive rays walk the same nodes while they are in cache.
     pub fn trace_closest_incoherent(&self, rays: &[Ray]) -> Vec<Hit> {
-        let extent = (self.bounds.max - self.bounds.min).max(Vec3::splat(f32::MIN_POSITIVE));
-        let mut keyed: Vec<(u64, u32)> = rays
-            .par_iter()
-            .enumerate()
-            .map(|(i, r)| {
-                let entry = match self.bounds.clip_ray(r.o(), r.d(), 0.0, f32::INFINITY) {
-                    Some((t0, _)) => r.o() + r.d() * t0,
-                    None => r.o(),
-                };
-                let q = ((entry - self.bounds.min) / extent * 1023.0).clamp(Vec3::ZERO, Vec3::splat(1023.0));
-                let octant = (r.d().x < 0.0) as u64 | ((r.d().y < 0.0) as u64) << 1 | ((r.d().z < 0.0) as u64) << 2;
-                (octant << 30 | morton3(q.x as u32, q.y as u32, q.z as u32), i as u32)
-            })
-            .collect();
-        keyed.par_sort_unstable();
-        // The rays are copied into the sorted order first: read through the
-        // permutation inside the trace loop, each ray's load missed the
-        // cache and waited behind the previous ray's walk (a fifth of the
-        // time on 1M random rays); a pass of independent loads overlaps them.
-        let sorted: Vec<Ray> = keyed.par_iter().map(|&(_, i)| rays[i as usize]).collect();
-        let traced: Vec<Hit> = sorted
-            .par_iter()
-            .with_min_len(1024)
-            .map(|r| self.closest_hit(r.o(), r.d(), f32::INFINITY))
-            .collect();
-        let mut hits = vec![Hit::MISS; rays.len()];
-        for (&(_, i), h) in keyed.iter().zip(traced) {
-            hits[i as usize] = h;
-        }
-        hits
+        crate::ray::trace_sorted(&self.bounds, rays, |rays, hits| {
+            for (r, h) in rays.iter().zip(hits) {
+                *h = self.closest_hit(r.o(), r.d(), f32::INFINITY);
+            }
+        })
     }
 
     /// Whether each ray hits anything (the twin of `trace_any`, which
@@ -211,12 +186,6 @@ impl KdTree {
             })
             .unzip()
     }
-}
-
-/// Interleaves the low 10 bits of x, y and z (a Morton code).
-fn morton3(x: u32, y: u32, z: u32) -> u64 {
-    let spread = |v: u32| (0..10).fold(0u64, |m, b| m | (((v >> b) & 1) as u64) << (3 * b));
-    spread(x) | spread(y) << 1 | spread(z) << 2
 }
 
 fn validate_params(p: &KdTreeParams) -> Result<()> {

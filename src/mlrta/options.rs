@@ -9,6 +9,7 @@ use super::tiles::DEFAULT_MIN_TILE;
 use crate::error::Result;
 use crate::options::{Applies, OnOff, applies};
 use crate::scene::View;
+use crate::tracer::Accel;
 
 #[derive(Args, Clone, Debug)]
 pub struct TraceOptions {
@@ -19,6 +20,10 @@ pub struct TraceOptions {
     /// Trace rays one by one instead of in packets (the foundation's path).
     #[arg(long, conflicts_with = "mlrta")]
     pub single_ray: bool,
+    /// What single rays walk on the CPU: the wide BVH (faster) or the
+    /// kd-tree (the paper's foundation); the hits are the same.
+    #[arg(long, value_enum, default_value_t = Accel::Bvh)]
+    pub accel: Accel,
     /// Initial tile side in pixels (the paper's ITS).
     #[arg(long, default_value_t = 128, allow_negative_numbers = true)]
     pub tile: u32,
@@ -55,6 +60,7 @@ impl TraceOptions {
         let aa = &["aa_samples", "reference"];
         vec![
             applies(!self.single_ray, tiles, "packets (without --single-ray)"),
+            applies(self.single_ray, &["accel"], "--single-ray"),
             applies(self.aa != AaMode::None, aa, "--aa adaptive or uniform"),
         ]
     }
@@ -64,6 +70,7 @@ impl TraceOptions {
         let request = TraceRequest {
             view,
             single_ray: self.single_ray,
+            accel: self.accel,
             params: MlrtaParams {
                 entry_points: self.mlrta.on(),
                 initial_tile: self.tile,

@@ -22,7 +22,7 @@ use crate::kdtree::{BuildStats, KdTree};
 use crate::progress::Bars;
 use crate::ray::{Hit, Ray};
 use crate::scene::{Camera, Mesh, View};
-use crate::tracer::{Tracer, build_tree};
+use crate::tracer::{Accel, BvhStats, Tracer, build_tree};
 
 /// Rays per side of a packet in the statistics.
 const PACKET: u32 = 4;
@@ -67,6 +67,8 @@ pub struct TraceRequest {
     pub view: View,
     /// One ray at a time instead of packets.
     pub single_ray: bool,
+    /// What single rays walk on the CPU.
+    pub accel: Accel,
     /// Packets: entry points on or off, tile sizes.
     pub params: MlrtaParams,
     pub light: ShadowLight,
@@ -108,6 +110,13 @@ pub struct TraceStats {
     pub camera: Camera,
     /// "single-ray", or MLRTA "on"/"off".
     pub mlrta: &'static str,
+    /// Single rays on the CPU: the structure they walked, and the BVH's
+    /// cost when it was that (the traversal counts are the kd-tree's walk
+    /// of the same rays either way).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub accel: Option<Accel>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bvh: Option<BvhStats>,
     pub timing: Timing,
     /// Primary (and shadow) rays' time: kernel time on a GPU with timestamps.
     pub trace_ms: f64,
@@ -172,6 +181,8 @@ struct Traced {
     tiles: Vec<TileReport>,
     aa: Option<aa::AaResult>,
     mlrta: &'static str,
+    accel: Option<Accel>,
+    bvh: Option<BvhStats>,
     timing: Timing,
     trace_ms: f64,
     /// Traversal steps and intersection tests over the image.
@@ -202,7 +213,7 @@ pub fn trace_view(
     let progress = bars.spinner(&format!("tracing {width}x{height} primary rays"));
     let kdtree = tree.stats.clone();
     let mut t = if request.single_ray {
-        single_ray(device, tree, &rays, light)?
+        single_ray(device, tree, &rays, light, request.accel)?
     } else {
         packet_image(device, &tree, mesh, &camera, &rays, request, light, packets)?
     };
@@ -222,6 +233,8 @@ pub fn trace_view(
         // Reported where the user's scene is, not in its frame.
         camera: camera.in_world(mesh.origin),
         mlrta: t.mlrta,
+        accel: t.accel,
+        bvh: t.bvh,
         timing: t.timing,
         trace_ms: t.trace_ms,
         mrays_per_s: mrays_per_s(traced, t.trace_ms),
@@ -250,21 +263,22 @@ pub fn mrays_per_s(rays: usize, ms: f64) -> f64 {
     if ms > 0.0 { rays as f64 / (ms * 1e3) } else { 0.0 }
 }
 
-/// The foundation's single-ray path (statistics summed over all rays);
-/// shadow rays on the CPU, timed into the trace.
-fn single_ray(device: &Device, tree: KdTree, rays: &[Ray], light: Option<Vec3>) -> Result<Traced> {
-    let mut tracer = Tracer::from_tree(device, tree)?;
+/// The foundation's single-ray path (statistics summed over all rays: the
+/// kd-tree's walk of the rays, whichever structure traced them); shadow
+/// rays on the CPU, timed into the trace.
+fn single_ray(device: &Device, tree: KdTree, rays: &[Ray], light: Option<Vec3>, accel: Accel) -> Result<Traced> {
+    let mut tracer = Tracer::from_tree(device, tree)?.with_accel(accel);
     let traced = tracer.closest(rays)?;
     let counts = tracer.traversal_counts(rays)?;
     let hits = traced.value;
     let mut trace_ms = traced.ms;
     let shadowed = light.map(|l| {
+        let any_hit = tracer.any_hit_fn();
         let start = std::time::Instant::now();
-        let tree = tracer.tree();
         let shadow: Vec<bool> = rays
             .par_iter()
             .zip(&hits)
-            .map(|(r, h)| h.is_hit() && tree.any_hit(l, r.o() + h.t * r.d() - l, 1.0 - SHADOW_EPSILON))
+            .map(|(r, h)| h.is_hit() && any_hit(l, r.o() + h.t * r.d() - l, 1.0 - SHADOW_EPSILON))
             .collect();
         trace_ms += elapsed_ms(start);
         shadow
@@ -284,6 +298,8 @@ fn single_ray(device: &Device, tree: KdTree, rays: &[Ray], light: Option<Vec3>) 
         tiles: Vec::new(),
         aa: None,
         mlrta: "single-ray",
+        accel: (!device.is_gpu()).then_some(accel),
+        bvh: tracer.bvh_stats().cloned(),
         timing: traced.timing,
         trace_ms,
         cells: counts.cells as f64,
@@ -397,6 +413,8 @@ fn packet_image(
         tiles,
         aa,
         mlrta: if params.entry_points { "on" } else { "off" },
+        accel: None,
+        bvh: None,
         timing: traced.timing,
         trace_ms: traced.ms,
         cells: cells(&c),

@@ -66,6 +66,7 @@ impl TraceSweep {
         let request = TraceRequest {
             view: self.view,
             single_ray: s.get_on_off("single-ray")?.unwrap_or(false),
+            accel: crate::tracer::Accel::default(),
             params: MlrtaParams {
                 entry_points: s.get_on_off("mlrta")?.unwrap_or(true),
                 initial_tile: tile,

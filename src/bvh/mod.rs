@@ -1,0 +1,148 @@
+//! A wide bounding volume hierarchy for incoherent single rays (issue 18,
+//! item 3): eight children per node, their boxes tested at once in one
+//! AVX2 register (or eight scalar lanes), leaves of up to four triangles in
+//! the kd-tree's SoA blocks (`kdtree::leaf_blocks`) and tested with its
+//! watertight arithmetic, in its frame.
+//!
+//! Why a second structure: a random ray walks about 42 interior kd-tree
+//! nodes on the bunny, a chain of dependent loads and mispredicted branches
+//! one split plane at a time, where a wide BVH decides between eight
+//! children per load (docs/results/tracing.md measured both). The kd-tree
+//! stays the structure of everything coherent (the MLRTA packets, the AO
+//! packets, the GPU kernels); this one serves rays in no particular order
+//! (`trace-rays`' ray files on the CPU).
+//!
+//! Hits are the kd-tree's: the same triangle test in the same frame gives
+//! bit-identical t, and the closest hit is the smallest t; where two
+//! triangles are hit at exactly the same t (a ray through a shared edge or
+//! vertex) the one of smaller index is reported, which the kd-tree, going by
+//! its cells, does not always do (`tests/bvh.rs` holds the two to it).
+
+mod build;
+#[cfg(test)]
+mod tests;
+mod traverse;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::aabb::Aabb;
+use crate::kdtree::KdTree;
+use crate::kdtree::leaf_blocks::{BLOCK, LeafBlock};
+use crate::ray::{Hit, Ray};
+
+/// Children per node.
+pub const WIDTH: usize = 8;
+/// Most triangles in a leaf: one block of the kd-tree's leaf test.
+pub const MAX_LEAF: usize = BLOCK;
+/// A child word with this bit set is a leaf: the rest is its block's index.
+pub const LEAF_BIT: u32 = 1 << 31;
+/// An unused child slot (its box is empty, so no ray enters it).
+pub const EMPTY_CHILD: u32 = u32::MAX;
+
+/// Eight children's boxes, each plane as a row of eight lanes:
+/// `planes[axis]` the minima, `planes[3 + axis]` the maxima.
+#[repr(C, align(64))]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Node8 {
+    pub planes: [[f32; WIDTH]; 6],
+    pub child: [u32; WIDTH],
+}
+
+impl Node8 {
+    /// No children: every box empty (min +inf, max -inf), so no ray's slab
+    /// interval is ever non-empty.
+    pub const EMPTY: Node8 = Node8 {
+        planes: [
+            [f32::INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+        ],
+        child: [EMPTY_CHILD; WIDTH],
+    };
+}
+
+/// The hierarchy over a triangle soup (a kd-tree's `triangles`, whose
+/// indices hits report).
+#[derive(Debug, Clone)]
+pub struct Bvh8 {
+    /// Node 0 is the root.
+    pub nodes: Vec<Node8>,
+    /// The leaves' triangles, vertices times `frame_scale`.
+    pub blocks: Vec<LeafBlock>,
+    /// All triangles' bounds.
+    pub bounds: Aabb,
+    /// The intersection test's frame (`watertight::ShearedRay`).
+    pub frame_scale: f32,
+}
+
+impl Bvh8 {
+    /// The hierarchy over a kd-tree's triangles, in its frame, so that hits
+    /// compare bit for bit (the tree validated the triangles: non-empty,
+    /// finite).
+    pub fn from_tree(tree: &KdTree) -> Bvh8 {
+        build::build(&tree.triangles, tree.frame_scale)
+    }
+
+    /// Levels of nodes from the root to the deepest leaf (the root alone
+    /// is 1); the builder keeps it under 81, so the traversal stack of
+    /// 1,024 entries (at most seven pushed per level) cannot overflow.
+    pub fn depth(&self) -> usize {
+        fn below(nodes: &[Node8], i: usize) -> usize {
+            1 + nodes[i]
+                .child
+                .iter()
+                .filter(|&&c| c & LEAF_BIT == 0)
+                .map(|&c| below(nodes, c as usize))
+                .max()
+                .unwrap_or(0)
+        }
+        below(&self.nodes, 0)
+    }
+
+    /// Bytes of nodes and blocks.
+    pub fn memory_bytes(&self) -> usize {
+        std::mem::size_of_val(self.nodes.as_slice()) + std::mem::size_of_val(self.blocks.as_slice())
+    }
+
+    /// Closest hits of `rays` in their order, in parallel.
+    pub fn trace_closest(&self, rays: &[Ray]) -> Vec<Hit> {
+        let mut hits = vec![Hit::MISS; rays.len()];
+        hits.par_chunks_mut(1024)
+            .zip(rays.par_chunks(1024))
+            .for_each(|(h, r)| self.closest_hits(r, h));
+        hits
+    }
+
+    /// `trace_closest` of rays in no particular order, traced sorted by
+    /// where they enter the scene (`ray::trace_sorted`): same hits.
+    pub fn trace_closest_incoherent(&self, rays: &[Ray]) -> Vec<Hit> {
+        crate::ray::trace_sorted(&self.bounds, rays, |r, h| self.closest_hits(r, h))
+    }
+
+    /// Closest hit with `0 < t < t_max`, or `Hit::MISS`.
+    pub fn closest_hit(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Hit {
+        let mut hit = [Hit::MISS];
+        self.closest_hits_until(&[Ray::new(origin, dir)], t_max, &mut hit);
+        hit[0]
+    }
+
+    /// Whether anything is hit with `0 < t < t_max`.
+    pub fn any_hit(&self, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
+        let mut hit = [Hit::MISS];
+        traverse::dispatch::<true>(self, &[Ray::new(origin, dir)], t_max, &mut hit);
+        hit[0].is_hit()
+    }
+
+    /// Closest hits of a batch of rays into `hits` (same length).
+    pub fn closest_hits(&self, rays: &[Ray], hits: &mut [Hit]) {
+        self.closest_hits_until(rays, f32::INFINITY, hits);
+    }
+
+    fn closest_hits_until(&self, rays: &[Ray], t_max: f32, hits: &mut [Hit]) {
+        traverse::dispatch::<false>(self, rays, t_max, hits);
+    }
+}

@@ -1,0 +1,286 @@
+//! The BVH against brute force (the smallest t, and at equal t the smaller
+//! triangle index: exactly what a loop over all triangles in index order
+//! with a strict `<` reports), on soups, shared edges, degenerate inputs
+//! and extreme scales; its structure; the two box tests against each other.
+
+use glam::Vec3;
+
+use super::traverse::{BoxRay, BoxTest, Lanes8};
+use super::*;
+use crate::kdtree::test_rng::Rng;
+use crate::kdtree::watertight::ShearedRay;
+use crate::kdtree::{KdTree, KdTreeParams};
+
+fn brute_force(tris: &[[Vec3; 3]], scale: f32, o: Vec3, d: Vec3, t_max: f32) -> Hit {
+    let ray = ShearedRay::in_frame(o, d, scale);
+    let mut best = Hit::MISS;
+    let mut best_t = t_max;
+    for (i, t) in tris.iter().enumerate() {
+        if let Some(t) = ray.intersect(t[0] * scale, t[1] * scale, t[2] * scale, best_t) {
+            best_t = t;
+            best = Hit { t, triangle: i as u32 };
+        }
+    }
+    best
+}
+
+fn random_soup(rng: &mut Rng, n: usize, size: f32) -> Vec<[Vec3; 3]> {
+    (0..n)
+        .map(|_| {
+            let c = rng.vec(-1.0, 1.0);
+            [0; 3].map(|_| c + rng.vec(-size, size))
+        })
+        .collect()
+}
+
+/// Rays from outside and inside, aimed at vertices, edge midpoints and
+/// anywhere, some axis-parallel (zero direction components).
+fn rays_for(rng: &mut Rng, tris: &[[Vec3; 3]], n: usize, reach: f32) -> Vec<(Vec3, Vec3, f32)> {
+    (0..n)
+        .map(|k| {
+            let o = rng.vec(-reach, reach);
+            let tri = tris[k % tris.len()];
+            let d = match k % 6 {
+                0 => tri[0] - o,
+                1 => (tri[1] + tri[2]) * 0.5 - o,
+                2 => [Vec3::X, -Vec3::Y, Vec3::Z][k % 3],
+                3 => (tri[0] + tri[1] + tri[2]) / 3.0 - o,
+                _ => rng.vec(-1.0, 1.0),
+            };
+            let t_max = if k % 5 == 0 {
+                rng.next_f32() * 2.0
+            } else {
+                f32::INFINITY
+            };
+            (o, d, t_max)
+        })
+        .collect()
+}
+
+/// Every ray's closest hit equals brute force bit for bit, triangle
+/// included; any-hit agrees. Returns (hits, rays whose closest t two
+/// triangles share).
+fn assert_brute_force(tris: &[[Vec3; 3]], rays: &[(Vec3, Vec3, f32)]) -> (usize, usize) {
+    let tree = KdTree::from_triangles(tris.to_vec(), &KdTreeParams::default()).unwrap();
+    let bvh = Bvh8::from_tree(&tree);
+    assert!(bvh.depth() <= 81, "depth {}", bvh.depth());
+    let (mut hits, mut ties) = (0, 0);
+    for (k, &(o, d, t_max)) in rays.iter().enumerate() {
+        let expect = brute_force(tris, bvh.frame_scale, o, d, t_max);
+        let got = bvh.closest_hit(o, d, t_max);
+        assert_eq!(
+            (got.t.to_bits(), got.triangle),
+            (expect.t.to_bits(), expect.triangle),
+            "ray {k}: {o} {d} t_max {t_max}"
+        );
+        assert_eq!(bvh.any_hit(o, d, t_max), expect.is_hit(), "any-hit, ray {k}");
+        if expect.is_hit() {
+            hits += 1;
+            let ray = ShearedRay::in_frame(o, d, bvh.frame_scale);
+            let s = bvh.frame_scale;
+            let shared = tris
+                .iter()
+                .filter(|t| ray.intersect(t[0] * s, t[1] * s, t[2] * s, t_max) == Some(got.t))
+                .count();
+            ties += (shared > 1) as usize;
+        }
+    }
+    (hits, ties)
+}
+
+#[test]
+fn random_soups_match_brute_force() {
+    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    for (n, size) in [(1, 0.5), (7, 0.3), (500, 0.1), (3000, 0.05)] {
+        let tris = random_soup(&mut rng, n, size);
+        let rays = rays_for(&mut rng, &tris, 3000, 3.0);
+        let (hits, _) = assert_brute_force(&tris, &rays);
+        assert!(hits > 300, "{n} triangles: {hits} hits");
+    }
+}
+
+/// A curved grid of quads, two triangles each, and a copy of it after it
+/// (each triangle again, at an index 2n^2 higher): rays through shared
+/// edges and vertices, and every hit a tie between a triangle and its copy,
+/// where the smaller index must win.
+#[test]
+fn shared_edges_and_ties_report_the_smaller_index() {
+    let n = 24;
+    let mut tris = Vec::new();
+    let p = |i: usize, j: usize| {
+        Vec3::new(
+            i as f32 / n as f32,
+            j as f32 / n as f32,
+            0.25 * (i * j) as f32 / (n * n) as f32,
+        )
+    };
+    for i in 0..n {
+        for j in 0..n {
+            tris.push([p(i, j), p(i + 1, j), p(i + 1, j + 1)]);
+            tris.push([p(i, j), p(i + 1, j + 1), p(i, j + 1)]);
+        }
+    }
+    tris.extend_from_within(..);
+    let mut rng = Rng(5);
+    let rays: Vec<_> = (0..4000)
+        .map(|k| {
+            let o = rng.vec(-1.0, 2.0) + Vec3::Z * 2.0;
+            let (i, j) = (1 + k % (n - 1), 1 + (k / 7) % (n - 1));
+            let target = if k % 2 == 0 {
+                p(i, j)
+            } else {
+                (p(i, j) + p(i + 1, j + 1)) * 0.5
+            };
+            (o, target - o, f32::INFINITY)
+        })
+        .collect();
+    let (hits, ties) = assert_brute_force(&tris, &rays);
+    println!("grid: {hits} hits, {ties} at a t shared by two or more triangles");
+    assert_eq!(ties, hits);
+}
+
+/// Inputs the SAH cannot split: identical triangles (one centroid), and
+/// triangles whose sizes grow geometrically (an unbalanced SAH tree).
+#[test]
+fn degenerate_inputs() {
+    let mut rng = Rng(17);
+    let same = vec![[Vec3::ZERO, Vec3::X, Vec3::Y]; 1000];
+    let rays = rays_for(&mut rng, &same, 500, 2.0);
+    let (hits, _) = assert_brute_force(&same, &rays);
+    assert!(hits > 50);
+    let nested: Vec<[Vec3; 3]> = (0..120)
+        .map(|i| {
+            let s = 1.2f32.powi(i);
+            [
+                Vec3::new(-s, -s, s * 0.01),
+                Vec3::new(s, -s, s * 0.01),
+                Vec3::new(0.0, s, s * 0.01),
+            ]
+        })
+        .collect();
+    let rays = rays_for(&mut rng, &nested, 2000, 5.0);
+    assert_brute_force(&nested, &rays);
+}
+
+/// Scenes of size 1e13 and 1e-13, and a small scene far from the origin
+/// (the boxes' padding is in units of the largest coordinate).
+#[test]
+fn extreme_scales_and_offsets() {
+    for (scale, offset) in [(1e13f32, 0.0f32), (1e-13, 0.0), (1.0, 3.0e4)] {
+        let mut rng = Rng(29);
+        let tris: Vec<[Vec3; 3]> = random_soup(&mut Rng(23), 800, 0.08)
+            .into_iter()
+            .map(|t| t.map(|v| v * scale + Vec3::splat(offset)))
+            .collect();
+        let unscaled = random_soup(&mut Rng(23), 800, 0.08);
+        let rays: Vec<_> = rays_for(&mut rng, &unscaled, 2000, 3.0)
+            .into_iter()
+            .map(|(o, d, t)| (o * scale + Vec3::splat(offset), d * scale, t))
+            .collect();
+        let (hits, _) = assert_brute_force(&tris, &rays);
+        assert!(hits > 100, "scale {scale} offset {offset}: {hits} hits");
+    }
+}
+
+/// Every triangle sits in exactly one leaf, and every child's box holds
+/// all the triangles below it.
+#[test]
+fn structure() {
+    let mut rng = Rng(31);
+    let tris = random_soup(&mut rng, 5000, 0.05);
+    let tree = KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap();
+    let bvh = Bvh8::from_tree(&tree);
+    let mut seen = vec![0u32; tris.len()];
+    fn check(bvh: &Bvh8, tris: &[[Vec3; 3]], child: u32, lo: Vec3, hi: Vec3, seen: &mut [u32]) {
+        let inside = |v: Vec3| v.cmpge(lo).all() && v.cmple(hi).all();
+        if child & LEAF_BIT != 0 {
+            for &t in bvh.blocks[(child & !LEAF_BIT) as usize]
+                .triangles
+                .iter()
+                .filter(|&&t| t != u32::MAX)
+            {
+                assert!(tris[t as usize].iter().all(|&v| inside(v)));
+                seen[t as usize] += 1;
+            }
+            return;
+        }
+        let node = &bvh.nodes[child as usize];
+        for slot in 0..WIDTH {
+            if node.child[slot] == EMPTY_CHILD {
+                continue;
+            }
+            let l = Vec3::new(node.planes[0][slot], node.planes[1][slot], node.planes[2][slot]);
+            let h = Vec3::new(node.planes[3][slot], node.planes[4][slot], node.planes[5][slot]);
+            assert!(inside(l) && inside(h), "child box outside its parent's");
+            check(bvh, tris, node.child[slot], l, h, seen);
+        }
+    }
+    check(
+        &bvh,
+        &tris,
+        0,
+        Vec3::splat(f32::NEG_INFINITY),
+        Vec3::splat(f32::INFINITY),
+        &mut seen,
+    );
+    assert!(seen.iter().all(|&n| n == 1));
+    // Every node has two children or more (a binary node's two at least),
+    // and the children of an incomplete node are all leaves (the widening
+    // opens inner children until eight).
+    for node in &bvh.nodes {
+        let used: Vec<u32> = node.child.iter().copied().filter(|&c| c != EMPTY_CHILD).collect();
+        assert!(used.len() >= 2);
+        assert!(used.len() == WIDTH || used.iter().all(|&c| c & LEAF_BIT != 0));
+    }
+}
+
+/// The AVX box test gives the portable one's mask and entry distances bit
+/// for bit, with zero direction components and origins on box planes.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn box_tests_agree() {
+    if !std::arch::is_x86_feature_detected!("avx2") {
+        return;
+    }
+    #[target_feature(enable = "avx2")]
+    fn avx(node: &Node8, ray: &BoxRay, t_far: f32) -> (u32, [f32; WIDTH]) {
+        super::traverse::Avx8::test(node, ray, t_far)
+    }
+    let mut rng = Rng(41);
+    let mut entered = 0;
+    for k in 0..20_000 {
+        let mut node = Node8::EMPTY;
+        for slot in 0..(k % WIDTH) + 1 {
+            let a = rng.vec(-1.0, 1.0);
+            let b = rng.vec(-1.0, 1.0);
+            for axis in 0..3 {
+                node.planes[axis][slot] = a[axis].min(b[axis]);
+                node.planes[axis + 3][slot] = a[axis].max(b[axis]);
+            }
+            node.child[slot] = slot as u32;
+        }
+        let mut o = rng.vec(-2.0, 2.0);
+        if k % 4 == 0 {
+            o.x = node.planes[0][0];
+        }
+        let mut d = rng.vec(-1.0, 1.0);
+        match k % 5 {
+            0 => d.x = 0.0,
+            1 => d.y = -0.0,
+            _ => {}
+        }
+        let ray = BoxRay::new(o, d);
+        let t_far = if k % 3 == 0 { rng.next_f32() } else { f32::INFINITY };
+        let portable = Lanes8::test(&node, &ray, t_far);
+        // SAFETY: the CPU has AVX2 (checked above).
+        let wide = unsafe { avx(&node, &ray, t_far) };
+        assert_eq!(portable.0, wide.0, "case {k}: masks");
+        for l in 0..WIDTH {
+            if portable.0 >> l & 1 == 1 {
+                assert_eq!(portable.1[l].to_bits(), wide.1[l].to_bits(), "case {k} lane {l}");
+            }
+        }
+        entered += portable.0.count_ones();
+    }
+    assert!(entered > 1_000, "{entered}");
+}
