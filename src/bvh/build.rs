@@ -11,7 +11,7 @@ use crate::aabb::Aabb;
 use crate::kdtree::leaf_blocks::{BLOCK, LeafBlock};
 
 /// Centroid bins per axis of the SAH sweep.
-const BINS: usize = 32;
+const BINS: usize = 16;
 /// Below this many triangles a subtree is built on the calling thread.
 const PARALLEL_MIN: usize = 4096;
 /// Past this depth a node splits at the object median, which bounds the

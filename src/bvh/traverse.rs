@@ -177,6 +177,7 @@ fn walk<const ANY: bool, T: BoxTest>(bvh: &Bvh8, origin: Vec3, dir: Vec3, t_max:
                     continue;
                 }
                 current = nearest_first(node, mask, &near, &mut stack, &mut sp);
+                prefetch_pushed(bvh, &stack, sp);
                 continue;
             }
         } else {
@@ -248,4 +249,26 @@ fn nearest_first(
         *sp += 1;
     }
     order[n - 1].1
+}
+
+/// Asks for the node or block on top of the stack ahead of its pop.
+#[inline(always)]
+fn prefetch_pushed(bvh: &Bvh8, stack: &[MaybeUninit<(u32, f32)>; STACK_SIZE], sp: usize) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        // SAFETY: slot sp - 1 was just written (sp >= 1 after a push).
+        let (child, _) = unsafe { stack[(sp - 1) & STACK_MASK].assume_init() };
+        let p: *const i8 = if child & LEAF_BIT == 0 {
+            bvh.nodes.as_ptr().wrapping_add(child as usize).cast()
+        } else {
+            bvh.blocks.as_ptr().wrapping_add((child & !LEAF_BIT) as usize).cast()
+        };
+        // SAFETY: a prefetch never faults.
+        unsafe {
+            for line in 0..4 {
+                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * line));
+            }
+        }
+    }
 }
