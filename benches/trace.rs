@@ -11,10 +11,18 @@
 //! Groups:
 //! - `kdtree_build/<model>`: `KdTree::build` with default parameters, on the
 //!   global rayon pool (all cores; the build recurses with `rayon::join`).
-//! - `trace_cpu_1thread/<model>`: 1024x1024 primary rays of the contract's
-//!   default camera, closest hit, in a plain sequential loop on the bench
-//!   thread (truly one thread). Throughput is in rays, so criterion reports
+//! - `bvh_build_1thread/<model>`: the wide BVH over the kd-tree's
+//!   triangles (`bvh::Bvh8::from_tree`) on a one-thread pool.
+//! - `trace_cpu_1thread/<model>/{kdtree,bvh}`: 1024x1024 primary rays of the
+//!   contract's default camera, closest hit, in a plain sequential loop on
+//!   the bench thread (truly one thread), through the kd-tree's single-ray
+//!   walk and through the BVH. Throughput is in rays, so criterion reports
 //!   rays/s ("elem/s").
+//! - `random_cpu_1thread/<model>/{kdtree,bvh}`: 1,000,000 random rays
+//!   (origins in a box three times the model's, aimed at points of its
+//!   box, as `embree_bench --gen-rays`), as `trace-rays` traces them on one
+//!   thread: the kd-tree's sorted order (`trace_closest_incoherent`), the
+//!   BVH's as they come.
 //! - `trace_gpu/<model>/<W>x<H>`: the same camera through
 //!   `tracer::Tracer::closest` on the GPU (wall time of upload, kernel and readback),
 //!   only if a GPU adapter exists. On a software adapter (lavapipe) the image
@@ -28,6 +36,7 @@ use std::time::Duration;
 
 use common::{CPU_IMAGE, Model, gpu_image_size, is_software, load_models, primary_rays};
 use criterion::{BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
+use penumbra::bvh::Bvh8;
 use penumbra::device::{Device, Timing};
 use penumbra::gpu::GpuContext;
 use penumbra::kdtree::{KdTree, KdTreeParams};
@@ -57,6 +66,68 @@ fn bench_build(c: &mut Criterion, models: &[Model]) {
     group.finish();
 }
 
+fn bvh_sequential(bvh: &Bvh8, rays: &[Ray]) -> Vec<Hit> {
+    let mut hits = vec![Hit::MISS; rays.len()];
+    bvh.closest_hits(rays, &mut hits);
+    hits
+}
+
+/// `n` random rays: origins in a box three times the model's, aimed at
+/// uniform points of its box (xorshift, fixed seed).
+fn random_rays(tree: &KdTree, n: usize) -> Vec<Ray> {
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut unit = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let (lo, hi) = (tree.bounds.min, tree.bounds.max);
+    let (c, e) = ((lo + hi) * 0.5, hi - lo);
+    let mut point = |scale: f32| c + e * scale * (glam::Vec3::new(unit(), unit(), unit()) - 0.5);
+    (0..n)
+        .map(|_| {
+            let o = point(3.0);
+            Ray::new(o, point(1.0) - o)
+        })
+        .collect()
+}
+
+fn bench_bvh(c: &mut Criterion, models: &[Model]) {
+    let pool = common::thread_pool(1);
+    let mut group = c.benchmark_group("bvh_build_1thread");
+    group
+        .sample_size(10)
+        .sampling_mode(SamplingMode::Flat)
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(3));
+    for m in models {
+        group.throughput(Throughput::Elements(m.mesh.triangles.len() as u64));
+        group.bench_function(m.name.as_str(), |b| {
+            b.iter(|| pool.install(|| Bvh8::from_tree(black_box(&m.tree))))
+        });
+    }
+    group.finish();
+    let mut group = c.benchmark_group("random_cpu_1thread");
+    group
+        .sample_size(10)
+        .sampling_mode(SamplingMode::Flat)
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(5));
+    for m in models {
+        let bvh = Bvh8::from_tree(&m.tree);
+        let rays = random_rays(&m.tree, 1_000_000);
+        group.throughput(Throughput::Elements(rays.len() as u64));
+        group.bench_function(BenchmarkId::new(m.name.as_str(), "kdtree"), |b| {
+            b.iter(|| pool.install(|| m.tree.trace_closest_incoherent(black_box(&rays))))
+        });
+        group.bench_function(BenchmarkId::new(m.name.as_str(), "bvh"), |b| {
+            b.iter(|| bvh_sequential(black_box(&bvh), black_box(&rays)))
+        });
+    }
+    group.finish();
+}
+
 fn bench_cpu(c: &mut Criterion, models: &[Model]) {
     let mut group = c.benchmark_group("trace_cpu_1thread");
     group
@@ -72,8 +143,12 @@ fn bench_cpu(c: &mut Criterion, models: &[Model]) {
             m.name
         );
         group.throughput(Throughput::Elements(rays.len() as u64));
-        group.bench_function(m.name.as_str(), |b| {
+        group.bench_function(BenchmarkId::new(m.name.as_str(), "kdtree"), |b| {
             b.iter(|| trace_sequential(black_box(&m.tree), black_box(&rays)))
+        });
+        let bvh = Bvh8::from_tree(&m.tree);
+        group.bench_function(BenchmarkId::new(m.name.as_str(), "bvh"), |b| {
+            b.iter(|| bvh_sequential(black_box(&bvh), black_box(&rays)))
         });
     }
     group.finish();
@@ -137,6 +212,7 @@ fn all(c: &mut Criterion) {
     let models = load_models();
     bench_build(c, &models);
     bench_cpu(c, &models);
+    bench_bvh(c, &models);
     bench_gpu(c, &models);
 }
 
