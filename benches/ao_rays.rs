@@ -1,7 +1,8 @@
 //! Criterion benchmarks of the CPU's AO rays (the reference AO, and the
 //! ground truth of fields, SSAO and PRT checks): 256 cosine rays per vertex
 //! of the cow and the bunny, one thread, one ray at a time against the
-//! shared-origin packets in each instruction set this CPU has.
+//! shared-origin packets in each instruction set this CPU has, through the
+//! kd-tree and through its wide BVH (built before the clock).
 //!
 //! `cargo bench --bench ao_rays` (optionally `-- <filter>`, e.g. `-- Avx512`).
 //! Without `PENUMBRA_DATA` the procedural scenes stand in (their numbers
@@ -39,9 +40,12 @@ fn all(c: &mut Criterion) {
         .sampling_mode(SamplingMode::Flat)
         .warm_up_time(Duration::from_secs(1))
         .measurement_time(Duration::from_secs(5));
-    let castings = std::iter::once(Casting::Single).chain(Isa::available().into_iter().map(Casting::Packets));
-    let castings: Vec<Casting> = castings.collect();
     for m in &models {
+        m.tree.bvh();
+        let castings = std::iter::once(Casting::Single)
+            .chain(Isa::available().into_iter().map(Casting::Packets))
+            .chain(Isa::available().into_iter().map(Casting::BvhPackets));
+        let castings: Vec<Casting> = castings.collect();
         let points = vertex_points(&m.mesh);
         let rays = points.iter().filter(|p| p.has_hemisphere()).count() as u64 * SETTINGS.rays_per_point as u64;
         group.throughput(Throughput::Elements(rays));
@@ -49,6 +53,7 @@ fn all(c: &mut Criterion) {
             let id = match casting {
                 Casting::Single => "single-ray".to_string(),
                 Casting::Packets(isa) => format!("packets-{isa:?}"),
+                Casting::BvhPackets(isa) => format!("bvh-packets-{isa:?}"),
             };
             group.bench_function(BenchmarkId::new(m.name.as_str(), id), |b| {
                 b.iter(|| {

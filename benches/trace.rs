@@ -66,9 +66,9 @@ fn bench_build(c: &mut Criterion, models: &[Model]) {
     group.finish();
 }
 
-fn bvh_sequential(bvh: &Bvh8, rays: &[Ray]) -> Vec<Hit> {
+fn bvh_sequential(tree: &KdTree, rays: &[Ray]) -> Vec<Hit> {
     let mut hits = vec![Hit::MISS; rays.len()];
-    bvh.closest_hits(rays, &mut hits);
+    tree.bvh_closest_hits(rays, &mut hits);
     hits
 }
 
@@ -115,14 +115,14 @@ fn bench_bvh(c: &mut Criterion, models: &[Model]) {
         .warm_up_time(Duration::from_secs(1))
         .measurement_time(Duration::from_secs(5));
     for m in models {
-        let bvh = Bvh8::from_tree(&m.tree);
+        m.tree.bvh();
         let rays = random_rays(&m.tree, 1_000_000);
         group.throughput(Throughput::Elements(rays.len() as u64));
         group.bench_function(BenchmarkId::new(m.name.as_str(), "kdtree"), |b| {
             b.iter(|| pool.install(|| m.tree.trace_closest_incoherent(black_box(&rays))))
         });
         group.bench_function(BenchmarkId::new(m.name.as_str(), "bvh"), |b| {
-            b.iter(|| bvh_sequential(black_box(&bvh), black_box(&rays)))
+            b.iter(|| bvh_sequential(black_box(&m.tree), black_box(&rays)))
         });
     }
     group.finish();
@@ -146,9 +146,9 @@ fn bench_cpu(c: &mut Criterion, models: &[Model]) {
         group.bench_function(BenchmarkId::new(m.name.as_str(), "kdtree"), |b| {
             b.iter(|| trace_sequential(black_box(&m.tree), black_box(&rays)))
         });
-        let bvh = Bvh8::from_tree(&m.tree);
+        m.tree.bvh();
         group.bench_function(BenchmarkId::new(m.name.as_str(), "bvh"), |b| {
-            b.iter(|| bvh_sequential(black_box(&bvh), black_box(&rays)))
+            b.iter(|| bvh_sequential(black_box(&m.tree), black_box(&rays)))
         });
     }
     group.finish();

@@ -10,7 +10,7 @@
 use serde::Serialize;
 
 use crate::ao::gpu::AoRaysBatches;
-use crate::ao::raycast::ao_rays;
+use crate::ao::raycast::{Casting, ao_rays_by};
 use crate::ao::{AoPoint, AoSettings, VisibilityMasks};
 use crate::bvh::Bvh8;
 use crate::device::{Device, GpuOutput, OnDevice, Timed, elapsed_ms};
@@ -21,6 +21,7 @@ use crate::kdtree::{KdTree, KdTreeParams, TraversalCounts};
 use crate::progress::{Bars, Progress};
 use crate::ray::{Hit, Ray};
 use crate::scene::Mesh;
+use crate::simd::Isa;
 
 /// Builds the kd-tree of `mesh` with default parameters; a spinner names
 /// `what` while a large mesh builds.
@@ -55,7 +56,7 @@ pub enum Accel {
 }
 
 /// What the BVH cost and holds (JSON `bvh`).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct BvhStats {
     pub build_ms: f64,
     pub nodes: usize,
@@ -69,7 +70,7 @@ pub struct Tracer {
     tree: KdTree,
     gpu: OnDevice<GpuTracer>,
     accel: Accel,
-    bvh: Option<(Bvh8, BvhStats)>,
+    bvh_stats: Option<BvhStats>,
 }
 
 impl Tracer {
@@ -92,7 +93,7 @@ impl Tracer {
             tree,
             gpu,
             accel: Accel::default(),
-            bvh: None,
+            bvh_stats: None,
         })
     }
 
@@ -105,7 +106,7 @@ impl Tracer {
 
     /// The BVH's cost, once it has been built.
     pub fn bvh_stats(&self) -> Option<&BvhStats> {
-        self.bvh.as_ref().map(|(_, s)| s)
+        self.bvh_stats.as_ref()
     }
 
     /// Builds the BVH if single rays on the CPU will walk it (before any
@@ -114,29 +115,31 @@ impl Tracer {
         if self.accel != Accel::Bvh || self.gpu.state().is_some() {
             return None;
         }
-        if self.bvh.is_none() {
+        if !self.tree.has_bvh() {
             let start = std::time::Instant::now();
-            let bvh = Bvh8::from_tree(&self.tree);
-            let stats = BvhStats {
+            let bvh = self.tree.bvh();
+            self.bvh_stats = Some(BvhStats {
                 build_ms: elapsed_ms(start),
                 nodes: bvh.nodes.len(),
                 leaf_blocks: bvh.blocks.len(),
                 bytes: bvh.memory_bytes(),
-            };
-            self.bvh = Some((bvh, stats));
+            });
         }
-        self.bvh.as_ref().map(|(b, _)| b)
+        Some(self.tree.bvh())
     }
 
     /// Whether a segment from `origin` along `dir` hits anything at `0 < t
     /// < t_max`, on the CPU (shadow rays of single-ray images), as a
     /// function threads can share.
     pub fn any_hit_fn(&mut self) -> impl Fn(glam::Vec3, glam::Vec3, f32) -> bool + Sync + '_ {
-        self.ready_bvh();
-        let (tree, bvh) = (&self.tree, self.bvh.as_ref().map(|(b, _)| b));
-        move |o, d, t_max| match bvh {
-            Some(b) => b.any_hit(o, d, t_max),
-            None => tree.any_hit(o, d, t_max),
+        let bvh = self.ready_bvh().is_some();
+        let tree = &self.tree;
+        move |o, d, t_max| {
+            if bvh {
+                tree.bvh_any_hit(o, d, t_max)
+            } else {
+                tree.any_hit(o, d, t_max)
+            }
         }
     }
 
@@ -166,8 +169,8 @@ impl Tracer {
     /// Closest hits on the GPU, on the CPU through the BVH, or else by
     /// the kd-tree's `cpu`.
     fn closest_by(&mut self, rays: &[Ray], cpu: fn(&KdTree, &[Ray]) -> Vec<Hit>) -> Result<Timed<Vec<Hit>>> {
-        self.ready_bvh();
-        let (tree, bvh) = (&self.tree, self.bvh.as_ref().map(|(b, _)| b));
+        let bvh = self.ready_bvh().is_some();
+        let tree = &self.tree;
         self.gpu.run(
             |ctx, g| {
                 let traced = g.trace(ctx, rays, TraceMode::Closest)?;
@@ -176,7 +179,13 @@ impl Tracer {
                     gpu_ms: traced.gpu_ms,
                 })
             },
-            || Ok(bvh.map_or_else(|| cpu(tree, rays), |b| b.trace_closest(rays))),
+            || {
+                Ok(if bvh {
+                    tree.bvh_trace_closest(rays)
+                } else {
+                    cpu(tree, rays)
+                })
+            },
         )
     }
 
@@ -210,6 +219,7 @@ impl Tracer {
         progress: &Progress,
     ) -> Result<Timed<VisibilityMasks>> {
         settings.validate()?;
+        let bvh = self.ready_bvh().is_some();
         let tree = &self.tree;
         self.gpu.run(
             |ctx, g| {
@@ -218,7 +228,14 @@ impl Tracer {
                 let (masks, gpu_ms) = batches.visibility(ctx, &g.tree, points, settings, progress, rays_per_batch)?;
                 Ok(GpuOutput { value: masks, gpu_ms })
             },
-            || Ok(ao_rays(tree, points, settings, progress)),
+            || {
+                let casting = if bvh {
+                    Casting::BvhPackets(Isa::best())
+                } else {
+                    Casting::Packets(Isa::best())
+                };
+                Ok(ao_rays_by(tree, points, settings, progress, casting))
+            },
         )
     }
 }

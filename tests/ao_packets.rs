@@ -1,4 +1,5 @@
-//! AO rays in shared-origin packets against the single-ray any-hit path:
+//! AO rays in shared-origin packets, through the kd-tree and through its
+//! wide BVH, against the kd-tree's single-ray any-hit path:
 //! the same visibility, ray for ray, in every instruction set this CPU has,
 //! on every procedural scene and (with `PENUMBRA_DATA`) the cow and the
 //! bunny; with an infinite radius and a short one (rays that end inside the
@@ -34,6 +35,11 @@ fn compare(name: &str, mesh: &Mesh, rays_per_point: u32) {
             let differ = single.differing_rays(&packets);
             println!("{name} radius {radius}: {isa:?}, {total} rays ({open} open), {differ} differ");
             assert_eq!(differ, 0, "{name}, radius {radius}, {isa:?}");
+            let wide = Casting::BvhPackets(isa);
+            let bvh = ao_rays_by(&tree, &points, &settings, &Progress::hidden(), wide);
+            let differ = single.differing_rays(&bvh);
+            println!("{name} radius {radius}: BVH packets {isa:?}, {differ} differ");
+            assert_eq!(differ, 0, "{name}, radius {radius}, BVH packets {isa:?}");
         }
         assert_eq!(ao_rays(&tree, &points, &settings, &Progress::hidden()), single);
     }

@@ -6,7 +6,6 @@ mod common;
 use common::cli::{TempDir, asset_s, pen};
 use common::{Rng, data_model};
 use glam::Vec3;
-use penumbra::bvh::Bvh8;
 use penumbra::kdtree::watertight::ShearedRay;
 use penumbra::kdtree::{KdTree, KdTreeParams};
 use penumbra::ray::Ray;
@@ -40,9 +39,9 @@ fn rays_at(rng: &mut Rng, lo: Vec3, hi: Vec3, n: usize) -> Vec<Ray> {
 fn compare(path: &std::path::Path, n: usize) {
     let mesh = load_mesh(path).unwrap();
     let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
-    let bvh = Bvh8::from_tree(&tree);
+    let bvh = tree.bvh();
     let rays = rays_at(&mut Rng(0x5eed), tree.bounds.min, tree.bounds.max, n);
-    let (kd, wide) = (tree.trace_closest(&rays), bvh.trace_closest(&rays));
+    let (kd, wide) = (tree.trace_closest(&rays), tree.bvh_trace_closest(&rays));
     let (mut hits, mut ties) = (0, 0);
     for (k, (a, b)) in kd.iter().zip(&wide).enumerate() {
         assert_eq!(

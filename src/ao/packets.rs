@@ -10,6 +10,7 @@
 use glam::Vec3;
 
 use super::PointDirections;
+use crate::bvh::occlusion::occluded_in as bvh_occluded_in;
 use crate::kdtree::KdTree;
 use crate::kdtree::occlusion::{LANES, occluded_in};
 use crate::simd::{Isa, Kernel, Lanes, dispatch};
@@ -17,10 +18,17 @@ use crate::simd::{Isa, Kernel, Lanes, dispatch};
 /// Cells of the grid the rays are grouped by.
 const CELLS: usize = 16;
 
+/// The structure the packets walk: the kd-tree, or its wide BVH.
+#[derive(Clone, Copy)]
+pub enum Through<'a> {
+    KdTree(&'a KdTree),
+    Bvh(&'a KdTree),
+}
+
 /// Sets bit j of `mask` for each of the `n` rays of `dirs` that escapes
 /// (hits nothing with `0 < t < t_max` from `origin`), in lanes of `isa`.
 pub fn point_visibility(
-    tree: &KdTree,
+    tree: Through<'_>,
     origin: Vec3,
     dirs: &PointDirections,
     n: u32,
@@ -44,7 +52,7 @@ pub fn point_visibility(
 /// One point's rays as a kernel: directions, grouping and packets all in
 /// the dispatched instruction set.
 struct Point<'a> {
-    tree: &'a KdTree,
+    tree: Through<'a>,
     origin: Vec3,
     dirs: &'a PointDirections,
     n: u32,
@@ -77,7 +85,10 @@ impl Kernel for Point<'_> {
             start[c as usize] += 1;
         }
         for (chunk, dirs) in order.chunks(LANES).zip(sorted.chunks(LANES)) {
-            let hit = occluded_in::<V>(self.tree, self.origin, dirs, self.t_max);
+            let hit = match self.tree {
+                Through::KdTree(tree) => occluded_in::<V>(tree, self.origin, dirs, self.t_max),
+                Through::Bvh(tree) => bvh_occluded_in::<V>(tree, self.origin, dirs, self.t_max),
+            };
             for (k, &j) in chunk.iter().enumerate() {
                 if hit & (1 << k) == 0 {
                     self.mask[(j / 32) as usize] |= 1 << (j % 32);

@@ -15,13 +15,19 @@ use crate::simd::Isa;
 pub enum Casting {
     /// One ray at a time (`KdTree::any_hit`).
     Single,
-    /// Packets of 16 sharing the origin (`ao::packets`) in an instruction set.
+    /// Packets of 16 sharing the origin (`ao::packets`) through the
+    /// kd-tree, in an instruction set.
     Packets(Isa),
+    /// The same packets through the tree's wide BVH (`bvh::occlusion`;
+    /// rays that start in a triangle's plane get the kd-tree's answer).
+    BvhPackets(Isa),
 }
 
 /// Casts `rays_per_point` AO rays from every point (rayon, all threads of the
 /// current pool) and returns which escaped: packets of 16 in the widest
-/// instruction set the CPU has.
+/// instruction set the CPU has, through the kd-tree (the twin of the
+/// `ao_rays` kernel; `tracer::Tracer` casts them through the tree's wide
+/// BVH on the CPU, `Casting::BvhPackets`).
 pub fn ao_rays(tree: &KdTree, points: &[AoPoint], settings: &AoSettings, progress: &Progress) -> VisibilityMasks {
     ao_rays_by(tree, points, settings, progress, Casting::Packets(Isa::best()))
 }
@@ -69,7 +75,24 @@ fn point_visibility(
     let origin = Vec3::from_array(point.origin);
     let dirs = PointDirections::new(seq, point.stream, Vec3::from_array(point.normal));
     match casting {
-        Casting::Packets(isa) => packets::point_visibility(tree, origin, &dirs, n, settings.radius, isa, mask),
+        Casting::Packets(isa) => packets::point_visibility(
+            packets::Through::KdTree(tree),
+            origin,
+            &dirs,
+            n,
+            settings.radius,
+            isa,
+            mask,
+        ),
+        Casting::BvhPackets(isa) => packets::point_visibility(
+            packets::Through::Bvh(tree),
+            origin,
+            &dirs,
+            n,
+            settings.radius,
+            isa,
+            mask,
+        ),
         Casting::Single => {
             for j in 0..n {
                 if !tree.any_hit(origin, dirs.direction(j), settings.radius) {

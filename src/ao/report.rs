@@ -14,6 +14,7 @@ use crate::image_out::{GreyStyle, write_grey};
 use crate::output::{frame_output, frame_path};
 use crate::repeats::RunTimes;
 use crate::scene::{Camera, Scene};
+use crate::tracer::BvhStats;
 
 /// Where an AO run's results go; `None`: not asked for.
 #[derive(Debug, Clone, Copy)]
@@ -216,6 +217,10 @@ pub struct RaycastReport {
     #[serde(flatten)]
     pub ao: AoReport,
     pub casters: Casters,
+    /// The casters' wide BVH on the CPU: its build (apart from `build_ms`,
+    /// the kd-tree's, and from `ao_ms`), nodes, blocks and bytes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bvh: Option<BvhStats>,
 }
 
 impl RaycastReport {
@@ -231,6 +236,7 @@ impl RaycastReport {
                 instances: None,
                 triangles: ao.caster_triangles,
             },
+            bvh: ao.bvh.clone(),
         }
     }
 }

@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::progress::Bars;
 use crate::ray::Ray;
 use crate::scene::{Camera, Mesh, Role, Scene, View};
-use crate::tracer::Tracer;
+use crate::tracer::{BvhStats, Tracer};
 
 /// What AO is asked for: the receivers' vertices and/or an image.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -58,6 +58,8 @@ pub struct RaycastAo {
     pub caster_triangles: usize,
     /// The casters' kd-tree build.
     pub build_ms: f64,
+    /// On the CPU, the wide BVH the AO packets walked (`tracer::Accel`).
+    pub bvh: Option<BvhStats>,
     pub vertices: Option<VertexAo>,
     pub image: Option<PixelAo>,
 }
@@ -118,6 +120,7 @@ pub fn raycast(device: &Device, scene: &Scene, request: &AoRequest, bars: Bars) 
     Ok(RaycastAo {
         caster_triangles: occluders.triangles.len(),
         build_ms: tracer.tree().stats.build_ms,
+        bvh: tracer.bvh_stats().cloned(),
         vertices,
         image,
     })

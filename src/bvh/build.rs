@@ -66,6 +66,7 @@ pub(super) fn build(triangles: &[[Vec3; 3]], frame_scale: f32) -> Bvh8 {
         blocks: Vec::new(),
         bounds,
         frame_scale,
+        contact: 1e-6 * bounds.diagonal(),
     };
     let mut widen = Widen {
         prims: &prims,

@@ -62,18 +62,18 @@ fn rays_for(rng: &mut Rng, tris: &[[Vec3; 3]], n: usize, reach: f32) -> Vec<(Vec
 /// triangles share).
 fn assert_brute_force(tris: &[[Vec3; 3]], rays: &[(Vec3, Vec3, f32)]) -> (usize, usize) {
     let tree = KdTree::from_triangles(tris.to_vec(), &KdTreeParams::default()).unwrap();
-    let bvh = Bvh8::from_tree(&tree);
+    let bvh = tree.bvh();
     assert!(bvh.depth() <= 81, "depth {}", bvh.depth());
     let (mut hits, mut ties) = (0, 0);
     for (k, &(o, d, t_max)) in rays.iter().enumerate() {
         let expect = brute_force(tris, bvh.frame_scale, o, d, t_max);
-        let got = bvh.closest_hit(o, d, t_max);
+        let got = tree.bvh_closest_hit(o, d, t_max);
         assert_eq!(
             (got.t.to_bits(), got.triangle),
             (expect.t.to_bits(), expect.triangle),
             "ray {k}: {o} {d} t_max {t_max}"
         );
-        assert_eq!(bvh.any_hit(o, d, t_max), expect.is_hit(), "any-hit, ray {k}");
+        assert_eq!(tree.bvh_any_hit(o, d, t_max), expect.is_hit(), "any-hit, ray {k}");
         if expect.is_hit() {
             hits += 1;
             let ray = ShearedRay::in_frame(o, d, bvh.frame_scale);
@@ -283,4 +283,42 @@ fn box_tests_agree() {
         entered += portable.0.count_ones();
     }
     assert!(entered > 1_000, "{entered}");
+}
+
+/// The BVH's any-hit packets answer as the single rays do, in every
+/// instruction set: random soups, origins inside and out, rays with zero
+/// direction components (taken ray by ray), short and infinite limits,
+/// partly filled packets.
+#[test]
+fn packets_equal_single_rays() {
+    use crate::simd::Isa;
+    let mut rng = Rng(0x0cc1_0de5);
+    let tris = random_soup(&mut rng, 3000, 0.15);
+    let tree = KdTree::from_triangles(tris, &KdTreeParams::default()).unwrap();
+    let mut counts = [0usize; 2];
+    for k in 0..1500 {
+        let origin = rng.vec(-1.5, 1.5);
+        let n = 1 + k % 16;
+        let dirs: Vec<Vec3> = (0..n)
+            .map(|r| {
+                let mut d = rng.vec(-1.0, 1.0);
+                if k % 7 == 0 && r == 3 {
+                    d.y = 0.0;
+                }
+                d
+            })
+            .collect();
+        let t_max = if k % 3 == 0 { rng.next_f32() } else { f32::INFINITY };
+        let expect = dirs
+            .iter()
+            .enumerate()
+            .fold(0u16, |m, (r, &d)| m | (tree.any_hit(origin, d, t_max) as u16) << r);
+        for isa in Isa::available() {
+            let got = super::occlusion::occluded(&tree, origin, &dirs, t_max, isa);
+            assert_eq!(got, expect, "packet {k}, {isa:?}");
+        }
+        counts[0] += expect.count_ones() as usize;
+        counts[1] += n - expect.count_ones() as usize;
+    }
+    assert!(counts[0] > 2000 && counts[1] > 2000, "{counts:?}");
 }

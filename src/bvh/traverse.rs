@@ -15,12 +15,10 @@ use std::mem::MaybeUninit;
 
 use glam::Vec3;
 
-use super::{Bvh8, LEAF_BIT, Node8, WIDTH};
+use super::{Bvh8, LEAF_BIT, Node8, SLACK, WIDTH};
+use crate::kdtree::KdTree;
 use crate::kdtree::watertight::ShearedRay;
 use crate::ray::{Hit, Ray};
-
-/// Relative widening of every slab interval.
-const SLACK: f32 = 2e-6;
 
 /// Stack entries: the builder bounds the binary tree's depth by 48 + 32
 /// levels, and each level pushes at most seven children.
@@ -126,15 +124,36 @@ impl BoxTest for Avx8 {
     }
 }
 
-/// Traces `rays` into `hits` with the widest box test the CPU has.
-pub(super) fn dispatch<const ANY: bool>(bvh: &Bvh8, rays: &[Ray], t_max: f32, hits: &mut [Hit]) {
+/// Traces `rays` into `hits` with the widest box test the CPU has; a ray
+/// whose hit is a contact (`Bvh8::contact`) gets `tree`'s answer.
+pub(super) fn dispatch<const ANY: bool>(bvh: &Bvh8, tree: &KdTree, rays: &[Ray], t_max: f32, hits: &mut [Hit]) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2.
         unsafe { trace_avx2::<ANY>(bvh, rays, t_max, hits) };
-        return;
+    } else {
+        trace::<ANY, Lanes8>(bvh, rays, t_max, hits);
     }
+    #[cfg(not(target_arch = "x86_64"))]
     trace::<ANY, Lanes8>(bvh, rays, t_max, hits);
+    for (r, h) in rays.iter().zip(hits) {
+        if h.is_hit() && is_contact(bvh, h.t, r.d()) {
+            *h = if ANY {
+                match tree.any_hit(r.o(), r.d(), t_max) {
+                    true => *h,
+                    false => Hit::MISS,
+                }
+            } else {
+                tree.closest_hit(r.o(), r.d(), t_max)
+            };
+        }
+    }
+}
+
+/// Whether a hit at `t` along `dir` is closer than the contact distance.
+#[inline(always)]
+pub(super) fn is_contact(bvh: &Bvh8, t: f32, dir: Vec3) -> bool {
+    t * t * dir.length_squared() < bvh.contact * bvh.contact
 }
 
 #[cfg(target_arch = "x86_64")]

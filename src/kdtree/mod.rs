@@ -13,6 +13,7 @@ pub mod pass;
 mod traverse;
 pub mod watertight;
 
+use std::sync::OnceLock;
 use std::time::Instant;
 
 use glam::Vec3;
@@ -24,6 +25,7 @@ pub use node::{KdNode, MAX_TREE_DEPTH};
 pub use traverse::{Counters, NoCounts, TRAVERSAL_SLACK, TraversalCounts};
 
 use crate::aabb::Aabb;
+use crate::bvh::Bvh8;
 use crate::device::elapsed_ms;
 use crate::error::{Error, Result};
 use crate::progress::Progress;
@@ -58,6 +60,9 @@ pub struct KdTree {
     /// intersection test's frame, see `watertight::ShearedRay`).
     pub frame_scale: f32,
     pub stats: BuildStats,
+    /// The wide BVH of the same triangles, built the first time the CPU's
+    /// single rays or AO packets ask for it (`bvh`).
+    bvh: OnceLock<Bvh8>,
 }
 
 impl KdTree {
@@ -141,7 +146,20 @@ impl KdTree {
             bounds,
             frame_scale,
             stats,
+            bvh: OnceLock::new(),
         })
+    }
+
+    /// The wide BVH of the tree's triangles (in its frame: the same hits),
+    /// built on first use: what the CPU's single rays and AO packets walk
+    /// (`bvh`); the GPU never asks for it.
+    pub fn bvh(&self) -> &Bvh8 {
+        self.bvh.get_or_init(|| Bvh8::from_tree(self))
+    }
+
+    /// Whether `bvh` has been built.
+    pub fn has_bvh(&self) -> bool {
+        self.bvh.get().is_some()
     }
 
     /// Closest hits of many rays, in parallel on the current rayon pool:

@@ -26,6 +26,7 @@ use super::KdTree;
 use super::node::MAX_TREE_DEPTH;
 use super::traverse::{NoCounts, SingleRay, TRAVERSAL_SLACK};
 use super::watertight::ShearedRay;
+use crate::aabb::Aabb;
 use crate::simd::{Isa, Kernel, Lanes, Mask, dispatch};
 
 /// Rays per packet.
@@ -68,7 +69,7 @@ pub fn occluded_in<V: Lanes>(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: 
     if dirs.is_empty() {
         return 0;
     }
-    let rays = match Rays::<V>::new(tree, origin, dirs, t_max) {
+    let rays = match Rays::<V>::new(&tree.bounds, tree.frame_scale, origin, dirs, t_max) {
         Some(rays) => rays,
         None => SharedOrigin::new(tree, origin, dirs, t_max).lanes(),
     };
@@ -78,18 +79,20 @@ pub fn occluded_in<V: Lanes>(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: 
     traverse(tree, &rays)
 }
 
-/// The packet's lanes as vectors.
-struct Rays<V: Lanes> {
-    origin: Vec3,
-    t_max: f32,
-    live: u16,
+/// The packet's lanes as vectors (the BVH's packets, `bvh::occlusion`,
+/// share them).
+pub(crate) struct Rays<V: Lanes> {
+    pub origin: Vec3,
+    pub t_max: f32,
+    /// Lanes whose ray meets the scene's box.
+    pub live: u16,
     t_min: V,
     t_cell_max: V,
-    inv: [V; 3],
+    pub inv: [V; 3],
     below_on_plane: [V::M; 3],
-    shear: Shear<V>,
-    frame_origin: Vec3,
-    scale: f32,
+    pub shear: Shear<V>,
+    pub frame_origin: Vec3,
+    pub scale: f32,
 }
 
 impl<V: Lanes> Rays<V> {
@@ -129,7 +132,7 @@ impl<V: Lanes> Rays<V> {
     /// (`SharedOrigin` then does it lane by lane, as `Aabb::clip_ray` takes
     /// another path for such rays).
     #[inline(always)]
-    fn new(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32) -> Option<Self> {
+    pub fn new(bounds: &Aabb, frame_scale: f32, origin: Vec3, dirs: &[Vec3], t_max: f32) -> Option<Self> {
         let n = dirs.len();
         let d: [V; 3] = [column(dirs, 0), column(dirs, 1), column(dirs, 2)];
         let zero = V::splat(0.0);
@@ -139,7 +142,7 @@ impl<V: Lanes> Rays<V> {
         let one = V::splat(1.0);
         let inv = [one.div(d[0]), one.div(d[1]), one.div(d[2])];
         // Aabb::clip_ray: the slabs' entries and exits (no NaN arises).
-        let (lo, hi) = (tree.bounds.min - origin, tree.bounds.max - origin);
+        let (lo, hi) = (bounds.min - origin, bounds.max - origin);
         let (x, y, z) = (
             slab(lo.x, hi.x, inv[0]),
             slab(lo.y, hi.y, inv[1]),
@@ -170,7 +173,7 @@ impl<V: Lanes> Rays<V> {
             sy: pick(ky0, ky1, &d).div(dz),
             sz: one.div(dz),
             k: [[kx0, kx1], [ky0, ky1], [kz0, kz1]],
-            limit: V::splat(t_max * tree.frame_scale),
+            limit: V::splat(t_max * frame_scale),
         };
         Some(Rays {
             origin,
@@ -181,8 +184,8 @@ impl<V: Lanes> Rays<V> {
             inv,
             below_on_plane: [d[0].le(zero), d[1].le(zero), d[2].le(zero)],
             shear,
-            frame_origin: origin * tree.frame_scale,
-            scale: tree.frame_scale,
+            frame_origin: origin * frame_scale,
+            scale: frame_scale,
         })
     }
 }
@@ -306,7 +309,7 @@ impl SharedOrigin {
 }
 
 /// The lanes' shear constants as vectors.
-struct Shear<V: Lanes> {
+pub(crate) struct Shear<V: Lanes> {
     sx: V,
     sy: V,
     sz: V,
@@ -324,11 +327,12 @@ impl<V: Lanes> Shear<V> {
 
     /// The lanes of `active` that hit the triangle (vertices in the frame,
     /// origin subtracted): `ShearedRay::intersect` lane by lane, the same
-    /// operations in the same order.
+    /// operations in the same order; and each lane's t in the frame
+    /// (meaningful where it hits).
     /// `common`: the axes when every lane has the same (then a coordinate
     /// is one broadcast rather than two selects).
     #[inline(always)]
-    fn hits(&self, a: [f32; 3], b: [f32; 3], c: [f32; 3], active: V::M, common: Option<[usize; 3]>) -> V::M {
+    pub fn hits(&self, a: [f32; 3], b: [f32; 3], c: [f32; 3], active: V::M, common: Option<[usize; 3]>) -> (V::M, V) {
         match common {
             Some(k) => self.hits_with(a, b, c, active, |p: [f32; 3], i| V::splat(p[k[i]])),
             None => self.hits_with(a, b, c, active, |p, i| self.pick(p, i)),
@@ -343,7 +347,7 @@ impl<V: Lanes> Shear<V> {
         c: [f32; 3],
         active: V::M,
         pick: impl Fn([f32; 3], usize) -> V,
-    ) -> V::M {
+    ) -> (V::M, V) {
         let (az0, bz0, cz0) = (pick(a, 2), pick(b, 2), pick(c, 2));
         let ax = pick(a, 0).sub(self.sx.mul(az0));
         let ay = pick(a, 1).sub(self.sy.mul(az0));
@@ -360,7 +364,7 @@ impl<V: Lanes> Shear<V> {
         // Inside: not (some edge negative and some positive).
         let mut ok = active.and_not(negative.and(positive));
         if !ok.any() {
-            return ok;
+            return (ok, zero);
         }
         let det = u.add(v).add(w);
         ok = ok.and_not(det.eq(zero));
@@ -374,7 +378,7 @@ impl<V: Lanes> Shear<V> {
             .or(det.lt(zero).and(t_scaled.ge(zero)));
         ok = ok.and_not(wrong_side);
         let t = t_scaled.div(det);
-        ok.and(t.gt(zero)).and(t.lt(self.limit))
+        (ok.and(t.gt(zero)).and(t.lt(self.limit)), t)
     }
 }
 
@@ -433,7 +437,7 @@ fn pick_of<V: Lanes>(m0: V::M, m1: V::M, v: &[V; 3]) -> V {
 
 /// The live lanes' shear axes (kx, ky, kz), if they are all the same.
 #[inline(always)]
-fn common_axes<V: Lanes>(shear: &Shear<V>, live: u16) -> Option<[usize; 3]> {
+pub(crate) fn common_axes<V: Lanes>(shear: &Shear<V>, live: u16) -> Option<[usize; 3]> {
     let mut k = [0usize; 3];
     for (i, [m0, m1]) in shear.k.iter().enumerate() {
         let (m0, m1) = (m0.bits() & live, m1.bits() & live);
@@ -562,7 +566,7 @@ fn traverse<V: Lanes>(tree: &KdTree, rays: &Rays<V>) -> u16 {
             let range = node.leaf_range();
             for verts in &tree.leaf_vertices[range] {
                 let [a, b, c] = verts.map(|v| (v - fo).to_array());
-                let hit = shear.hits(a, b, c, mask, common).bits();
+                let hit = shear.hits(a, b, c, mask, common).0.bits();
                 if hit != 0 {
                     alive &= !hit;
                     if alive == 0 {

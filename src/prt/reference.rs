@@ -1,7 +1,8 @@
 //! Monte Carlo ray-traced transfer: the ground truth of Table 1's error
 //! column. Per vertex, `rays` cosine-distributed directions (Malley's method
 //! on the seeded Owen-scrambled Sobol sequence of `sampling`) are traced
-//! against a kd-tree of the full-resolution mesh from the vertex lifted by
+//! against a kd-tree of the full-resolution mesh (its wide BVH, `KdTree::bvh`,
+//! in packets of 16: the kd-tree's any-hit answers) from the vertex lifted by
 //! the contract's offset along its normal; with the cosine density
 //! `cos θ / π`, equation 3 is estimated by
 //! `V*_i ≈ (1/N) Σ_j V(s_j) ρ(s_j) Y_i(s_j)` where `ρ = π f_r`.
@@ -10,8 +11,9 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::transfer::Brdf;
+use crate::bvh::occlusion::occluded;
 use crate::kdtree::KdTree;
-use crate::kdtree::occlusion::{LANES, occluded};
+use crate::kdtree::occlusion::LANES;
 use crate::sampling::{Frame, SampleSequence, cosine_hemisphere};
 use crate::scene::ORIGIN_OFFSET;
 use crate::sh::{ShBasis, coefficient_count};
