@@ -32,10 +32,9 @@
 mod common;
 
 use std::hint::black_box;
-use std::time::Duration;
 
 use common::{CPU_IMAGE, Model, gpu_image_size, is_software, load_models, primary_rays};
-use criterion::{BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use penumbra::bvh::Bvh8;
 use penumbra::device::{Device, Timing};
 use penumbra::gpu::GpuContext;
@@ -50,12 +49,7 @@ fn trace_sequential(tree: &KdTree, rays: &[Ray]) -> Vec<Hit> {
 }
 
 fn bench_build(c: &mut Criterion, models: &[Model]) {
-    let mut group = c.benchmark_group("kdtree_build");
-    group
-        .sample_size(10)
-        .sampling_mode(SamplingMode::Flat)
-        .warm_up_time(Duration::from_secs(1))
-        .measurement_time(Duration::from_secs(5));
+    let mut group = common::flat_group(c, "kdtree_build", 5);
     eprintln!("kdtree_build: rayon pool of {} threads", rayon::current_num_threads());
     for m in models {
         group.throughput(Throughput::Elements(m.mesh.triangles.len() as u64));
@@ -95,12 +89,7 @@ fn random_rays(tree: &KdTree, n: usize) -> Vec<Ray> {
 
 fn bench_bvh(c: &mut Criterion, models: &[Model]) {
     let pool = common::thread_pool(1);
-    let mut group = c.benchmark_group("bvh_build_1thread");
-    group
-        .sample_size(10)
-        .sampling_mode(SamplingMode::Flat)
-        .warm_up_time(Duration::from_secs(1))
-        .measurement_time(Duration::from_secs(3));
+    let mut group = common::flat_group(c, "bvh_build_1thread", 3);
     for m in models {
         group.throughput(Throughput::Elements(m.mesh.triangles.len() as u64));
         group.bench_function(m.name.as_str(), |b| {
@@ -108,12 +97,7 @@ fn bench_bvh(c: &mut Criterion, models: &[Model]) {
         });
     }
     group.finish();
-    let mut group = c.benchmark_group("random_cpu_1thread");
-    group
-        .sample_size(10)
-        .sampling_mode(SamplingMode::Flat)
-        .warm_up_time(Duration::from_secs(1))
-        .measurement_time(Duration::from_secs(5));
+    let mut group = common::flat_group(c, "random_cpu_1thread", 5);
     for m in models {
         m.tree.bvh();
         let rays = random_rays(&m.tree, 1_000_000);
@@ -129,12 +113,7 @@ fn bench_bvh(c: &mut Criterion, models: &[Model]) {
 }
 
 fn bench_cpu(c: &mut Criterion, models: &[Model]) {
-    let mut group = c.benchmark_group("trace_cpu_1thread");
-    group
-        .sample_size(10)
-        .sampling_mode(SamplingMode::Flat)
-        .warm_up_time(Duration::from_secs(1))
-        .measurement_time(Duration::from_secs(5));
+    let mut group = common::flat_group(c, "trace_cpu_1thread", 5);
     for m in models {
         let rays = primary_rays(&m.mesh, CPU_IMAGE);
         let hits = trace_sequential(&m.tree, &rays).iter().filter(|h| h.is_hit()).count();
@@ -170,12 +149,7 @@ fn bench_gpu(c: &mut Criterion, models: &[Model]) {
         if software { " (software)" } else { "" },
         if ctx.timestamps { "available" } else { "unavailable" }
     );
-    let mut group = c.benchmark_group("trace_gpu");
-    group
-        .sample_size(10)
-        .sampling_mode(SamplingMode::Flat)
-        .warm_up_time(Duration::from_secs(1))
-        .measurement_time(Duration::from_secs(4));
+    let mut group = common::flat_group(c, "trace_gpu", 4);
     for m in models {
         let device = Device::gpu(ctx.clone());
         let mut tracer = Tracer::from_tree(&device, m.tree.clone()).expect("uploading the kd-tree");

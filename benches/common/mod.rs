@@ -138,3 +138,19 @@ pub fn machine() -> String {
     let cores = info.lines().filter(|l| l.starts_with("processor")).count();
     format!("{model}, {cores} logical cores")
 }
+
+/// A criterion group of 10 flat samples after 1 s of warm-up, measured for
+/// `seconds` (the benches' work is long and steady: no need for more).
+pub fn flat_group<'a>(
+    c: &'a mut criterion::Criterion,
+    name: &str,
+    seconds: u64,
+) -> criterion::BenchmarkGroup<'a, criterion::measurement::WallTime> {
+    let mut group = c.benchmark_group(name);
+    group
+        .sample_size(10)
+        .sampling_mode(criterion::SamplingMode::Flat)
+        .warm_up_time(std::time::Duration::from_secs(1))
+        .measurement_time(std::time::Duration::from_secs(seconds));
+    group
+}

@@ -10,25 +10,17 @@
 use glam::Vec3;
 
 use super::PointDirections;
-use crate::bvh::occlusion::occluded_in as bvh_occluded_in;
 use crate::kdtree::KdTree;
-use crate::kdtree::occlusion::{LANES, occluded_in};
+use crate::kdtree::occlusion::{LANES, Walk, packet_in};
 use crate::simd::{Isa, Kernel, Lanes, dispatch};
 
 /// Cells of the grid the rays are grouped by.
 const CELLS: usize = 16;
 
-/// The structure the packets walk: the kd-tree, or its wide BVH.
-#[derive(Clone, Copy)]
-pub enum Through<'a> {
-    KdTree(&'a KdTree),
-    Bvh(&'a KdTree),
-}
-
 /// Sets bit j of `mask` for each of the `n` rays of `dirs` that escapes
 /// (hits nothing with `0 < t < t_max` from `origin`), in lanes of `isa`.
 pub fn point_visibility(
-    tree: Through<'_>,
+    (tree, walk): (&KdTree, Walk),
     origin: Vec3,
     dirs: &PointDirections,
     n: u32,
@@ -40,6 +32,7 @@ pub fn point_visibility(
         isa,
         Point {
             tree,
+            walk,
             origin,
             dirs,
             n,
@@ -52,7 +45,8 @@ pub fn point_visibility(
 /// One point's rays as a kernel: directions, grouping and packets all in
 /// the dispatched instruction set.
 struct Point<'a> {
-    tree: Through<'a>,
+    tree: &'a KdTree,
+    walk: Walk,
     origin: Vec3,
     dirs: &'a PointDirections,
     n: u32,
@@ -85,10 +79,7 @@ impl Kernel for Point<'_> {
             start[c as usize] += 1;
         }
         for (chunk, dirs) in order.chunks(LANES).zip(sorted.chunks(LANES)) {
-            let hit = match self.tree {
-                Through::KdTree(tree) => occluded_in::<V>(tree, self.origin, dirs, self.t_max),
-                Through::Bvh(tree) => bvh_occluded_in::<V>(tree, self.origin, dirs, self.t_max),
-            };
+            let hit = packet_in::<V>(self.tree, self.walk, self.origin, dirs, self.t_max);
             for (k, &j) in chunk.iter().enumerate() {
                 if hit & (1 << k) == 0 {
                     self.mask[(j / 32) as usize] |= 1 << (j % 32);

@@ -6,6 +6,7 @@ use rayon::prelude::*;
 
 use super::{AoPoint, AoSettings, PointDirections, VisibilityMasks, packets, ray_direction};
 use crate::kdtree::KdTree;
+use crate::kdtree::occlusion::Walk;
 use crate::progress::Progress;
 use crate::sampling::SampleSequence;
 use crate::simd::Isa;
@@ -75,24 +76,14 @@ fn point_visibility(
     let origin = Vec3::from_array(point.origin);
     let dirs = PointDirections::new(seq, point.stream, Vec3::from_array(point.normal));
     match casting {
-        Casting::Packets(isa) => packets::point_visibility(
-            packets::Through::KdTree(tree),
-            origin,
-            &dirs,
-            n,
-            settings.radius,
-            isa,
-            mask,
-        ),
-        Casting::BvhPackets(isa) => packets::point_visibility(
-            packets::Through::Bvh(tree),
-            origin,
-            &dirs,
-            n,
-            settings.radius,
-            isa,
-            mask,
-        ),
+        Casting::Packets(isa) | Casting::BvhPackets(isa) => {
+            let walk = if matches!(casting, Casting::Packets(_)) {
+                Walk::KdTree
+            } else {
+                Walk::Bvh
+            };
+            packets::point_visibility((tree, walk), origin, &dirs, n, settings.radius, isa, mask)
+        }
         Casting::Single => {
             for j in 0..n {
                 if !tree.any_hit(origin, dirs.direction(j), settings.radius) {

@@ -23,44 +23,17 @@ use super::{Bvh8, EMPTY_CHILD, LEAF_BIT, SLACK, WIDTH};
 use crate::kdtree::KdTree;
 use crate::kdtree::leaf_blocks::LeafBlock;
 use crate::kdtree::occlusion::{LANES, Rays, common_axes};
-use crate::simd::{Isa, Kernel, Lanes, Mask, dispatch};
+use crate::simd::{Lanes, Mask};
 
 /// Stack entries: as the single-ray walk's, at most seven per level.
 const STACK_SIZE: usize = 1024;
 const STACK_MASK: usize = STACK_SIZE - 1;
 
 /// Which of the rays `dirs` (at most 16) from `origin` hit a triangle with
-/// `0 < t < t_max`: bit r for `dirs[r]`, equal to `KdTree::any_hit` ray for
-/// ray, in the instruction set `isa` (or the best this CPU has).
-/// `tree` is the kd-tree the BVH `tree.bvh()` belongs to: a lane whose hit
-/// is a contact (`Bvh8::contact`) gets the tree's answer.
-pub fn occluded(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32, isa: Isa) -> u16 {
-    struct One<'a> {
-        tree: &'a KdTree,
-        origin: Vec3,
-        dirs: &'a [Vec3],
-        t_max: f32,
-    }
-    impl Kernel for One<'_> {
-        type Out = u16;
-        #[inline(always)]
-        fn run<V: Lanes>(self) -> u16 {
-            occluded_in::<V>(self.tree, self.origin, self.dirs, self.t_max)
-        }
-    }
-    dispatch(
-        isa,
-        One {
-            tree,
-            origin,
-            dirs,
-            t_max,
-        },
-    )
-}
-
-/// `occluded` in lanes `V`, for kernels that run many packets in one
-/// instruction set (`ao::packets`).
+/// `0 < t < t_max` (bit r for `dirs[r]`, equal to `KdTree::any_hit` ray for
+/// ray), in lanes `V`: `kdtree::occlusion::occluded_by` with `Walk::Bvh`
+/// dispatches it. A lane whose hit is a contact (`Bvh8::contact`) gets the
+/// kd-tree's answer.
 #[inline(always)]
 pub fn occluded_in<V: Lanes>(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32) -> u16 {
     assert!(dirs.len() <= LANES, "at most {LANES} rays per packet");

@@ -7,31 +7,9 @@ use glam::Vec3;
 
 use super::traverse::{BoxRay, BoxTest, Lanes8};
 use super::*;
-use crate::kdtree::test_rng::Rng;
+use crate::kdtree::test_rng::{Rng, brute_force, random_soup};
 use crate::kdtree::watertight::ShearedRay;
 use crate::kdtree::{KdTree, KdTreeParams};
-
-fn brute_force(tris: &[[Vec3; 3]], scale: f32, o: Vec3, d: Vec3, t_max: f32) -> Hit {
-    let ray = ShearedRay::in_frame(o, d, scale);
-    let mut best = Hit::MISS;
-    let mut best_t = t_max;
-    for (i, t) in tris.iter().enumerate() {
-        if let Some(t) = ray.intersect(t[0] * scale, t[1] * scale, t[2] * scale, best_t) {
-            best_t = t;
-            best = Hit { t, triangle: i as u32 };
-        }
-    }
-    best
-}
-
-fn random_soup(rng: &mut Rng, n: usize, size: f32) -> Vec<[Vec3; 3]> {
-    (0..n)
-        .map(|_| {
-            let c = rng.vec(-1.0, 1.0);
-            [0; 3].map(|_| c + rng.vec(-size, size))
-        })
-        .collect()
-}
 
 /// Rays from outside and inside, aimed at vertices, edge midpoints and
 /// anywhere, some axis-parallel (zero direction components).
@@ -291,6 +269,7 @@ fn box_tests_agree() {
 /// partly filled packets.
 #[test]
 fn packets_equal_single_rays() {
+    use crate::kdtree::occlusion::{Walk, occluded_by};
     use crate::simd::Isa;
     let mut rng = Rng(0x0cc1_0de5);
     let tris = random_soup(&mut rng, 3000, 0.15);
@@ -314,7 +293,7 @@ fn packets_equal_single_rays() {
             .enumerate()
             .fold(0u16, |m, (r, &d)| m | (tree.any_hit(origin, d, t_max) as u16) << r);
         for isa in Isa::available() {
-            let got = super::occlusion::occluded(&tree, origin, &dirs, t_max, isa);
+            let got = occluded_by(&tree, Walk::Bvh, origin, &dirs, t_max, isa);
             assert_eq!(got, expect, "packet {k}, {isa:?}");
         }
         counts[0] += expect.count_ones() as usize;

@@ -37,8 +37,22 @@ pub const LANES: usize = 16;
 /// `isa` picks the instruction set (`Isa::best()` normally; one this CPU
 /// lacks is replaced by the best it has).
 pub fn occluded(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32, isa: Isa) -> u16 {
+    occluded_by(tree, Walk::KdTree, origin, dirs, t_max, isa)
+}
+
+/// The structure a packet walks: the kd-tree, or its wide BVH
+/// (`bvh::occlusion`); the answers are the same.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Walk {
+    KdTree,
+    Bvh,
+}
+
+/// `occluded` through `walk`.
+pub fn occluded_by(tree: &KdTree, walk: Walk, origin: Vec3, dirs: &[Vec3], t_max: f32, isa: Isa) -> u16 {
     struct One<'a> {
         tree: &'a KdTree,
+        walk: Walk,
         origin: Vec3,
         dirs: &'a [Vec3],
         t_max: f32,
@@ -47,18 +61,28 @@ pub fn occluded(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32, isa: Isa
         type Out = u16;
         #[inline(always)]
         fn run<V: Lanes>(self) -> u16 {
-            occluded_in::<V>(self.tree, self.origin, self.dirs, self.t_max)
+            packet_in::<V>(self.tree, self.walk, self.origin, self.dirs, self.t_max)
         }
     }
     dispatch(
         isa,
         One {
             tree,
+            walk,
             origin,
             dirs,
             t_max,
         },
     )
+}
+
+/// `occluded_by` in lanes `V`.
+#[inline(always)]
+pub fn packet_in<V: Lanes>(tree: &KdTree, walk: Walk, origin: Vec3, dirs: &[Vec3], t_max: f32) -> u16 {
+    match walk {
+        Walk::KdTree => occluded_in::<V>(tree, origin, dirs, t_max),
+        Walk::Bvh => crate::bvh::occlusion::occluded_in::<V>(tree, origin, dirs, t_max),
+    }
 }
 
 /// `occluded` in lanes `V`, for kernels that run many packets in one

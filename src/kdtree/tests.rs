@@ -2,42 +2,15 @@
 
 use glam::Vec3;
 
-use super::test_rng::Rng;
-use super::watertight::ShearedRay;
+use super::test_rng::{Rng, brute_force, random_soup};
 use super::*;
-
-fn brute_force(tris: &[[Vec3; 3]], o: Vec3, d: Vec3, t_max: f32) -> Hit {
-    let ray = ShearedRay::new(o, d);
-    let mut best = Hit::MISS;
-    let mut best_t = t_max;
-    for (i, t) in tris.iter().enumerate() {
-        if let Some(t) = ray.intersect(t[0], t[1], t[2], best_t) {
-            best_t = t;
-            best = Hit { t, triangle: i as u32 };
-        }
-    }
-    best
-}
-
-fn random_soup(rng: &mut Rng, n: usize, size: f32) -> Vec<[Vec3; 3]> {
-    (0..n)
-        .map(|_| {
-            let c = rng.vec(-1.0, 1.0);
-            [
-                c + rng.vec(-size, size),
-                c + rng.vec(-size, size),
-                c + rng.vec(-size, size),
-            ]
-        })
-        .collect()
-}
 
 /// Closest hits equal brute force: same t; the triangle may differ only when
 /// two triangles are hit at the same t (shared edges, duplicates).
 fn assert_matches_brute_force(tree: &KdTree, rays: &[(Vec3, Vec3)]) -> usize {
     let mut hits = 0;
     for (k, &(o, d)) in rays.iter().enumerate() {
-        let expect = brute_force(&tree.triangles, o, d, f32::INFINITY);
+        let expect = brute_force(&tree.triangles, 1.0, o, d, f32::INFINITY);
         let got = tree.closest_hit(o, d, f32::INFINITY);
         assert_eq!(got.is_hit(), expect.is_hit(), "ray {k}: {o} {d}");
         if expect.is_hit() {
@@ -98,7 +71,7 @@ fn origins_inside_the_scene_and_short_rays() {
         let o = rng.vec(-1.0, 1.0);
         let d = rng.vec(-1.0, 1.0);
         let t_max = rng.next_f32() * 2.0;
-        let expect = brute_force(&tree.triangles, o, d, t_max);
+        let expect = brute_force(&tree.triangles, 1.0, o, d, t_max);
         let got = tree.closest_hit(o, d, t_max);
         assert_eq!(got.t.to_bits(), expect.t.to_bits());
         assert_eq!(tree.any_hit(o, d, t_max), expect.is_hit());
@@ -225,7 +198,7 @@ fn rays_parallel_to_and_lying_in_split_planes() {
             (Vec3::new(c, 0.5, 2.0), -Vec3::Z),
             (Vec3::new(-1.0, c, c), Vec3::X),
         ] {
-            let expect = brute_force(&tris, o, d, f32::INFINITY);
+            let expect = brute_force(&tris, 1.0, o, d, f32::INFINITY);
             let got = tree.closest_hit(o, d, f32::INFINITY);
             assert_eq!(got.t, expect.t, "{o} {d}");
             assert!(got.is_hit(), "ray {o} {d} must hit the cube");
@@ -296,7 +269,7 @@ fn a_single_triangle() {
         (Vec3::X, None),
     ] {
         let got = tree.closest_hit(o, target - o, f32::INFINITY);
-        assert_eq!(got, brute_force(&tree.triangles, o, target - o, f32::INFINITY));
+        assert_eq!(got, brute_force(&tree.triangles, 1.0, o, target - o, f32::INFINITY));
         if let Some(e) = expect {
             assert_eq!(got.is_hit(), e, "{target}");
         }

@@ -11,9 +11,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::transfer::Brdf;
-use crate::bvh::occlusion::occluded;
 use crate::kdtree::KdTree;
-use crate::kdtree::occlusion::LANES;
+use crate::kdtree::occlusion::{LANES, Walk, occluded_by};
 use crate::sampling::{Frame, SampleSequence, cosine_hemisphere};
 use crate::scene::ORIGIN_OFFSET;
 use crate::sh::{ShBasis, coefficient_count};
@@ -64,7 +63,7 @@ pub fn reference_transfer(
                 let [u, w] = stream.sample(first + k as u32);
                 *d = frame.to_world(cosine_hemisphere(u, w)).normalize();
             }
-            let hit = occluded(tree, origin, &dirs[..n], f32::INFINITY, Isa::best());
+            let hit = occluded_by(tree, Walk::Bvh, origin, &dirs[..n], f32::INFINITY, Isa::best());
             for (_, &d) in dirs[..n].iter().enumerate().filter(|&(k, _)| hit & (1 << k) == 0) {
                 let rho = brdf.rho(d, reflected);
                 basis.eval(d, &mut y);
