@@ -28,25 +28,37 @@ pub fn point_visibility(
     isa: Isa,
     mask: &mut [u32],
 ) {
-    dispatch(
-        isa,
-        Point {
-            tree,
-            walk,
-            origin,
-            dirs,
-            n,
-            t_max,
-            mask,
-        },
-    )
+    // One kernel per structure (see `kdtree::occlusion::occluded_by`).
+    match walk {
+        Walk::KdTree => dispatch(
+            isa,
+            Point::<false> {
+                tree,
+                origin,
+                dirs,
+                n,
+                t_max,
+                mask,
+            },
+        ),
+        Walk::Bvh => dispatch(
+            isa,
+            Point::<true> {
+                tree,
+                origin,
+                dirs,
+                n,
+                t_max,
+                mask,
+            },
+        ),
+    }
 }
 
 /// One point's rays as a kernel: directions, grouping and packets all in
 /// the dispatched instruction set.
-struct Point<'a> {
+struct Point<'a, const BVH: bool> {
     tree: &'a KdTree,
-    walk: Walk,
     origin: Vec3,
     dirs: &'a PointDirections,
     n: u32,
@@ -54,7 +66,7 @@ struct Point<'a> {
     mask: &'a mut [u32],
 }
 
-impl Kernel for Point<'_> {
+impl<const BVH: bool> Kernel for Point<'_, BVH> {
     type Out = ();
 
     #[inline(always)]
@@ -79,7 +91,7 @@ impl Kernel for Point<'_> {
             start[c as usize] += 1;
         }
         for (chunk, dirs) in order.chunks(LANES).zip(sorted.chunks(LANES)) {
-            let hit = packet_in::<V>(self.tree, self.walk, self.origin, dirs, self.t_max);
+            let hit = packet_in::<V, BVH>(self.tree, self.origin, dirs, self.t_max);
             for (k, &j) in chunk.iter().enumerate() {
                 if hit & (1 << k) == 0 {
                     self.mask[(j / 32) as usize] |= 1 << (j % 32);
