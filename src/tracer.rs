@@ -47,8 +47,9 @@ pub struct GpuTracer {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Accel {
-    /// The wide BVH (`bvh`): two to three times the kd-tree's speed on
-    /// single rays, built in about a fifth of the kd-tree's time.
+    /// The wide BVH (`bvh`): 1.1 to 2.2 times the kd-tree's speed on
+    /// single rays (least on long thin triangles), built in about a fifth
+    /// of the kd-tree's time.
     #[default]
     Bvh,
     /// The kd-tree's single-ray walk (the MLRTA paper's foundation).
