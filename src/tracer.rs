@@ -13,13 +13,14 @@ use crate::ao::gpu::AoRaysBatches;
 use crate::ao::raycast::{Casting, ao_rays_by};
 use crate::ao::{AoPoint, AoSettings, VisibilityMasks};
 use crate::bvh::Bvh8;
-use crate::device::{Device, GpuOutput, OnDevice, Timed, elapsed_ms};
+use crate::device::{Device, GpuOutput, OnDevice, Timed, Timing, elapsed_ms};
 use crate::error::Result;
 use crate::gpu::GpuContext;
 use crate::kdtree::gpu::{GpuKdTree, TraceMode, TraceRaysBatches};
-use crate::kdtree::{KdTree, KdTreeParams, TraversalCounts};
+use crate::kdtree::{BuildStats, KdTree, KdTreeParams, TraversalCounts};
 use crate::progress::{Bars, Progress};
 use crate::ray::{Hit, Ray};
+use crate::repeats::{Repeats, RunTimes};
 use crate::scene::Mesh;
 use crate::simd::Isa;
 
@@ -32,6 +33,52 @@ pub fn build_tree(mesh: &Mesh, bars: Bars, what: &str) -> Result<KdTree> {
     let tree = KdTree::build_with(mesh, &KdTreeParams::default(), &progress)?;
     progress.finish();
     Ok(tree)
+}
+
+/// What `trace-rays` reports: the contract's fields, the tree's (and on the
+/// CPU the BVH's) build, and the runs.
+#[derive(Debug, Clone, Serialize)]
+pub struct TraceRaysReport {
+    pub rays: usize,
+    pub hits: usize,
+    /// The kd-tree's build (the BVH's is `bvh.build_ms`).
+    pub build_ms: f64,
+    pub trace_ms: f64,
+    pub mrays_per_s: f64,
+    pub timing: Timing,
+    pub kdtree: BuildStats,
+    pub bvh: Option<BvhStats>,
+    pub runs: RunTimes,
+}
+
+/// Closest hits of `rays` (a ray file's, in no particular order) against
+/// `mesh` on `device`, single rays walking `accel` on the CPU, timed as
+/// `runs` says: the runner of `trace-rays`.
+pub fn trace_ray_file(
+    device: &Device,
+    mesh: &Mesh,
+    rays: &[Ray],
+    accel: Accel,
+    runs: &Repeats,
+    bars: Bars,
+) -> Result<(Vec<Hit>, TraceRaysReport)> {
+    let mut tracer = Tracer::build(device, mesh, bars, "trace-rays")?.with_accel(accel);
+    let progress = bars.spinner(&format!("tracing {} rays", rays.len()));
+    let (traced, times) = runs.run("trace_ms", || tracer.closest_incoherent(rays), |t| t.ms)?;
+    progress.finish();
+    let kdtree = tracer.tree().stats.clone();
+    let report = TraceRaysReport {
+        rays: rays.len(),
+        hits: traced.value.iter().filter(|h| h.is_hit()).count(),
+        build_ms: kdtree.build_ms,
+        trace_ms: traced.ms,
+        mrays_per_s: crate::mlrta::runner::mrays_per_s(rays.len(), traced.ms),
+        timing: traced.timing,
+        kdtree,
+        bvh: tracer.bvh_stats().cloned(),
+        runs: times,
+    };
+    Ok((traced.value, report))
 }
 
 /// What a tracer keeps on a GPU.

@@ -2,15 +2,14 @@
 
 use std::path::PathBuf;
 
-use serde_json::{Value, json};
+use serde_json::Value;
 
 use super::args::{Common, check_output};
 use crate::error::Result;
-use crate::mlrta::runner::mrays_per_s;
 use crate::progress::Bars;
 use crate::ray_file::{read_rays_in, write_hits};
 use crate::scene::load_mesh;
-use crate::tracer::{Accel, Tracer};
+use crate::tracer::{Accel, trace_ray_file};
 
 #[derive(clap::Args)]
 pub struct TraceRaysArgs {
@@ -36,23 +35,8 @@ pub fn run(args: &TraceRaysArgs) -> Result<Value> {
     let mesh = load_mesh(&args.mesh)?;
     let rays = read_rays_in(&args.rays, mesh.origin)?;
     let device = args.common.open_device()?;
-    let mut tracer = Tracer::build(&device, &mesh, Bars::Stderr, "trace-rays")?.with_accel(args.accel);
-    let progress = Bars::Stderr.spinner(&format!("tracing {} rays", rays.len()));
     let runs = args.common.runs.runs(1)?;
-    let (traced, times) = runs.run("trace_ms", || tracer.closest_incoherent(&rays), |t| t.ms)?;
-    progress.finish();
-    write_hits(out, &traced.value)?;
-    let (stats, bvh) = (&tracer.tree().stats, tracer.bvh_stats());
-    let report = json!({
-        "rays": rays.len(),
-        "hits": traced.value.iter().filter(|h| h.is_hit()).count(),
-        "build_ms": stats.build_ms,
-        "trace_ms": traced.ms,
-        "mrays_per_s": mrays_per_s(rays.len(), traced.ms),
-        "timing": traced.timing,
-        "kdtree": stats,
-        "bvh": bvh,
-        "runs": times,
-    });
-    super::io::merged(report, args.common.report(&device, threads))
+    let (hits, report) = trace_ray_file(&device, &mesh, &rays, args.accel, &runs, Bars::Stderr)?;
+    write_hits(out, &hits)?;
+    super::io::merged(args.common.report(&device, threads), report)
 }
