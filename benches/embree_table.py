@@ -10,7 +10,8 @@ the same stretch of time on this shared machine.
 
 Workloads (the issue's table):
   primary    1024^2 primary rays of the default camera (kitchen: the interior
-             view): Embree's best coherent stream call against MLRTA packets.
+             view): Embree's best coherent stream call against MLRTA packets,
+             and against 4x4 packets through the wide BVH (`--accel bvh`).
   single     the same rays through rtcIntersect1 against `trace --single-ray`.
   ao         256 cosine rays per vertex, directions generated inside the timed
              loop on both sides: rtcOccluded16 against `ao --method raycast`
@@ -139,6 +140,8 @@ def main():
                     version = e[("build", "")]["embree"]
                 pen = penumbra(["trace", "--mesh", mesh] + size + view)
                 best.hi((name, "primary", "penumbra"), pen["mrays_per_s"])
+                packets = penumbra(["trace", "--mesh", mesh, "--accel", "bvh"] + size + view)
+                best.hi((name, "bvh packets", "penumbra"), packets["mrays_per_s"])
                 if name == "stanford-bunny":
                     best.lo((name, "build", "penumbra"), pen["build_ms"] + pen["prepare_ms"])
                     single = penumbra(["trace", "--mesh", mesh, "--single-ray"] + size)
@@ -163,6 +166,9 @@ def main():
         (f"bunny {k} primary", "stream, coherent", ("stanford-bunny", "primary"), "MLRTA"),
         (f"dragon100k {k} primary", "stream, coherent", ("dragon100k", "primary"), "MLRTA"),
         (f"kitchen interior {k} primary", "stream, coherent", ("kitchen", "primary"), "MLRTA"),
+        (f"bunny {k} primary", "stream, coherent", ("stanford-bunny", "bvh packets"), "BVH 4x4 packets"),
+        (f"dragon100k {k} primary", "stream, coherent", ("dragon100k", "bvh packets"), "BVH 4x4 packets"),
+        (f"kitchen interior {k} primary", "stream, coherent", ("kitchen", "bvh packets"), "BVH 4x4 packets"),
         (f"bunny {k} primary", "`rtcIntersect1`", ("stanford-bunny", "single"), "single ray"),
         (f"cow AO, {ao_rays} rays/vertex", "`rtcOccluded16`", ("cow", "ao"), "`ao` raycast"),
         (f"bunny AO, {ao_rays} rays/vertex", "`rtcOccluded16`", ("stanford-bunny", "ao"), "`ao` raycast"),
@@ -178,7 +184,8 @@ def main():
         "|---|---|---:|---|---:|---:|",
     ]
     for work, api, (model, kind), ours in rows:
-        em, pe = b[(model, kind, "embree")], b[(model, kind, "penumbra")]
+        em = b[(model, "primary" if kind == "bvh packets" else kind, "embree")]
+        pe = b[(model, kind, "penumbra")]
         lines.append(f"| {work} | {api} | {em:.1f} | {ours} | {pe:.1f} | {pe / em:.2f} |")
     eb, pb = b[("stanford-bunny", "build", "embree")], b[("stanford-bunny", "build", "penumbra")]
     lines.append(f"| bunny build (1 thread) | BVH, high quality | {eb:.0f} ms | kd-tree + prepare | {pb:.0f} ms "

@@ -112,6 +112,21 @@ pub struct BvhStats {
     pub bytes: usize,
 }
 
+impl BvhStats {
+    /// Builds `tree`'s BVH if it has none yet (the time is then its build's)
+    /// and describes it.
+    pub fn build(tree: &KdTree) -> BvhStats {
+        let start = std::time::Instant::now();
+        let bvh = tree.bvh();
+        BvhStats {
+            build_ms: elapsed_ms(start),
+            nodes: bvh.nodes.len(),
+            leaf_blocks: bvh.blocks.len(),
+            bytes: bvh.memory_bytes(),
+        }
+    }
+}
+
 /// A kd-tree and, on a GPU, its upload and passes; on the CPU, the BVH of
 /// its triangles once single rays need it.
 pub struct Tracer {
@@ -164,14 +179,7 @@ impl Tracer {
             return None;
         }
         if !self.tree.has_bvh() {
-            let start = std::time::Instant::now();
-            let bvh = self.tree.bvh();
-            self.bvh_stats = Some(BvhStats {
-                build_ms: elapsed_ms(start),
-                nodes: bvh.nodes.len(),
-                leaf_blocks: bvh.blocks.len(),
-                bytes: bvh.memory_bytes(),
-            });
+            self.bvh_stats = Some(BvhStats::build(&self.tree));
         }
         Some(self.tree.bvh())
     }

@@ -821,9 +821,20 @@ fn trace_modes_give_identical_images() {
         let (on, on_png) = trace_png(&d, mesh, "on.png", &format!("{size} {tiles} --mlrta on"));
         let (off, off_png) = trace_png(&d, mesh, "off.png", &format!("{size} {tiles} --mlrta off"));
         let (single, single_png) = trace_png(&d, mesh, "single.png", &format!("{size} --single-ray"));
+        let (bvh, bvh_png) = trace_png(&d, mesh, "bvh.png", &format!("{size} --accel bvh"));
         assert_eq!((on["mlrta"].as_str(), off["mlrta"].as_str()), (Some("on"), Some("off")));
         assert_eq!(single["mlrta"], "single-ray");
-        for (name, other) in [("off", &off), ("single-ray", &single)] {
+        assert_eq!(
+            (bvh["mlrta"].as_str(), bvh["accel"].as_str()),
+            (Some("bvh-packets"), Some("bvh"))
+        );
+        assert!(bvh["bvh"]["nodes"].as_u64().unwrap() > 0, "{mesh}: {bvh}");
+        assert!(bvh["cells_per_packet"].as_f64().unwrap() >= 1.0, "{mesh}: {bvh}");
+        assert_eq!(
+            bvh_png, single_png,
+            "{mesh}: --accel bvh packets and --single-ray images differ"
+        );
+        for (name, other) in [("off", &off), ("single-ray", &single), ("bvh packets", &bvh)] {
             assert_eq!(on["hits"], other["hits"], "{mesh}: hits with --mlrta on and {name}");
             assert_eq!(
                 on["shadows"]["shadowed_hits"], other["shadows"]["shadowed_hits"],

@@ -244,6 +244,11 @@ fn options_that_do_not_apply_are_refused() {
             "without --single-ray",
         ),
         (
+            "trace --mesh {mesh} --width 8 --height 8 --accel bvh --aa adaptive".to_string(),
+            "--aa",
+            "without --single-ray or --accel bvh",
+        ),
+        (
             "trace --mesh {mesh} --width 8 --height 8 --aa-samples 16".to_string(),
             "--aa-samples",
             "--aa adaptive",

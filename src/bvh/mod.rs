@@ -24,6 +24,7 @@
 
 mod build;
 pub mod occlusion;
+pub mod packet;
 #[cfg(test)]
 mod tests;
 mod traverse;

@@ -301,3 +301,97 @@ fn packets_equal_single_rays() {
     }
     assert!(counts[0] > 2000 && counts[1] > 2000, "{counts:?}");
 }
+
+/// The closest-hit packets give each lane its single ray's hit bit for bit
+/// (t and triangle), in every instruction set: random soups with origins
+/// inside and out, fans of rays aimed at vertices and edges (ties between
+/// a triangle and its copy), zero direction components, short limits,
+/// partly filled packets.
+#[test]
+fn closest_packets_equal_single_rays() {
+    use crate::simd::Isa;
+    let mut rng = Rng(0xc105_e575);
+    let mut tris = random_soup(&mut rng, 2000, 0.15);
+    // Copies of the first 300 triangles: every hit on them is a tie.
+    tris.extend_from_within(..300);
+    let tree = KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap();
+    let (mut hits, mut ties, mut rays) = (0usize, 0usize, 0usize);
+    for k in 0..1500 {
+        let origin = rng.vec(-1.5, 1.5);
+        let n = 1 + k % 16;
+        let dirs: Vec<Vec3> = (0..n)
+            .map(|r| {
+                let tri = tris[(k * 16 + r) % 300];
+                let mut d = match r % 3 {
+                    0 => tri[0] - origin,
+                    1 => (tri[1] + tri[2]) * 0.5 - origin,
+                    _ => rng.vec(-1.0, 1.0),
+                };
+                if k % 7 == 0 && r == 3 {
+                    d.y = 0.0;
+                }
+                d
+            })
+            .collect();
+        let t_max = if k % 3 == 0 {
+            rng.next_f32() * 2.0
+        } else {
+            f32::INFINITY
+        };
+        let expect: Vec<_> = dirs.iter().map(|&d| tree.bvh_closest_hit(origin, d, t_max)).collect();
+        for isa in Isa::available() {
+            let got = packet::closest(&tree, origin, &dirs, t_max, isa);
+            for (r, e) in expect.iter().enumerate() {
+                assert_eq!(
+                    (got[r].t.to_bits(), got[r].triangle),
+                    (e.t.to_bits(), e.triangle),
+                    "packet {k} lane {r}, {isa:?}"
+                );
+            }
+            assert!(got[n..].iter().all(|h| !h.is_hit()), "unused lanes stay misses");
+        }
+        rays += n;
+        for e in expect.iter().filter(|e| e.is_hit()) {
+            hits += 1;
+            ties += (e.triangle < 300) as usize;
+        }
+    }
+    println!("{rays} rays, {hits} hits, {ties} on a triangle that has a copy");
+    assert!(
+        hits > 4000 && ties > 1000 && rays - hits > 2000,
+        "{rays} rays, {hits} hits, {ties} ties"
+    );
+}
+
+/// A camera's image through `packet::trace_image` equals single rays, and
+/// blocks whose rays do not share an origin go ray by ray.
+#[test]
+fn packet_images_equal_single_rays() {
+    use crate::ray::Ray;
+    use crate::simd::Isa;
+    let mut rng = Rng(41);
+    let tris = random_soup(&mut rng, 1500, 0.2);
+    let tree = KdTree::from_triangles(tris, &KdTreeParams::default()).unwrap();
+    let (w, h) = (37u32, 22u32);
+    let eye = Vec3::new(0.3, -0.2, 4.0);
+    let mut rays: Vec<Ray> = (0..w * h)
+        .map(|i| {
+            // Pixel centres off the axis: no zero direction component.
+            let (x, y) = (((i % w) as f32 + 0.3) / w as f32, ((i / w) as f32 + 0.3) / h as f32);
+            Ray::new(eye, Vec3::new(x - 0.5, y - 0.5, -1.5).normalize())
+        })
+        .collect();
+    // One block with a second origin.
+    rays[w as usize + 1] = Ray::new(Vec3::new(0.0, 0.0, -3.0), Vec3::Z);
+    let expect: Vec<_> = rays
+        .iter()
+        .map(|r| tree.bvh_closest_hit(r.o(), r.d(), f32::INFINITY))
+        .collect();
+    for isa in Isa::available() {
+        let (got, counts) = packet::trace_image(&tree, &rays, w, h, isa);
+        assert_eq!(got, expect, "{isa:?}");
+        assert_eq!(counts.single_rays, 16, "{isa:?}: one block ray by ray");
+        assert_eq!(counts.packets, 10 * 6 - 1, "{isa:?}");
+    }
+    assert!(expect.iter().filter(|h| h.is_hit()).count() > 200);
+}

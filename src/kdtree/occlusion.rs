@@ -371,6 +371,23 @@ impl<V: Lanes> Shear<V> {
     /// is one broadcast rather than two selects).
     #[inline(always)]
     pub fn hits(&self, a: [f32; 3], b: [f32; 3], c: [f32; 3], active: V::M, common: Option<[usize; 3]>) -> (V::M, V) {
+        let (ok, t) = self.crossings(a, b, c, active, common);
+        (ok.and(t.gt(V::splat(0.0))).and(t.lt(self.limit)), t)
+    }
+
+    /// The lanes of `active` whose line crosses the triangle on the
+    /// direction's side (t >= 0 not yet checked, nor any limit), and t in
+    /// the frame: what closest-hit packets (`bvh::packet`) compare with each
+    /// lane's best so far.
+    #[inline(always)]
+    pub fn crossings(
+        &self,
+        a: [f32; 3],
+        b: [f32; 3],
+        c: [f32; 3],
+        active: V::M,
+        common: Option<[usize; 3]>,
+    ) -> (V::M, V) {
         match common {
             Some(k) => self.hits_with(a, b, c, active, |p: [f32; 3], i| V::splat(p[k[i]])),
             None => self.hits_with(a, b, c, active, |p, i| self.pick(p, i)),
@@ -415,8 +432,7 @@ impl<V: Lanes> Shear<V> {
             .and(t_scaled.le(zero))
             .or(det.lt(zero).and(t_scaled.ge(zero)));
         ok = ok.and_not(wrong_side);
-        let t = t_scaled.div(det);
-        (ok.and(t.gt(zero)).and(t.lt(self.limit)), t)
+        (ok, t_scaled.div(det))
     }
 }
 

@@ -20,10 +20,13 @@ pub struct TraceOptions {
     /// Trace rays one by one instead of in packets (the foundation's path).
     #[arg(long, conflicts_with = "mlrta")]
     pub single_ray: bool,
-    /// What single rays walk on the CPU: the wide BVH (faster) or the
-    /// kd-tree (the paper's foundation); the hits are the same.
-    #[arg(long, value_enum, default_value_t = Accel::Bvh)]
-    pub accel: Accel,
+    /// What rays walk on the CPU [default: bvh with --single-ray, kdtree
+    /// for packets]: packets through the kd-tree are MLRTA (tiles, entry
+    /// points); `--accel bvh` traces each 4x4 packet through the wide BVH
+    /// from its root instead (faster on the CPU; no tiles, entry points or
+    /// anti-aliasing). The hits are the same.
+    #[arg(long, value_enum)]
+    pub accel: Option<Accel>,
     /// Initial tile side in pixels (the paper's ITS).
     #[arg(long, default_value_t = 128, allow_negative_numbers = true)]
     pub tile: u32,
@@ -56,13 +59,20 @@ pub struct TraceOptions {
 impl TraceOptions {
     /// Tile knobs apply to packets, anti-aliasing knobs to --aa.
     pub fn applies(&self) -> Vec<Applies> {
-        let tiles = &["tile", "min_tile", "split_factor"];
+        let mlrta = &["mlrta", "tile", "min_tile", "split_factor", "aa"];
         let aa = &["aa_samples", "reference"];
+        let needs = "MLRTA packets (without --single-ray or --accel bvh)";
         vec![
-            applies(!self.single_ray, tiles, "packets (without --single-ray)"),
-            applies(self.single_ray, &["accel"], "--single-ray"),
+            applies(!self.single_ray && self.accel() == Accel::Kdtree, mlrta, needs),
             applies(self.aa != AaMode::None, aa, "--aa adaptive or uniform"),
         ]
+    }
+
+    /// `--accel`, or its default: the BVH for single rays, the kd-tree
+    /// (MLRTA) for packets.
+    fn accel(&self) -> Accel {
+        self.accel
+            .unwrap_or(if self.single_ray { Accel::Bvh } else { Accel::Kdtree })
     }
 
     /// The checked request for `view`.
@@ -70,7 +80,7 @@ impl TraceOptions {
         let request = TraceRequest {
             view,
             single_ray: self.single_ray,
-            accel: self.accel,
+            accel: self.accel(),
             params: MlrtaParams {
                 entry_points: self.mlrta.on(),
                 initial_tile: self.tile,

@@ -67,7 +67,10 @@ pub struct TraceRequest {
     pub view: View,
     /// One ray at a time instead of packets.
     pub single_ray: bool,
-    /// What single rays walk on the CPU.
+    /// What rays walk on the CPU: single rays the BVH or the kd-tree;
+    /// packets the kd-tree with MLRTA (`params`) or, with `Accel::Bvh`,
+    /// the BVH from its root (`bvh::packet`; no tiles or anti-aliasing).
+    /// The GPU walks the kd-tree.
     pub accel: Accel,
     /// Packets: entry points on or off, tile sizes.
     pub params: MlrtaParams,
@@ -78,6 +81,12 @@ pub struct TraceRequest {
 impl TraceRequest {
     pub fn validate(&self) -> Result<()> {
         crate::scene::check_image_size(self.view.width, self.view.height)?;
+        if !self.single_ray && self.accel == Accel::Bvh && self.aa.mode != AaMode::None {
+            return Err(crate::error::Error::param(
+                "aa",
+                "anti-aliasing follows MLRTA's tiles: it needs packets through the kd-tree, not the BVH",
+            ));
+        }
         self.params.validate()?;
         aa::validate_samples(self.aa.samples)
     }
@@ -174,6 +183,22 @@ pub struct ShadowStats {
     pub shadowed_hits: usize,
 }
 
+impl ShadowStats {
+    /// Shadow rays to `light` without traversal statistics of their own
+    /// (single rays, BVH packets); the ray counts are filled in later.
+    fn uncounted(light: Vec3) -> ShadowStats {
+        ShadowStats {
+            light: light.to_array(),
+            cells_per_packet: None,
+            isects_per_packet: None,
+            ep_steps_per_packet: None,
+            counts: None,
+            shadow_rays: 0,
+            shadowed_hits: 0,
+        }
+    }
+}
+
 /// What a traversal mode traced, before the statistics every mode shares.
 struct Traced {
     hits: Vec<Hit>,
@@ -214,6 +239,8 @@ pub fn trace_view(
     let kdtree = tree.stats.clone();
     let mut t = if request.single_ray {
         single_ray(device, tree, &rays, light, request.accel)?
+    } else if request.accel == Accel::Bvh && !device.is_gpu() {
+        bvh_packets(&tree, &rays, width, light)
     } else {
         packet_image(device, &tree, mesh, &camera, &rays, request, light, packets)?
     };
@@ -283,15 +310,7 @@ fn single_ray(device: &Device, tree: KdTree, rays: &[Ray], light: Option<Vec3>, 
         trace_ms += elapsed_ms(start);
         shadow
     });
-    let shadows = light.map(|l| ShadowStats {
-        light: l.to_array(),
-        cells_per_packet: None,
-        isects_per_packet: None,
-        ep_steps_per_packet: None,
-        counts: None,
-        shadow_rays: 0,
-        shadowed_hits: 0,
-    });
+    let shadows = light.map(ShadowStats::uncounted);
     Ok(Traced {
         hits,
         shadowed,
@@ -316,6 +335,73 @@ fn cells(c: &MlrtaCounts) -> f64 {
 
 fn isects(c: &MlrtaCounts) -> f64 {
     (c.isects + c.single_isects) as f64
+}
+
+/// 4x4 packets through the wide BVH on the CPU (`bvh::packet`): no tiles
+/// or entry points, each block of the image from the root; shadow rays as
+/// any-hit packets from the light to each block's hits. Statistics: BVH
+/// nodes and leaves visited, and triangle tests, per packet.
+fn bvh_packets(tree: &KdTree, rays: &[Ray], width: u32, light: Option<Vec3>) -> Traced {
+    let bvh = BvhStats::build(tree);
+    let isa = crate::simd::Isa::best();
+    let height = (rays.len() / width as usize) as u32;
+    let start = std::time::Instant::now();
+    let (hits, c) = crate::bvh::packet::trace_image(tree, rays, width, height, isa);
+    let shadowed = light.map(|l| shadow_packets(tree, rays, &hits, width as usize, l, isa));
+    let trace_ms = elapsed_ms(start);
+    Traced {
+        hits,
+        shadowed,
+        tiles: Vec::new(),
+        aa: None,
+        mlrta: "bvh-packets",
+        accel: Some(Accel::Bvh),
+        bvh: Some(bvh),
+        timing: Timing::Wall,
+        trace_ms,
+        cells: (c.nodes + c.leaves) as f64,
+        isects: c.triangle_tests as f64,
+        packets: None,
+        shadows: light.map(ShadowStats::uncounted),
+        aa_report: None,
+    }
+}
+
+/// Whether each hit is in shadow of `light`: per 4x4 block, the segments
+/// from the light to its hits (ending `SHADOW_EPSILON` short, as the
+/// single-ray path's) as one any-hit packet through the BVH.
+fn shadow_packets(
+    tree: &KdTree,
+    rays: &[Ray],
+    hits: &[Hit],
+    width: usize,
+    light: Vec3,
+    isa: crate::simd::Isa,
+) -> Vec<bool> {
+    use crate::kdtree::occlusion::{Walk, occluded_by};
+    let mut shadowed = vec![false; hits.len()];
+    shadowed
+        .par_chunks_mut(4 * width)
+        .zip(hits.par_chunks(4 * width).zip(rays.par_chunks(4 * width)))
+        .for_each(|(out, (hits, rays))| {
+            let rows = hits.len() / width;
+            for x0 in (0..width).step_by(4) {
+                let (mut to, mut at, mut m) = ([Vec3::ZERO; 16], [0usize; 16], 0);
+                for y in 0..rows {
+                    for i in (x0..(x0 + 4).min(width)).map(|x| y * width + x) {
+                        if hits[i].is_hit() {
+                            (to[m], at[m]) = (rays[i].o() + hits[i].t * rays[i].d() - light, i);
+                            m += 1;
+                        }
+                    }
+                }
+                let blocked = occluded_by(tree, Walk::Bvh, light, &to[..m], 1.0 - SHADOW_EPSILON, isa);
+                for (j, &i) in at[..m].iter().enumerate() {
+                    out[i] = blocked & (1 << j) != 0;
+                }
+            }
+        });
+    shadowed
 }
 
 /// 4x4 packets, with or without entry points, on the device; AA on the CPU.

@@ -14,6 +14,7 @@ use crate::mlrta::tiles::DEFAULT_MIN_TILE;
 use crate::progress::Bars;
 use crate::ray::Hit;
 use crate::scene::{Mesh, View};
+use crate::tracer::Accel;
 
 const KNOBS: &[Knob] = &[
     Knob {
@@ -63,10 +64,12 @@ impl TraceSweep {
 
     fn request(&self, s: &Setting) -> Result<TraceRequest> {
         let tile = s.get("tile")?.unwrap_or(128);
+        let single_ray = s.get_on_off("single-ray")?.unwrap_or(false);
         let request = TraceRequest {
             view: self.view,
-            single_ray: s.get_on_off("single-ray")?.unwrap_or(false),
-            accel: crate::tracer::Accel::default(),
+            single_ray,
+            // `trace`'s defaults: the BVH for single rays, MLRTA for packets.
+            accel: if single_ray { Accel::Bvh } else { Accel::Kdtree },
             params: MlrtaParams {
                 entry_points: s.get_on_off("mlrta")?.unwrap_or(true),
                 initial_tile: tile,

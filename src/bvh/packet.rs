@@ -1,0 +1,449 @@
+//! Closest-hit packets of up to 16 rays sharing an origin through the wide
+//! BVH: a camera's 4x4 pixel blocks (`trace --accel bvh`).
+//!
+//! The walk of `occlusion` with a best hit per lane instead of a flag: the
+//! packet enters a node with a mask of lanes, each of the eight boxes is
+//! clipped against all of them at once (the plane's distance from the
+//! shared origin is one scalar per child, times each lane's reciprocal
+//! direction), up to each lane's best t so far; the children some lane
+//! enters are visited nearest box first, each with its lanes and their
+//! entry distances, which a popped entry compares again with the lanes'
+//! best (they may have shrunk meanwhile). Leaves test their triangles in
+//! all active lanes with the kd-tree packets' lane arithmetic
+//! (`kdtree::occlusion::Shear`), and a lane keeps a triangle under the
+//! single ray's rule: a smaller t, or the same t and a smaller index.
+//!
+//! Each lane's answer is its single ray's (`KdTree::bvh_closest_hit`), bit
+//! for bit: the box test is the single ray's arithmetic with the same
+//! slack, a lane enters every box its single ray enters (its best is never
+//! below the single ray's final hit, which lies in all of them), and the
+//! closest hit does not depend on the order candidates are met in. A hit
+//! closer than `Bvh8::contact` is the kd-tree's answer, as for single rays.
+
+use std::mem::MaybeUninit;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::traverse::is_contact;
+use super::{Bvh8, EMPTY_CHILD, LEAF_BIT, Node8, SLACK, WIDTH};
+use crate::kdtree::KdTree;
+use crate::kdtree::leaf_blocks::LeafBlock;
+use crate::kdtree::occlusion::{LANES, Rays, common_axes};
+use crate::ray::{Hit, Ray};
+use crate::simd::{Isa, Kernel, Lanes, Mask, dispatch};
+
+/// Stack entries: as the single-ray walk's, at most seven per level.
+const STACK_SIZE: usize = 1024;
+const STACK_MASK: usize = STACK_SIZE - 1;
+
+/// What a packet walk did, summed over packets: the figures `trace` reports
+/// per 4x4 packet.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct PacketCounts {
+    /// Packets traced.
+    pub packets: u64,
+    /// Interior nodes visited (each tests eight boxes against the lanes).
+    pub nodes: u64,
+    /// Leaves visited.
+    pub leaves: u64,
+    /// Triangle tests (one triangle against any number of lanes counts once).
+    pub triangle_tests: u64,
+    /// Rays traced one by one: packets with a zero direction component or
+    /// without a common origin, and contacts handed to the kd-tree.
+    pub single_rays: u64,
+}
+
+impl std::ops::AddAssign for PacketCounts {
+    fn add_assign(&mut self, o: Self) {
+        self.packets += o.packets;
+        self.nodes += o.nodes;
+        self.leaves += o.leaves;
+        self.triangle_tests += o.triangle_tests;
+        self.single_rays += o.single_rays;
+    }
+}
+
+/// The closest hits with `0 < t < t_max` of the rays `dirs` (at most 16)
+/// from `origin`, in lanes `V`: `hits[r]` for `dirs[r]`, equal to
+/// `tree.bvh_closest_hit(origin, dirs[r], t_max)`.
+#[inline(always)]
+pub fn closest_in<V: Lanes>(
+    tree: &KdTree,
+    origin: Vec3,
+    dirs: &[Vec3],
+    t_max: f32,
+    counts: &mut PacketCounts,
+) -> [Hit; LANES] {
+    assert!(dirs.len() <= LANES, "at most {LANES} rays per packet");
+    let mut hits = [Hit::MISS; LANES];
+    if dirs.is_empty() {
+        return hits;
+    }
+    counts.packets += 1;
+    let bvh = tree.bvh();
+    let Some(mut rays) = Rays::<V>::new(&bvh.bounds, bvh.frame_scale, origin, dirs, t_max) else {
+        // A zero direction component: its slabs need the NaN rules of the
+        // single-ray walk, which takes such packets ray by ray.
+        for (h, &d) in hits.iter_mut().zip(dirs) {
+            *h = tree.bvh_closest_hit(origin, d, t_max);
+        }
+        counts.single_rays += dirs.len() as u64;
+        return hits;
+    };
+    // Every lane walks from the root, as its single ray does: the root's
+    // boxes (padded) decide, not the scene's unpadded bounds.
+    rays.live = ((1u32 << dirs.len()) - 1) as u16;
+    walk(bvh, &rays, &mut hits, counts);
+    for (h, &d) in hits.iter_mut().zip(dirs) {
+        if h.is_hit() && is_contact(bvh, h.t, d) {
+            *h = tree.closest_hit(origin, d, t_max);
+            counts.single_rays += 1;
+        }
+    }
+    hits
+}
+
+/// The packet's walk (no direction component is zero: every product of a
+/// plane's distance and a reciprocal is a number or an infinity).
+#[inline(always)]
+fn walk<V: Lanes>(bvh: &Bvh8, rays: &Rays<V>, hits: &mut [Hit; LANES], counts: &mut PacketCounts) {
+    let frustum = Frustum::of(rays);
+    let o = rays.origin.to_array();
+    let inv = rays.inv;
+    let fo = rays.frame_origin.to_array();
+    let common = common_axes(&rays.shear, rays.live);
+    let zero = V::splat(0.0);
+    let (lo_slack, hi_slack) = (V::splat(1.0 - SLACK), V::splat(1.0 + SLACK));
+    let inv_scale = V::splat(1.0 / rays.scale);
+    // Each lane's best t, in the triangle test's frame and along the ray
+    // (the frame's scale is a power of two: one is the other exactly), and
+    // the latest over the lanes, which bounds the boxes worth entering.
+    let live = V::M::from_bits(rays.live);
+    let unused = V::splat(f32::NEG_INFINITY);
+    let mut best_frame = V::select(live, V::splat(rays.t_max * rays.scale), unused);
+    let mut best_t = V::select(live, V::splat(rays.t_max), unused);
+    let mut latest = rays.t_max;
+    let mut triangle = [Hit::MISS_INDEX; LANES];
+    let mut found = 0u16;
+    let mut stack = [const { MaybeUninit::<(u32, u16, f32)>::uninit() }; STACK_SIZE];
+    let mut sp = 0usize;
+    let (mut current, mut mask) = (0u32, rays.live);
+    loop {
+        if current & LEAF_BIT == 0 {
+            counts.nodes += 1;
+            let node = &bvh.nodes[current as usize];
+            // The frustum first (all eight boxes at once), then each box it
+            // enters against the lanes, each up to its own best.
+            let (mut candidates, near) = frustum.enters(node, latest);
+            let active = V::M::from_bits(mask);
+            let mut order = [(0.0f32, 0u32, 0u16); WIDTH];
+            let mut n = 0;
+            while candidates != 0 {
+                let c = candidates.trailing_zeros() as usize;
+                candidates &= candidates - 1;
+                let (mut t0, mut t1) = (zero, best_t);
+                for a in 0..3 {
+                    let (lo, hi) = (node.planes[a][c] - o[a], node.planes[a + 3][c] - o[a]);
+                    let (p, q) = (V::splat(lo).mul(inv[a]), V::splat(hi).mul(inv[a]));
+                    t0 = t0.max(p.min(q));
+                    t1 = t1.min(p.max(q));
+                }
+                let lanes = active.and(t0.mul(lo_slack).le(t1.mul(hi_slack))).bits();
+                if lanes == 0 {
+                    continue;
+                }
+                // Nearest entry last.
+                let mut j = n;
+                while j > 0 && order[j - 1].0 < near[c] {
+                    order[j] = order[j - 1];
+                    j -= 1;
+                }
+                order[j] = (near[c], node.child[c], lanes);
+                n += 1;
+            }
+            if n > 0 {
+                for &(entry, child, lanes) in &order[..n - 1] {
+                    stack[sp & STACK_MASK].write((child, lanes, entry));
+                    sp += 1;
+                }
+                (_, current, mask) = order[n - 1];
+                continue;
+            }
+        } else {
+            counts.leaves += 1;
+            let block = &bvh.blocks[(current & !LEAF_BIT) as usize];
+            let mut improved = false;
+            for (lane, &index) in block.triangles.iter().enumerate() {
+                if index == Hit::MISS_INDEX {
+                    break;
+                }
+                counts.triangle_tests += 1;
+                let (a, b, c) = (
+                    corner(block, lane, 0, fo),
+                    corner(block, lane, 1, fo),
+                    corner(block, lane, 2, fo),
+                );
+                let (cross, t) = rays.shear.crossings(a, b, c, V::M::from_bits(mask), common);
+                let ahead = cross.and(t.gt(zero));
+                if !ahead.any() {
+                    continue;
+                }
+                // The single ray's rule: closer, or as close with a smaller
+                // index (never a t equal to t_max itself).
+                let mut take = ahead.and(t.lt(best_frame)).bits();
+                let mut ties = ahead.and(t.eq(best_frame)).bits() & found;
+                while ties != 0 {
+                    let r = ties.trailing_zeros() as usize;
+                    ties &= ties - 1;
+                    take |= ((index < triangle[r]) as u16) << r;
+                }
+                if take != 0 {
+                    best_frame = V::select(V::M::from_bits(take), t, best_frame);
+                    found |= take;
+                    improved = true;
+                    let mut bits = take;
+                    while bits != 0 {
+                        let r = bits.trailing_zeros() as usize;
+                        bits &= bits - 1;
+                        triangle[r] = index;
+                    }
+                }
+            }
+            if improved {
+                best_t = best_frame.mul(inv_scale);
+                // Unused lanes hold -inf.
+                latest = best_t
+                    .to_array()
+                    .into_iter()
+                    .fold(f32::NEG_INFINITY, |m, t| if t > m { t } else { m });
+            }
+        }
+        // The next deferred child that begins before some lane's best.
+        loop {
+            if sp == 0 {
+                let t = best_t.to_array();
+                for r in 0..LANES {
+                    if found & (1 << r) != 0 {
+                        hits[r] = Hit {
+                            t: t[r],
+                            triangle: triangle[r],
+                        };
+                    }
+                }
+                return;
+            }
+            sp -= 1;
+            // SAFETY: slot `sp` was written by the push that raised `sp`
+            // above it.
+            let (child, lanes, entry) = unsafe { stack[sp & STACK_MASK].assume_init() };
+            // `entry` is at most each of its lanes' own.
+            let open = V::M::from_bits(lanes).and(V::splat(entry).mul(lo_slack).le(best_t.mul(hi_slack)));
+            if open.any() {
+                (current, mask) = (child, open.bits());
+                break;
+            }
+        }
+    }
+}
+
+/// The packet as one frustum for the box tests: per axis the interval of
+/// its reciprocal directions (all of one sign), which plane row it enters
+/// by, and the shared origin. A box is entered unless the earliest any lane
+/// could enter it lies beyond the latest any lane could leave it.
+///
+/// Each bound is one of the lanes' own products rounded: with `inv_lo <=
+/// 1/d <= inv_hi` and rounding monotonic, `min(x inv_lo, x inv_hi)` is
+/// at most every lane's rounded `x / d`, the same operation the single ray
+/// computes; so a box some lane's single-ray test enters (`traverse`,
+/// the same slack) is never rejected. An axis whose lanes' signs differ
+/// constrains nothing (reciprocals from -inf to +inf).
+struct Frustum {
+    o: [f32; 3],
+    inv_lo: [f32; 3],
+    inv_hi: [f32; 3],
+    near: [usize; 3],
+    far: [usize; 3],
+}
+
+impl Frustum {
+    #[inline(always)]
+    fn of<V: Lanes>(rays: &Rays<V>) -> Frustum {
+        let mut f = Frustum {
+            o: rays.origin.to_array(),
+            inv_lo: [f32::INFINITY; 3],
+            inv_hi: [f32::NEG_INFINITY; 3],
+            near: [0, 1, 2],
+            far: [3, 4, 5],
+        };
+        for a in 0..3 {
+            let inv = rays.inv[a].to_array();
+            for (r, &x) in inv.iter().enumerate() {
+                if rays.live & (1 << r) != 0 {
+                    f.inv_lo[a] = f.inv_lo[a].min(x);
+                    f.inv_hi[a] = f.inv_hi[a].max(x);
+                }
+            }
+            if f.inv_hi[a] < 0.0 {
+                (f.near[a], f.far[a]) = (a + 3, a);
+            } else if f.inv_lo[a] < 0.0 {
+                (f.inv_lo[a], f.inv_hi[a]) = (f.inv_lo[a].min(f32::NEG_INFINITY), f32::INFINITY);
+            }
+        }
+        f
+    }
+
+    /// Which of `node`'s children some lane may enter before `latest`, and
+    /// the earliest entry into each.
+    #[inline(always)]
+    fn enters(&self, node: &Node8, latest: f32) -> (u32, [f32; WIDTH]) {
+        let mut near = [0.0f32; WIDTH];
+        let mut far = [latest; WIDTH];
+        for a in 0..3 {
+            let (o, lo, hi) = (self.o[a], self.inv_lo[a], self.inv_hi[a]);
+            let (pn, pf) = (&node.planes[self.near[a]], &node.planes[self.far[a]]);
+            for l in 0..WIDTH {
+                let (dn, df) = (pn[l] - o, pf[l] - o);
+                let (n0, n1) = (dn * lo, dn * hi);
+                let (f0, f1) = (df * lo, df * hi);
+                // Comparisons are false on NaN (0 x inf on an open axis):
+                // the running interval stays.
+                let tn = if n0 < n1 { n0 } else { n1 };
+                let tf = if f0 > f1 { f0 } else { f1 };
+                if tn > near[l] {
+                    near[l] = tn;
+                }
+                if tf < far[l] {
+                    far[l] = tf;
+                }
+            }
+        }
+        let mut mask = 0;
+        for l in 0..WIDTH {
+            // Unused slots' empty boxes stop no lane on an open axis.
+            let entered = (near[l] * (1.0 - SLACK) <= far[l] * (1.0 + SLACK)) & (node.child[l] != EMPTY_CHILD);
+            mask |= (entered as u32) << l;
+        }
+        (mask, near)
+    }
+}
+
+/// Vertex `k` of a block's triangle `lane`, relative to the frame's origin.
+#[inline(always)]
+fn corner(block: &LeafBlock, lane: usize, k: usize, fo: [f32; 3]) -> [f32; 3] {
+    [
+        block.v[3 * k][lane] - fo[0],
+        block.v[3 * k + 1][lane] - fo[1],
+        block.v[3 * k + 2][lane] - fo[2],
+    ]
+}
+
+/// `closest_in` dispatched to `isa` (one this CPU lacks is replaced by the
+/// best it has).
+pub fn closest(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32, isa: Isa) -> [Hit; LANES] {
+    struct One<'a> {
+        tree: &'a KdTree,
+        origin: Vec3,
+        dirs: &'a [Vec3],
+        t_max: f32,
+    }
+    impl Kernel for One<'_> {
+        type Out = [Hit; LANES];
+        #[inline(always)]
+        fn run<V: Lanes>(self) -> [Hit; LANES] {
+            closest_in::<V>(
+                self.tree,
+                self.origin,
+                self.dirs,
+                self.t_max,
+                &mut PacketCounts::default(),
+            )
+        }
+    }
+    dispatch(
+        isa,
+        One {
+            tree,
+            origin,
+            dirs,
+            t_max,
+        },
+    )
+}
+
+/// Closest hits of a `width x height` image of rays (row-major) as 4x4
+/// packets, rows of packets in parallel on the current rayon pool. A
+/// block whose rays do not share one origin is traced ray by ray, so any
+/// image of rays is valid; a camera's blocks all go as packets.
+pub fn trace_image(tree: &KdTree, rays: &[Ray], width: u32, height: u32, isa: Isa) -> (Vec<Hit>, PacketCounts) {
+    let (w, h) = (width as usize, height as usize);
+    assert_eq!(rays.len(), w * h, "a width x height image of rays");
+    tree.bvh();
+    let mut hits = vec![Hit::MISS; rays.len()];
+    if w == 0 {
+        return (hits, PacketCounts::default());
+    }
+    let counts = hits
+        .par_chunks_mut(4 * w)
+        .zip(rays.par_chunks(4 * w))
+        .map(|(out, band)| {
+            dispatch(
+                isa,
+                Band {
+                    tree,
+                    band,
+                    out,
+                    width: w,
+                },
+            )
+        })
+        .reduce(PacketCounts::default, |mut a, b| {
+            a += b;
+            a
+        });
+    (hits, counts)
+}
+
+/// Up to four rows of the image: its 4x4 blocks, left to right.
+struct Band<'a> {
+    tree: &'a KdTree,
+    band: &'a [Ray],
+    out: &'a mut [Hit],
+    width: usize,
+}
+
+impl Kernel for Band<'_> {
+    type Out = PacketCounts;
+    #[inline(always)]
+    fn run<V: Lanes>(self) -> PacketCounts {
+        let Band { tree, band, out, width } = self;
+        let rows = band.len() / width;
+        let mut counts = PacketCounts::default();
+        for x0 in (0..width).step_by(4) {
+            let cols = 4.min(width - x0);
+            let origin = band[x0].o();
+            let (mut dirs, mut at) = ([Vec3::ZERO; LANES], [0usize; LANES]);
+            let (mut m, mut shared) = (0, true);
+            for y in 0..rows {
+                for x in x0..x0 + cols {
+                    let i = y * width + x;
+                    shared &= band[i].o() == origin;
+                    (dirs[m], at[m]) = (band[i].d(), i);
+                    m += 1;
+                }
+            }
+            if shared {
+                let hits = closest_in::<V>(tree, origin, &dirs[..m], f32::INFINITY, &mut counts);
+                for (&i, &hit) in at[..m].iter().zip(&hits) {
+                    out[i] = hit;
+                }
+            } else {
+                for &i in &at[..m] {
+                    out[i] = tree.bvh_closest_hit(band[i].o(), band[i].d(), f32::INFINITY);
+                }
+                counts.single_rays += m as u64;
+            }
+        }
+        counts
+    }
+}
