@@ -129,6 +129,8 @@ fn walk<V: Lanes>(bvh: &Bvh8, rays: &Rays<V>, hits: &mut [Hit; LANES], counts: &
     let mut stack = [const { MaybeUninit::<(u32, u16, f32)>::uninit() }; STACK_SIZE];
     let mut sp = 0usize;
     let (mut current, mut mask) = (0u32, rays.live);
+    // The entered children of a node, by entry (made once, not per node).
+    let mut order = [(0.0f32, 0u32, 0u16); WIDTH];
     loop {
         if current & LEAF_BIT == 0 {
             counts.nodes += 1;
@@ -137,7 +139,6 @@ fn walk<V: Lanes>(bvh: &Bvh8, rays: &Rays<V>, hits: &mut [Hit; LANES], counts: &
             // enters against the lanes, each up to its own best.
             let (mut candidates, near) = frustum.enters(node, latest);
             let active = V::M::from_bits(mask);
-            let mut order = [(0.0f32, 0u32, 0u16); WIDTH];
             let mut n = 0;
             while candidates != 0 {
                 let c = candidates.trailing_zeros() as usize;
@@ -264,6 +265,8 @@ struct Frustum {
     inv_hi: [f32; 3],
     near: [usize; 3],
     far: [usize; 3],
+    /// Every axis open: the box tests reject nothing, empty slots included.
+    open: bool,
 }
 
 impl Frustum {
@@ -275,6 +278,7 @@ impl Frustum {
             inv_hi: [f32::NEG_INFINITY; 3],
             near: [0, 1, 2],
             far: [3, 4, 5],
+            open: false,
         };
         for a in 0..3 {
             let inv = rays.inv[a].to_array();
@@ -287,9 +291,10 @@ impl Frustum {
             if f.inv_hi[a] < 0.0 {
                 (f.near[a], f.far[a]) = (a + 3, a);
             } else if f.inv_lo[a] < 0.0 {
-                (f.inv_lo[a], f.inv_hi[a]) = (f.inv_lo[a].min(f32::NEG_INFINITY), f32::INFINITY);
+                (f.inv_lo[a], f.inv_hi[a]) = (f32::NEG_INFINITY, f32::INFINITY);
             }
         }
+        f.open = f.inv_lo.iter().all(|&x| x == f32::NEG_INFINITY);
         f
     }
 
@@ -320,9 +325,16 @@ impl Frustum {
         }
         let mut mask = 0;
         for l in 0..WIDTH {
-            // Unused slots' empty boxes stop no lane on an open axis.
-            let entered = (near[l] * (1.0 - SLACK) <= far[l] * (1.0 + SLACK)) & (node.child[l] != EMPTY_CHILD);
-            mask |= (entered as u32) << l;
+            mask |= ((near[l] * (1.0 - SLACK) <= far[l] * (1.0 + SLACK)) as u32) << l;
+        }
+        if self.open {
+            // Unused slots' empty boxes stop no lane when every axis is
+            // open (one closed axis puts them at infinity).
+            for (l, &child) in node.child.iter().enumerate() {
+                if child == EMPTY_CHILD {
+                    mask &= !(1 << l);
+                }
+            }
         }
         (mask, near)
     }
