@@ -25,7 +25,7 @@ use std::mem::MaybeUninit;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::traverse::is_contact;
+use super::traverse::{entered, is_contact, narrow};
 use super::{Bvh8, EMPTY_CHILD, LEAF_BIT, Node8, SLACK, WIDTH};
 use crate::kdtree::KdTree;
 use crate::kdtree::leaf_blocks::LeafBlock;
@@ -311,22 +311,13 @@ impl Frustum {
                 let (dn, df) = (pn[l] - o, pf[l] - o);
                 let (n0, n1) = (dn * lo, dn * hi);
                 let (f0, f1) = (df * lo, df * hi);
-                // Comparisons are false on NaN (0 x inf on an open axis):
-                // the running interval stays.
+                // 0 x inf on an open axis is NaN: the interval stays.
                 let tn = if n0 < n1 { n0 } else { n1 };
                 let tf = if f0 > f1 { f0 } else { f1 };
-                if tn > near[l] {
-                    near[l] = tn;
-                }
-                if tf < far[l] {
-                    far[l] = tf;
-                }
+                narrow(&mut near, &mut far, l, tn, tf);
             }
         }
-        let mut mask = 0;
-        for l in 0..WIDTH {
-            mask |= ((near[l] * (1.0 - SLACK) <= far[l] * (1.0 + SLACK)) as u32) << l;
-        }
+        let mut mask = entered(&near, &far);
         if self.open {
             // Unused slots' empty boxes stop no lane when every axis is
             // open (one closed axis puts them at infinity).

@@ -69,23 +69,34 @@ impl BoxTest for Lanes8 {
             let (o, inv) = (ray.o[axis], ray.inv[axis]);
             let (pn, pf) = (&node.planes[ray.near[axis]], &node.planes[ray.far[axis]]);
             for l in 0..WIDTH {
-                // Comparisons are false on NaN: a NaN slab keeps the interval.
-                let tn = (pn[l] - o) * inv;
-                let tf = (pf[l] - o) * inv;
-                if tn > near[l] {
-                    near[l] = tn;
-                }
-                if tf < far[l] {
-                    far[l] = tf;
-                }
+                narrow(&mut near, &mut far, l, (pn[l] - o) * inv, (pf[l] - o) * inv);
             }
         }
-        let mut mask = 0;
-        for l in 0..WIDTH {
-            mask |= ((near[l] * (1.0 - SLACK) <= far[l] * (1.0 + SLACK)) as u32) << l;
-        }
-        (mask, near)
+        (entered(&near, &far), near)
     }
+}
+
+/// Narrows lane `l`'s interval by `[tn, tf]`. Comparisons are false on
+/// NaN: a NaN bound (a zero direction component with the origin on a
+/// plane, or 0 x inf) keeps the interval.
+#[inline(always)]
+pub(super) fn narrow(near: &mut [f32; WIDTH], far: &mut [f32; WIDTH], l: usize, tn: f32, tf: f32) {
+    if tn > near[l] {
+        near[l] = tn;
+    }
+    if tf < far[l] {
+        far[l] = tf;
+    }
+}
+
+/// The lanes whose interval, widened by `SLACK`, is not empty (bit l).
+#[inline(always)]
+pub(super) fn entered(near: &[f32; WIDTH], far: &[f32; WIDTH]) -> u32 {
+    let mut mask = 0;
+    for l in 0..WIDTH {
+        mask |= ((near[l] * (1.0 - SLACK) <= far[l] * (1.0 + SLACK)) as u32) << l;
+    }
+    mask
 }
 
 /// The box test in one AVX register.
