@@ -1,5 +1,5 @@
-//! A wide bounding volume hierarchy for incoherent single rays (issue 18,
-//! item 3): eight children per node, their boxes tested at once in one
+//! A wide bounding volume hierarchy for the CPU's rays (issue 18, items
+//! 1 to 3): eight children per node, their boxes tested at once in one
 //! AVX2 register (or eight scalar lanes), leaves of up to four triangles in
 //! the kd-tree's SoA blocks (`kdtree::leaf_blocks`) and tested with its
 //! watertight arithmetic, in its frame.
@@ -7,10 +7,11 @@
 //! Why a second structure: a random ray walks about 42 interior kd-tree
 //! nodes on the bunny, a chain of dependent loads and mispredicted branches
 //! one split plane at a time, where a wide BVH decides between eight
-//! children per load (docs/results/tracing.md measured both). The kd-tree
-//! stays the structure of everything coherent (the MLRTA packets, the AO
-//! packets, the GPU kernels); this one serves rays in no particular order
-//! (`trace-rays`' ray files on the CPU).
+//! children per load (docs/results/tracing.md measured both). It came to
+//! serve the CPU's coherent rays too, faster than the kd-tree's packets:
+//! AO rays (`occlusion`) and, with `trace --accel bvh`, a camera's 4x4
+//! packets (`packet`). The kd-tree stays the structure of MLRTA, of the
+//! GPU kernels and of the Whitted tracer's CPU twin.
 //!
 //! Hits are the kd-tree's: the same triangle test in the same frame gives
 //! bit-identical t, and the closest hit is the smallest t; where two
@@ -18,7 +19,8 @@
 //! vertex) the one of smaller index is reported, which the kd-tree, going by
 //! its cells, does not always do (`tests/bvh.rs` holds the two to it). A hit
 //! at a contact (`Bvh8::contact`) is the kd-tree's answer. Any-hit packets
-//! of rays sharing an origin (AO) are `occlusion`. The BVH is built on first
+//! of rays sharing an origin (AO) are `occlusion`, closest-hit packets
+//! `packet`. The BVH is built on first
 //! use and kept in the tree (`KdTree::bvh`); `KdTree::bvh_closest_hit`,
 //! `bvh_any_hit` and `bvh_trace_closest` walk it.
 
