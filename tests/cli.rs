@@ -829,6 +829,11 @@ fn trace_modes_give_identical_images() {
             (Some("bvh-packets"), Some("bvh"))
         );
         assert!(bvh["bvh"]["nodes"].as_u64().unwrap() > 0, "{mesh}: {bvh}");
+        assert_eq!(
+            bvh["bvh_packets"]["packets"],
+            18 * 10,
+            "{mesh}: every 4x4 block a packet: {bvh}"
+        );
         assert!(bvh["cells_per_packet"].as_f64().unwrap() >= 1.0, "{mesh}: {bvh}");
         assert_eq!(
             bvh_png, single_png,

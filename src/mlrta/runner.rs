@@ -15,6 +15,7 @@ use super::packet::MlrtaCounts;
 use super::prepared::{Prepared, PreparedStats};
 use super::tiles::{ImageTrace, MlrtaParams, SHADOW_EPSILON, TileReport, trace_image};
 use crate::aabb::Aabb;
+use crate::bvh::packet::PacketCounts;
 use crate::device::{Device, GpuOutput, Timing, elapsed_ms};
 use crate::error::Result;
 use crate::kdtree::gpu::GpuKdTree;
@@ -117,15 +118,18 @@ pub struct TraceStats {
     pub build_ms: f64,
     pub kdtree: BuildStats,
     pub camera: Camera,
-    /// "single-ray", or MLRTA "on"/"off".
+    /// "single-ray", MLRTA "on"/"off", or "bvh-packets".
     pub mlrta: &'static str,
-    /// Single rays on the CPU: the structure they walked, and the BVH's
-    /// cost when it was that (the traversal counts are the kd-tree's walk
-    /// of the same rays either way).
+    /// On the CPU, the structure rays walked, and the BVH's cost when it
+    /// was that (single rays' traversal counts are the kd-tree's walk of
+    /// the same rays either way).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub accel: Option<Accel>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bvh: Option<BvhStats>,
+    /// BVH packets: what the walk did (rays that went one by one included).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bvh_packets: Option<PacketCounts>,
     pub timing: Timing,
     /// Primary (and shadow) rays' time: kernel time on a GPU with timestamps.
     pub trace_ms: f64,
@@ -208,6 +212,7 @@ struct Traced {
     mlrta: &'static str,
     accel: Option<Accel>,
     bvh: Option<BvhStats>,
+    bvh_packets: Option<PacketCounts>,
     timing: Timing,
     trace_ms: f64,
     /// Traversal steps and intersection tests over the image.
@@ -262,6 +267,7 @@ pub fn trace_view(
         mlrta: t.mlrta,
         accel: t.accel,
         bvh: t.bvh,
+        bvh_packets: t.bvh_packets,
         timing: t.timing,
         trace_ms: t.trace_ms,
         mrays_per_s: mrays_per_s(traced, t.trace_ms),
@@ -319,6 +325,7 @@ fn single_ray(device: &Device, tree: KdTree, rays: &[Ray], light: Option<Vec3>, 
         mlrta: "single-ray",
         accel: (!device.is_gpu()).then_some(accel),
         bvh: tracer.bvh_stats().cloned(),
+        bvh_packets: None,
         timing: traced.timing,
         trace_ms,
         cells: counts.cells as f64,
@@ -357,6 +364,7 @@ fn bvh_packets(tree: &KdTree, rays: &[Ray], width: u32, light: Option<Vec3>) -> 
         mlrta: "bvh-packets",
         accel: Some(Accel::Bvh),
         bvh: Some(bvh),
+        bvh_packets: Some(c),
         timing: Timing::Wall,
         trace_ms,
         cells: (c.nodes + c.leaves) as f64,
@@ -501,6 +509,7 @@ fn packet_image(
         mlrta: if params.entry_points { "on" } else { "off" },
         accel: None,
         bvh: None,
+        bvh_packets: None,
         timing: traced.timing,
         trace_ms: traced.ms,
         cells: cells(&c),
