@@ -158,7 +158,7 @@ fn traverse<V: Lanes>(bvh: &Bvh8, tree: &KdTree, rays: &Rays<V>, dirs: &[Vec3]) 
 /// Vertex `k` of a block's triangle `lane`, relative to the frame's origin
 /// (a function, not a closure: see `kdtree::occlusion`'s helpers).
 #[inline(always)]
-fn corner(block: &LeafBlock, lane: usize, k: usize, fo: [f32; 3]) -> [f32; 3] {
+pub(super) fn corner(block: &LeafBlock, lane: usize, k: usize, fo: [f32; 3]) -> [f32; 3] {
     [
         block.v[3 * k][lane] - fo[0],
         block.v[3 * k + 1][lane] - fo[1],

@@ -25,10 +25,10 @@ use std::mem::MaybeUninit;
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::occlusion::corner;
 use super::traverse::{entered, is_contact, narrow};
 use super::{Bvh8, EMPTY_CHILD, LEAF_BIT, Node8, SLACK, WIDTH};
 use crate::kdtree::KdTree;
-use crate::kdtree::leaf_blocks::LeafBlock;
 use crate::kdtree::occlusion::{LANES, Rays, common_axes};
 use crate::ray::{Hit, Ray};
 use crate::simd::{Isa, Kernel, Lanes, Mask, dispatch};
@@ -331,16 +331,6 @@ impl Frustum {
     }
 }
 
-/// Vertex `k` of a block's triangle `lane`, relative to the frame's origin.
-#[inline(always)]
-fn corner(block: &LeafBlock, lane: usize, k: usize, fo: [f32; 3]) -> [f32; 3] {
-    [
-        block.v[3 * k][lane] - fo[0],
-        block.v[3 * k + 1][lane] - fo[1],
-        block.v[3 * k + 2][lane] - fo[2],
-    ]
-}
-
 /// `closest_in` dispatched to `isa` (one this CPU lacks is replaced by the
 /// best it has).
 pub fn closest(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32, isa: Isa) -> [Hit; LANES] {
@@ -423,17 +413,13 @@ impl Kernel for Band<'_> {
         let rows = band.len() / width;
         let mut counts = PacketCounts::default();
         for x0 in (0..width).step_by(4) {
-            let cols = 4.min(width - x0);
             let origin = band[x0].o();
             let (mut dirs, mut at) = ([Vec3::ZERO; LANES], [0usize; LANES]);
             let (mut m, mut shared) = (0, true);
-            for y in 0..rows {
-                for x in x0..x0 + cols {
-                    let i = y * width + x;
-                    shared &= band[i].o() == origin;
-                    (dirs[m], at[m]) = (band[i].d(), i);
-                    m += 1;
-                }
+            for i in block_pixels(x0, rows, width) {
+                shared &= band[i].o() == origin;
+                (dirs[m], at[m]) = (band[i].d(), i);
+                m += 1;
             }
             if shared {
                 let hits = closest_in::<V>(tree, origin, &dirs[..m], f32::INFINITY, &mut counts);
@@ -449,4 +435,46 @@ impl Kernel for Band<'_> {
         }
         counts
     }
+}
+
+/// The pixels of the 4x4 block at column `x0` of a band of `rows` rows
+/// (fewer at the image's right edge), row by row, as indices into the band.
+#[inline(always)]
+fn block_pixels(x0: usize, rows: usize, width: usize) -> impl Iterator<Item = usize> {
+    (0..rows).flat_map(move |y| (x0..(x0 + 4).min(width)).map(move |x| y * width + x))
+}
+
+/// Whether each hit of an image traced by `trace_image` is in shadow of
+/// `light`: per 4x4 block, the segments from the light to its hits (ending
+/// `1 - shadow_epsilon` along them) as one any-hit packet through the BVH
+/// (`occlusion`), which answers as `tree.any_hit` would ray by ray.
+pub fn shadows(
+    tree: &KdTree,
+    rays: &[Ray],
+    hits: &[Hit],
+    width: u32,
+    light: Vec3,
+    shadow_epsilon: f32,
+    isa: Isa,
+) -> Vec<bool> {
+    use crate::kdtree::occlusion::{Walk, occluded_by};
+    let w = width as usize;
+    let mut shadowed = vec![false; hits.len()];
+    shadowed
+        .par_chunks_mut(4 * w)
+        .zip(hits.par_chunks(4 * w).zip(rays.par_chunks(4 * w)))
+        .for_each(|(out, (hits, rays))| {
+            for x0 in (0..w).step_by(4) {
+                let (mut to, mut at, mut m) = ([Vec3::ZERO; LANES], [0usize; LANES], 0);
+                for i in block_pixels(x0, hits.len() / w, w).filter(|&i| hits[i].is_hit()) {
+                    (to[m], at[m]) = (rays[i].o() + hits[i].t * rays[i].d() - light, i);
+                    m += 1;
+                }
+                let blocked = occluded_by(tree, Walk::Bvh, light, &to[..m], 1.0 - shadow_epsilon, isa);
+                for (j, &i) in at[..m].iter().enumerate() {
+                    out[i] = blocked & (1 << j) != 0;
+                }
+            }
+        });
+    shadowed
 }

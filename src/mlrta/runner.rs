@@ -245,7 +245,7 @@ pub fn trace_view(
     let mut t = if request.single_ray {
         single_ray(device, tree, &rays, light, request.accel)?
     } else if request.accel == Accel::Bvh && !device.is_gpu() {
-        bvh_packets(&tree, &rays, width, light)
+        bvh_packets(&tree, &rays, (width, height), light)
     } else {
         packet_image(device, &tree, mesh, &camera, &rays, request, light, packets)?
     };
@@ -348,13 +348,13 @@ fn isects(c: &MlrtaCounts) -> f64 {
 /// or entry points, each block of the image from the root; shadow rays as
 /// any-hit packets from the light to each block's hits. Statistics: BVH
 /// nodes and leaves visited, and triangle tests, per packet.
-fn bvh_packets(tree: &KdTree, rays: &[Ray], width: u32, light: Option<Vec3>) -> Traced {
+fn bvh_packets(tree: &KdTree, rays: &[Ray], (width, height): (u32, u32), light: Option<Vec3>) -> Traced {
+    use crate::bvh::packet;
     let bvh = BvhStats::build(tree);
     let isa = crate::simd::Isa::best();
-    let height = (rays.len() / width as usize) as u32;
     let start = std::time::Instant::now();
-    let (hits, c) = crate::bvh::packet::trace_image(tree, rays, width, height, isa);
-    let shadowed = light.map(|l| shadow_packets(tree, rays, &hits, width as usize, l, isa));
+    let (hits, c) = packet::trace_image(tree, rays, width, height, isa);
+    let shadowed = light.map(|l| packet::shadows(tree, rays, &hits, width, l, SHADOW_EPSILON, isa));
     let trace_ms = elapsed_ms(start);
     Traced {
         hits,
@@ -373,43 +373,6 @@ fn bvh_packets(tree: &KdTree, rays: &[Ray], width: u32, light: Option<Vec3>) -> 
         shadows: light.map(ShadowStats::uncounted),
         aa_report: None,
     }
-}
-
-/// Whether each hit is in shadow of `light`: per 4x4 block, the segments
-/// from the light to its hits (ending `SHADOW_EPSILON` short, as the
-/// single-ray path's) as one any-hit packet through the BVH.
-fn shadow_packets(
-    tree: &KdTree,
-    rays: &[Ray],
-    hits: &[Hit],
-    width: usize,
-    light: Vec3,
-    isa: crate::simd::Isa,
-) -> Vec<bool> {
-    use crate::kdtree::occlusion::{Walk, occluded_by};
-    let mut shadowed = vec![false; hits.len()];
-    shadowed
-        .par_chunks_mut(4 * width)
-        .zip(hits.par_chunks(4 * width).zip(rays.par_chunks(4 * width)))
-        .for_each(|(out, (hits, rays))| {
-            let rows = hits.len() / width;
-            for x0 in (0..width).step_by(4) {
-                let (mut to, mut at, mut m) = ([Vec3::ZERO; 16], [0usize; 16], 0);
-                for y in 0..rows {
-                    for i in (x0..(x0 + 4).min(width)).map(|x| y * width + x) {
-                        if hits[i].is_hit() {
-                            (to[m], at[m]) = (rays[i].o() + hits[i].t * rays[i].d() - light, i);
-                            m += 1;
-                        }
-                    }
-                }
-                let blocked = occluded_by(tree, Walk::Bvh, light, &to[..m], 1.0 - SHADOW_EPSILON, isa);
-                for (j, &i) in at[..m].iter().enumerate() {
-                    out[i] = blocked & (1 << j) != 0;
-                }
-            }
-        });
-    shadowed
 }
 
 /// 4x4 packets, with or without entry points, on the device; AA on the CPU.
