@@ -109,6 +109,8 @@ pub struct BvhStats {
     pub build_ms: f64,
     pub nodes: usize,
     pub leaf_blocks: usize,
+    /// Triangles in the leaves, counting the copies spatial splits made.
+    pub references: usize,
     pub bytes: usize,
 }
 
@@ -122,6 +124,7 @@ impl BvhStats {
             build_ms: elapsed_ms(start),
             nodes: bvh.nodes.len(),
             leaf_blocks: bvh.blocks.len(),
+            references: bvh.references(),
             bytes: bvh.memory_bytes(),
         }
     }

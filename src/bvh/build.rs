@@ -6,7 +6,8 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::{Bvh8, EMPTY_CHILD, LEAF_BIT, MAX_LEAF, Node8, WIDTH};
+use super::spatial;
+use super::{Bvh8, BvhParams, EMPTY_CHILD, LEAF_BIT, MAX_LEAF, Node8, WIDTH};
 use crate::aabb::Aabb;
 use crate::kdtree::leaf_blocks::{BLOCK, LeafBlock};
 
@@ -18,17 +19,36 @@ const PARALLEL_MIN: usize = 4096;
 /// depth of any input (and so the traversal stack) by this plus log2(n).
 const SAH_DEPTH: usize = 48;
 
-/// A triangle's bounds and centroid (twice the box centre: no halving).
+/// A reference to a triangle: its box (the part of the triangle in the
+/// node's region, after spatial splits), that box's centroid (twice the
+/// box centre: no halving) and the triangle's index.
 #[derive(Clone, Copy)]
-struct Prim {
-    bounds: Aabb,
-    centroid: Vec3,
-    index: u32,
+pub(super) struct Prim {
+    pub bounds: Aabb,
+    pub centroid: Vec3,
+    pub index: u32,
 }
 
-/// The binary tree before widening; a leaf holds `prims[first..first + len]`.
+impl Prim {
+    pub fn new(bounds: Aabb, index: u32) -> Prim {
+        Prim {
+            bounds,
+            centroid: bounds.min + bounds.max,
+            index,
+        }
+    }
+}
+
+/// The SAH's count term of a side: its blocks of four (the leaves' test
+/// unit).
+pub(super) fn blocks_cost(n: u32) -> f32 {
+    n.div_ceil(BLOCK as u32) as f32
+}
+
+/// The binary tree before widening; a leaf holds its triangles' indices,
+/// ascending.
 enum Bvh2 {
-    Leaf { bounds: Aabb, first: usize, len: usize },
+    Leaf { bounds: Aabb, ids: Vec<u32> },
     Inner { bounds: Aabb, children: Box<[Bvh2; 2]> },
 }
 
@@ -40,21 +60,33 @@ impl Bvh2 {
     }
 }
 
+/// What every node of one build shares.
+struct Ctx<'a> {
+    triangles: &'a [[Vec3; 3]],
+    /// Spatial splits are tried where the object split's children overlap
+    /// by more than this area (`BvhParams::spatial_alpha` of the scene's);
+    /// infinite when spatial splits are off.
+    overlap_min: f32,
+}
+
 /// The whole build: binary tree, widening, leaf blocks in the frame.
-pub(super) fn build(triangles: &[[Vec3; 3]], frame_scale: f32) -> Bvh8 {
-    let mut prims: Vec<Prim> = triangles
+pub(super) fn build(triangles: &[[Vec3; 3]], frame_scale: f32, params: &BvhParams) -> Bvh8 {
+    let prims: Vec<Prim> = triangles
         .par_iter()
         .enumerate()
-        .map(|(i, t)| {
-            let bounds = Aabb::from_points(t.iter());
-            Prim {
-                bounds,
-                centroid: bounds.min + bounds.max,
-                index: i as u32,
-            }
-        })
+        .map(|(i, t)| Prim::new(Aabb::from_points(t.iter()), i as u32))
         .collect();
-    let root = build_binary(&mut prims, 0, 0);
+    let scene = prims.iter().fold(Aabb::EMPTY, |b, p| b.union(p.bounds));
+    let budget = (triangles.len() as f64 * f64::from(params.spatial_split_budget.max(0.0))) as usize;
+    let ctx = Ctx {
+        triangles,
+        overlap_min: if budget > 0 {
+            params.spatial_alpha * scene.surface_area()
+        } else {
+            f32::INFINITY
+        },
+    };
+    let root = build_binary(prims, 0, budget, &ctx);
     let bounds = root.bounds();
     // Boxes are widened by a few ulps of the scene's largest coordinate, so
     // that a hit the watertight test accepts (in the sheared frame, with its
@@ -69,7 +101,6 @@ pub(super) fn build(triangles: &[[Vec3; 3]], frame_scale: f32) -> Bvh8 {
         contact: 1e-6 * bounds.diagonal(),
     };
     let mut widen = Widen {
-        prims: &prims,
         triangles,
         pad,
         out: &mut out,
@@ -92,29 +123,32 @@ fn out_root_leaf(widen: &mut Widen, leaf: &Bvh2) {
     widen.set_slot(0, 0, leaf.bounds(), child);
 }
 
-/// The binary tree over `prims` (reordered in place; `offset` is the
-/// slice's start in the whole array, which leaves record).
-fn build_binary(prims: &mut [Prim], offset: usize, depth: usize) -> Bvh2 {
+/// The binary tree over `prims`, which spatial splits may grow by up to
+/// `budget` references.
+fn build_binary(prims: Vec<Prim>, depth: usize, budget: usize, ctx: &Ctx) -> Bvh2 {
     let bounds = prims.iter().fold(Aabb::EMPTY, |b, p| b.union(p.bounds));
     if prims.len() <= MAX_LEAF {
-        return Bvh2::Leaf {
-            bounds,
-            first: offset,
-            len: prims.len(),
-        };
+        let mut ids: Vec<u32> = prims.iter().map(|p| p.index).collect();
+        ids.sort_unstable();
+        ids.dedup();
+        return Bvh2::Leaf { bounds, ids };
     }
-    let mid = if depth < SAH_DEPTH { sah_partition(prims) } else { None }.unwrap_or_else(|| median_partition(prims));
-    let (below, above) = prims.split_at_mut(mid);
-    let (a, b) = if below.len() + above.len() >= PARALLEL_MIN {
-        rayon::join(
-            || build_binary(below, offset, depth + 1),
-            || build_binary(above, offset + mid, depth + 1),
-        )
+    let n = prims.len();
+    let (below, above) = split(prims, bounds, depth, budget, ctx);
+    // A spatial split whose clipped side came out empty leaves one side
+    // with fewer references than the node: go on with that side alone.
+    if below.is_empty() || above.is_empty() {
+        let rest = if below.is_empty() { above } else { below };
+        return build_binary(rest, depth + 1, budget, ctx);
+    }
+    let (nb, na) = (below.len(), above.len());
+    let rest = budget.saturating_sub((nb + na).saturating_sub(n));
+    let budget_below = rest * nb / (nb + na);
+    let recurse = |side, budget| build_binary(side, depth + 1, budget, ctx);
+    let (a, b) = if nb + na >= PARALLEL_MIN {
+        rayon::join(|| recurse(below, budget_below), || recurse(above, rest - budget_below))
     } else {
-        (
-            build_binary(below, offset, depth + 1),
-            build_binary(above, offset + mid, depth + 1),
-        )
+        (recurse(below, budget_below), recurse(above, rest - budget_below))
     };
     Bvh2::Inner {
         bounds,
@@ -122,38 +156,93 @@ fn build_binary(prims: &mut [Prim], offset: usize, depth: usize) -> Bvh2 {
     }
 }
 
-/// Splits at the SAH's best bin boundary over all three axes; the index of
-/// the first triangle above it, or `None` when the centroids do not spread.
-fn sah_partition(prims: &mut [Prim]) -> Option<usize> {
+/// The two sides of a node: by the SAH's best object split, or its best
+/// spatial split where that is cheaper and fits the budget, or past
+/// `SAH_DEPTH` (or without an object split) at the median.
+fn split(mut prims: Vec<Prim>, bounds: Aabb, depth: usize, budget: usize, ctx: &Ctx) -> (Vec<Prim>, Vec<Prim>) {
+    if depth >= SAH_DEPTH {
+        let mid = median_partition(&mut prims);
+        let above = prims.split_off(mid);
+        return (prims, above);
+    }
+    let object = best_object_split(&prims);
+    let overlap = object.map_or(bounds.surface_area(), |o| o.below.intersection(o.above).surface_area());
+    if budget > 0 && overlap > ctx.overlap_min && prims.len() >= spatial::MIN_REFERENCES {
+        let spatial = spatial::best(&prims, bounds)
+            .filter(|s| object.is_none_or(|o| s.cost < o.cost))
+            .filter(|s| spatial::fits(&prims, *s, budget));
+        if let Some(s) = spatial {
+            return spatial::partition(prims, s, ctx.triangles);
+        }
+    }
+    let mid = match object {
+        Some(o) => partition(&mut prims, |p| o.bin(p) < o.boundary),
+        None => median_partition(&mut prims),
+    };
+    let mid = if mid == 0 || mid == prims.len() {
+        median_partition(&mut prims)
+    } else {
+        mid
+    };
+    let above = prims.split_off(mid);
+    (prims, above)
+}
+
+/// An object split: the prims whose centroid bin is below `boundary` on
+/// `axis` go below.
+#[derive(Clone, Copy)]
+struct ObjectSplit {
+    cost: f32,
+    axis: usize,
+    boundary: usize,
+    origin: f32,
+    scale: f32,
+    below: Aabb,
+    above: Aabb,
+}
+
+impl ObjectSplit {
+    fn bin(&self, p: &Prim) -> usize {
+        (((p.centroid[self.axis] - self.origin) * self.scale) as u32 as usize).min(BINS - 1)
+    }
+}
+
+/// The SAH's best bin boundary over all three axes (Wald 2007), or `None`
+/// when the centroids do not spread.
+fn best_object_split(prims: &[Prim]) -> Option<ObjectSplit> {
     let centroids = prims.iter().fold(Aabb::EMPTY, |b, p| b.grow(p.centroid));
     let extent = centroids.extent();
-    let mut best: Option<(f32, usize, usize)> = None;
+    let mut best: Option<ObjectSplit> = None;
     for axis in 0..3 {
         if extent[axis] <= 0.0 {
             continue;
         }
-        let scale = BINS as f32 * (1.0 - f32::EPSILON) / extent[axis];
-        let bin_of = |p: &Prim| (((p.centroid[axis] - centroids.min[axis]) * scale) as u32 as usize).min(BINS - 1);
+        let mut split = ObjectSplit {
+            cost: f32::INFINITY,
+            axis,
+            boundary: 0,
+            origin: centroids.min[axis],
+            scale: BINS as f32 * (1.0 - f32::EPSILON) / extent[axis],
+            below: Aabb::EMPTY,
+            above: Aabb::EMPTY,
+        };
         let mut counts = [0u32; BINS];
         let mut boxes = [Aabb::EMPTY; BINS];
         for p in prims.iter() {
-            let b = bin_of(p);
+            let b = split.bin(p);
             counts[b] += 1;
             boxes[b] = boxes[b].union(p.bounds);
         }
-        // Cost of a side: its area times its blocks of four (the leaves'
-        // test unit), swept from the right then from the left.
-        let side = |n: u32| n.div_ceil(BLOCK as u32) as f32;
-        let mut right_cost = [0.0f32; BINS];
+        // Each side's area times its blocks, swept from the right then
+        // from the left.
+        let mut right = [(f32::INFINITY, Aabb::EMPTY); BINS];
         let (mut acc, mut n) = (Aabb::EMPTY, 0u32);
         for b in (1..BINS).rev() {
             acc = acc.union(boxes[b]);
             n += counts[b];
-            right_cost[b] = if n == 0 {
-                f32::INFINITY
-            } else {
-                acc.surface_area() * side(n)
-            };
+            if n > 0 {
+                right[b] = (acc.surface_area() * blocks_cost(n), acc);
+            }
         }
         let (mut acc, mut n) = (Aabb::EMPTY, 0u32);
         for b in 1..BINS {
@@ -162,18 +251,17 @@ fn sah_partition(prims: &mut [Prim]) -> Option<usize> {
             if n == 0 || n as usize == prims.len() {
                 continue;
             }
-            let cost = acc.surface_area() * side(n) + right_cost[b];
-            if best.is_none_or(|(c, _, _)| cost < c) {
-                best = Some((cost, axis, b));
+            let cost = acc.surface_area() * blocks_cost(n) + right[b].0;
+            if best.is_none_or(|o| cost < o.cost) {
+                split.cost = cost;
+                split.boundary = b;
+                split.below = acc;
+                split.above = right[b].1;
+                best = Some(split);
             }
         }
     }
-    let (_, axis, boundary) = best?;
-    let scale = BINS as f32 * (1.0 - f32::EPSILON) / extent[axis];
-    let below =
-        |p: &Prim| ((((p.centroid[axis] - centroids.min[axis]) * scale) as u32 as usize).min(BINS - 1)) < boundary;
-    let mid = partition(prims, below);
-    (mid > 0 && mid < prims.len()).then_some(mid)
+    best
 }
 
 /// Splits at the median centroid along the widest axis of the centroids.
@@ -199,7 +287,6 @@ fn partition(prims: &mut [Prim], below: impl Fn(&Prim) -> bool) -> usize {
 
 /// Widening state: the nodes and blocks being written.
 struct Widen<'a> {
-    prims: &'a [Prim],
     triangles: &'a [[Vec3; 3]],
     pad: f32,
     out: &'a mut Bvh8,
@@ -239,16 +326,14 @@ impl Widen<'_> {
     /// The child word of a binary node: a leaf's block, or a new node.
     fn child(&mut self, kid: &Bvh2) -> u32 {
         match kid {
-            Bvh2::Leaf { first, len, .. } => LEAF_BIT | self.block(&self.prims[*first..first + len]),
+            Bvh2::Leaf { ids, .. } => LEAF_BIT | self.block(ids),
             Bvh2::Inner { .. } => self.node(kid),
         }
     }
 
     /// Writes the block of a leaf's triangles (in ascending index, the
     /// order ties are broken in) and returns its index.
-    fn block(&mut self, prims: &[Prim]) -> u32 {
-        let mut ids: Vec<u32> = prims.iter().map(|p| p.index).collect();
-        ids.sort_unstable();
+    fn block(&mut self, ids: &[u32]) -> u32 {
         let mut block = LeafBlock {
             v: [[0.0; BLOCK]; 9],
             triangles: [u32::MAX; BLOCK],

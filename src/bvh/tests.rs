@@ -160,26 +160,36 @@ fn extreme_scales_and_offsets() {
     }
 }
 
-/// Every triangle sits in exactly one leaf, and every child's box holds
-/// all the triangles below it.
-#[test]
-fn structure() {
-    let mut rng = Rng(31);
-    let tris = random_soup(&mut rng, 5000, 0.05);
-    let tree = KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap();
-    let bvh = Bvh8::from_tree(&tree);
-    let mut seen = vec![0u32; tris.len()];
-    fn check(bvh: &Bvh8, tris: &[[Vec3; 3]], child: u32, lo: Vec3, hi: Vec3, seen: &mut [u32]) {
-        let inside = |v: Vec3| v.cmpge(lo).all() && v.cmple(hi).all();
-        if child & LEAF_BIT != 0 {
-            for &t in bvh.blocks[(child & !LEAF_BIT) as usize]
-                .triangles
-                .iter()
-                .filter(|&&t| t != u32::MAX)
-            {
-                assert!(tris[t as usize].iter().all(|&v| inside(v)));
-                seen[t as usize] += 1;
+/// Long thin triangles across the unit cube (a kitchen's cables, rails
+/// and wall strips) among small ones: where spatial splits pay.
+fn slivers(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
+    (0..n)
+        .map(|k| {
+            if k % 3 == 0 {
+                let a = rng.vec(-1.0, 1.0);
+                let b = rng.vec(-1.0, 1.0);
+                [a, b, a + rng.vec(-0.02, 0.02)]
+            } else {
+                let c = rng.vec(-1.0, 1.0);
+                [0; 3].map(|_| c + rng.vec(-0.05, 0.05))
             }
+        })
+        .collect()
+}
+
+/// Leaves' boxes (as the walks see them, padded) and the triangles each
+/// references; checks on the way that every child's box lies in its
+/// parent's and no leaf holds a triangle twice.
+fn leaves(bvh: &Bvh8) -> Vec<(Vec3, Vec3, Vec<u32>)> {
+    fn walk(bvh: &Bvh8, child: u32, lo: Vec3, hi: Vec3, out: &mut Vec<(Vec3, Vec3, Vec<u32>)>) {
+        if child & LEAF_BIT != 0 {
+            let block = &bvh.blocks[(child & !LEAF_BIT) as usize];
+            let ids: Vec<u32> = block.triangles.iter().copied().filter(|&t| t != u32::MAX).collect();
+            assert!(
+                ids.windows(2).all(|w| w[0] < w[1]),
+                "a leaf's triangles ascend, once each"
+            );
+            out.push((lo, hi, ids));
             return;
         }
         let node = &bvh.nodes[child as usize];
@@ -189,27 +199,151 @@ fn structure() {
             }
             let l = Vec3::new(node.planes[0][slot], node.planes[1][slot], node.planes[2][slot]);
             let h = Vec3::new(node.planes[3][slot], node.planes[4][slot], node.planes[5][slot]);
-            assert!(inside(l) && inside(h), "child box outside its parent's");
-            check(bvh, tris, node.child[slot], l, h, seen);
+            assert!(l.cmpge(lo).all() && h.cmple(hi).all(), "child box outside its parent's");
+            walk(bvh, node.child[slot], l, h, out);
         }
     }
-    check(
-        &bvh,
-        &tris,
-        0,
-        Vec3::splat(f32::NEG_INFINITY),
-        Vec3::splat(f32::INFINITY),
-        &mut seen,
-    );
-    assert!(seen.iter().all(|&n| n == 1));
-    // Every node has two children or more (a binary node's two at least),
-    // and the children of an incomplete node are all leaves (the widening
-    // opens inner children until eight).
-    for node in &bvh.nodes {
-        let used: Vec<u32> = node.child.iter().copied().filter(|&c| c != EMPTY_CHILD).collect();
-        assert!(used.len() >= 2);
-        assert!(used.len() == WIDTH || used.iter().all(|&c| c & LEAF_BIT != 0));
+    let mut out = Vec::new();
+    walk(bvh, 0, Vec3::NEG_INFINITY, Vec3::INFINITY, &mut out);
+    out
+}
+
+/// Every point of every triangle (vertices, points along the edges and
+/// inside) lies in the box of a leaf that references the triangle, with or
+/// without spatial splits; without them each triangle is in one leaf; and
+/// every node has two children or more, an incomplete node leaves only
+/// (the widening opens inner children until eight).
+#[test]
+fn structure() {
+    let mut rng = Rng(31);
+    for (scene, tris) in [
+        ("soup", random_soup(&mut rng, 5000, 0.05)),
+        ("slivers", slivers(&mut rng, 3000)),
+    ] {
+        let tree = KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap();
+        for budget in [0.0, 0.3, 2.0] {
+            let params = BvhParams {
+                spatial_split_budget: budget,
+                spatial_alpha: 0.0,
+            };
+            let bvh = Bvh8::build(&tree, &params);
+            let mut held: Vec<Vec<(Vec3, Vec3)>> = vec![Vec::new(); tris.len()];
+            for (lo, hi, ids) in leaves(&bvh) {
+                for t in ids {
+                    held[t as usize].push((lo, hi));
+                }
+            }
+            let references: usize = held.iter().map(Vec::len).sum();
+            assert_eq!(references, bvh.references());
+            let extra = references - tris.len();
+            assert!(
+                extra as f32 <= budget * tris.len() as f32,
+                "{scene} {budget}: {extra} copies"
+            );
+            if budget == 0.0 {
+                assert!(held.iter().all(|h| h.len() == 1), "{scene}: a triangle in two leaves");
+            } else if scene == "slivers" {
+                assert!(extra > tris.len() / 20, "{scene} {budget}: only {extra} copies");
+            }
+            for (t, boxes) in tris.iter().zip(&held) {
+                let steps = 16;
+                for i in 0..=steps {
+                    for j in 0..=steps - i {
+                        let (u, v) = (i as f32 / steps as f32, j as f32 / steps as f32);
+                        let p = t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v;
+                        assert!(
+                            boxes.iter().any(|(lo, hi)| p.cmpge(*lo).all() && p.cmple(*hi).all()),
+                            "{scene} {budget}: {p} of {t:?} in no leaf box of it"
+                        );
+                    }
+                }
+            }
+            for node in &bvh.nodes {
+                let used: Vec<u32> = node.child.iter().copied().filter(|&c| c != EMPTY_CHILD).collect();
+                assert!(used.len() >= 2);
+                assert!(used.len() == WIDTH || used.iter().all(|&c| c & LEAF_BIT != 0));
+            }
+        }
     }
+}
+
+/// `KdTree::bvh_with` builds with its knobs once; `bvh` then returns that
+/// BVH, and a later `bvh_with` does not rebuild.
+#[test]
+fn bvh_with_builds_once() {
+    let mut rng = Rng(5);
+    let tris = slivers(&mut rng, 600);
+    let tree = KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap();
+    let off = BvhParams {
+        spatial_split_budget: 0.0,
+        ..BvhParams::default()
+    };
+    assert_eq!(tree.bvh_with(&off).references(), tris.len());
+    assert_eq!(tree.bvh().references(), tris.len());
+    assert_eq!(tree.bvh_with(&BvhParams::default()).references(), tris.len());
+    let fresh = KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap();
+    assert!(fresh.bvh().references() > tris.len(), "the default splits slivers");
+}
+
+/// Spatial splits change which leaves hold a triangle, never a hit: long
+/// thin triangles, copied into several leaves, against brute force (t and
+/// triangle bit for bit, ties to the smaller index), for single rays, and
+/// packets against single rays, every instruction set.
+#[test]
+fn spatial_splits_keep_every_hit() {
+    let mut rng = Rng(77);
+    let tris = slivers(&mut rng, 2000);
+    let tree = KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap();
+    assert!(
+        tree.bvh().references() > tris.len(),
+        "the default build splits these slivers"
+    );
+    let rays = rays_for(&mut rng, &tris, 6000, 2.0);
+    let (hits, _) = assert_brute_force(&tris, &rays);
+    assert!(hits > 1000, "{hits} hits");
+    // Packets of 16 rays from one origin, aimed at the slivers.
+    use crate::kdtree::occlusion::{Walk, occluded_by};
+    let mut counts = [0usize; 2];
+    for k in 0..400 {
+        let origin = rng.vec(-1.5, 1.5);
+        let dirs: Vec<Vec3> = (0..16)
+            .map(|r| {
+                let t = tris[3 * ((k * 16 + r) % (tris.len() / 3))];
+                t[0] + (t[1] - t[0]) * rng.next_f32() - origin
+            })
+            .collect();
+        let t_max = if k % 3 == 0 {
+            rng.next_f32() * 2.0
+        } else {
+            f32::INFINITY
+        };
+        let expect: Vec<_> = dirs
+            .iter()
+            .map(|&d| brute_force(&tris, tree.frame_scale, origin, d, t_max))
+            .collect();
+        let mask = expect
+            .iter()
+            .enumerate()
+            .fold(0u16, |m, (r, h)| m | (h.is_hit() as u16) << r);
+        for isa in crate::simd::Isa::available() {
+            let got = packet::closest(&tree, origin, &dirs, t_max, isa);
+            for (r, e) in expect.iter().enumerate() {
+                assert_eq!(
+                    (got[r].t.to_bits(), got[r].triangle),
+                    (e.t.to_bits(), e.triangle),
+                    "packet {k} lane {r}, {isa:?}"
+                );
+            }
+            assert_eq!(
+                occluded_by(&tree, Walk::Bvh, origin, &dirs, t_max, isa),
+                mask,
+                "packet {k}, {isa:?}"
+            );
+        }
+        counts[0] += mask.count_ones() as usize;
+        counts[1] += 16 - mask.count_ones() as usize;
+    }
+    assert!(counts[0] > 1000 && counts[1] > 500, "{counts:?}");
 }
 
 /// The AVX box test gives the portable one's mask and entry distances bit

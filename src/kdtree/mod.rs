@@ -25,7 +25,7 @@ pub use node::{KdNode, MAX_TREE_DEPTH};
 pub use traverse::{Counters, NoCounts, TRAVERSAL_SLACK, TraversalCounts};
 
 use crate::aabb::Aabb;
-use crate::bvh::Bvh8;
+use crate::bvh::{Bvh8, BvhParams};
 use crate::device::elapsed_ms;
 use crate::error::{Error, Result};
 use crate::progress::Progress;
@@ -155,6 +155,13 @@ impl KdTree {
     /// (`bvh`); the GPU never asks for it.
     pub fn bvh(&self) -> &Bvh8 {
         self.bvh.get_or_init(|| Bvh8::from_tree(self))
+    }
+
+    /// `bvh`, built with `params` if it is not built yet; a BVH already
+    /// built (by `bvh` or an earlier call) is returned as it is, so a host
+    /// with its own knobs calls this before the first trace.
+    pub fn bvh_with(&self, params: &BvhParams) -> &Bvh8 {
+        self.bvh.get_or_init(|| Bvh8::build(self, params))
     }
 
     /// Whether `bvh` has been built.
