@@ -140,23 +140,27 @@ fn degenerate_inputs() {
     assert_brute_force(&nested, &rays);
 }
 
-/// Scenes of size 1e13 and 1e-13, and a small scene far from the origin
+/// Scenes of size 1e13 and 1e-13, and small scenes far from the origin
 /// (the boxes' padding is in units of the largest coordinate).
 #[test]
 fn extreme_scales_and_offsets() {
+    // A soup, and slivers (whose spatial splits cut triangles at rounded
+    // crossing points).
+    let scenes = [random_soup(&mut Rng(23), 800, 0.08), slivers(&mut Rng(23), 800)];
     for (scale, offset) in [(1e13f32, 0.0f32), (1e-13, 0.0), (1.0, 3.0e4)] {
-        let mut rng = Rng(29);
-        let tris: Vec<[Vec3; 3]> = random_soup(&mut Rng(23), 800, 0.08)
-            .into_iter()
-            .map(|t| t.map(|v| v * scale + Vec3::splat(offset)))
-            .collect();
-        let unscaled = random_soup(&mut Rng(23), 800, 0.08);
-        let rays: Vec<_> = rays_for(&mut rng, &unscaled, 2000, 3.0)
-            .into_iter()
-            .map(|(o, d, t)| (o * scale + Vec3::splat(offset), d * scale, t))
-            .collect();
-        let (hits, _) = assert_brute_force(&tris, &rays);
-        assert!(hits > 100, "scale {scale} offset {offset}: {hits} hits");
+        for unscaled in &scenes {
+            let mut rng = Rng(29);
+            let tris: Vec<[Vec3; 3]> = unscaled
+                .iter()
+                .map(|t| t.map(|v| v * scale + Vec3::splat(offset)))
+                .collect();
+            let rays: Vec<_> = rays_for(&mut rng, unscaled, 2000, 3.0)
+                .into_iter()
+                .map(|(o, d, t)| (o * scale + Vec3::splat(offset), d * scale, t))
+                .collect();
+            let (hits, _) = assert_brute_force(&tris, &rays);
+            assert!(hits > 100, "scale {scale} offset {offset}: {hits} hits");
+        }
     }
 }
 
