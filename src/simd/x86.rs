@@ -118,38 +118,38 @@ pub struct SseMask([__m128; 4]);
 
 /// An implementation over `$n` registers of `$w` lanes: every operation is
 /// the register operation on each part.
+// Each register of the multi-register lanes is written out (`parts`: their
+// indices), not made by `array::from_fn` closures: those were compiled
+// without AVX2 in some uses and left `_mm256_and_si256`, `_mm256_cmpeq_epi32`
+// and three more as calls in the packets' mask code (issue 18, stop 35).
 macro_rules! parts {
     ($lanes:ident, $mask:ident, $n:literal, $w:literal, $reg:ty,
      set1: $set1:ident, loadu: $loadu:ident, storeu: $storeu:ident,
      add: $add:ident, sub: $sub:ident, mul: $mul:ident, div: $div:ident,
      min: $min:ident, max: $max:ident, and: $and:ident, or: $or:ident, andnot: $andnot:ident,
      movemask: $movemask:ident, blend: $blend:expr, from_bits: $from_bits:expr,
-     cmp: $cmp:expr) => {
+     cmp: $cmp:expr, parts: [$($p:literal),*]) => {
         impl Mask for $mask {
             #[inline(always)]
             fn from_bits(bits: u16) -> Self {
-                $mask(std::array::from_fn(|p| unsafe {
-                    $from_bits((bits >> ($w * p)) as i32)
-                }))
+                $mask([$(unsafe { $from_bits((bits >> ($w * $p)) as i32) }),*])
             }
             #[inline(always)]
             fn bits(self) -> u16 {
-                (0..$n).fold(0u16, |m, p| {
-                    m | ((unsafe { $movemask(self.0[p]) } as u16) << ($w * p))
-                })
+                0u16 $(| ((unsafe { $movemask(self.0[$p]) } as u16) << ($w * $p)))*
             }
             #[inline(always)]
             fn and(self, o: Self) -> Self {
-                $mask(std::array::from_fn(|p| unsafe { $and(self.0[p], o.0[p]) }))
+                $mask([$(unsafe { $and(self.0[$p], o.0[$p]) }),*])
             }
             #[inline(always)]
             fn or(self, o: Self) -> Self {
-                $mask(std::array::from_fn(|p| unsafe { $or(self.0[p], o.0[p]) }))
+                $mask([$(unsafe { $or(self.0[$p], o.0[$p]) }),*])
             }
             #[inline(always)]
             fn and_not(self, o: Self) -> Self {
                 // andnot(a, b) = !a & b
-                $mask(std::array::from_fn(|p| unsafe { $andnot(o.0[p], self.0[p]) }))
+                $mask([$(unsafe { $andnot(o.0[$p], self.0[$p]) }),*])
             }
         }
 
@@ -163,7 +163,7 @@ macro_rules! parts {
             }
             #[inline(always)]
             fn from_array(a: [f32; 16]) -> Self {
-                $lanes(std::array::from_fn(|p| unsafe { $loadu(a.as_ptr().add($w * p)) }))
+                $lanes([$(unsafe { $loadu(a.as_ptr().add($w * $p)) }),*])
             }
             #[inline(always)]
             fn to_array(self) -> [f32; 16] {
@@ -175,67 +175,55 @@ macro_rules! parts {
             }
             #[inline(always)]
             fn add(self, o: Self) -> Self {
-                $lanes(std::array::from_fn(|p| unsafe { $add(self.0[p], o.0[p]) }))
+                $lanes([$(unsafe { $add(self.0[$p], o.0[$p]) }),*])
             }
             #[inline(always)]
             fn sub(self, o: Self) -> Self {
-                $lanes(std::array::from_fn(|p| unsafe { $sub(self.0[p], o.0[p]) }))
+                $lanes([$(unsafe { $sub(self.0[$p], o.0[$p]) }),*])
             }
             #[inline(always)]
             fn mul(self, o: Self) -> Self {
-                $lanes(std::array::from_fn(|p| unsafe { $mul(self.0[p], o.0[p]) }))
+                $lanes([$(unsafe { $mul(self.0[$p], o.0[$p]) }),*])
             }
             #[inline(always)]
             fn div(self, o: Self) -> Self {
-                $lanes(std::array::from_fn(|p| unsafe { $div(self.0[p], o.0[p]) }))
+                $lanes([$(unsafe { $div(self.0[$p], o.0[$p]) }),*])
             }
             #[inline(always)]
             fn min(self, o: Self) -> Self {
-                $lanes(std::array::from_fn(|p| unsafe { $min(self.0[p], o.0[p]) }))
+                $lanes([$(unsafe { $min(self.0[$p], o.0[$p]) }),*])
             }
             #[inline(always)]
             fn max(self, o: Self) -> Self {
-                $lanes(std::array::from_fn(|p| unsafe { $max(self.0[p], o.0[p]) }))
+                $lanes([$(unsafe { $max(self.0[$p], o.0[$p]) }),*])
             }
             #[inline(always)]
             fn lt(self, o: Self) -> $mask {
-                $mask(std::array::from_fn(|p| unsafe {
-                    $cmp(self.0[p], o.0[p], Cmp::Lt)
-                }))
+                $mask([$(unsafe { $cmp(self.0[$p], o.0[$p], Cmp::Lt) }),*])
             }
             #[inline(always)]
             fn le(self, o: Self) -> $mask {
-                $mask(std::array::from_fn(|p| unsafe {
-                    $cmp(self.0[p], o.0[p], Cmp::Le)
-                }))
+                $mask([$(unsafe { $cmp(self.0[$p], o.0[$p], Cmp::Le) }),*])
             }
             #[inline(always)]
             fn gt(self, o: Self) -> $mask {
-                $mask(std::array::from_fn(|p| unsafe {
-                    $cmp(o.0[p], self.0[p], Cmp::Lt)
-                }))
+                $mask([$(unsafe { $cmp(o.0[$p], self.0[$p], Cmp::Lt) }),*])
             }
             #[inline(always)]
             fn ge(self, o: Self) -> $mask {
-                $mask(std::array::from_fn(|p| unsafe {
-                    $cmp(o.0[p], self.0[p], Cmp::Le)
-                }))
+                $mask([$(unsafe { $cmp(o.0[$p], self.0[$p], Cmp::Le) }),*])
             }
             #[inline(always)]
             fn eq(self, o: Self) -> $mask {
-                $mask(std::array::from_fn(|p| unsafe {
-                    $cmp(self.0[p], o.0[p], Cmp::Eq)
-                }))
+                $mask([$(unsafe { $cmp(self.0[$p], o.0[$p], Cmp::Eq) }),*])
             }
             #[inline(always)]
             fn ne(self, o: Self) -> $mask {
-                $mask(std::array::from_fn(|p| unsafe {
-                    $cmp(self.0[p], o.0[p], Cmp::Ne)
-                }))
+                $mask([$(unsafe { $cmp(self.0[$p], o.0[$p], Cmp::Ne) }),*])
             }
             #[inline(always)]
             fn select(m: $mask, a: Self, b: Self) -> Self {
-                $lanes(std::array::from_fn(|p| unsafe { $blend(m.0[p], a.0[p], b.0[p]) }))
+                $lanes([$(unsafe { $blend(m.0[$p], a.0[$p], b.0[$p]) }),*])
             }
         }
     };
@@ -309,10 +297,10 @@ parts!(Avx2x2, Avx2Mask, 2, 8, __m256,
     set1: _mm256_set1_ps, loadu: _mm256_loadu_ps, storeu: _mm256_storeu_ps,
     add: _mm256_add_ps, sub: _mm256_sub_ps, mul: _mm256_mul_ps, div: _mm256_div_ps,
     min: _mm256_min_ps, max: _mm256_max_ps, and: _mm256_and_ps, or: _mm256_or_ps, andnot: _mm256_andnot_ps,
-    movemask: _mm256_movemask_ps, blend: blend256, from_bits: bits256, cmp: cmp256);
+    movemask: _mm256_movemask_ps, blend: blend256, from_bits: bits256, cmp: cmp256, parts: [0, 1]);
 
 parts!(Ssex4, SseMask, 4, 4, __m128,
     set1: _mm_set1_ps, loadu: _mm_loadu_ps, storeu: _mm_storeu_ps,
     add: _mm_add_ps, sub: _mm_sub_ps, mul: _mm_mul_ps, div: _mm_div_ps,
     min: _mm_min_ps, max: _mm_max_ps, and: _mm_and_ps, or: _mm_or_ps, andnot: _mm_andnot_ps,
-    movemask: _mm_movemask_ps, blend: blend128, from_bits: bits128, cmp: cmp128);
+    movemask: _mm_movemask_ps, blend: blend128, from_bits: bits128, cmp: cmp128, parts: [0, 1, 2, 3]);
