@@ -67,6 +67,8 @@ struct Ctx<'a> {
     /// by more than this area (`BvhParams::spatial_alpha` of the scene's);
     /// infinite when spatial splits are off.
     overlap_min: f32,
+    /// `BvhParams::spatial_min_span`.
+    min_span: f32,
 }
 
 /// The whole build: binary tree, widening, leaf blocks in the frame.
@@ -85,6 +87,7 @@ pub(super) fn build(triangles: &[[Vec3; 3]], frame_scale: f32, params: &BvhParam
         } else {
             f32::INFINITY
         },
+        min_span: params.spatial_min_span,
     };
     let root = build_binary(prims, 0, budget, &ctx);
     let bounds = root.bounds();
@@ -168,7 +171,7 @@ fn split(mut prims: Vec<Prim>, bounds: Aabb, depth: usize, budget: usize, ctx: &
     let object = best_object_split(&prims);
     let overlap = object.map_or(bounds.surface_area(), |o| o.below.intersection(o.above).surface_area());
     if budget > 0 && overlap > ctx.overlap_min && prims.len() >= spatial::MIN_REFERENCES {
-        let spatial = spatial::best(&prims, bounds)
+        let spatial = spatial::best(&prims, bounds, ctx.min_span)
             .filter(|s| object.is_none_or(|o| s.cost < o.cost))
             .filter(|s| spatial::fits(&prims, *s, budget));
         if let Some(s) = spatial {

@@ -86,10 +86,19 @@ pub struct BvhParams {
     /// a share of the triangles; 0 builds by object splits alone. 0.3: the
     /// kitchen's primary-ray packets walk 7.5 nodes instead of 10.0 (0.1
     /// gave 7.6, 1.0 the same as 0.3 with 9% more blocks); its build takes
-    /// about twice as long (one thread: 33 -> 58 ms). Meshes of triangles
-    /// small beside their nodes (`spatial::MIN_SPAN_BINS`) are split by
-    /// objects alone: bunny and cow build as before, dragon100k 56 -> 71 ms.
+    /// about twice as long (one thread: 33 -> 58 ms).
     pub spatial_split_budget: f32,
+    /// An axis of a node is tried for spatial splits only if some
+    /// reference spans this share of the node's box along it: where every
+    /// triangle is small beside the node, a plane saves little over the
+    /// object split. 0.25 (8 of the 32 bins): scanned meshes build as fast
+    /// as without spatial splits (one thread: bunny 71 -> 38 ms, no split
+    /// made; dragon100k 127 -> 71 ms, 4.04 instead of 3.83 nodes a packet,
+    /// whose packets were 3-4% faster: 32.5 against 33.5-34.6 ms) while the
+    /// kitchen keeps every split that pays (7.46 nodes a packet either
+    /// way; 0.0625 or 0.125 built slower for little, 0.5 lost some: 7.56).
+    /// 0 tries every node.
+    pub spatial_min_span: f32,
     /// Spatial splits are tried at a node whose best object split leaves
     /// its two children overlapping by more than this share of the scene
     /// box's area (the paper's alpha). 1e-3, not the paper's 1e-5: the
@@ -103,6 +112,7 @@ impl Default for BvhParams {
         BvhParams {
             spatial_split_budget: 0.3,
             spatial_alpha: 1e-3,
+            spatial_min_span: 0.25,
         }
     }
 }

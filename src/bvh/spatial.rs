@@ -20,15 +20,6 @@ use crate::aabb::Aabb;
 /// Bins across the node's box on each axis (the paper uses as many as the
 /// object split's; 32 resolves a kitchen's shelves better than 16).
 const BINS: usize = 32;
-/// An axis is binned only if some reference spans this many of its bins (a
-/// quarter of the node): where every triangle is small beside the node, a
-/// plane saves little over the object split. Scanned meshes then build as
-/// fast as without spatial splits (one thread: bunny 71 -> 41 ms, the same
-/// walks; dragon100k 127 -> 71 ms, 4.04 instead of 3.83 nodes a packet,
-/// a difference its trace time did not show) while the kitchen keeps every
-/// split that pays (7.46 nodes a packet either way; 2 or 4 bins built
-/// slower for nothing, 16 lost some: 7.56).
-const MIN_SPAN_BINS: f32 = 8.0;
 /// Nodes of fewer references are split by objects only: below it a
 /// spatial split's sweep costs more than it gains (kitchen 7.49 nodes a
 /// packet with every node tried, 7.46 from 64; build 98 -> 84 ms, one
@@ -84,14 +75,15 @@ fn conservative(part: Aabb, tri: &[Vec3; 3], within: Aabb, axis: usize, lo: f32,
 }
 
 /// The cheapest spatial split of `prims` (whose boxes' union is `bounds`)
-/// over the three axes, by the SAH over `BINS` slabs per axis; `None`
-/// where the box is flat on every axis.
-pub(super) fn best(prims: &[Prim], bounds: Aabb) -> Option<SpatialSplit> {
+/// over the three axes, by the SAH over `BINS` slabs per axis, each axis
+/// only if some reference spans `min_span` of the box along it
+/// (`BvhParams::spatial_min_span`); `None` where no axis qualifies.
+pub(super) fn best(prims: &[Prim], bounds: Aabb, min_span: f32) -> Option<SpatialSplit> {
     let mut best: Option<SpatialSplit> = None;
     let extent = bounds.extent();
     let widest = prims.iter().fold(Vec3::ZERO, |m, p| m.max(p.bounds.extent()));
     for axis in 0..3 {
-        if extent[axis] <= 0.0 || widest[axis] * (BINS as f32) < MIN_SPAN_BINS * extent[axis] {
+        if extent[axis] <= 0.0 || widest[axis] < min_span * extent[axis] {
             continue;
         }
         let width = extent[axis] / BINS as f32;

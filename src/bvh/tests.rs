@@ -229,6 +229,7 @@ fn structure() {
             let params = BvhParams {
                 spatial_split_budget: budget,
                 spatial_alpha: 0.0,
+                spatial_min_span: 0.0,
             };
             let bvh = Bvh8::build(&tree, &params);
             let mut held: Vec<Vec<(Vec3, Vec3)>> = vec![Vec::new(); tris.len()];
