@@ -272,6 +272,18 @@ fn structure() {
     }
 }
 
+/// Each of `expect`'s hits equals the packet's lane bit for bit: t and
+/// triangle.
+fn assert_lanes_equal(got: &[Hit], expect: &[Hit], what: &str) {
+    for (r, e) in expect.iter().enumerate() {
+        assert_eq!(
+            (got[r].t.to_bits(), got[r].triangle),
+            (e.t.to_bits(), e.triangle),
+            "{what}, lane {r}"
+        );
+    }
+}
+
 /// `KdTree::bvh_with` builds with its knobs once; `bvh` then returns that
 /// BVH, and a later `bvh_with` does not rebuild.
 #[test]
@@ -332,13 +344,7 @@ fn spatial_splits_keep_every_hit() {
             .fold(0u16, |m, (r, h)| m | (h.is_hit() as u16) << r);
         for isa in crate::simd::Isa::available() {
             let got = packet::closest(&tree, origin, &dirs, t_max, isa);
-            for (r, e) in expect.iter().enumerate() {
-                assert_eq!(
-                    (got[r].t.to_bits(), got[r].triangle),
-                    (e.t.to_bits(), e.triangle),
-                    "packet {k} lane {r}, {isa:?}"
-                );
-            }
+            assert_lanes_equal(&got, &expect, &format!("packet {k}, {isa:?}"));
             assert_eq!(
                 occluded_by(&tree, Walk::Bvh, origin, &dirs, t_max, isa),
                 mask,
@@ -480,13 +486,7 @@ fn closest_packets_equal_single_rays() {
         let expect: Vec<_> = dirs.iter().map(|&d| tree.bvh_closest_hit(origin, d, t_max)).collect();
         for isa in Isa::available() {
             let got = packet::closest(&tree, origin, &dirs, t_max, isa);
-            for (r, e) in expect.iter().enumerate() {
-                assert_eq!(
-                    (got[r].t.to_bits(), got[r].triangle),
-                    (e.t.to_bits(), e.triangle),
-                    "packet {k} lane {r}, {isa:?}"
-                );
-            }
+            assert_lanes_equal(&got, &expect, &format!("packet {k}, {isa:?}"));
             assert!(got[n..].iter().all(|h| !h.is_hit()), "unused lanes stay misses");
         }
         rays += n;
