@@ -11,8 +11,15 @@
 //! Groups:
 //! - `kdtree_build/<model>`: `KdTree::build` with default parameters, on the
 //!   global rayon pool (all cores; the build recurses with `rayon::join`).
-//! - `bvh_build_1thread/<model>`: the wide BVH over the kd-tree's
-//!   triangles (`bvh::Bvh8::from_tree`) on a one-thread pool.
+//! - `bvh_build_1thread/<model>/{spatial,objects}`: the wide BVH over the
+//!   kd-tree's triangles on a one-thread pool, with the default
+//!   `BvhParams` (spatial splits where they pay) and with object splits
+//!   alone (`spatial_split_budget` 0): what the splits cost.
+//! - `packets_cpu_1thread/<view>/{spatial,objects}`: 1024x1024 primary rays
+//!   as 4x4 packets through each of those two BVHs (`bvh::packet::
+//!   trace_image`, one-thread pool), on the default camera of every model
+//!   and the kitchen from inside (`kitchen-interior`, the Embree table's
+//!   view): what the splits buy.
 //! - `trace_cpu_1thread/<model>/{kdtree,bvh}`: 1024x1024 primary rays of the
 //!   contract's default camera, closest hit, in a plain sequential loop on
 //!   the bench thread (truly one thread), through the kd-tree's single-ray
@@ -35,11 +42,14 @@ use std::hint::black_box;
 
 use common::{CPU_IMAGE, Model, gpu_image_size, is_software, load_models, primary_rays};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use penumbra::bvh::Bvh8;
+use glam::Vec3;
+use penumbra::bvh::{Bvh8, BvhParams, packet};
 use penumbra::device::{Device, Timing};
 use penumbra::gpu::GpuContext;
 use penumbra::kdtree::{KdTree, KdTreeParams};
 use penumbra::ray::{Hit, Ray};
+use penumbra::scene::Camera;
+use penumbra::simd::Isa;
 use penumbra::tracer::Tracer;
 
 fn trace_sequential(tree: &KdTree, rays: &[Ray]) -> Vec<Hit> {
@@ -87,14 +97,24 @@ fn random_rays(tree: &KdTree, n: usize) -> Vec<Ray> {
         .collect()
 }
 
+/// The BVH's knobs without spatial splits.
+fn objects_only() -> BvhParams {
+    BvhParams {
+        spatial_split_budget: 0.0,
+        ..BvhParams::default()
+    }
+}
+
 fn bench_bvh(c: &mut Criterion, models: &[Model]) {
     let pool = common::thread_pool(1);
     let mut group = common::flat_group(c, "bvh_build_1thread", 3);
     for m in models {
         group.throughput(Throughput::Elements(m.mesh.triangles.len() as u64));
-        group.bench_function(m.name.as_str(), |b| {
-            b.iter(|| pool.install(|| Bvh8::from_tree(black_box(&m.tree))))
-        });
+        for (id, params) in [("spatial", BvhParams::default()), ("objects", objects_only())] {
+            group.bench_function(BenchmarkId::new(m.name.as_str(), id), |b| {
+                b.iter(|| pool.install(|| Bvh8::build(black_box(&m.tree), &params)))
+            });
+        }
     }
     group.finish();
     let mut group = common::flat_group(c, "random_cpu_1thread", 5);
@@ -108,6 +128,39 @@ fn bench_bvh(c: &mut Criterion, models: &[Model]) {
         group.bench_function(BenchmarkId::new(m.name.as_str(), "bvh"), |b| {
             b.iter(|| bvh_sequential(black_box(&m.tree), black_box(&rays)))
         });
+    }
+    group.finish();
+}
+
+/// The primary-ray packets through a BVH with and without spatial splits.
+fn bench_packets(c: &mut Criterion, models: &[Model]) {
+    let pool = common::thread_pool(1);
+    let mut group = common::flat_group(c, "packets_cpu_1thread", 5);
+    for m in models {
+        let objects = KdTree::build(&m.mesh, &KdTreeParams::default()).expect("the model built once already");
+        objects.bvh_with(&objects_only());
+        m.tree.bvh();
+        let mut views = vec![(m.name.clone(), primary_rays(&m.mesh, CPU_IMAGE))];
+        if m.name == "kitchen" {
+            let inside = Camera {
+                eye: Vec3::new(3.2, 1.6, 2.2),
+                target: Vec3::new(-1.0, 0.9, -1.5),
+                fov_degrees: 60.0,
+            };
+            views.push(("kitchen-interior".into(), inside.primary_rays(CPU_IMAGE, CPU_IMAGE)));
+        }
+        for (view, rays) in &views {
+            group.throughput(Throughput::Elements(rays.len() as u64));
+            for (id, tree) in [("spatial", &m.tree), ("objects", &objects)] {
+                group.bench_function(BenchmarkId::new(view.as_str(), id), |b| {
+                    b.iter(|| {
+                        pool.install(|| {
+                            packet::trace_image(black_box(tree), black_box(rays), CPU_IMAGE, CPU_IMAGE, Isa::best())
+                        })
+                    })
+                });
+            }
+        }
     }
     group.finish();
 }
@@ -187,6 +240,7 @@ fn all(c: &mut Criterion) {
     bench_build(c, &models);
     bench_cpu(c, &models);
     bench_bvh(c, &models);
+    bench_packets(c, &models);
     bench_gpu(c, &models);
 }
 
