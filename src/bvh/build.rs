@@ -10,6 +10,7 @@ use super::spatial;
 use super::{Bvh8, BvhParams, EMPTY_CHILD, LEAF_BIT, MAX_LEAF, Node8, WIDTH};
 use crate::aabb::Aabb;
 use crate::kdtree::leaf_blocks::{BLOCK, LeafBlock};
+use crate::kdtree::watertight::has_area;
 
 /// Centroid bins per axis of the SAH sweep.
 const BINS: usize = 16;
@@ -73,9 +74,11 @@ struct Ctx<'a> {
 
 /// The whole build: binary tree, widening, leaf blocks in the frame.
 pub(super) fn build(triangles: &[[Vec3; 3]], frame_scale: f32, params: &BvhParams) -> Bvh8 {
+    // Triangles without area are left out, as the kd-tree leaves them out.
     let prims: Vec<Prim> = triangles
         .par_iter()
         .enumerate()
+        .filter(|(_, t)| has_area(t))
         .map(|(i, t)| Prim::new(Aabb::from_points(t.iter()), i as u32))
         .collect();
     let scene = prims.iter().fold(Aabb::EMPTY, |b, p| b.union(p.bounds));

@@ -46,6 +46,7 @@ mod events;
 use self::events::{COUNTED_EVENTS, Events, Sah, Window};
 use super::clip::{clip_triangle, split_clipped_bounds};
 use super::node::{KdNode, MAX_LEAF_TRIANGLES, MAX_TREE_DEPTH};
+use super::watertight::has_area;
 use crate::aabb::Aabb;
 use crate::progress::Progress;
 
@@ -310,6 +311,7 @@ impl<'a> Builder<'a> {
             .triangles
             .iter()
             .enumerate()
+            .filter(|(_, t)| has_area(t))
             .map(|(i, t)| Prim {
                 bounds: Aabb::from_points(t),
                 tri: i as u32,
