@@ -419,3 +419,38 @@ fn the_build_progress_bar_fills_exactly_when_the_tree_is_built() {
         assert!(tree.stats.leaves > 1000, "advanced by many leaves, not one step");
     }
 }
+
+/// A triangle without area (here a segment along z, as the kitchen has 26
+/// of) is in no leaf: a ray whose origin lies on its line, where the
+/// watertight edge functions are rounding error, hits nothing through
+/// either tree. The kitchen's numbers: the AO origin of its vertex 24,890,
+/// one of its rays and the segment it "hit" at t = 0.35 (a point far off
+/// the segment), beside a small triangle with area that the ray passes,
+/// so that the one leaf's box holds that point.
+#[test]
+fn triangles_without_area_are_never_hit() {
+    let segment = [
+        Vec3::new(2.496711, 0.001504, -1.825862),
+        Vec3::new(2.496711, 0.001504, -1.855137),
+        Vec3::new(2.496711, 0.001504, -1.515188),
+    ];
+    assert!(!watertight::has_area(&segment));
+    assert!(watertight::has_area(&[Vec3::ZERO, Vec3::X, Vec3::Y]));
+    assert!(!watertight::has_area(&[Vec3::ONE; 3]));
+    let small = [
+        Vec3::new(2.6, -0.05, -1.9),
+        Vec3::new(2.61, -0.05, -1.9),
+        Vec3::new(2.6, -0.04, -1.9),
+    ];
+    let origin = Vec3::new(2.496711, 0.001504, -1.4867059);
+    let d = Vec3::new(0.17147863, -0.1154121, -0.97840434);
+    // The arithmetic alone reports the segment.
+    let t = watertight::ShearedRay::new(origin, d).intersect(segment[0], segment[1], segment[2], f32::INFINITY);
+    assert!(t.is_some_and(|t| t > 0.3), "{t:?}");
+    let tree = KdTree::from_triangles(vec![segment, small], &KdTreeParams::default()).unwrap();
+    assert!(!tree.closest_hit(origin, d, f32::INFINITY).is_hit(), "kd-tree");
+    assert!(!tree.bvh_closest_hit(origin, d, f32::INFINITY).is_hit(), "BVH");
+    assert!(!tree.any_hit(origin, d, f32::INFINITY), "kd-tree, any hit");
+    assert!(!tree.bvh_any_hit(origin, d, f32::INFINITY), "BVH, any hit");
+    assert_eq!(tree.bvh().references(), 1, "only the triangle with area is in a leaf");
+}
