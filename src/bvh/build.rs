@@ -42,7 +42,7 @@ impl Prim {
 
 /// The SAH's count term of a side: its blocks of four (the leaves' test
 /// unit).
-pub(super) fn blocks_cost(n: u32) -> f32 {
+fn blocks_cost(n: u32) -> f32 {
     n.div_ceil(BLOCK as u32) as f32
 }
 
@@ -239,35 +239,49 @@ fn best_object_split(prims: &[Prim]) -> Option<ObjectSplit> {
             counts[b] += 1;
             boxes[b] = boxes[b].union(p.bounds);
         }
-        // Each side's area times its blocks, swept from the right then
-        // from the left.
-        let mut right = [(f32::INFINITY, Aabb::EMPTY); BINS];
-        let (mut acc, mut n) = (Aabb::EMPTY, 0u32);
-        for b in (1..BINS).rev() {
-            acc = acc.union(boxes[b]);
-            n += counts[b];
-            if n > 0 {
-                right[b] = (acc.surface_area() * blocks_cost(n), acc);
-            }
-        }
-        let (mut acc, mut n) = (Aabb::EMPTY, 0u32);
-        for b in 1..BINS {
-            acc = acc.union(boxes[b - 1]);
-            n += counts[b - 1];
-            if n == 0 || n as usize == prims.len() {
-                continue;
-            }
-            let cost = acc.surface_area() * blocks_cost(n) + right[b].0;
-            if best.is_none_or(|o| cost < o.cost) {
+        sweep(&boxes, &counts, &counts, |b, cost, below, above, n| {
+            if n as usize != prims.len() && best.is_none_or(|o| cost < o.cost) {
                 split.cost = cost;
                 split.boundary = b;
-                split.below = acc;
-                split.above = right[b].1;
+                split.below = below;
+                split.above = above;
                 best = Some(split);
             }
-        }
+        });
     }
     best
+}
+
+/// The SAH's sweep over `N` bins: for each boundary `b` between bins
+/// `b - 1` and `b`, the references entering a bin before it (`enter`) on
+/// one side, those leaving at or after it (`leave`) on the other (for an
+/// object split both are the bins' counts), each side's area times its
+/// blocks, swept from the right then from the left. `visit(b, cost, below,
+/// above, n_below)` sees every boundary with references below it; an
+/// empty side above costs infinity.
+pub(super) fn sweep<const N: usize>(
+    boxes: &[Aabb; N],
+    enter: &[u32; N],
+    leave: &[u32; N],
+    mut visit: impl FnMut(usize, f32, Aabb, Aabb, u32),
+) {
+    let mut right = [(f32::INFINITY, Aabb::EMPTY); N];
+    let (mut acc, mut n) = (Aabb::EMPTY, 0u32);
+    for b in (1..N).rev() {
+        acc = acc.union(boxes[b]);
+        n += leave[b];
+        if n > 0 {
+            right[b] = (acc.surface_area() * blocks_cost(n), acc);
+        }
+    }
+    let (mut acc, mut n) = (Aabb::EMPTY, 0u32);
+    for b in 1..N {
+        acc = acc.union(boxes[b - 1]);
+        n += enter[b - 1];
+        if n > 0 {
+            visit(b, acc.surface_area() * blocks_cost(n) + right[b].0, acc, right[b].1, n);
+        }
+    }
 }
 
 /// Splits at the median centroid along the widest axis of the centroids.

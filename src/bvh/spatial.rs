@@ -14,7 +14,7 @@
 
 use glam::Vec3;
 
-use super::build::{Prim, blocks_cost};
+use super::build::{Prim, sweep};
 use crate::aabb::Aabb;
 
 /// Bins across the node's box on each axis (the paper uses as many as the
@@ -117,26 +117,9 @@ pub(super) fn best(prims: &[Prim], bounds: Aabb, min_span: f32) -> Option<Spatia
             }
             boxes[last] = boxes[last].union(rest);
         }
-        // Sweep: a plane between bins b - 1 and b has on its left every
-        // reference entering before b, on its right every one leaving at
-        // or after b.
-        let mut right_cost = [f32::INFINITY; BINS];
-        let (mut acc, mut n) = (Aabb::EMPTY, 0u32);
-        for b in (1..BINS).rev() {
-            acc = acc.union(boxes[b]);
-            n += exits[b];
-            if n > 0 {
-                right_cost[b] = acc.surface_area() * blocks_cost(n);
-            }
-        }
-        let (mut acc, mut n) = (Aabb::EMPTY, 0u32);
-        for b in 1..BINS {
-            acc = acc.union(boxes[b - 1]);
-            n += entries[b - 1];
-            if n == 0 {
-                continue;
-            }
-            let cost = acc.surface_area() * blocks_cost(n) + right_cost[b];
+        // A plane between bins b - 1 and b has below it every reference
+        // entering before b, above it every one leaving at or after b.
+        sweep(&boxes, &entries, &exits, |b, cost, _, _, _| {
             if best.is_none_or(|s| cost < s.cost) {
                 best = Some(SpatialSplit {
                     cost,
@@ -144,7 +127,7 @@ pub(super) fn best(prims: &[Prim], bounds: Aabb, min_span: f32) -> Option<Spatia
                     plane: plane(b),
                 });
             }
-        }
+        });
     }
     best
 }
