@@ -76,28 +76,94 @@ pub fn closest_in<V: Lanes>(
     counts: &mut PacketCounts,
 ) -> [Hit; LANES] {
     assert!(dirs.len() <= LANES, "at most {LANES} rays per packet");
-    let mut hits = [Hit::MISS; LANES];
     if dirs.is_empty() {
-        return hits;
+        return [Hit::MISS; LANES];
     }
+    let mut columns = Columns::new(dirs.len());
+    for (r, d) in dirs.iter().enumerate() {
+        columns.set(r, d.to_array());
+    }
+    columns.repeat_last();
+    closest_columns::<V>(tree, origin, &columns, t_max, counts)
+}
+
+/// Up to 16 directions as three columns (component a of ray r at
+/// `d[a][r]`), the way the lanes load them; lanes from `n` on repeat the
+/// last ray.
+struct Columns {
+    d: [[f32; LANES]; 3],
+    n: usize,
+}
+
+impl Columns {
+    #[inline(always)]
+    fn new(n: usize) -> Self {
+        Columns {
+            d: [[0.0; LANES]; 3],
+            n,
+        }
+    }
+
+    #[inline(always)]
+    fn set(&mut self, r: usize, d: [f32; 3]) {
+        (self.d[0][r], self.d[1][r], self.d[2][r]) = (d[0], d[1], d[2]);
+    }
+
+    /// Lanes `n..16` copy lane `n - 1` (`Rays::new`'s padding).
+    #[inline(always)]
+    fn repeat_last(&mut self) {
+        let last = self.n - 1;
+        for c in &mut self.d {
+            let x = c[last];
+            c[self.n..].fill(x);
+        }
+    }
+
+    #[inline(always)]
+    fn dir(&self, r: usize) -> Vec3 {
+        Vec3::new(self.d[0][r], self.d[1][r], self.d[2][r])
+    }
+
+    #[inline(always)]
+    fn lanes<V: Lanes>(&self) -> [V; 3] {
+        [
+            V::from_array(self.d[0]),
+            V::from_array(self.d[1]),
+            V::from_array(self.d[2]),
+        ]
+    }
+}
+
+/// `closest_in` for directions already in columns (`n >= 1`).
+#[inline(always)]
+fn closest_columns<V: Lanes>(
+    tree: &KdTree,
+    origin: Vec3,
+    columns: &Columns,
+    t_max: f32,
+    counts: &mut PacketCounts,
+) -> [Hit; LANES] {
+    let mut hits = [Hit::MISS; LANES];
+    let n = columns.n;
     counts.packets += 1;
     let bvh = tree.bvh();
-    let Some(mut rays) = Rays::<V>::new(&bvh.bounds, bvh.frame_scale, origin, dirs, t_max) else {
+    let Some(mut rays) = Rays::<V>::from_columns(&bvh.bounds, bvh.frame_scale, origin, columns.lanes(), n, t_max)
+    else {
         // A zero direction component: its slabs need the NaN rules of the
         // single-ray walk, which takes such packets ray by ray.
-        for (h, &d) in hits.iter_mut().zip(dirs) {
-            *h = tree.bvh_closest_hit(origin, d, t_max);
+        for (r, h) in hits[..n].iter_mut().enumerate() {
+            *h = tree.bvh_closest_hit(origin, columns.dir(r), t_max);
         }
-        counts.single_rays += dirs.len() as u64;
+        counts.single_rays += n as u64;
         return hits;
     };
     // Every lane walks from the root, as its single ray does: the root's
     // boxes (padded) decide, not the scene's unpadded bounds.
-    rays.live = ((1u32 << dirs.len()) - 1) as u16;
+    rays.live = ((1u32 << n) - 1) as u16;
     walk(bvh, &rays, &mut hits, counts);
-    for (h, &d) in hits.iter_mut().zip(dirs) {
-        if h.is_hit() && is_contact(bvh, h.t, d) {
-            *h = tree.closest_hit(origin, d, t_max);
+    for (r, h) in hits[..n].iter_mut().enumerate() {
+        if h.is_hit() && is_contact(bvh, h.t, columns.dir(r)) {
+            *h = tree.closest_hit(origin, columns.dir(r), t_max);
             counts.single_rays += 1;
         }
     }
@@ -137,7 +203,7 @@ fn walk<V: Lanes>(bvh: &Bvh8, rays: &Rays<V>, hits: &mut [Hit; LANES], counts: &
             let node = &bvh.nodes[current as usize];
             // The frustum first (all eight boxes at once), then each box it
             // enters against the lanes, each up to its own best.
-            let (mut candidates, near) = frustum.enters(node, latest);
+            let (mut candidates, near) = frustum.enters::<V>(node, latest);
             let active = V::M::from_bits(mask);
             let mut n = 0;
             while candidates != 0 {
@@ -145,10 +211,19 @@ fn walk<V: Lanes>(bvh: &Bvh8, rays: &Rays<V>, hits: &mut [Hit; LANES], counts: &
                 candidates &= candidates - 1;
                 let (mut t0, mut t1) = (zero, best_t);
                 for a in 0..3 {
-                    let (lo, hi) = (node.planes[a][c] - o[a], node.planes[a + 3][c] - o[a]);
-                    let (p, q) = (V::splat(lo).mul(inv[a]), V::splat(hi).mul(inv[a]));
-                    t0 = t0.max(p.min(q));
-                    t1 = t1.min(p.max(q));
+                    let (dn, df) = (
+                        node.planes[frustum.near[a]][c] - o[a],
+                        node.planes[frustum.far[a]][c] - o[a],
+                    );
+                    let (p, q) = (V::splat(dn).mul(inv[a]), V::splat(df).mul(inv[a]));
+                    if frustum.signed[a] {
+                        // Every lane enters by the near row: p <= q.
+                        t0 = t0.max(p);
+                        t1 = t1.min(q);
+                    } else {
+                        t0 = t0.max(p.min(q));
+                        t1 = t1.min(p.max(q));
+                    }
                 }
                 let lanes = active.and(t0.mul(lo_slack).le(t1.mul(hi_slack))).bits();
                 if lanes == 0 {
@@ -214,10 +289,7 @@ fn walk<V: Lanes>(bvh: &Bvh8, rays: &Rays<V>, hits: &mut [Hit; LANES], counts: &
             if improved {
                 best_t = best_frame.mul(inv_scale);
                 // Unused lanes hold -inf.
-                latest = best_t
-                    .to_array()
-                    .into_iter()
-                    .fold(f32::NEG_INFINITY, |m, t| if t > m { t } else { m });
+                latest = best_t.max_lane();
             }
         }
         // The next deferred child that begins before some lane's best.
@@ -259,49 +331,81 @@ fn walk<V: Lanes>(bvh: &Bvh8, rays: &Rays<V>, hits: &mut [Hit; LANES], counts: &
 /// computes; so a box some lane's single-ray test enters (`traverse`,
 /// the same slack) is never rejected. An axis whose lanes' signs differ
 /// constrains nothing (reciprocals from -inf to +inf).
-struct Frustum {
+pub(super) struct Frustum {
     o: [f32; 3],
     inv_lo: [f32; 3],
     inv_hi: [f32; 3],
     near: [usize; 3],
     far: [usize; 3],
+    /// Per axis: every lane's direction has one sign (the axis is not
+    /// open), so each lane enters a box by row `near` and leaves by `far`.
+    signed: [bool; 3],
     /// Every axis open: the box tests reject nothing, empty slots included.
     open: bool,
 }
 
 impl Frustum {
     #[inline(always)]
-    fn of<V: Lanes>(rays: &Rays<V>) -> Frustum {
+    pub(super) fn of<V: Lanes>(rays: &Rays<V>) -> Frustum {
         let mut f = Frustum {
             o: rays.origin.to_array(),
             inv_lo: [f32::INFINITY; 3],
             inv_hi: [f32::NEG_INFINITY; 3],
             near: [0, 1, 2],
             far: [3, 4, 5],
+            signed: [true; 3],
             open: false,
         };
+        let live = V::M::from_bits(rays.live);
+        let (above, below) = (V::splat(f32::INFINITY), V::splat(f32::NEG_INFINITY));
         for a in 0..3 {
-            let inv = rays.inv[a].to_array();
-            for (r, &x) in inv.iter().enumerate() {
-                if rays.live & (1 << r) != 0 {
-                    f.inv_lo[a] = f.inv_lo[a].min(x);
-                    f.inv_hi[a] = f.inv_hi[a].max(x);
-                }
-            }
+            f.inv_lo[a] = V::select(live, rays.inv[a], above).min_lane();
+            f.inv_hi[a] = V::select(live, rays.inv[a], below).max_lane();
             if f.inv_hi[a] < 0.0 {
                 (f.near[a], f.far[a]) = (a + 3, a);
             } else if f.inv_lo[a] < 0.0 {
                 (f.inv_lo[a], f.inv_hi[a]) = (f32::NEG_INFINITY, f32::INFINITY);
+                f.signed[a] = false;
             }
         }
         f.open = f.inv_lo.iter().all(|&x| x == f32::NEG_INFINITY);
         f
     }
 
+    /// Whether some axis is open (its lanes' signs differ).
+    #[cfg(test)]
+    pub(super) fn straddles(&self) -> bool {
+        self.signed.contains(&false)
+    }
+
     /// Which of `node`'s children some lane may enter before `latest`, and
-    /// the earliest entry into each.
+    /// the earliest entry into each (in one AVX register where the lanes
+    /// `V` have AVX2; the same numbers either way).
     #[inline(always)]
-    fn enters(&self, node: &Node8, latest: f32) -> (u32, [f32; WIDTH]) {
+    fn enters<V: Lanes>(&self, node: &Node8, latest: f32) -> (u32, [f32; WIDTH]) {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `V::AVX2` says the CPU has AVX2 here.
+        let (mut mask, near) = if V::AVX2 {
+            unsafe { self.enters_avx(node, latest) }
+        } else {
+            self.enters_lanes(node, latest)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let (mut mask, near) = self.enters_lanes(node, latest);
+        if self.open {
+            // Unused slots' empty boxes stop no lane when every axis is
+            // open (one closed axis puts them at infinity).
+            for (l, &child) in node.child.iter().enumerate() {
+                if child == EMPTY_CHILD {
+                    mask &= !(1 << l);
+                }
+            }
+        }
+        (mask, near)
+    }
+
+    #[inline(always)]
+    pub(super) fn enters_lanes(&self, node: &Node8, latest: f32) -> (u32, [f32; WIDTH]) {
         let mut near = [0.0f32; WIDTH];
         let mut far = [latest; WIDTH];
         for a in 0..3 {
@@ -317,17 +421,43 @@ impl Frustum {
                 narrow(&mut near, &mut far, l, tn, tf);
             }
         }
-        let mut mask = entered(&near, &far);
-        if self.open {
-            // Unused slots' empty boxes stop no lane when every axis is
-            // open (one closed axis puts them at infinity).
-            for (l, &child) in node.child.iter().enumerate() {
-                if child == EMPTY_CHILD {
-                    mask &= !(1 << l);
-                }
+        (entered(&near, &far), near)
+    }
+
+    /// `enters_lanes` in AVX: `min_ps(a, b)` is `a < b ? a : b` and
+    /// `max_ps(a, b)` is `a > b ? a : b` (the second operand on NaN or
+    /// equal), the scalar code's selections, so the numbers are the same.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(super) unsafe fn enters_avx(&self, node: &Node8, latest: f32) -> (u32, [f32; WIDTH]) {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller checked AVX2; each plane row is 32 bytes at a
+        // 32-byte boundary (`Node8` is `align(64)`).
+        unsafe {
+            let mut near = _mm256_setzero_ps();
+            let mut far = _mm256_set1_ps(latest);
+            for a in 0..3 {
+                let o = _mm256_set1_ps(self.o[a]);
+                let (lo, hi) = (_mm256_set1_ps(self.inv_lo[a]), _mm256_set1_ps(self.inv_hi[a]));
+                let dn = _mm256_sub_ps(_mm256_load_ps(node.planes[self.near[a]].as_ptr()), o);
+                let df = _mm256_sub_ps(_mm256_load_ps(node.planes[self.far[a]].as_ptr()), o);
+                let tn = _mm256_min_ps(_mm256_mul_ps(dn, lo), _mm256_mul_ps(dn, hi));
+                let tf = _mm256_max_ps(_mm256_mul_ps(df, lo), _mm256_mul_ps(df, hi));
+                // `narrow`: a NaN bound keeps the interval.
+                near = _mm256_max_ps(tn, near);
+                far = _mm256_min_ps(tf, far);
             }
+            let enter = _mm256_cmp_ps::<_CMP_LE_OQ>(
+                _mm256_mul_ps(near, _mm256_set1_ps(1.0 - SLACK)),
+                _mm256_mul_ps(far, _mm256_set1_ps(1.0 + SLACK)),
+            );
+            let mut out = [0.0f32; WIDTH];
+            _mm256_storeu_ps(out.as_mut_ptr(), near);
+            (_mm256_movemask_ps(enter) as u32, out)
         }
-        (mask, near)
     }
 }
 
@@ -413,24 +543,39 @@ impl Kernel for Band<'_> {
         let rows = band.len() / width;
         let mut counts = PacketCounts::default();
         for x0 in (0..width).step_by(4) {
-            let origin = band[x0].o();
-            let (mut dirs, mut at) = ([Vec3::ZERO; LANES], [0usize; LANES]);
-            let (mut m, mut shared) = (0, true);
-            for i in block_pixels(x0, rows, width) {
-                shared &= band[i].o() == origin;
-                (dirs[m], at[m]) = (band[i].d(), i);
-                m += 1;
+            // The block's rows as slices of the band (one bounds check a
+            // row), its rays' directions straight into lane columns.
+            let x1 = (x0 + 4).min(width);
+            let row = |y: usize| y * width + x0..y * width + x1;
+            let origin = band[x0].origin;
+            let bits = origin.map(f32::to_bits);
+            let mut columns = Columns::new(0);
+            // Origins compared as bits (integer work, no flags): equal bits
+            // are equal numbers unless NaN, checked below; a -0 beside a +0
+            // only sends the block ray by ray.
+            let mut differ = 0u32;
+            for y in 0..rows {
+                for ray in &band[row(y)] {
+                    let [ox, oy, oz] = ray.origin.map(f32::to_bits);
+                    differ |= (ox ^ bits[0]) | (oy ^ bits[1]) | (oz ^ bits[2]);
+                    columns.set(columns.n, ray.dir);
+                    columns.n += 1;
+                }
             }
-            if shared {
-                let hits = closest_in::<V>(tree, origin, &dirs[..m], f32::INFINITY, &mut counts);
-                for (&i, &hit) in at[..m].iter().zip(&hits) {
-                    out[i] = hit;
+            if differ == 0 && !origin.iter().any(|x| x.is_nan()) {
+                columns.repeat_last();
+                let origin = Vec3::from_array(origin);
+                let hits = closest_columns::<V>(tree, origin, &columns, f32::INFINITY, &mut counts);
+                for (y, hits) in (0..rows).zip(hits.chunks(x1 - x0)) {
+                    out[row(y)].copy_from_slice(hits);
                 }
             } else {
-                for &i in &at[..m] {
-                    out[i] = tree.bvh_closest_hit(band[i].o(), band[i].d(), f32::INFINITY);
+                for y in 0..rows {
+                    for (h, ray) in out[row(y)].iter_mut().zip(&band[row(y)]) {
+                        *h = tree.bvh_closest_hit(ray.o(), ray.d(), f32::INFINITY);
+                    }
                 }
-                counts.single_rays += m as u64;
+                counts.single_rays += columns.n as u64;
             }
         }
         counts

@@ -408,6 +408,71 @@ fn box_tests_agree() {
     assert!(entered > 1_000, "{entered}");
 }
 
+/// The packet frustum's AVX box test gives the portable one's mask and
+/// entry distances bit for bit: packets of one sign per axis and packets
+/// straddling an axis (open: 0 x inf is NaN where the origin lies on a
+/// plane), full and partial, short and infinite limits.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn frustum_box_tests_agree() {
+    use super::packet::Frustum;
+    use crate::kdtree::occlusion::Rays;
+    use crate::simd::Scalar16;
+    if !std::arch::is_x86_feature_detected!("avx2") {
+        return;
+    }
+    #[target_feature(enable = "avx2")]
+    fn avx(f: &Frustum, node: &Node8, latest: f32) -> (u32, [f32; WIDTH]) {
+        // SAFETY: this function requires AVX2.
+        unsafe { f.enters_avx(node, latest) }
+    }
+    let mut rng = Rng(43);
+    let (mut entered, mut open) = (0, 0);
+    for k in 0..20_000 {
+        let mut node = Node8::EMPTY;
+        for slot in 0..(k % WIDTH) + 1 {
+            let (a, b) = (rng.vec(-1.0, 1.0), rng.vec(-1.0, 1.0));
+            for axis in 0..3 {
+                node.planes[axis][slot] = a[axis].min(b[axis]);
+                node.planes[axis + 3][slot] = a[axis].max(b[axis]);
+            }
+            node.child[slot] = slot as u32;
+        }
+        let mut o = rng.vec(-2.0, 2.0);
+        if k % 4 == 0 {
+            o.y = node.planes[4][0];
+        }
+        // A cone of directions around `mean`: narrow ones keep every axis's
+        // sign, wide ones (or a mean near an axis plane) straddle it.
+        let mean = rng.vec(-1.0, 1.0);
+        let spread = [0.05, 0.5, 2.0][k % 3];
+        let dirs: Vec<Vec3> = (0..1 + k % 16).map(|_| mean + rng.vec(-spread, spread)).collect();
+        let latest = if k % 3 == 0 {
+            rng.next_f32() * 3.0
+        } else {
+            f32::INFINITY
+        };
+        let Some(mut rays) = Rays::<Scalar16>::new(&crate::aabb::Aabb::EMPTY, 1.0, o, &dirs, latest) else {
+            continue;
+        };
+        rays.live = ((1u32 << dirs.len()) - 1) as u16;
+        let f = Frustum::of(&rays);
+        let portable = f.enters_lanes(&node, latest);
+        // SAFETY: the CPU has AVX2 (checked above).
+        let wide = unsafe { avx(&f, &node, latest) };
+        assert_eq!(portable.0, wide.0, "case {k}: masks");
+        for l in 0..WIDTH {
+            assert_eq!(portable.1[l].to_bits(), wide.1[l].to_bits(), "case {k} lane {l}");
+        }
+        entered += portable.0.count_ones();
+        open += f.straddles() as u32;
+    }
+    assert!(
+        entered > 1_000 && open > 1_000,
+        "{entered} entered, {open} with an open axis"
+    );
+}
+
 /// The BVH's any-hit packets answer as the single rays do, in every
 /// instruction set: random soups, origins inside and out, rays with zero
 /// direction components (taken ray by ray), short and infinite limits,

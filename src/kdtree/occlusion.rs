@@ -171,8 +171,22 @@ impl<V: Lanes> Rays<V> {
     /// another path for such rays).
     #[inline(always)]
     pub fn new(bounds: &Aabb, frame_scale: f32, origin: Vec3, dirs: &[Vec3], t_max: f32) -> Option<Self> {
-        let n = dirs.len();
         let d: [V; 3] = [column(dirs, 0), column(dirs, 1), column(dirs, 2)];
+        Self::from_columns(bounds, frame_scale, origin, d, dirs.len(), t_max)
+    }
+
+    /// `new` for the first `n` lanes of directions given as columns (x, y
+    /// and z of every lane; lanes from `n` on repeat a ray, as `new` makes
+    /// them).
+    #[inline(always)]
+    pub fn from_columns(
+        bounds: &Aabb,
+        frame_scale: f32,
+        origin: Vec3,
+        d: [V; 3],
+        n: usize,
+        t_max: f32,
+    ) -> Option<Self> {
         let zero = V::splat(0.0);
         if d[0].eq(zero).any() || d[1].eq(zero).any() || d[2].eq(zero).any() {
             return None;

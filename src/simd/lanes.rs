@@ -29,6 +29,10 @@ pub trait Mask: Copy {
 /// only after `Isa::is_available` said so (the dispatching functions check).
 pub unsafe trait Lanes: Copy {
     type M: Mask;
+    /// The CPU has AVX2 wherever these lanes exist (they are made only
+    /// inside functions compiled with it), so code inlined beside them may
+    /// use 256-bit intrinsics: eight-wide work such as a BVH node's boxes.
+    const AVX2: bool = false;
     fn splat(x: f32) -> Self;
     fn from_array(a: [f32; 16]) -> Self;
     fn to_array(self) -> [f32; 16];
@@ -46,4 +50,19 @@ pub unsafe trait Lanes: Copy {
     fn ne(self, o: Self) -> Self::M;
     /// `m ? a : b` per lane.
     fn select(m: Self::M, a: Self, b: Self) -> Self;
+    /// The smallest lane (lanes not NaN; either zero where both signs are
+    /// there, as `min`).
+    #[inline(always)]
+    fn min_lane(self) -> f32 {
+        self.to_array()
+            .into_iter()
+            .fold(f32::INFINITY, |m, x| if x < m { x } else { m })
+    }
+    /// The largest lane (lanes not NaN; a zero of either sign, as `max`).
+    #[inline(always)]
+    fn max_lane(self) -> f32 {
+        self.to_array()
+            .into_iter()
+            .fold(f32::NEG_INFINITY, |m, x| if x > m { x } else { m })
+    }
 }

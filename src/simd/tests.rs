@@ -28,6 +28,8 @@ fn ops<V: Lanes>(a: [f32; 16], b: [f32; 16], m: u16) -> Vec<u32> {
     for v in [x.min(y), x.max(y)] {
         out.extend(v.to_array().map(|f| if f == 0.0 { 0 } else { f.to_bits() }));
     }
+    let zero_as_one = |f: f32| if f == 0.0 { 0 } else { f.to_bits() };
+    out.extend([x.min_lane(), x.max_lane(), y.min_lane(), y.max_lane()].map(zero_as_one));
     out
 }
 

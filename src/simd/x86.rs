@@ -68,6 +68,8 @@ macro_rules! op512 {
 // SAFETY: values exist only inside functions that checked for AVX-512F.
 unsafe impl Lanes for Avx512 {
     type M = K16;
+    // `run_avx512`'s AVX-512F implies AVX2.
+    const AVX2: bool = true;
     #[inline(always)]
     fn splat(x: f32) -> Self {
         Avx512(unsafe { _mm512_set1_ps(x) })
@@ -99,6 +101,25 @@ unsafe impl Lanes for Avx512 {
         // The blend takes its second operand where the mask bit is set.
         Avx512(unsafe { _mm512_mask_blend_ps(m.0, b.0, a.0) })
     }
+    #[inline(always)]
+    fn min_lane(self) -> f32 {
+        // AVX-512 implies AVX: the 256-bit halves' minimum, then theirs.
+        unsafe {
+            hmin256(_mm256_min_ps(
+                _mm512_castps512_ps256(self.0),
+                _mm512_extractf32x8_ps::<1>(self.0),
+            ))
+        }
+    }
+    #[inline(always)]
+    fn max_lane(self) -> f32 {
+        unsafe {
+            hmax256(_mm256_max_ps(
+                _mm512_castps512_ps256(self.0),
+                _mm512_extractf32x8_ps::<1>(self.0),
+            ))
+        }
+    }
 }
 
 /// Sixteen lanes in two AVX2 registers (lanes 0-7, 8-15).
@@ -128,7 +149,7 @@ macro_rules! parts {
      add: $add:ident, sub: $sub:ident, mul: $mul:ident, div: $div:ident,
      min: $min:ident, max: $max:ident, and: $and:ident, or: $or:ident, andnot: $andnot:ident,
      movemask: $movemask:ident, blend: $blend:expr, from_bits: $from_bits:expr,
-     cmp: $cmp:expr, parts: [$($p:literal),*]) => {
+     cmp: $cmp:expr, hmin: $hmin:expr, hmax: $hmax:expr, avx2: $avx2:literal, parts: [$($p:literal),*]) => {
         impl Mask for $mask {
             #[inline(always)]
             fn from_bits(bits: u16) -> Self {
@@ -157,6 +178,7 @@ macro_rules! parts {
         // instruction set (SSE2 is always present on x86-64).
         unsafe impl Lanes for $lanes {
             type M = $mask;
+            const AVX2: bool = $avx2;
             #[inline(always)]
             fn splat(x: f32) -> Self {
                 $lanes([unsafe { $set1(x) }; $n])
@@ -224,6 +246,23 @@ macro_rules! parts {
             #[inline(always)]
             fn select(m: $mask, a: Self, b: Self) -> Self {
                 $lanes([$(unsafe { $blend(m.0[$p], a.0[$p], b.0[$p]) }),*])
+            }
+            #[inline(always)]
+            fn min_lane(self) -> f32 {
+                // The registers' lane-wise minimum, then across its lanes.
+                let mut m = self.0[0];
+                for p in 1..$n {
+                    m = unsafe { $min(m, self.0[p]) };
+                }
+                unsafe { $hmin(m) }
+            }
+            #[inline(always)]
+            fn max_lane(self) -> f32 {
+                let mut m = self.0[0];
+                for p in 1..$n {
+                    m = unsafe { $max(m, self.0[p]) };
+                }
+                unsafe { $hmax(m) }
             }
         }
     };
@@ -293,14 +332,43 @@ unsafe fn bits128(bits: i32) -> __m128 {
     }
 }
 
+/// The smallest of four lanes: halves, then neighbours.
+#[inline(always)]
+unsafe fn hmin128(x: __m128) -> f32 {
+    unsafe {
+        let x = _mm_min_ps(x, _mm_movehl_ps(x, x));
+        _mm_cvtss_f32(_mm_min_ss(x, _mm_shuffle_ps::<0b01>(x, x)))
+    }
+}
+
+#[inline(always)]
+unsafe fn hmax128(x: __m128) -> f32 {
+    unsafe {
+        let x = _mm_max_ps(x, _mm_movehl_ps(x, x));
+        _mm_cvtss_f32(_mm_max_ss(x, _mm_shuffle_ps::<0b01>(x, x)))
+    }
+}
+
+#[inline(always)]
+unsafe fn hmin256(x: __m256) -> f32 {
+    unsafe { hmin128(_mm_min_ps(_mm256_castps256_ps128(x), _mm256_extractf128_ps::<1>(x))) }
+}
+
+#[inline(always)]
+unsafe fn hmax256(x: __m256) -> f32 {
+    unsafe { hmax128(_mm_max_ps(_mm256_castps256_ps128(x), _mm256_extractf128_ps::<1>(x))) }
+}
+
 parts!(Avx2x2, Avx2Mask, 2, 8, __m256,
     set1: _mm256_set1_ps, loadu: _mm256_loadu_ps, storeu: _mm256_storeu_ps,
     add: _mm256_add_ps, sub: _mm256_sub_ps, mul: _mm256_mul_ps, div: _mm256_div_ps,
     min: _mm256_min_ps, max: _mm256_max_ps, and: _mm256_and_ps, or: _mm256_or_ps, andnot: _mm256_andnot_ps,
-    movemask: _mm256_movemask_ps, blend: blend256, from_bits: bits256, cmp: cmp256, parts: [0, 1]);
+    movemask: _mm256_movemask_ps, blend: blend256, from_bits: bits256, cmp: cmp256,
+    hmin: hmin256, hmax: hmax256, avx2: true, parts: [0, 1]);
 
 parts!(Ssex4, SseMask, 4, 4, __m128,
     set1: _mm_set1_ps, loadu: _mm_loadu_ps, storeu: _mm_storeu_ps,
     add: _mm_add_ps, sub: _mm_sub_ps, mul: _mm_mul_ps, div: _mm_div_ps,
     min: _mm_min_ps, max: _mm_max_ps, and: _mm_and_ps, or: _mm_or_ps, andnot: _mm_andnot_ps,
-    movemask: _mm_movemask_ps, blend: blend128, from_bits: bits128, cmp: cmp128, parts: [0, 1, 2, 3]);
+    movemask: _mm_movemask_ps, blend: blend128, from_bits: bits128, cmp: cmp128,
+    hmin: hmin128, hmax: hmax128, avx2: false, parts: [0, 1, 2, 3]);
