@@ -147,20 +147,37 @@ fn closest_columns<V: Lanes>(
     let n = columns.n;
     counts.packets += 1;
     let bvh = tree.bvh();
-    let Some(mut rays) = Rays::<V>::from_columns(&bvh.bounds, bvh.frame_scale, origin, columns.lanes(), n, t_max)
-    else {
+    let d = columns.lanes::<V>();
+    let zero = V::splat(0.0);
+    // Written out, not a closure (see `kdtree::occlusion`'s helpers).
+    let unusable = (d[0].eq(zero).or(d[0].ne(d[0])))
+        .or(d[1].eq(zero).or(d[1].ne(d[1])))
+        .or(d[2].eq(zero).or(d[2].ne(d[2])));
+    if unusable.any() {
         // A zero direction component: its slabs need the NaN rules of the
-        // single-ray walk, which takes such packets ray by ray.
+        // single-ray walk, which takes such packets ray by ray (as it takes
+        // NaN directions).
         for (r, h) in hits[..n].iter_mut().enumerate() {
             *h = tree.bvh_closest_hit(origin, columns.dir(r), t_max);
         }
         counts.single_rays += n as u64;
         return hits;
-    };
+    }
+    // The root's boxes first, before the lanes' reciprocals and shear
+    // constants are made: a packet that misses them all (the background
+    // around an object) is done here.
+    let frustum = Frustum::of_directions(origin, &d);
+    let root = frustum.enters::<V>(&bvh.nodes[0], t_max);
+    if root.0 == 0 {
+        counts.nodes += 1;
+        return hits;
+    }
+    let mut rays = Rays::<V>::from_columns(&bvh.bounds, bvh.frame_scale, origin, d, n, t_max)
+        .expect("no direction component is zero");
     // Every lane walks from the root, as its single ray does: the root's
     // boxes (padded) decide, not the scene's unpadded bounds.
     rays.live = ((1u32 << n) - 1) as u16;
-    walk(bvh, &rays, &mut hits, counts);
+    walk(bvh, &rays, &frustum, root, &mut hits, counts);
     for (r, h) in hits[..n].iter_mut().enumerate() {
         if h.is_hit() && is_contact(bvh, h.t, columns.dir(r)) {
             *h = tree.closest_hit(origin, columns.dir(r), t_max);
@@ -173,8 +190,14 @@ fn closest_columns<V: Lanes>(
 /// The packet's walk (no direction component is zero: every product of a
 /// plane's distance and a reciprocal is a number or an infinity).
 #[inline(always)]
-fn walk<V: Lanes>(bvh: &Bvh8, rays: &Rays<V>, hits: &mut [Hit; LANES], counts: &mut PacketCounts) {
-    let frustum = Frustum::of(rays);
+fn walk<V: Lanes>(
+    bvh: &Bvh8,
+    rays: &Rays<V>,
+    frustum: &Frustum,
+    root: (u32, [f32; WIDTH]),
+    hits: &mut [Hit; LANES],
+    counts: &mut PacketCounts,
+) {
     let o = rays.origin.to_array();
     let inv = rays.inv;
     let fo = rays.frame_origin.to_array();
@@ -195,6 +218,7 @@ fn walk<V: Lanes>(bvh: &Bvh8, rays: &Rays<V>, hits: &mut [Hit; LANES], counts: &
     let mut stack = [const { MaybeUninit::<(u32, u16, f32)>::uninit() }; STACK_SIZE];
     let mut sp = 0usize;
     let (mut current, mut mask) = (0u32, rays.live);
+    let mut root_test = Some(root);
     // The entered children of a node, by entry (made once, not per node).
     let mut order = [(0.0f32, 0u32, 0u16); WIDTH];
     loop {
@@ -203,7 +227,11 @@ fn walk<V: Lanes>(bvh: &Bvh8, rays: &Rays<V>, hits: &mut [Hit; LANES], counts: &
             let node = &bvh.nodes[current as usize];
             // The frustum first (all eight boxes at once), then each box it
             // enters against the lanes, each up to its own best.
-            let (mut candidates, near) = frustum.enters::<V>(node, latest);
+            // The root's test was made before the packet's set-up.
+            let (mut candidates, near) = match root_test.take() {
+                Some(test) => test,
+                None => frustum.enters::<V>(node, latest),
+            };
             let active = V::M::from_bits(mask);
             let mut n = 0;
             while candidates != 0 {
@@ -345,31 +373,42 @@ pub(super) struct Frustum {
 }
 
 impl Frustum {
+    /// The frustum of the rays from `origin` along the lanes' directions
+    /// `d` (no component zero or NaN; lanes past the packet's rays repeat
+    /// one of them). On an axis whose components share a sign the
+    /// reciprocals lie in `[1 / d_max, 1 / d_min]`, and these bounds are
+    /// the extreme lanes' own reciprocals: division rounds monotonically.
     #[inline(always)]
-    pub(super) fn of<V: Lanes>(rays: &Rays<V>) -> Frustum {
+    pub(super) fn of_directions<V: Lanes>(origin: Vec3, d: &[V; 3]) -> Frustum {
         let mut f = Frustum {
-            o: rays.origin.to_array(),
-            inv_lo: [f32::INFINITY; 3],
-            inv_hi: [f32::NEG_INFINITY; 3],
+            o: origin.to_array(),
+            inv_lo: [f32::NEG_INFINITY; 3],
+            inv_hi: [f32::INFINITY; 3],
             near: [0, 1, 2],
             far: [3, 4, 5],
             signed: [true; 3],
             open: false,
         };
-        let live = V::M::from_bits(rays.live);
-        let (above, below) = (V::splat(f32::INFINITY), V::splat(f32::NEG_INFINITY));
-        for a in 0..3 {
-            f.inv_lo[a] = V::select(live, rays.inv[a], above).min_lane();
-            f.inv_hi[a] = V::select(live, rays.inv[a], below).max_lane();
-            if f.inv_hi[a] < 0.0 {
-                (f.near[a], f.far[a]) = (a + 3, a);
-            } else if f.inv_lo[a] < 0.0 {
-                (f.inv_lo[a], f.inv_hi[a]) = (f32::NEG_INFINITY, f32::INFINITY);
+        for (a, c) in d.iter().enumerate() {
+            let (d_min, d_max) = (c.min_lane(), c.max_lane());
+            if d_min > 0.0 || d_max < 0.0 {
+                // 1/d falls as d rises on either side of zero.
+                (f.inv_lo[a], f.inv_hi[a]) = (1.0 / d_max, 1.0 / d_min);
+                if d_max < 0.0 {
+                    (f.near[a], f.far[a]) = (a + 3, a);
+                }
+            } else {
                 f.signed[a] = false;
             }
         }
-        f.open = f.inv_lo.iter().all(|&x| x == f32::NEG_INFINITY);
+        f.open = !f.signed.contains(&true);
         f
+    }
+
+    /// The interval of each axis's reciprocals (`-inf..inf` where open).
+    #[cfg(test)]
+    pub(super) fn reciprocals(&self) -> ([f32; 3], [f32; 3]) {
+        (self.inv_lo, self.inv_hi)
     }
 
     /// Whether some axis is open (its lanes' signs differ).

@@ -408,16 +408,16 @@ fn box_tests_agree() {
     assert!(entered > 1_000, "{entered}");
 }
 
-/// The packet frustum's AVX box test gives the portable one's mask and
-/// entry distances bit for bit: packets of one sign per axis and packets
+/// The packet frustum's reciprocal bounds are its rays' own extremes, and
+/// its AVX box test gives the portable one's mask and entry distances bit
+/// for bit: packets of one sign per axis and packets
 /// straddling an axis (open: 0 x inf is NaN where the origin lies on a
 /// plane), full and partial, short and infinite limits.
 #[cfg(target_arch = "x86_64")]
 #[test]
 fn frustum_box_tests_agree() {
     use super::packet::Frustum;
-    use crate::kdtree::occlusion::Rays;
-    use crate::simd::Scalar16;
+    use crate::simd::{Lanes, Scalar16};
     if !std::arch::is_x86_feature_detected!("avx2") {
         return;
     }
@@ -452,11 +452,25 @@ fn frustum_box_tests_agree() {
         } else {
             f32::INFINITY
         };
-        let Some(mut rays) = Rays::<Scalar16>::new(&crate::aabb::Aabb::EMPTY, 1.0, o, &dirs, latest) else {
+        if dirs.iter().any(|d| d.cmpeq(Vec3::ZERO).any()) {
             continue;
-        };
-        rays.live = ((1u32 << dirs.len()) - 1) as u16;
-        let f = Frustum::of(&rays);
+        }
+        let column = |a: usize| Scalar16::from_array(std::array::from_fn(|r| dirs[r.min(dirs.len() - 1)][a]));
+        let f = Frustum::of_directions(o, &[column(0), column(1), column(2)]);
+        // Each axis's bounds are the rays' own extreme reciprocals, or open.
+        let (lo, hi) = f.reciprocals();
+        for a in 0..3 {
+            let inv = dirs.iter().map(|d| 1.0 / d[a]);
+            let (min, max) = (
+                inv.clone().fold(f32::INFINITY, f32::min),
+                inv.fold(f32::NEG_INFINITY, f32::max),
+            );
+            if min > 0.0 || max < 0.0 {
+                assert_eq!((lo[a], hi[a]), (min, max), "case {k} axis {a}");
+            } else {
+                assert_eq!((lo[a], hi[a]), (f32::NEG_INFINITY, f32::INFINITY), "case {k} axis {a}");
+            }
+        }
         let portable = f.enters_lanes(&node, latest);
         // SAFETY: the CPU has AVX2 (checked above).
         let wide = unsafe { avx(&f, &node, latest) };
