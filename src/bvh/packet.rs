@@ -489,13 +489,7 @@ impl Frustum {
                 near = _mm256_max_ps(tn, near);
                 far = _mm256_min_ps(tf, far);
             }
-            let enter = _mm256_cmp_ps::<_CMP_LE_OQ>(
-                _mm256_mul_ps(near, _mm256_set1_ps(1.0 - SLACK)),
-                _mm256_mul_ps(far, _mm256_set1_ps(1.0 + SLACK)),
-            );
-            let mut out = [0.0f32; WIDTH];
-            _mm256_storeu_ps(out.as_mut_ptr(), near);
-            (_mm256_movemask_ps(enter) as u32, out)
+            super::traverse::entered_avx(near, far)
         }
     }
 }

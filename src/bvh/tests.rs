@@ -357,6 +357,22 @@ fn spatial_splits_keep_every_hit() {
     assert!(counts[0] > 1000 && counts[1] > 500, "{counts:?}");
 }
 
+/// A node whose first `slots` children have random boxes in [-1, 1]^3,
+/// the rest empty.
+#[cfg(target_arch = "x86_64")]
+fn random_node(rng: &mut Rng, slots: usize) -> Node8 {
+    let mut node = Node8::EMPTY;
+    for slot in 0..slots {
+        let (a, b) = (rng.vec(-1.0, 1.0), rng.vec(-1.0, 1.0));
+        for axis in 0..3 {
+            node.planes[axis][slot] = a[axis].min(b[axis]);
+            node.planes[axis + 3][slot] = a[axis].max(b[axis]);
+        }
+        node.child[slot] = slot as u32;
+    }
+    node
+}
+
 /// The AVX box test gives the portable one's mask and entry distances bit
 /// for bit, with zero direction components and origins on box planes.
 #[cfg(target_arch = "x86_64")]
@@ -372,16 +388,7 @@ fn box_tests_agree() {
     let mut rng = Rng(41);
     let mut entered = 0;
     for k in 0..20_000 {
-        let mut node = Node8::EMPTY;
-        for slot in 0..(k % WIDTH) + 1 {
-            let a = rng.vec(-1.0, 1.0);
-            let b = rng.vec(-1.0, 1.0);
-            for axis in 0..3 {
-                node.planes[axis][slot] = a[axis].min(b[axis]);
-                node.planes[axis + 3][slot] = a[axis].max(b[axis]);
-            }
-            node.child[slot] = slot as u32;
-        }
+        let node = random_node(&mut rng, k % WIDTH + 1);
         let mut o = rng.vec(-2.0, 2.0);
         if k % 4 == 0 {
             o.x = node.planes[0][0];
@@ -429,15 +436,7 @@ fn frustum_box_tests_agree() {
     let mut rng = Rng(43);
     let (mut entered, mut open) = (0, 0);
     for k in 0..20_000 {
-        let mut node = Node8::EMPTY;
-        for slot in 0..(k % WIDTH) + 1 {
-            let (a, b) = (rng.vec(-1.0, 1.0), rng.vec(-1.0, 1.0));
-            for axis in 0..3 {
-                node.planes[axis][slot] = a[axis].min(b[axis]);
-                node.planes[axis + 3][slot] = a[axis].max(b[axis]);
-            }
-            node.child[slot] = slot as u32;
-        }
+        let node = random_node(&mut rng, k % WIDTH + 1);
         let mut o = rng.vec(-2.0, 2.0);
         if k % 4 == 0 {
             o.y = node.planes[4][0];

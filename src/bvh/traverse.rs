@@ -124,14 +124,31 @@ impl BoxTest for Avx8 {
                 near = _mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(pn, o), inv), near);
                 far = _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(pf, o), inv), far);
             }
-            let enter = _mm256_cmp_ps::<_CMP_LE_OQ>(
-                _mm256_mul_ps(near, _mm256_set1_ps(1.0 - SLACK)),
-                _mm256_mul_ps(far, _mm256_set1_ps(1.0 + SLACK)),
-            );
-            let mut out = [0.0f32; WIDTH];
-            _mm256_storeu_ps(out.as_mut_ptr(), near);
-            (_mm256_movemask_ps(enter) as u32, out)
+            entered_avx(near, far)
         }
+    }
+}
+
+/// `entered` of eight intervals in AVX registers, and the entries.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(super) unsafe fn entered_avx(
+    near: std::arch::x86_64::__m256,
+    far: std::arch::x86_64::__m256,
+) -> (u32, [f32; WIDTH]) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller checked AVX2.
+    unsafe {
+        let enter = _mm256_cmp_ps::<_CMP_LE_OQ>(
+            _mm256_mul_ps(near, _mm256_set1_ps(1.0 - SLACK)),
+            _mm256_mul_ps(far, _mm256_set1_ps(1.0 + SLACK)),
+        );
+        let mut out = [0.0f32; WIDTH];
+        _mm256_storeu_ps(out.as_mut_ptr(), near);
+        (_mm256_movemask_ps(enter) as u32, out)
     }
 }
 
