@@ -79,9 +79,9 @@ pub fn closest_in<V: Lanes>(
     if dirs.is_empty() {
         return [Hit::MISS; LANES];
     }
-    let mut columns = Columns::new(dirs.len());
-    for (r, d) in dirs.iter().enumerate() {
-        columns.set(r, d.to_array());
+    let mut columns = Columns::new();
+    for d in dirs {
+        columns.push(d.to_array());
     }
     columns.repeat_last();
     closest_columns::<V>(tree, origin, &columns, t_max, counts)
@@ -97,16 +97,19 @@ struct Columns {
 
 impl Columns {
     #[inline(always)]
-    fn new(n: usize) -> Self {
+    fn new() -> Self {
         Columns {
             d: [[0.0; LANES]; 3],
-            n,
+            n: 0,
         }
     }
 
     #[inline(always)]
-    fn set(&mut self, r: usize, d: [f32; 3]) {
+    /// Adds a ray's direction as the next lane.
+    fn push(&mut self, d: [f32; 3]) {
+        let r = self.n;
         (self.d[0][r], self.d[1][r], self.d[2][r]) = (d[0], d[1], d[2]);
+        self.n += 1;
     }
 
     /// Lanes `n..16` copy lane `n - 1` (`Rays::new`'s padding).
@@ -582,7 +585,7 @@ impl Kernel for Band<'_> {
             let row = |y: usize| y * width + x0..y * width + x1;
             let origin = band[x0].origin;
             let bits = origin.map(f32::to_bits);
-            let mut columns = Columns::new(0);
+            let mut columns = Columns::new();
             // Origins compared as bits (integer work, no flags): equal bits
             // are equal numbers unless NaN, checked below; a -0 beside a +0
             // only sends the block ray by ray.
@@ -591,8 +594,7 @@ impl Kernel for Band<'_> {
                 for ray in &band[row(y)] {
                     let [ox, oy, oz] = ray.origin.map(f32::to_bits);
                     differ |= (ox ^ bits[0]) | (oy ^ bits[1]) | (oz ^ bits[2]);
-                    columns.set(columns.n, ray.dir);
-                    columns.n += 1;
+                    columns.push(ray.dir);
                 }
             }
             if differ == 0 && !origin.iter().any(|x| x.is_nan()) {
