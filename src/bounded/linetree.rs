@@ -48,7 +48,13 @@ impl Sample {
                 .tree
                 .nodes
                 .iter()
-                .map(|n| std::mem::size_of::<RayNode>() + n.lights.len() + 4 * n.occluders.len())
+                .map(|n| {
+                    // The lists' heap blocks where they outgrew their inline room.
+                    let heap = |spilled: bool, bytes: usize| if spilled { bytes } else { 0 };
+                    std::mem::size_of::<RayNode>()
+                        + heap(n.lights.spilled(), n.lights.capacity())
+                        + heap(n.occluders.spilled(), 4 * n.occluders.capacity())
+                })
                 .sum::<usize>()
     }
 }

@@ -67,6 +67,19 @@ pub struct BoundedRenderer {
     last_used: Vec<u32>,
     /// The interpolation pass where the Whitted renderer is on a GPU.
     gpu: Option<(GpuContext, Batched<InterpolatePass>)>,
+    /// Per-pixel lists kept from frame to frame (see `Scratch`).
+    scratch: Scratch,
+}
+
+/// Lists of a frame's pixels kept for the next frame: allocated afresh,
+/// those of more than 32 MB (1280x960 and up) were mapped, faulted in page
+/// by page and unmapped every frame (glibc maps such blocks itself).
+#[derive(Default)]
+struct Scratch {
+    /// What assignment found for each pixel left to it.
+    found: Vec<Found>,
+    /// A round's pixels in cell order (`sort_by_cell`).
+    order: Vec<u32>,
 }
 
 /// A pixel's primary hit (distance, primitive) where it has one.
@@ -111,6 +124,7 @@ impl BoundedRenderer {
             frame: 0,
             last_used: Vec::new(),
             gpu,
+            scratch: Scratch::default(),
         })
     }
 
@@ -169,7 +183,8 @@ impl BoundedRenderer {
         // 2. Pixel assignment.
         let t1 = Instant::now();
         let todo: Vec<u32> = (0..n as u32).filter(|&i| claimed[i as usize] >= CONFLICT).collect();
-        let found = self.assign(&params, &rays, &todo);
+        let mut found = std::mem::take(&mut self.scratch.found);
+        self.assign(&params, &rays, &todo, &mut found);
         // The pixels with a leaf, in pixel order.
         let mut round: Vec<PixelLeaf> = Vec::with_capacity(found.len());
         for (&i, f) in todo.iter().zip(&found) {
@@ -188,14 +203,15 @@ impl BoundedRenderer {
                 Found::NoTree { .. } => return Err(Error::internal("a pixel's linetree was not made")),
             }
         }
+        self.scratch.found = found;
         stats.assign_ms = elapsed_ms(t1);
 
         // Rounds of builds until every pixel has an accepted leaf or a
         // rejected one that stays.
         let t2 = Instant::now();
+        let mut order = std::mem::take(&mut self.scratch.order);
         while !round.is_empty() {
-            let groups;
-            (round, groups) = sort_by_cell(&round, self.trees.cells.len());
+            let groups = sort_by_cell(&round, self.trees.cells.len(), &mut order);
             let to_build: Vec<u32> = groups
                 .iter()
                 .filter(|(c, _)| matches!(self.trees.cells[*c as usize].state, CellState::Unbuilt))
@@ -204,7 +220,7 @@ impl BoundedRenderer {
             self.build(&params, &to_build, &mut stats)?;
             let mut next = Vec::new();
             for (cell, range) in groups {
-                let pixels = &round[range];
+                let pixels = order[range].iter().map(|&k| &round[k as usize]);
                 self.trees.cells[cell as usize].used = self.frame;
                 let tree = self.trees.cells[cell as usize].tree;
                 let pair = self.trees.trees[tree as usize].pair;
@@ -261,6 +277,7 @@ impl BoundedRenderer {
             }
             round = next;
         }
+        self.scratch.order = order;
         stats.build_ms = elapsed_ms(t2);
 
         // 3. Interpolation, and 4. the slow path (with the pixels at a
@@ -329,8 +346,9 @@ impl BoundedRenderer {
         })
     }
 
-    /// Which leaf each pixel's line falls in (or why it has none).
-    fn assign(&mut self, params: &WhittedParams, rays: &PixelRays, todo: &[u32]) -> Vec<Found> {
+    /// Which leaf each pixel of `todo` has its line in (or why it has
+    /// none), into `found`.
+    fn assign(&mut self, params: &WhittedParams, rays: &PixelRays, todo: &[u32], found: &mut Vec<Found>) {
         let twin = self.whitted.twin(params);
         let eye = Vec3::from_array(params.eye).as_dvec3();
         let scene = self.whitted.scene();
@@ -338,7 +356,8 @@ impl BoundedRenderer {
         // (in pixel order, each lookup starting from the previous pixel's
         // leaf). A hit whose tree is not made yet waits for it.
         let (trees, geometry) = (&self.trees, &self.geometry);
-        let mut found = vec![Found::Background; todo.len()];
+        found.clear();
+        found.resize(todo.len(), Found::Background);
         found
             .par_chunks_mut(1024)
             .zip(todo.par_chunks(1024))
@@ -383,7 +402,7 @@ impl BoundedRenderer {
             .into_iter()
             .collect();
         if keys.is_empty() {
-            return found;
+            return;
         }
         keys.sort_unstable();
         for (surface, pair) in keys {
@@ -405,7 +424,6 @@ impl BoundedRenderer {
                 };
             }
         });
-        found
     }
 
     /// Traces the missing extremal rays of `cells` and judges them.
@@ -789,13 +807,17 @@ impl BoundedRenderer {
     }
 }
 
-/// A round ordered by cell, each cell's pixels kept in their order, and
-/// the run of each cell: a stable counting sort over the cell indices
-/// (`cells` of them), where a comparison sort of these 72-byte tuples by
-/// (cell, pixel) took a third of the build phase. A round lists its pixels
-/// in increasing order within each cell (the first in pixel order, later
-/// ones split from one cell's sorted run), so the order is that sort's.
-fn sort_by_cell(round: &[PixelLeaf], cells: usize) -> (Vec<PixelLeaf>, Vec<(u32, std::ops::Range<usize>)>) {
+/// The order of a round by cell, each cell's pixels kept in their order
+/// (indices into `round`, written to `order`), and the run of each cell in
+/// it: a stable counting sort over the cell indices (`cells` of them),
+/// where a comparison sort of the 72-byte tuples by (cell, pixel) took a
+/// third of the build phase. A round lists its pixels in increasing order
+/// within each cell (the first in pixel order, later ones split from one
+/// cell's sorted run), so the order is that sort's. Indices rather than a
+/// sorted copy of the round: at 1280x960 a copy is 88 MB a frame, above
+/// glibc's largest mmap threshold (32 MB), so each frame's copy was fresh
+/// pages, faulted in and unmapped again.
+fn sort_by_cell(round: &[PixelLeaf], cells: usize, order: &mut Vec<u32>) -> Vec<(u32, std::ops::Range<usize>)> {
     let mut next = vec![0u32; cells];
     for r in round {
         next[r.1 as usize] += 1;
@@ -809,15 +831,18 @@ fn sort_by_cell(round: &[PixelLeaf], cells: usize) -> (Vec<PixelLeaf>, Vec<(u32,
             start += count;
         }
     }
-    let mut order = vec![0u32; round.len()];
+    order.clear();
+    order.resize(round.len(), 0);
     for (k, r) in round.iter().enumerate() {
         let slot = &mut next[r.1 as usize];
         order[*slot as usize] = k as u32;
         *slot += 1;
     }
-    let sorted: Vec<PixelLeaf> = order.iter().map(|&k| round[k as usize]).collect();
-    debug_assert!(sorted.windows(2).all(|w| (w[0].1, w[0].0) < (w[1].1, w[1].0)));
-    (sorted, groups)
+    debug_assert!(order.windows(2).all(|w| {
+        let (a, b) = (&round[w[0] as usize], &round[w[1] as usize]);
+        (a.1, a.0) < (b.1, b.0)
+    }));
+    groups
 }
 
 #[cfg(test)]
@@ -841,7 +866,9 @@ mod tests {
                     (pixel, cell, [0.0; 4], RootFace::Sphere(0), (1.0, 0))
                 })
                 .collect();
-            let (sorted, groups) = sort_by_cell(&round, cells);
+            let mut order = Vec::new();
+            let groups = sort_by_cell(&round, cells, &mut order);
+            let sorted: Vec<PixelLeaf> = order.iter().map(|&k| round[k as usize]).collect();
             let mut expected = round.clone();
             expected.sort_unstable_by_key(|r| (r.1, r.0));
             let key = |v: &[PixelLeaf]| v.iter().map(|r| (r.1, r.0)).collect::<Vec<_>>();

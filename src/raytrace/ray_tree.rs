@@ -14,6 +14,15 @@
 //! pixel; `same_topology` compares trees exactly.
 
 use glam::Vec3;
+use smallvec::SmallVec;
+
+/// A node's per-light codes, inline up to four lights: a node's lists were
+/// two heap blocks each, allocated, cloned and freed with every extremal
+/// ray the bounded-error renderer keeps.
+pub type NodeLights = SmallVec<[LightCode; 4]>;
+
+/// A node's per-light occluders, inline up to four lights.
+pub type NodeOccluders = SmallVec<[u32; 4]>;
 
 /// What a node's ray is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
@@ -78,11 +87,11 @@ pub struct RayNode {
     /// `None`: the ray left the scene.
     pub hit: Option<TreeHit>,
     /// Per light (the scene's order), at the hit; empty for a miss or an unlit surface.
-    pub lights: Vec<LightCode>,
+    pub lights: NodeLights,
     /// Per light, the primitive nearest the light that stops or filters its
     /// shadow ray (`u32::MAX` where none does): the occluder of the paper's
     /// ray trees.
-    pub occluders: Vec<u32>,
+    pub occluders: NodeOccluders,
     pub reflected: bool,
     pub refracted: bool,
     /// Total internal reflection: the refracted ray does not exist.

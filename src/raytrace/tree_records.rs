@@ -13,7 +13,7 @@
 
 use glam::Vec3;
 
-use super::ray_tree::{LightCode, RayKind, RayNode, RayTree, TreeHit};
+use super::ray_tree::{LightCode, NodeLights, NodeOccluders, RayKind, RayNode, RayTree, TreeHit};
 use super::scene::MISS;
 
 /// Words4 before a slot's first node.
@@ -198,12 +198,12 @@ pub fn decode(layout: &TreeLayout, slot: &[[u32; 4]]) -> Option<RecordedTree> {
             lights: if lit {
                 (0..l).map(|j| LightCode::from_u32(word(j))).collect()
             } else {
-                Vec::new()
+                NodeLights::new()
             },
             occluders: if lit {
                 (0..l).map(|j| word(l + j)).collect()
             } else {
-                Vec::new()
+                NodeOccluders::new()
             },
             reflected: flags & REFLECTED != 0,
             refracted: flags & REFRACTED != 0,
