@@ -104,8 +104,8 @@ impl Columns {
         }
     }
 
-    #[inline(always)]
     /// Adds a ray's direction as the next lane.
+    #[inline(always)]
     fn push(&mut self, d: [f32; 3]) {
         let r = self.n;
         (self.d[0][r], self.d[1][r], self.d[2][r]) = (d[0], d[1], d[2]);

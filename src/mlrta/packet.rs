@@ -419,13 +419,14 @@ pub(crate) fn trace_packet_lanes<V: Lanes>(
     }
     // Lanes done (bit r): unused lanes, lanes that miss the entry cell, and
     // with `any_hit` lanes that found a hit.
-    let mut done = !0u16;
     let (near, far) = packet.lane_slabs(&entry.cell, &[f.t_max; PACKET]);
+    let mut inside = 0u16;
     for r in 0..n {
         // NaN bounds (a degenerate lane) count as a miss.
-        let missed = down(near[r]).partial_cmp(&up(far[r])).is_none_or(|o| o.is_gt());
-        done &= !((!missed as u16) << r);
+        let reaches = down(near[r]) <= up(far[r]);
+        inside |= (reaches as u16) << r;
     }
+    let mut done = !inside;
     let mut stack = [const { MaybeUninit::<(u32, f32, f32, Aabb)>::uninit() }; MAX_TREE_DEPTH];
     let mut sp = 0usize;
     let (mut node_index, mut cell) = (entry.node, entry.cell);
