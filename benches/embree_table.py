@@ -189,7 +189,7 @@ def main():
         lines.append(f"| {work} | {api} | {em:.1f} | {ours} | {pe:.1f} | {pe / em:.2f} |")
     eb, pb = b[("stanford-bunny", "build", "embree")], b[("stanford-bunny", "build", "penumbra")]
     lines.append(f"| bunny build (1 thread) | BVH, high quality | {eb:.0f} ms | kd-tree + prepare | {pb:.0f} ms "
-                 f"| {pb / eb:.1f}x slower |")
+                 f"| {pb / eb:.2f}x the time |")
     lines += [
         "",
         "Embree given the AO directions ready (`rtcOccluded16`, directions generated before the clock): "

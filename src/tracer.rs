@@ -24,13 +24,24 @@ use crate::repeats::{Repeats, RunTimes};
 use crate::scene::Mesh;
 use crate::simd::Isa;
 
-/// Builds the kd-tree of `mesh` with default parameters; a spinner names
-/// `what` while a large mesh builds.
-pub fn build_tree(mesh: &Mesh, bars: Bars, what: &str) -> Result<KdTree> {
+/// The kd-tree builder's settings for a tree walked on `device`: the CPU's
+/// (`KdTreeParams::for_cpu`, larger leaves for its vector lanes) or the
+/// GPU's (`Default`).
+pub fn tree_params(device: &Device) -> KdTreeParams {
+    if device.is_gpu() {
+        KdTreeParams::default()
+    } else {
+        KdTreeParams::for_cpu()
+    }
+}
+
+/// Builds the kd-tree of `mesh` for walks on `device` (`tree_params`); a
+/// spinner names `what` while a large mesh builds.
+pub fn build_tree(mesh: &Mesh, device: &Device, bars: Bars, what: &str) -> Result<KdTree> {
     // A bar of one step per triangle, shown once the build has taken a
     // second (`progress`), advancing leaf by leaf.
     let progress = bars.bar(mesh.triangles.len() as u64, &format!("building kd-tree ({what})"));
-    let tree = KdTree::build_with(mesh, &KdTreeParams::default(), &progress)?;
+    let tree = KdTree::build_with(mesh, &tree_params(device), &progress)?;
     progress.finish();
     Ok(tree)
 }
@@ -140,10 +151,10 @@ pub struct Tracer {
 }
 
 impl Tracer {
-    /// Builds the tree over `mesh` (default parameters) and uploads it;
-    /// `what` names the mesh on a spinner for large meshes.
+    /// Builds the tree over `mesh` for `device` (`tree_params`) and
+    /// uploads it; `what` names the mesh on a spinner for large meshes.
     pub fn build(device: &Device, mesh: &Mesh, bars: Bars, what: &str) -> Result<Tracer> {
-        Self::from_tree(device, build_tree(mesh, bars, what)?)
+        Self::from_tree(device, build_tree(mesh, device, bars, what)?)
     }
 
     /// A tree built elsewhere, uploaded to `device`.

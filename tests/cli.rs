@@ -1030,14 +1030,23 @@ fn gpu_ao_matches_cpu() {
     let worst = diffs.iter().copied().fold(0.0, f32::max);
     let mean = diffs.iter().map(|&x| x as f64).sum::<f64>() / diffs.len() as f64;
     println!("ao gpu vs cpu on corner.obj: worst {worst}, mean {mean:.3e}");
-    // The requirement is on rays: >= 99.9% identical. With 64 rays per
-    // vertex, the mean per-vertex difference bounds the fraction of rays
-    // that differ. Vertices on the corner's seams shoot rays grazing the
-    // walls, where the GPU's ulp-different directions can flip a few; the
-    // worst-vertex bound only guards against gross errors.
+    // With 64 rays per vertex, the mean per-vertex difference bounds the
+    // fraction of rays that differ. The kernel itself is held to >= 99.9% of
+    // rays identical on the same tree (tests/gpu_twins.rs, `compare_ao`,
+    // corner included); here each device builds its own tree
+    // (`KdTreeParams::for_cpu` on the CPU, `default` on the GPU), and the
+    // rays of the corner's seam vertices start in a wall's plane, where a
+    // hit at t ~ 1e-11 is found or not by the tree's cells
+    // (docs/results/tracing.md, `Bvh8::contact`): measured 0.11% of rays
+    // differing with the two trees, 0.05% with one. The shared models
+    // (cow, bunny) differ in no vertex, the kitchen in 0.01% of its rays
+    // with either tree.
+    // Vertices on the seams also shoot rays grazing the walls, where the
+    // GPU's ulp-different directions flip a few; the worst-vertex bound only
+    // guards against gross errors.
     assert!(
-        mean < 1e-3,
-        "mean difference {mean} >= 1e-3: more than 0.1% of rays differ"
+        mean < 2e-3,
+        "mean difference {mean} >= 2e-3: more than 0.2% of rays differ"
     );
     assert!(worst <= 8.0 / 64.0, "a vertex differs by {worst} (> 8/64)");
 }
@@ -1210,8 +1219,11 @@ fn gpu_trace_packets_match_cpu() {
         (json, std::fs::read(&png).unwrap())
     };
     let (cpu, cpu_png) = image("cpu", "on");
+    // Each device's own tree (`tracer::tree_params`), named in the JSON.
+    assert_eq!(cpu["kdtree"]["traversal_cost"], 4.0);
     for mlrta in ["on", "off"] {
         let (gpu, gpu_png) = image("gpu", mlrta);
+        assert_eq!(gpu["kdtree"]["traversal_cost"], 1.0);
         assert_eq!(gpu["hits"], cpu["hits"], "--mlrta {mlrta}");
         assert_eq!(
             gpu["shadows"]["shadowed_hits"], cpu["shadows"]["shadowed_hits"],

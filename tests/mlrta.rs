@@ -60,9 +60,11 @@ fn check(name: &str, a: &Agreement) {
 }
 
 /// Primary rays with and without entry points, and shadow rays to a light,
-/// against single rays.
-fn compare_image(name: &str, mesh: &Mesh, camera: &Camera, size: u32, params: MlrtaParams) {
-    let tree = KdTree::build(mesh, &KdTreeParams::default()).unwrap();
+/// against single rays, on a tree built with `tree` (the CPU's,
+/// `KdTreeParams::for_cpu`, is what the command line traces packets on;
+/// `default`, the GPU's, is the library's default).
+fn compare_image(name: &str, mesh: &Mesh, camera: &Camera, size: u32, params: MlrtaParams, tree: &KdTreeParams) {
+    let tree = KdTree::build(mesh, tree).unwrap();
     let (prepared, _) = Prepared::new(&tree, mesh);
     let rays = camera.primary_rays(size, size);
     let single: Vec<Hit> = rays
@@ -109,7 +111,10 @@ fn primary_and_shadow_rays_equal_single_rays_on_procedural_scenes() {
             split_factor: 4,
             ..Default::default()
         };
-        compare_image(name, &mesh, &camera, 128, params);
+        for tree in [KdTreeParams::default(), KdTreeParams::for_cpu()] {
+            let label = format!("{name}, traversal cost {}", tree.traversal_cost);
+            compare_image(&label, &mesh, &camera, 128, params.clone(), &tree);
+        }
     }
 }
 
@@ -123,7 +128,16 @@ fn a_camera_inside_a_closed_object() {
         target: Vec3::new(0.9, 0.2, 0.1),
         fov_degrees: 100.0,
     };
-    compare_image("inside the closed box", &mesh, &camera, 96, MlrtaParams::default());
+    for tree in [KdTreeParams::default(), KdTreeParams::for_cpu()] {
+        compare_image(
+            "inside the closed box",
+            &mesh,
+            &camera,
+            96,
+            MlrtaParams::default(),
+            &tree,
+        );
+    }
 }
 
 #[test]
@@ -132,12 +146,22 @@ fn primary_and_shadow_rays_equal_single_rays_on_shared_models() {
         let Some(path) = data_model(model) else { return };
         let mesh = load_obj(&path).unwrap();
         let camera = Camera::default_for(&mesh.bounds());
-        compare_image(model, &mesh, &camera, 512, MlrtaParams::default());
+        // The command line's CPU tree at the default tiles, the GPU's
+        // (the library's default) with deep tiles.
+        compare_image(
+            model,
+            &mesh,
+            &camera,
+            512,
+            MlrtaParams::default(),
+            &KdTreeParams::for_cpu(),
+        );
         let deep = MlrtaParams {
             min_tile: 8,
             ..MlrtaParams::default()
         };
-        compare_image(&format!("{model}, min tile 8"), &mesh, &camera, 512, deep);
+        let name = format!("{model}, min tile 8, the GPU's tree");
+        compare_image(&name, &mesh, &camera, 512, deep, &KdTreeParams::default());
     }
     if let Some(path) = data_model("kitchen.obj") {
         let mesh = load_obj(&path).unwrap();
@@ -146,7 +170,8 @@ fn primary_and_shadow_rays_equal_single_rays_on_shared_models() {
             target: Vec3::new(-1.0, 0.9, -1.5),
             fov_degrees: 60.0,
         };
-        compare_image("kitchen interior", &mesh, &interior, 512, MlrtaParams::default());
+        let cpu = KdTreeParams::for_cpu();
+        compare_image("kitchen interior", &mesh, &interior, 512, MlrtaParams::default(), &cpu);
     }
 }
 

@@ -113,7 +113,7 @@ impl DisplacementField {
             return Err(Error::input(what, "has no triangles: nothing to build a field of"));
         }
         let start = Instant::now();
-        let tree = KdTree::build(mesh, &KdTreeParams::default())?;
+        let tree = KdTree::build(mesh, &KdTreeParams::for_cpu())?;
         let kdtree_ms = elapsed_ms(start);
         let (center, radius) = bounding_sphere(mesh);
         let texels = params.texels_per_map();

@@ -121,6 +121,7 @@ impl KdTree {
         } = out;
         stats.triangles = triangles.len();
         stats.depth_limit = params.depth_limit(triangles.len());
+        stats.traversal_cost = params.traversal_cost;
         if leaf_triangles.len() >= u32::MAX as usize || nodes.len() >= 1 << 30 {
             return Err(Error::input(
                 "mesh",

@@ -85,6 +85,7 @@ fn rule_settings_do_not_change_answers() {
     let rays = rays_at(&mut rng, 1000, 1.0);
     let variants = [
         KdTreeParams::default(),
+        KdTreeParams::for_cpu(),
         KdTreeParams {
             empty_cell_volume: 2.0,
             coplanar_rule: false,
@@ -110,6 +111,30 @@ fn rule_settings_do_not_change_answers() {
         assert!(tree.stats.depth <= params.depth_limit(soup.len()));
         assert_matches_brute_force(&tree, &rays);
     }
+}
+
+#[test]
+fn the_cpus_tree_has_fewer_larger_leaves_and_the_same_hits() {
+    let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+    let soup = random_soup(&mut rng, 4000, 0.05);
+    let gpu = KdTree::from_triangles(soup.clone(), &KdTreeParams::default()).unwrap();
+    let cpu = KdTree::from_triangles(soup, &KdTreeParams::for_cpu()).unwrap();
+    assert_eq!((gpu.stats.traversal_cost, cpu.stats.traversal_cost), (1.0, 4.0));
+    assert!(
+        cpu.stats.nodes < gpu.stats.nodes && cpu.stats.mean_triangles_per_leaf > gpu.stats.mean_triangles_per_leaf,
+        "a dearer step must give fewer, larger leaves: {} nodes ({:.1} a leaf) against {} ({:.1})",
+        cpu.stats.nodes,
+        cpu.stats.mean_triangles_per_leaf,
+        gpu.stats.nodes,
+        gpu.stats.mean_triangles_per_leaf
+    );
+    let rays: Vec<Ray> = rays_at(&mut rng, 3000, 1.0)
+        .into_iter()
+        .map(|(o, d)| Ray::new(o, d))
+        .collect();
+    let hits = cpu.trace_closest(&rays);
+    assert_eq!(hits, gpu.trace_closest(&rays));
+    assert!(hits.iter().filter(|h| h.is_hit()).count() > 300);
 }
 
 /// A regular grid of `n x n` quads in the plane z = 0 over [0,1]^2.

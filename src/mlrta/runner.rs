@@ -237,7 +237,7 @@ pub fn trace_view(
     let bounds = mesh.bounds();
     let camera = request.view.camera.resolve(scene_camera, &bounds, mesh.origin)?;
     let light = request.light.position(&bounds, mesh.origin);
-    let tree = build_tree(mesh, bars, "trace")?;
+    let tree = build_tree(mesh, device, bars, "trace")?;
     let rays = camera.primary_rays(width, height);
     let packets = (width.div_ceil(PACKET) as u64 * height.div_ceil(PACKET) as u64) as f64;
     let progress = bars.spinner(&format!("tracing {width}x{height} primary rays"));

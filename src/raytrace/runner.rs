@@ -195,7 +195,7 @@ pub struct WhittedRenderer {
 impl WhittedRenderer {
     /// Builds the scene's kd-tree and, on a GPU, uploads it with the scene.
     pub fn new(device: &Device, scene: RenderScene, bars: Bars) -> Result<WhittedRenderer> {
-        let tree = build_tree(&scene.mesh, bars, "raytrace")?;
+        let tree = build_tree(&scene.mesh, device, bars, "raytrace")?;
         let gpu = device.prepare(|ctx| {
             let tree = GpuKdTree::upload(&ctx.device, &tree)?;
             let mut pass = WhittedBatches::new(ctx);

@@ -90,14 +90,14 @@ pub fn choose(
     let camera = scene.camera_in(&request.view.camera, &mesh.bounds())?;
     let (w, h) = (request.view.width, request.view.height);
     let view = ScreenView::new(&camera, w, h);
-    let tree = build_tree(&mesh, bars, "ssao")?;
+    let tree = build_tree(&mesh, &Device::cpu(), bars, "ssao")?;
     let gb = gbuffer(&tree, &mesh, &camera, &scene.lights, w, h);
     // The truth: only casters occlude, as in the full run.
     let occluders = scene.occluders();
     let caster_tree = if occluders.triangles.len() == mesh.triangles.len() {
         None
     } else {
-        Some(build_tree(&occluders, bars, "casters")?)
+        Some(build_tree(&occluders, &Device::cpu(), bars, "casters")?)
     };
     let pixels = sample_pixels(&gb, SAMPLE_PIXELS, base.seed);
     if pixels.is_empty() {

@@ -133,7 +133,7 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: Bars) ->
     let tree = OnceCell::new();
     let whole_tree = || -> Result<&crate::kdtree::KdTree> {
         if tree.get().is_none() {
-            let _ = tree.set(build_tree(&mesh, bars, "ssao")?);
+            let _ = tree.set(build_tree(&mesh, &Device::cpu(), bars, "ssao")?);
         }
         Ok(tree.get().expect("set above"))
     };
@@ -178,7 +178,7 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: Bars) ->
         } else if occluders.triangles.is_empty() {
             return Err(Error::param("scene", "no instance is a caster: nothing occludes"));
         } else {
-            caster_tree = build_tree(&occluders, bars, "casters")?;
+            caster_tree = build_tree(&occluders, &Device::cpu(), bars, "casters")?;
             &caster_tree
         };
         let (measure, radius) = (settings.measure, settings.radius);

@@ -37,7 +37,9 @@
 //! then with the SAH constants of issue 18's third stop to 178 ms (1.50x
 //! Embree's high-quality BVH build), and with the conversions below
 //! (binning through `u32`, not `usize`) to 187 against 209 ms on an
-//! AVX2-only machine, where Embree takes 132 ms: 1.41x.
+//! AVX2-only machine, where Embree takes 132 ms: 1.41x. The CPU's trees
+//! (`KdTreeParams::for_cpu`, traversal cost 4: fewer, larger leaves) build
+//! it in 134 against Embree's 133 ms there (1.01x).
 
 use glam::Vec3;
 
@@ -50,8 +52,9 @@ use super::watertight::has_area;
 use crate::aabb::Aabb;
 use crate::progress::Progress;
 
-/// Knobs of the builder. `Default` gives the settings docs/results' numbers
-/// were measured with.
+/// Knobs of the builder. `Default` gives the settings the GPU's trees are
+/// built with and docs/results' numbers up to issue 18's stop 38 were
+/// measured with; `for_cpu` the CPU's since then.
 #[derive(Debug, Clone, PartialEq)]
 pub struct KdTreeParams {
     /// Cost of one traversal step, relative to `intersection_cost`.
@@ -124,6 +127,28 @@ impl Default for KdTreeParams {
 }
 
 impl KdTreeParams {
+    /// The settings for a tree walked on the CPU: `Default` with
+    /// `traversal_cost` 4. The CPU tests a leaf's triangles several at a time
+    /// in vector lanes (four a block for single rays, sixteen lanes for
+    /// MLRTA's packets), so a traversal step costs several triangle tests
+    /// there, and fewer, larger leaves pay: the bunny's tree has 78,619
+    /// nodes instead of 224,185, builds in about two thirds of the time
+    /// (build 188 -> 130 ms, `prepare` 13 -> 9 ms, one thread), and one
+    /// thread traces 1024^2 MLRTA packets 10-13% faster on the bunny and
+    /// dragon100k (the kitchen interior the same), the kd-tree's single
+    /// rays as fast or faster and 1M random dragon100k rays 14% faster. On
+    /// lavapipe the GPU kernels were 10-20% slower with it, one ray per
+    /// invocation walking the nodes, so GPU trees keep `Default`
+    /// (docs/results/tracing.md, "A tree for each device"). 3 and 6 measured
+    /// within noise of 4 on the bunny and dragon100k; 6 was 5% slower on
+    /// the kitchen.
+    pub fn for_cpu() -> KdTreeParams {
+        KdTreeParams {
+            traversal_cost: 4.0,
+            ..KdTreeParams::default()
+        }
+    }
+
     pub fn depth_limit(&self, triangles: usize) -> usize {
         let auto = (8.0 + 1.3 * (triangles.max(1) as f32).log2()).round() as usize;
         self.max_depth.unwrap_or(auto).clamp(1, MAX_TREE_DEPTH)
@@ -747,6 +772,9 @@ pub struct BuildStats {
     /// Leaves made because the reference budget was spent (overlapping
     /// geometry; see `MAX_REFERENCES_PER_TRIANGLE`).
     pub budget_leaves: usize,
+    /// The builder's `traversal_cost` (4 for the CPU's trees, 1 for the
+    /// GPU's: `KdTreeParams::for_cpu`).
+    pub traversal_cost: f32,
     pub build_ms: f64,
 }
 
