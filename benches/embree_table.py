@@ -6,7 +6,14 @@ C API, built with -O3 -march=native; see its README for how its rays are made
 bit-identical to penumbra's) and `target/release/penumbra`, run alternately,
 ROUNDS times each, keeping each side's best. Every process measures one
 repetition (`--reps 1` for Embree), so both sides are "best of ROUNDS" over
-the same stretch of time on this shared machine.
+the same stretch of time on this shared machine. Embree's tool traces the
+same rays with several APIs in one process, so its stream call (primary
+rays) and `rtcOccluded16` (AO) run after others have warmed the caches and
+the branch predictors; penumbra gets one untimed run first for those rows
+(`--warmup 1`, worth about 10% on the bunny's MLRTA packets), and neither
+side for `rtcIntersect1` (single and random rays), which Embree's tool
+measures first. The build is a process of its own on both sides (a 16x16
+`trace`: the kd-tree's build and `prepare` of a fresh process).
 
 Workloads (the issue's table):
   primary    1024^2 primary rays of the default camera (kitchen: the interior
@@ -69,8 +76,10 @@ def embree(args):
     return {(l["mode"], l.get("api", "")): l for l in lines}
 
 
-def penumbra(args):
-    return json.loads(run([EXE] + args + ["--threads", "1", "--json"]))
+def penumbra(args, warm=False):
+    """One measured run; `warm`: after one untimed run (see the docstring)."""
+    warmup = ["--warmup", "1"] if warm else []
+    return json.loads(run([EXE] + args + warmup + ["--threads", "1", "--json"]))
 
 
 def tool_available():
@@ -138,12 +147,13 @@ def main():
                     best.hi((name, "single", "embree"), e[("primary", "rtcIntersect1")]["mrays_per_s"])
                     best.lo((name, "build", "embree"), e[("build", "")]["build_ms"])
                     version = e[("build", "")]["embree"]
-                pen = penumbra(["trace", "--mesh", mesh] + size + view)
+                pen = penumbra(["trace", "--mesh", mesh] + size + view, warm=True)
                 best.hi((name, "primary", "penumbra"), pen["mrays_per_s"])
-                packets = penumbra(["trace", "--mesh", mesh, "--accel", "bvh"] + size + view)
+                packets = penumbra(["trace", "--mesh", mesh, "--accel", "bvh"] + size + view, warm=True)
                 best.hi((name, "bvh packets", "penumbra"), packets["mrays_per_s"])
                 if name == "stanford-bunny":
-                    best.lo((name, "build", "penumbra"), pen["build_ms"] + pen["prepare_ms"])
+                    built = penumbra(["trace", "--mesh", mesh, "--width", 16, "--height", 16])
+                    best.lo((name, "build", "penumbra"), built["build_ms"] + built["prepare_ms"])
                     single = penumbra(["trace", "--mesh", mesh, "--single-ray"] + size)
                     best.hi((name, "single", "penumbra"), single["mrays_per_s"])
             for name in ["cow", "stanford-bunny"]:
@@ -152,7 +162,7 @@ def main():
                 best.hi((name, "ao", "embree"), e[("ao", "rtcOccluded16")]["mrays_per_s"])
                 best.hi((name, "ao ready", "embree"), e[("ao", "rtcOccluded16(dirs precomputed)")]["mrays_per_s"])
                 pen = penumbra(["ao", "--mesh", mesh, "--method", "raycast", "--rays", ao_rays,
-                                "--per-vertex", Path(tmp) / "ao.csv"])
+                                "--per-vertex", Path(tmp) / "ao.csv"], warm=True)
                 best.hi((name, "ao", "penumbra"), pen["mrays_per_s"])
             mesh = models / "stanford-bunny.obj"
             e = embree([mesh, "--modes", "rays", "--rays", rays, "--reps", 1])
@@ -178,7 +188,9 @@ def main():
         f"Native Embree {version} against penumbra, one thread each, same rays; "
         f"best of {rounds} alternating rounds (`benches/embree_table.py`; {os.cpu_count()} cores, "
         f"load average {load[0]:.1f} at the start, {load[1]:.1f} at the end: absolute figures drop "
-        "on a busy machine, the ratios much less).",
+        "on a busy machine, the ratios much less). Packets and AO are measured warm on both sides "
+        "(Embree's calls after its other APIs' passes over the same rays, penumbra's after `--warmup 1`), "
+        "single and random rays and the build cold on both.",
         "",
         "| work | Embree best API | Embree Mrays/s | penumbra | penumbra Mrays/s | penumbra / Embree |",
         "|---|---|---:|---|---:|---:|",
