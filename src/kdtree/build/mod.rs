@@ -133,15 +133,16 @@ impl KdTreeParams {
     /// MLRTA's packets), so a traversal step costs several triangle tests
     /// there, and fewer, larger leaves pay: the bunny's tree has 78,619
     /// nodes instead of 224,185, builds in about two thirds of the time
-    /// (build 188 -> 130 ms, `prepare` 13 -> 9 ms, one thread), and one
+    /// (build 186-210 -> 122-144 ms, `prepare` 12-16 -> 9 ms, one thread,
+    /// three alternated rounds), and one
     /// thread traces 1024^2 MLRTA packets 10-13% faster on the bunny and
     /// dragon100k (the kitchen interior the same), the kd-tree's single
     /// rays as fast or faster and 1M random dragon100k rays 14% faster. On
     /// lavapipe the GPU kernels were 10-20% slower with it, one ray per
     /// invocation walking the nodes, so GPU trees keep `Default`
-    /// (docs/results/tracing.md, "A tree for each device"). 3 and 6 measured
-    /// within noise of 4 on the bunny and dragon100k; 6 was 5% slower on
-    /// the kitchen.
+    /// (docs/results/tracing.md, "A tree for each device"). 2 gave about
+    /// half the packets' gain, 3 most of it; 6 and 8 the same as 4 on the
+    /// bunny and dragon100k, and 6 was 5% slower on the kitchen.
     pub fn for_cpu() -> KdTreeParams {
         KdTreeParams {
             traversal_cost: 4.0,
