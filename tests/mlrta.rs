@@ -261,6 +261,47 @@ fn parameters_are_validated() {
     assert!(MlrtaParams::default().validate().is_ok());
 }
 
+/// Rays that do not share one origin are an error, found by the pass over
+/// every ray without corner frusta and as the blocks are gathered with them
+/// (a ray the packets trace, at the centre of the image, moved).
+#[test]
+fn rays_from_another_origin_are_rejected() {
+    let mesh = load_obj(&asset("sphere-on-plane.obj")).unwrap();
+    let tree = KdTree::build(&mesh, &KdTreeParams::for_cpu()).unwrap();
+    let (prepared, _) = Prepared::new(&tree, &mesh);
+    let camera = Camera::default_for(&mesh.bounds());
+    let size = 64;
+    let mut rays = camera.primary_rays(size, size);
+    let centre = (size / 2 * size + size / 2) as usize;
+    let moved = rays[centre].o() + Vec3::splat(1e-3);
+    rays[centre] = penumbra::ray::Ray::new(moved, rays[centre].d());
+    for corner_frusta in [false, true] {
+        let params = MlrtaParams {
+            corner_frusta,
+            ..MlrtaParams::default()
+        };
+        let e = trace_image(&prepared, &rays, size, size, &params, None).err();
+        let e = e.unwrap_or_else(|| panic!("corner frusta {corner_frusta}: a moved origin was accepted"));
+        assert_eq!(e.exit_code(), 2, "{e}");
+        assert!(e.to_string().contains("one common origin"), "{e}");
+        if let Some(ctx) = common::gpu() {
+            use penumbra::kdtree::gpu::GpuKdTree;
+            use penumbra::mlrta::gpu::PacketBatches;
+            let gpu_tree = GpuKdTree::upload(&ctx.device, &tree).unwrap();
+            let gpu =
+                PacketBatches::new(&ctx).trace_image(&ctx, &gpu_tree, &prepared, &rays, size, size, &params, None);
+            let e = gpu.err().expect("the GPU path accepted a moved origin");
+            assert!(e.to_string().contains("one common origin"), "{e}");
+        }
+    }
+    let fine = camera.primary_rays(size, size);
+    let params = MlrtaParams {
+        corner_frusta: true,
+        ..MlrtaParams::default()
+    };
+    assert!(trace_image(&prepared, &fine, size, size, &params, None).is_ok());
+}
+
 /// The GPU packet kernel against the CPU: hits and shadows ray for ray.
 fn compare_gpu(ctx: &penumbra::gpu::GpuContext, name: &str, mesh: &Mesh, camera: &Camera, size: u32) {
     use penumbra::kdtree::gpu::GpuKdTree;

@@ -26,7 +26,7 @@ use crate::mlrta::packet::{MlrtaCounts, PACKET, Packet};
 use crate::mlrta::prepared::Prepared;
 use crate::mlrta::tiles::{
     Ctx, ImageTrace, MlrtaParams, Rect, SHADOW_EPSILON, ShadowRays, TileOut, block_rects, pixels, search_below,
-    shadow_tile_entry, split_tiles,
+    shadow_tile_entry, split_tiles, stray_origin,
 };
 use crate::progress::Progress;
 use crate::ray::{Hit, Ray};
@@ -263,6 +263,8 @@ impl Batched<PacketPass> {
                 let mut emit = |entry: &EntryPoint, block: Rect, out: &mut TileOut| {
                     let ids: Vec<u32> = pixels(block, width).collect();
                     let dirs: Vec<Vec3> = ids.iter().map(|&i| rays[i as usize].d()).collect();
+                    // As `tiles::trace_block` checks it on the CPU.
+                    out.stray_origin |= ids.iter().any(|&i| rays[i as usize].o() != c.origin);
                     batch.add_group(
                         p,
                         c.origin,
@@ -279,6 +281,9 @@ impl Batched<PacketPass> {
                 (out, batch)
             })
             .collect();
+        if parts.iter().any(|(out, _)| out.stray_origin) {
+            return Err(stray_origin());
+        }
         let mut batch = Batch::default();
         let mut outs = Vec::new();
         for (out, b) in parts {
