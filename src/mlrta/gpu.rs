@@ -25,8 +25,8 @@ use crate::mlrta::frustum::sign_class;
 use crate::mlrta::packet::{MlrtaCounts, PACKET, Packet};
 use crate::mlrta::prepared::Prepared;
 use crate::mlrta::tiles::{
-    Ctx, ImageTrace, MlrtaParams, Rect, SHADOW_EPSILON, ShadowRays, TileOut, block_rects, pixels, search_below,
-    shadow_tile_entry, split_tiles, stray_origin,
+    Ctx, ImageTrace, MlrtaParams, Rect, SHADOW_EPSILON, ShadowRays, TileOut, TileSummary, block_rects, pixels,
+    search_below, shadow_tile_entry, split_tiles, stray_origin,
 };
 use crate::progress::Progress;
 use crate::ray::{Hit, Ray};
@@ -291,7 +291,7 @@ impl Batched<PacketPass> {
             outs.push(out);
         }
         let mut cpu_ms = elapsed_ms(start);
-        let mut image = c.gather(outs, height);
+        let mut image = c.image(Vec::new(), None, TileSummary::of(outs), height);
         let PacketOutput {
             hits,
             counts,

@@ -25,6 +25,7 @@ pub mod options;
 pub mod packet;
 pub mod prepared;
 pub mod runner;
+mod tile_rows;
 pub mod tiles;
 
 pub use packet::MlrtaCounts;
