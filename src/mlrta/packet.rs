@@ -146,13 +146,13 @@ impl Packet {
             same_dominant &= kz == k0[2];
         }
         let (mut sx, mut sy) = ([0.0f32; PACKET], [0.0f32; PACKET]);
-        let (k, sz) = if same_dominant {
+        let (k, sz, common_axes) = if same_dominant {
             let [kx, ky, kz] = k0;
             for r in 0..PACKET {
                 sx[r] = d[kx][r] / d[kz][r];
                 sy[r] = d[ky][r] / d[kz][r];
             }
-            ([k0; PACKET], inv[kz])
+            ([k0; PACKET], inv[kz], true)
         } else {
             let k = own.map(shear_axes);
             let mut sz = [0.0f32; PACKET];
@@ -162,9 +162,10 @@ impl Packet {
                 sy[r] = d[ky][r] / d[kz][r];
                 sz[r] = inv[kz][r];
             }
-            (k, sz)
+            // Lanes past `n` repeat lane 0 and do not count.
+            let common = k[..n].iter().all(|x| *x == k[0]);
+            (k, sz, common)
         };
-        let common_axes = k[..n].iter().all(|x| *x == k[0]);
         Some(Packet {
             frustum: bounds.finish(origin, t_max)?,
             len: n,
