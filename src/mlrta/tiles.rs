@@ -247,7 +247,8 @@ pub(crate) fn stray_origin() -> Error {
 
 /// `trace_image` restricted to some rectangles of the image (their pixels'
 /// hits; the others stay `Hit::MISS`): how adaptive anti-aliasing traces its
-/// extra samples only where the geometry is complex.
+/// extra samples only where the geometry is complex. Rectangles that
+/// overlap or leave the image are an error.
 pub fn trace_rects(
     p: &Prepared,
     rays: &[Ray],
