@@ -88,7 +88,7 @@ pub struct Packet {
     /// `1 / d` per axis and lane, for the lanes' own slab tests at leaves.
     inv: [[f32; PACKET]; 3],
     /// The lanes' `ShearedRay` axes and constants.
-    k: [[usize; 3]; PACKET],
+    k: [[u8; 3]; PACKET],
     sx: [f32; PACKET],
     sy: [f32; PACKET],
     sz: [f32; PACKET],
@@ -152,7 +152,7 @@ impl Packet {
                 sx[r] = d[kx][r] / d[kz][r];
                 sy[r] = d[ky][r] / d[kz][r];
             }
-            ([k0; PACKET], inv[kz], true)
+            ([k0.map(|a| a as u8); PACKET], inv[kz], true)
         } else {
             let k = own.map(shear_axes);
             let mut sz = [0.0f32; PACKET];
@@ -164,7 +164,7 @@ impl Packet {
             }
             // Lanes past `n` repeat lane 0 and do not count.
             let common = k[..n].iter().all(|x| *x == k[0]);
-            (k, sz, common)
+            (k.map(|axes| axes.map(|a| a as u8)), sz, common)
         };
         Some(Packet {
             frustum: bounds.finish(origin, t_max)?,
@@ -182,7 +182,7 @@ impl Packet {
     /// Lane `r` as a single `ShearedRay` in `frame`.
     #[inline]
     fn sheared(&self, r: usize, frame: &Frame) -> ShearedRay {
-        let [kx, ky, kz] = self.k[r];
+        let [kx, ky, kz] = self.k[r].map(usize::from);
         ShearedRay {
             origin: frame.origin,
             kx,
@@ -245,7 +245,7 @@ impl<V: Lanes> PacketLanes<V> {
             sx: V::from_array(p.sx),
             sy: V::from_array(p.sy),
             sz: V::from_array(p.sz),
-            k0: p.k[0],
+            k0: p.k[0].map(usize::from),
             slack: V::splat(crate::mlrta::frustum::SLACK),
         }
     }
