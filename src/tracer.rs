@@ -35,13 +35,13 @@ pub fn tree_params(device: &Device) -> KdTreeParams {
     }
 }
 
-/// Builds the kd-tree of `mesh` for walks on `device` (`tree_params`); a
-/// spinner names `what` while a large mesh builds.
-pub fn build_tree(mesh: &Mesh, device: &Device, bars: Bars, what: &str) -> Result<KdTree> {
+/// Builds the kd-tree of `mesh` with `params` (`tree_params` of the device
+/// that walks it); a spinner names `what` while a large mesh builds.
+pub fn build_tree(mesh: &Mesh, params: &KdTreeParams, bars: Bars, what: &str) -> Result<KdTree> {
     // A bar of one step per triangle, shown once the build has taken a
     // second (`progress`), advancing leaf by leaf.
     let progress = bars.bar(mesh.triangles.len() as u64, &format!("building kd-tree ({what})"));
-    let tree = KdTree::build_with(mesh, &tree_params(device), &progress)?;
+    let tree = KdTree::build_with(mesh, params, &progress)?;
     progress.finish();
     Ok(tree)
 }
@@ -154,7 +154,7 @@ impl Tracer {
     /// Builds the tree over `mesh` for `device` (`tree_params`) and
     /// uploads it; `what` names the mesh on a spinner for large meshes.
     pub fn build(device: &Device, mesh: &Mesh, bars: Bars, what: &str) -> Result<Tracer> {
-        Self::from_tree(device, build_tree(mesh, device, bars, what)?)
+        Self::from_tree(device, build_tree(mesh, &tree_params(device), bars, what)?)
     }
 
     /// A tree built elsewhere, uploaded to `device`.

@@ -23,7 +23,7 @@ use crate::kdtree::{BuildStats, KdTree};
 use crate::progress::Bars;
 use crate::ray::{Hit, Ray};
 use crate::scene::{Camera, Mesh, View};
-use crate::tracer::{Accel, BvhStats, Tracer, build_tree};
+use crate::tracer::{Accel, BvhStats, Tracer, build_tree, tree_params};
 
 /// Rays per side of a packet in the statistics.
 const PACKET: u32 = 4;
@@ -237,7 +237,7 @@ pub fn trace_view(
     let bounds = mesh.bounds();
     let camera = request.view.camera.resolve(scene_camera, &bounds, mesh.origin)?;
     let light = request.light.position(&bounds, mesh.origin);
-    let tree = build_tree(mesh, device, bars, "trace")?;
+    let tree = build_tree(mesh, &tree_params(device), bars, "trace")?;
     let rays = camera.primary_rays(width, height);
     let packets = (width.div_ceil(PACKET) as u64 * height.div_ceil(PACKET) as u64) as f64;
     let progress = bars.spinner(&format!("tracing {width}x{height} primary rays"));

@@ -22,7 +22,7 @@ use crate::mlrta::runner::mrays_per_s;
 use crate::mlrta::{MlrtaParams, Prepared};
 use crate::progress::{Bars, Progress};
 use crate::scene::Camera;
-use crate::tracer::build_tree;
+use crate::tracer::{build_tree, tree_params};
 
 /// The knobs of a render.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -195,7 +195,7 @@ pub struct WhittedRenderer {
 impl WhittedRenderer {
     /// Builds the scene's kd-tree and, on a GPU, uploads it with the scene.
     pub fn new(device: &Device, scene: RenderScene, bars: Bars) -> Result<WhittedRenderer> {
-        let tree = build_tree(&scene.mesh, device, bars, "raytrace")?;
+        let tree = build_tree(&scene.mesh, &tree_params(device), bars, "raytrace")?;
         let gpu = device.prepare(|ctx| {
             let tree = GpuKdTree::upload(&ctx.device, &tree)?;
             let mut pass = WhittedBatches::new(ctx);

@@ -297,12 +297,7 @@ impl Whitted<'_> {
         GROWING.with_borrow_mut(|tree| {
             tree.nodes.clear();
             let out = self.shade(o, d, Media::default(), Some(&given), Some(tree));
-            (
-                out,
-                RayTree {
-                    nodes: tree.nodes.clone(),
-                },
-            )
+            (out, tree.clone())
         })
     }
 

@@ -13,6 +13,7 @@ use super::truth::raytraced_at;
 use super::{Estimator, MeasureKind, SsaoSettings, run_cpu};
 use crate::device::{Device, GpuOutput, elapsed_ms};
 use crate::error::{Error, Result};
+use crate::kdtree::KdTreeParams;
 use crate::progress::Bars;
 use crate::sampling::hash_u32;
 use crate::scene::Scene;
@@ -90,14 +91,14 @@ pub fn choose(
     let camera = scene.camera_in(&request.view.camera, &mesh.bounds())?;
     let (w, h) = (request.view.width, request.view.height);
     let view = ScreenView::new(&camera, w, h);
-    let tree = build_tree(&mesh, &Device::cpu(), bars, "ssao")?;
+    let tree = build_tree(&mesh, &KdTreeParams::for_cpu(), bars, "ssao")?;
     let gb = gbuffer(&tree, &mesh, &camera, &scene.lights, w, h);
     // The truth: only casters occlude, as in the full run.
     let occluders = scene.occluders();
     let caster_tree = if occluders.triangles.len() == mesh.triangles.len() {
         None
     } else {
-        Some(build_tree(&occluders, &Device::cpu(), bars, "casters")?)
+        Some(build_tree(&occluders, &KdTreeParams::for_cpu(), bars, "casters")?)
     };
     let pixels = sample_pixels(&gb, SAMPLE_PIXELS, base.seed);
     if pixels.is_empty() {

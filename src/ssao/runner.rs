@@ -12,6 +12,7 @@ use super::truth::{Estimate, raytraced, screen_reference};
 use super::{Estimator, Measure, ShadeSettings, SsaoFrame, SsaoSettings, Timings, rmse, run_cpu};
 use crate::device::{Device, GpuOutput, Timing, elapsed_ms};
 use crate::error::{Error, Result};
+use crate::kdtree::KdTreeParams;
 use crate::progress::Bars;
 use crate::repeats::{MAX_RUNS, Repeats, RunTimes};
 use crate::scene::{Camera, Scene, View};
@@ -133,7 +134,7 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: Bars) ->
     let tree = OnceCell::new();
     let whole_tree = || -> Result<&crate::kdtree::KdTree> {
         if tree.get().is_none() {
-            let _ = tree.set(build_tree(&mesh, &Device::cpu(), bars, "ssao")?);
+            let _ = tree.set(build_tree(&mesh, &KdTreeParams::for_cpu(), bars, "ssao")?);
         }
         Ok(tree.get().expect("set above"))
     };
@@ -178,7 +179,7 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: Bars) ->
         } else if occluders.triangles.is_empty() {
             return Err(Error::param("scene", "no instance is a caster: nothing occludes"));
         } else {
-            caster_tree = build_tree(&occluders, &Device::cpu(), bars, "casters")?;
+            caster_tree = build_tree(&occluders, &KdTreeParams::for_cpu(), bars, "casters")?;
             &caster_tree
         };
         let (measure, radius) = (settings.measure, settings.radius);
