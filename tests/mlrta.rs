@@ -97,6 +97,15 @@ fn compare_image(name: &str, mesh: &Mesh, camera: &Camera, size: u32, params: Ml
         assert!(differ as f64 <= 1e-4 * rays.len() as f64, "{name}: shadow rays differ");
         let c = traced.counts;
         assert!(c.xp_cells > 0 && c.packets == (size as u64 / 4).pow(2));
+        // Tiles of 8x8 pixels and more walk their blocks four at a time.
+        if p.min_tile >= 8 {
+            assert!(
+                c.walks * 2 < c.packets,
+                "{label}: {} walks for {} packets",
+                c.walks,
+                c.packets
+            );
+        }
     }
 }
 
@@ -115,6 +124,19 @@ fn primary_and_shadow_rays_equal_single_rays_on_procedural_scenes() {
             let label = format!("{name}, traversal cost {}", tree.traversal_cost);
             compare_image(&label, &mesh, &camera, 128, params.clone(), &tree);
         }
+        // Tiles of whole 8x8 squares: blocks walked four at a time.
+        let squares = MlrtaParams {
+            min_tile: 8,
+            ..params.clone()
+        };
+        compare_image(
+            &format!("{name}, min tile 8"),
+            &mesh,
+            &camera,
+            136,
+            squares,
+            &KdTreeParams::for_cpu(),
+        );
     }
 }
 

@@ -72,6 +72,15 @@ impl Interval {
     }
 
     /// Widened by `SLACK` relative to its magnitude.
+    /// The smallest interval holding both.
+    #[inline]
+    pub fn hull(self, o: Interval) -> Interval {
+        Interval {
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+        }
+    }
+
     pub fn widened(self) -> Interval {
         Interval {
             lo: down(self.lo),

@@ -260,22 +260,24 @@ impl Batched<PacketPass> {
             .map(|&rect| {
                 let mut out = TileOut::default();
                 let mut batch = Batch::default();
-                let mut emit = |entry: &EntryPoint, block: Rect, out: &mut TileOut| {
-                    let ids: Vec<u32> = pixels(block, width).collect();
-                    let dirs: Vec<Vec3> = ids.iter().map(|&i| rays[i as usize].d()).collect();
-                    // As `tiles::trace_block` checks it on the CPU.
-                    out.stray_origin |= ids.iter().any(|&i| rays[i as usize].o() != c.origin);
-                    batch.add_group(
-                        p,
-                        c.origin,
-                        &dirs,
-                        &ids,
-                        f32::INFINITY,
-                        false,
-                        entry,
-                        None,
-                        &mut out.counts,
-                    );
+                let mut emit = |entry: &EntryPoint, rect: Rect, out: &mut TileOut| {
+                    for block in block_rects(rect) {
+                        let ids: Vec<u32> = pixels(block, width).collect();
+                        let dirs: Vec<Vec3> = ids.iter().map(|&i| rays[i as usize].d()).collect();
+                        // As `tiles::trace_block` checks it on the CPU.
+                        out.stray_origin |= ids.iter().any(|&i| rays[i as usize].o() != c.origin);
+                        batch.add_group(
+                            p,
+                            c.origin,
+                            &dirs,
+                            &ids,
+                            f32::INFINITY,
+                            false,
+                            entry,
+                            None,
+                            &mut out.counts,
+                        );
+                    }
                 };
                 split_tiles(&c, rect, c.root(), 0, &mut out, &mut emit);
                 (out, batch)
@@ -437,6 +439,7 @@ fn scatter(batch: &Batch, hits: &[Hit], lane_counts: &[[u32; 2]], out: &mut [Hit
             counts.single_cells += cells;
             counts.single_isects += isects;
         } else {
+            counts.walks += 1;
             counts.xp_cells += cells;
             counts.isects += isects;
         }

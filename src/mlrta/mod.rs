@@ -7,6 +7,7 @@
 //! * `entry_point`: the entry-point search with its stopping rules (4.1);
 //! * `packet`: 4x4 packets and the interval traversal (4.3);
 //! * `tiles`: tile splitting for primary rays, shadow rays (4.2, 6);
+//! * `squares`: a final tile's packets walked four at a time;
 //! * `ao`: AO ray groups through the same machinery;
 //! * `runner`: a camera's image by single rays, packets or MLRTA, with
 //!   shadows and anti-aliasing, on any device (`penumbra trace`).
@@ -25,6 +26,7 @@ pub mod options;
 pub mod packet;
 pub mod prepared;
 pub mod runner;
+mod squares;
 mod tile_rows;
 pub mod tiles;
 

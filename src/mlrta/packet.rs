@@ -44,7 +44,11 @@ pub struct MlrtaCounts {
     pub ep_searches: u64,
     /// Nodes visited by entry-point searches.
     pub ep_steps: u64,
-    /// Nodes visited by packets (intersection search).
+    /// Interval traversals: one per packet walked alone, one per group of
+    /// packets walked together (`trace_packets_lanes`).
+    pub walks: u64,
+    /// Nodes visited by packets (intersection search): a group's steps
+    /// count once for all its packets.
     pub xp_cells: u64,
     /// Triangle tests by packets with at least one active ray.
     pub isects: u64,
@@ -67,6 +71,7 @@ impl std::ops::AddAssign for MlrtaCounts {
         self.packets += o.packets;
         self.ep_searches += o.ep_searches;
         self.ep_steps += o.ep_steps;
+        self.walks += o.walks;
         self.xp_cells += o.xp_cells;
         self.isects += o.isects;
         self.ray_tests += o.ray_tests;
@@ -240,12 +245,19 @@ struct PacketLanes<V: Lanes> {
 impl<V: Lanes> PacketLanes<V> {
     #[inline(always)]
     fn new(p: &Packet) -> Self {
+        // No `array::map`: generic library code, compiled outside the
+        // dispatched kernel (this runs at every leaf a packet reaches).
+        let [kx, ky, kz] = p.k[0];
         PacketLanes {
-            inv: p.inv.map(V::from_array),
+            inv: [
+                V::from_array(p.inv[0]),
+                V::from_array(p.inv[1]),
+                V::from_array(p.inv[2]),
+            ],
             sx: V::from_array(p.sx),
             sy: V::from_array(p.sy),
             sz: V::from_array(p.sz),
-            k0: p.k[0].map(usize::from),
+            k0: [kx as usize, ky as usize, kz as usize],
             slack: V::splat(crate::mlrta::frustum::SLACK),
         }
     }
@@ -394,12 +406,42 @@ pub(crate) fn trace_packet_lanes<V: Lanes>(
     any_hit: bool,
     counts: &mut MlrtaCounts,
 ) -> [Hit; PACKET] {
-    let lanes = PacketLanes::<V>::new(packet);
+    let [hits] = trace_packets_lanes::<V, 1>(p, [packet], entry, any_hit, counts);
+    hits
+}
+
+/// The hull of the packets' frusta (they share origin, signs and `t_max`).
+#[inline(always)]
+fn hull<const N: usize>(packets: [&Packet; N]) -> Frustum {
+    let mut f = packets[0].frustum;
+    for q in &packets[1..] {
+        for a in 0..3 {
+            f.inv[a] = f.inv[a].hull(q.frustum.inv[a]);
+            for b in 0..3 {
+                f.slope[a][b] = f.slope[a][b].hull(q.frustum.slope[a][b]);
+            }
+        }
+    }
+    f
+}
+
+/// `N` packets of one origin and sign class walked through the tree
+/// together: one interval traversal (section 4.3) of the hull of their
+/// frusta, each packet's lanes tested at the leaves it reaches. The walk's
+/// steps are per group, not per packet, so neighbouring packets that
+/// cross the same cells pay for them once.
+#[inline(always)]
+pub(crate) fn trace_packets_lanes<V: Lanes, const N: usize>(
+    p: &Prepared,
+    packets: [&Packet; N],
+    entry: &EntryPoint,
+    any_hit: bool,
+    counts: &mut MlrtaCounts,
+) -> [[Hit; PACKET]; N] {
     // Every ray ends by the entry point's limit: no need to look further.
-    let mut shortened = packet.frustum;
+    let mut shortened = hull(packets);
     shortened.t_max = shortened.t_max.min(entry.t_limit);
     let f = &shortened;
-    let n = packet.len;
     let origin = f.origin;
     let tree = p.tree;
     let frame = Frame {
@@ -407,10 +449,10 @@ pub(crate) fn trace_packet_lanes<V: Lanes>(
         scale: tree.frame_scale,
         inv_scale: 1.0 / tree.frame_scale,
     };
-    let mut best_t = [f.t_max; PACKET];
-    let mut best_tri = [Hit::MISS_INDEX; PACKET];
-    let mut hits = [Hit::MISS; PACKET];
-    // The packet's interval in the entry cell, from its frustum (the GPU
+    let mut best_t = [[f.t_max; PACKET]; N];
+    let mut best_tri = [[Hit::MISS_INDEX; PACKET]; N];
+    let mut hits = [[Hit::MISS; PACKET]; N];
+    // The group's interval in the entry cell, from its frustum (the GPU
     // twin computes it the same way, without a reduction over lanes); rays
     // that miss the cell are done (nothing they can hit lies outside it).
     let (entry_t0, entry_t1) = f.box_interval(&entry.cell);
@@ -418,20 +460,24 @@ pub(crate) fn trace_packet_lanes<V: Lanes>(
     if t0 > t1 {
         return hits;
     }
+    counts.walks += 1;
     // Lanes done (bit r): unused lanes, lanes that miss the entry cell, and
     // with `any_hit` lanes that found a hit.
-    let (near, far) = packet.lane_slabs(&entry.cell, &[f.t_max; PACKET]);
-    let mut inside = 0u16;
-    for r in 0..n {
-        // NaN bounds (a degenerate lane) count as a miss.
-        let reaches = down(near[r]) <= up(far[r]);
-        inside |= (reaches as u16) << r;
+    let mut done = [0u16; N];
+    for (j, packet) in packets.iter().enumerate() {
+        let (near, far) = packet.lane_slabs(&entry.cell, &[f.t_max; PACKET]);
+        let mut inside = 0u16;
+        for r in 0..packet.len {
+            // NaN bounds (a degenerate lane) count as a miss.
+            let reaches = down(near[r]) <= up(far[r]);
+            inside |= (reaches as u16) << r;
+        }
+        done[j] = !inside;
     }
-    let mut done = !inside;
     let mut stack = [const { MaybeUninit::<(u32, f32, f32, Aabb)>::uninit() }; MAX_TREE_DEPTH];
     let mut sp = 0usize;
     let (mut node_index, mut cell) = (entry.node, entry.cell);
-    let mut latest = latest_open::<V>(&best_t, done);
+    let mut latest = latest_of::<V, N>(&best_t, &done);
     loop {
         counts.xp_cells += 1;
         let mut tested = false;
@@ -484,77 +530,39 @@ pub(crate) fn trace_packet_lanes<V: Lanes>(
             // fired (0 of the 823,448 non-empty leaves the 1024x1024 primary
             // and shadow packets of bunny, dragon and kitchen reach) and cost
             // a box test per leaf.
-            // Lanes whose hit lies before this cell's earliest entry, or
-            // that do not pass through the cell, are masked (in the lanes:
-            // the same comparisons as lane by lane).
             let entry_limit = down(t0);
-            let open = !done;
-            let bt = V::from_array(best_t);
-            let (near, far) = lanes.slabs(packet, &cell, bt);
-            let reaches = lanes.down(near).le(lanes.up(far));
-            let mut active = bt
-                .ge(V::splat(entry_limit))
-                .and(reaches)
-                .and(V::M::from_bits(open))
-                .bits();
-            let m = active.count_ones() as u64;
-            if m > 0 {
-                tested = true;
-                for (&tri, verts) in tree.leaf_triangles[range.clone()]
-                    .iter()
-                    .zip(&tree.leaf_vertices[range])
-                {
-                    counts.isects += 1;
-                    counts.ray_tests += m;
-                    // Few active lanes: testing them one by one beats
-                    // running all sixteen side by side.
-                    let hit = if packet.common_axes && active.count_ones() > LANE_BY_LANE {
-                        let mut bt = V::from_array(best_t);
-                        let hit = lanes.test_common(*verts, active, &mut bt, &frame);
-                        if hit != 0 {
-                            best_t = bt.to_array();
-                        }
-                        hit
-                    } else {
-                        let [v0, v1, v2] = *verts;
-                        let mut hit = 0u16;
-                        let mut left = active;
-                        while left != 0 {
-                            let r = left.trailing_zeros() as usize;
-                            left &= left - 1;
-                            if let Some(t) = packet.sheared(r, &frame).intersect(v0, v1, v2, best_t[r]) {
-                                best_t[r] = t;
-                                hit |= 1 << r;
-                            }
-                        }
-                        hit
-                    };
-                    let mut h = hit;
-                    while h != 0 {
-                        let r = h.trailing_zeros() as usize;
-                        h &= h - 1;
-                        best_tri[r] = tri;
-                    }
-                    if any_hit {
-                        active &= !hit;
-                        done |= hit;
-                    }
+            for j in 0..N {
+                if done[j] == u16::MAX {
+                    continue;
                 }
+                tested |= test_leaf::<V>(
+                    tree,
+                    range.clone(),
+                    &cell,
+                    packets[j],
+                    entry_limit,
+                    &frame,
+                    any_hit,
+                    (&mut best_t[j], &mut best_tri[j], &mut done[j]),
+                    counts,
+                );
             }
         }
         // Next cell: skip those that start beyond every open ray's hit. (The
         // lanes' hits change only at leaves with triangles.)
         if tested {
-            latest = latest_open::<V>(&best_t, done);
+            latest = latest_of::<V, N>(&best_t, &done);
         }
         loop {
             if sp == 0 {
-                for r in 0..n {
-                    if best_tri[r] != Hit::MISS_INDEX {
-                        hits[r] = Hit {
-                            t: best_t[r],
-                            triangle: best_tri[r],
-                        };
+                for (j, packet) in packets.iter().enumerate() {
+                    for r in 0..packet.len {
+                        if best_tri[j][r] != Hit::MISS_INDEX {
+                            hits[j][r] = Hit {
+                                t: best_t[j][r],
+                                triangle: best_tri[j][r],
+                            };
+                        }
                     }
                 }
                 return hits;
@@ -571,10 +579,184 @@ pub(crate) fn trace_packet_lanes<V: Lanes>(
     }
 }
 
+/// `latest_open` over the packets of a group.
+#[inline(always)]
+fn latest_of<V: Lanes, const N: usize>(best_t: &[[f32; PACKET]; N], done: &[u16; N]) -> f32 {
+    let mut latest = f32::NEG_INFINITY;
+    for j in 0..N {
+        latest = latest.max(latest_open::<V>(&best_t[j], done[j]));
+    }
+    latest
+}
+
+/// One packet's lanes against the triangles of leaf `range` (its `cell`):
+/// the lanes still open whose hit does not lie before the cell's earliest
+/// entry and that pass through the cell. Returns whether any lane was
+/// tested (only then can a lane's hit have changed).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn test_leaf<V: Lanes>(
+    tree: &crate::kdtree::KdTree,
+    range: std::ops::Range<usize>,
+    cell: &Aabb,
+    packet: &Packet,
+    entry_limit: f32,
+    frame: &Frame,
+    any_hit: bool,
+    (best_t, best_tri, done): (&mut [f32; PACKET], &mut [u32; PACKET], &mut u16),
+    counts: &mut MlrtaCounts,
+) -> bool {
+    let lanes = PacketLanes::<V>::new(packet);
+    // Lanes whose hit lies before this cell's earliest entry, or that do
+    // not pass through the cell, are masked (in the lanes: the same
+    // comparisons as lane by lane).
+    let open = !*done;
+    let bt = V::from_array(*best_t);
+    let (near, far) = lanes.slabs(packet, cell, bt);
+    let reaches = lanes.down(near).le(lanes.up(far));
+    let mut active = bt
+        .ge(V::splat(entry_limit))
+        .and(reaches)
+        .and(V::M::from_bits(open))
+        .bits();
+    let m = active.count_ones() as u64;
+    if m == 0 {
+        return false;
+    }
+    for (&tri, verts) in tree.leaf_triangles[range.clone()]
+        .iter()
+        .zip(&tree.leaf_vertices[range])
+    {
+        counts.isects += 1;
+        counts.ray_tests += m;
+        // Few active lanes: testing them one by one beats running all
+        // sixteen side by side.
+        let hit = if packet.common_axes && active.count_ones() > LANE_BY_LANE {
+            let mut bt = V::from_array(*best_t);
+            let hit = lanes.test_common(*verts, active, &mut bt, frame);
+            if hit != 0 {
+                *best_t = bt.to_array();
+            }
+            hit
+        } else {
+            let [v0, v1, v2] = *verts;
+            let mut hit = 0u16;
+            let mut left = active;
+            while left != 0 {
+                let r = left.trailing_zeros() as usize;
+                left &= left - 1;
+                if let Some(t) = packet.sheared(r, frame).intersect(v0, v1, v2, best_t[r]) {
+                    best_t[r] = t;
+                    hit |= 1 << r;
+                }
+            }
+            hit
+        };
+        let mut h = hit;
+        while h != 0 {
+            let r = h.trailing_zeros() as usize;
+            h &= h - 1;
+            best_tri[r] = tri;
+        }
+        if any_hit {
+            active &= !hit;
+            *done |= hit;
+        }
+    }
+    true
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kdtree::test_rng::Rng;
+    use crate::kdtree::test_rng::{Rng, random_soup};
+    use crate::kdtree::{KdTree, KdTreeParams};
+    use crate::scene::Mesh;
+
+    /// Four and sixteen packets walked together find, lane for lane, the
+    /// hits each finds walked alone (closest and any hit, in every
+    /// instruction set the CPU has), with one walk instead of N.
+    #[test]
+    fn packets_walked_together_hit_what_each_hits_alone() {
+        let mut rng = Rng(11);
+        let soup = random_soup(&mut rng, 3000, 0.06);
+        let positions: Vec<Vec3> = soup.iter().flatten().copied().collect();
+        let triangles = (0..soup.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+        let mesh = Mesh::new(positions, triangles).unwrap();
+        let tree = KdTree::build(&mesh, &KdTreeParams::for_cpu()).unwrap();
+        let (prepared, _) = Prepared::new(&tree, &mesh);
+        walk_together::<4>(&prepared, &mut rng);
+        walk_together::<16>(&prepared, &mut rng);
+    }
+
+    fn walk_together<const N: usize>(prepared: &Prepared, rng: &mut Rng) {
+        struct Walk<'a, const N: usize> {
+            p: &'a Prepared<'a>,
+            packets: [&'a Packet; N],
+            any_hit: bool,
+        }
+        impl<const N: usize> Kernel for Walk<'_, N> {
+            type Out = ([[Hit; PACKET]; N], [[Hit; PACKET]; N], [MlrtaCounts; 2]);
+            #[inline(always)]
+            fn run<V: Lanes>(self) -> Self::Out {
+                let entry = EntryPoint::root(self.p);
+                let mut counts = [MlrtaCounts::default(); 2];
+                let together = trace_packets_lanes::<V, N>(self.p, self.packets, &entry, self.any_hit, &mut counts[0]);
+                let mut alone = [[Hit::MISS; PACKET]; N];
+                for (j, q) in self.packets.iter().enumerate() {
+                    alone[j] = trace_packet_lanes::<V>(self.p, q, &entry, self.any_hit, &mut counts[1]);
+                }
+                (together, alone, counts)
+            }
+        }
+        let (mut groups, mut hits, mut walks) = (0, 0, [0, 0]);
+        while groups < 1200 / N {
+            let origin = rng.vec(-3.0, 3.0);
+            let aim = (rng.vec(-0.8, 0.8) - origin).normalize();
+            let spread = 0.002 + 0.05 * rng.next_f32();
+            let dirs: Vec<Vec3> = (0..N * PACKET)
+                .map(|_| (aim + rng.vec(-spread, spread)).normalize())
+                .collect();
+            let Some(packets) = dirs
+                .chunks(PACKET)
+                .map(|d| Packet::new(origin, d, f32::INFINITY))
+                .collect::<Option<Vec<_>>>()
+            else {
+                continue;
+            };
+            if packets
+                .iter()
+                .any(|q| q.frustum.positive != packets[0].frustum.positive)
+            {
+                continue;
+            }
+            groups += 1;
+            for any_hit in [false, true] {
+                for isa in Isa::available() {
+                    let walk = Walk::<N> {
+                        p: prepared,
+                        packets: std::array::from_fn(|j| &packets[j]),
+                        any_hit,
+                    };
+                    let (together, alone, counts) = dispatch(isa, walk);
+                    assert_eq!(
+                        together, alone,
+                        "{N} packets, {isa:?}, any hit {any_hit}, from {origin} along {aim}"
+                    );
+                    hits += together.iter().flatten().filter(|h| h.is_hit()).count();
+                    walks[0] += counts[0].walks;
+                    walks[1] += counts[1].walks;
+                }
+            }
+        }
+        assert!(hits > 10_000, "{N} packets: only {hits} hits, the groups miss the soup");
+        assert!(
+            walks[0] * (N as u64) * 3 < walks[1] * 4,
+            "{N} packets: walks together {} against alone {}",
+            walks[0],
+            walks[1]
+        );
+    }
 
     /// Each lane's shear constants are `ShearedRay::in_frame`'s, bit for
     /// bit, whether the lanes share their dominant axis or not (ties of

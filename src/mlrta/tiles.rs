@@ -20,6 +20,7 @@ use crate::mlrta::entry_point::{EntryPoint, entry_point};
 use crate::mlrta::frustum::{Frustum, sign_class};
 use crate::mlrta::packet::{MlrtaCounts, PACKET, Packet, trace_packet_lanes};
 use crate::mlrta::prepared::Prepared;
+use crate::mlrta::squares::trace_tile;
 use crate::mlrta::tile_rows::tile_rows;
 use crate::ray::{Hit, Ray};
 use crate::simd::{Isa, Kernel, Lanes, dispatch};
@@ -225,7 +226,7 @@ fn trace_tiles(ctx: &Ctx, rects: &[Rect], height: u32) -> Result<ImageTrace> {
                 shadowed,
                 ..TileOut::default()
             };
-            let mut emit = |entry: &EntryPoint, block: Rect, out: &mut TileOut| trace_block(ctx, block, entry, out);
+            let mut emit = |entry: &EntryPoint, rect: Rect, out: &mut TileOut| trace_tile(ctx, rect, entry, out);
             split_tiles(ctx, rect, ctx.root(), 0, &mut out, &mut emit);
             if let Some(light) = ctx.light {
                 trace_shadows(ctx, light, &mut out);
@@ -369,10 +370,10 @@ fn split(rect: Rect, k: u32) -> Vec<Rect> {
     out
 }
 
-/// The emitter gets each final 4x4 block with the entry point to trace it from.
+/// The emitter gets each final tile with the entry point to trace it from.
 pub(crate) type Emit<'e> = dyn FnMut(&EntryPoint, Rect, &mut TileOut) + 'e;
 
-/// Section 4.2's recursion: entry point of the tile, split or emit blocks.
+/// Section 4.2's recursion: entry point of the tile, split or emit the final tile.
 pub(crate) fn split_tiles(ctx: &Ctx, rect: Rect, start: EntryPoint, level: u32, out: &mut TileOut, emit: &mut Emit) {
     let p = ctx.p;
     let frustum = if ctx.params.corner_frusta {
@@ -404,7 +405,7 @@ pub(crate) fn split_tiles(ctx: &Ctx, rect: Rect, start: EntryPoint, level: u32, 
             return;
         }
         out.tiles.push(report(Some(&start), true));
-        blocks(rect, &start, out, emit);
+        emit(&start, rect, out);
         return;
     };
     let entry = if ctx.params.entry_points {
@@ -428,7 +429,7 @@ pub(crate) fn split_tiles(ctx: &Ctx, rect: Rect, start: EntryPoint, level: u32, 
         return;
     }
     out.tiles.push(report(Some(&entry), false));
-    blocks(rect, &entry, out, emit);
+    emit(&entry, rect, out);
 }
 
 /// The 4x4 blocks of a final tile (smaller at the image's edges).
@@ -443,13 +444,6 @@ pub(crate) fn block_rects(rect: Rect) -> impl Iterator<Item = Rect> {
     })
 }
 
-/// The 4x4 blocks of a final tile, to the emitter.
-fn blocks(rect: Rect, entry: &EntryPoint, out: &mut TileOut, emit: &mut Emit) {
-    for block in block_rects(rect) {
-        emit(entry, block, out);
-    }
-}
-
 impl Rect {
     /// Row and column of pixel `i` of a `width`-wide image in this
     /// rectangle.
@@ -462,7 +456,7 @@ impl Rect {
 /// Traces one 4x4 block of primary rays on the CPU: same-sign sub-groups
 /// (one, unless the tile diverges) as packets, rays with a zero direction
 /// component alone.
-fn trace_block(ctx: &Ctx, block: Rect, entry: &EntryPoint, out: &mut TileOut) {
+pub(crate) fn trace_block(ctx: &Ctx, block: Rect, entry: &EntryPoint, out: &mut TileOut) {
     let mut dirs = [Vec3::ZERO; PACKET];
     let mut m = 0;
     let mut stray = false;
@@ -696,7 +690,7 @@ fn trace_group_in<V: Lanes>(
 
 /// One ray from the root, counted. (Closest hit serves any-hit queries too:
 /// the path is rare.)
-fn single_ray(p: &Prepared, origin: Vec3, dir: Vec3, t_max: f32, counts: &mut MlrtaCounts) -> Hit {
+pub(crate) fn single_ray(p: &Prepared, origin: Vec3, dir: Vec3, t_max: f32, counts: &mut MlrtaCounts) -> Hit {
     let mut c = crate::kdtree::TraversalCounts::default();
     let hit = p.tree.closest_hit_counted(origin, dir, t_max, &mut c);
     counts.single_rays += 1;
