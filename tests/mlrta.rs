@@ -97,13 +97,26 @@ fn compare_image(name: &str, mesh: &Mesh, camera: &Camera, size: u32, params: Ml
         assert!(differ as f64 <= 1e-4 * rays.len() as f64, "{name}: shadow rays differ");
         let c = traced.counts;
         assert!(c.xp_cells > 0 && c.packets == (size as u64 / 4).pow(2));
-        // Tiles of 8x8 pixels and more walk their blocks four at a time.
+        // Tiles of 8x8 pixels and more walk their blocks four at a time,
+        // and the shadow rays of blocks where every pixel hits too.
         if p.min_tile >= 8 {
             assert!(
                 c.walks * 2 < c.packets,
                 "{label}: {} walks for {} packets",
                 c.walks,
                 c.packets
+            );
+            let lit_blocks = (0..size / 4)
+                .flat_map(|by| (0..size / 4).map(move |bx| (bx, by)))
+                .filter(|&(bx, by)| {
+                    (0..16).any(|k| single[((4 * by + k / 4) * size + 4 * bx + k % 4) as usize].is_hit())
+                })
+                .count() as u64;
+            let s = traced.shadow_counts;
+            assert!(
+                4 * s.walks < 3 * lit_blocks,
+                "{label}: {} shadow walks for {lit_blocks} blocks with hits",
+                s.walks
             );
         }
     }

@@ -11,7 +11,9 @@ use glam::Vec3;
 use crate::mlrta::entry_point::EntryPoint;
 use crate::mlrta::packet::{MlrtaCounts, PACKET, Packet, trace_packets_lanes};
 use crate::mlrta::prepared::Prepared;
-use crate::mlrta::tiles::{Ctx, Rect, TileOut, block_rects, pixels, single_ray, trace_block};
+use crate::mlrta::tiles::{
+    Ctx, Group, Rect, SHADOW_EPSILON, ShadowRays, TileOut, block_rects, pixels, single_ray, trace_block, trace_group,
+};
 use crate::ray::Hit;
 use crate::simd::{Isa, Kernel, Lanes, dispatch};
 
@@ -61,8 +63,9 @@ fn square_block(square: Rect, side: usize, q: usize) -> Rect {
     }
 }
 
-/// Traces a square of SIDE x SIDE blocks as 4x4 packets walked together, when all are
-/// whole packets of one sign class; false (nothing traced) otherwise.
+/// Traces a square of `SIDE x SIDE` blocks of primary rays as 4x4 packets
+/// walked together, when all are whole packets of one sign class; false
+/// (nothing traced) otherwise.
 fn trace_square<const SIDE: usize, const SQUARE: usize>(
     ctx: &Ctx,
     square: Rect,
@@ -83,51 +86,13 @@ fn trace_square<const SIDE: usize, const SQUARE: usize>(
         out.stray_origin = true;
         return true;
     }
-    struct Square<'a, const SQUARE: usize> {
-        p: &'a Prepared<'a>,
-        origin: Vec3,
-        dirs: &'a [[Vec3; PACKET]; SQUARE],
-        entry: &'a EntryPoint,
-        counts: &'a mut MlrtaCounts,
-    }
-    impl<const SQUARE: usize> Kernel for Square<'_, SQUARE> {
-        type Out = Option<[[Hit; PACKET]; SQUARE]>;
-        #[inline(always)]
-        fn run<V: Lanes>(self) -> Self::Out {
-            let mut packets = [const { std::mem::MaybeUninit::<Packet>::uninit() }; SQUARE];
-            for (packet, dirs) in packets.iter_mut().zip(self.dirs) {
-                packet.write(Packet::new(self.origin, dirs, f32::INFINITY)?);
-            }
-            // SAFETY: the loop wrote every element (or returned).
-            // (`MaybeUninit<T>` has `T`'s layout, so the arrays' layouts agree.)
-            let packets: [Packet; SQUARE] = unsafe { (&raw const packets).cast::<[Packet; SQUARE]>().read() };
-            // One walk needs one sign class (each packet has one).
-            let mut refs = [&packets[0]; SQUARE];
-            for (r, packet) in refs.iter_mut().zip(&packets) {
-                if packet.frustum.positive != packets[0].frustum.positive {
-                    return None;
-                }
-                *r = packet;
-            }
-            Some(trace_packets_lanes::<V, SQUARE>(
-                self.p,
-                refs,
-                self.entry,
-                false,
-                self.counts,
-            ))
-        }
-    }
-    let Some(hits) = dispatch(
-        Isa::best(),
-        Square {
-            p: ctx.p,
-            origin: ctx.origin,
-            dirs: &dirs,
-            entry,
-            counts: &mut out.counts,
-        },
-    ) else {
+    let rays = SquareRays {
+        origin: ctx.origin,
+        dirs: &dirs,
+        t_max: f32::INFINITY,
+        any_hit: false,
+    };
+    let Some(hits) = walk_square(ctx.p, &rays, entry, &mut out.counts) else {
         return false;
     };
     let r = out.rect;
@@ -136,15 +101,171 @@ fn trace_square<const SIDE: usize, const SQUARE: usize>(
         let x = (block.x - r.x) as usize;
         for row in 0..4 {
             let line = &mut out.hits[(block.y - r.y) as usize + row][x..x + 4];
-            for (k, h) in line.iter_mut().enumerate() {
-                let hit = block_hits[row * 4 + k];
-                *h = if entry.speculative && !hit.is_hit() {
-                    single_ray(ctx.p, ctx.origin, dirs[q][row * 4 + k], f32::INFINITY, &mut out.counts)
-                } else {
-                    hit
-                };
-            }
+            line.copy_from_slice(&block_hits[row * 4..row * 4 + 4]);
         }
     }
     true
+}
+
+/// The shadow rays of a final tile (from `light` to its pixels' `hit`s,
+/// `shadowed` set for those blocked), walked as the primary rays are: by
+/// squares of 16x16 and 8x8 pixels where all their pixels hit, else block
+/// by block.
+pub(crate) fn trace_shadow_tile(
+    ctx: &Ctx,
+    light: Vec3,
+    rect: Rect,
+    start: &EntryPoint,
+    hit: &dyn Fn(u32) -> Hit,
+    shadowed: &mut dyn FnMut(u32, bool),
+    counts: &mut MlrtaCounts,
+) {
+    let mut tile = ShadowTile {
+        ctx,
+        light,
+        start,
+        hit,
+        shadowed,
+        counts,
+    };
+    for square in squares(rect, 16) {
+        if square.w == 16 && square.h == 16 && tile.square::<4, 16>(square) {
+            continue;
+        }
+        for quad in squares(square, 8) {
+            if quad.w == 8 && quad.h == 8 && tile.square::<2, 4>(quad) {
+                continue;
+            }
+            for block in block_rects(quad) {
+                tile.block(block);
+            }
+        }
+    }
+}
+
+struct ShadowTile<'a, 'c, 'p, 'q> {
+    ctx: &'a Ctx<'p, 'q>,
+    light: Vec3,
+    start: &'a EntryPoint,
+    hit: &'a dyn Fn(u32) -> Hit,
+    shadowed: &'a mut dyn FnMut(u32, bool),
+    counts: &'c mut MlrtaCounts,
+}
+
+impl ShadowTile<'_, '_, '_, '_> {
+    /// One 4x4 block's shadow rays (those of its pixels that hit).
+    fn block(&mut self, block: Rect) {
+        let rays = ShadowRays::new(self.ctx, self.light, block, self.hit);
+        if rays.len == 0 {
+            return;
+        }
+        let group = Group {
+            origin: self.light,
+            dirs: &rays.to_points[..rays.len],
+            t_max: 1.0 - SHADOW_EPSILON,
+            any_hit: true,
+        };
+        let blocked = trace_group(self.ctx.p, &group, self.start, None, self.counts);
+        for (j, &i) in rays.pixels[..rays.len].iter().enumerate() {
+            (self.shadowed)(i, blocked[j].is_hit());
+        }
+    }
+
+    /// A square of `SIDE x SIDE` blocks walked together when every pixel
+    /// hits (whole packets) and the rays share a sign class; false
+    /// (nothing traced) otherwise.
+    fn square<const SIDE: usize, const SQUARE: usize>(&mut self, square: Rect) -> bool {
+        let mut dirs = [[Vec3::ZERO; PACKET]; SQUARE];
+        let mut ids = [[0u32; PACKET]; SQUARE];
+        for q in 0..SQUARE {
+            let rays = ShadowRays::new(self.ctx, self.light, square_block(square, SIDE, q), self.hit);
+            if rays.len < PACKET {
+                return false;
+            }
+            (dirs[q], ids[q]) = (rays.to_points, rays.pixels);
+        }
+        let rays = SquareRays {
+            origin: self.light,
+            dirs: &dirs,
+            t_max: 1.0 - SHADOW_EPSILON,
+            any_hit: true,
+        };
+        let Some(blocked) = walk_square(self.ctx.p, &rays, self.start, self.counts) else {
+            return false;
+        };
+        for (ids, blocked) in ids.iter().zip(&blocked) {
+            for (&i, b) in ids.iter().zip(blocked) {
+                (self.shadowed)(i, b.is_hit());
+            }
+        }
+        true
+    }
+}
+
+/// Rays of one origin, in `SQUARE` whole packets.
+struct SquareRays<'a, const SQUARE: usize> {
+    origin: Vec3,
+    dirs: &'a [[Vec3; PACKET]; SQUARE],
+    t_max: f32,
+    any_hit: bool,
+}
+
+/// The packets of `rays` walked together from `entry` (`None` when they do
+/// not share one sign class); rays that a speculative entry point found
+/// nothing for are traced again from the root, as `tiles::trace_group` does.
+fn walk_square<const SQUARE: usize>(
+    p: &Prepared,
+    rays: &SquareRays<SQUARE>,
+    entry: &EntryPoint,
+    counts: &mut MlrtaCounts,
+) -> Option<[[Hit; PACKET]; SQUARE]> {
+    struct Walk<'a, const SQUARE: usize> {
+        p: &'a Prepared<'a>,
+        rays: &'a SquareRays<'a, SQUARE>,
+        entry: &'a EntryPoint,
+        counts: &'a mut MlrtaCounts,
+    }
+    impl<const SQUARE: usize> Kernel for Walk<'_, SQUARE> {
+        type Out = Option<[[Hit; PACKET]; SQUARE]>;
+        #[inline(always)]
+        fn run<V: Lanes>(self) -> Self::Out {
+            let r = self.rays;
+            let mut packets = [const { std::mem::MaybeUninit::<Packet>::uninit() }; SQUARE];
+            for (packet, dirs) in packets.iter_mut().zip(r.dirs) {
+                packet.write(Packet::new(r.origin, dirs, r.t_max)?);
+            }
+            // SAFETY: the loop wrote every element (or returned). Read in
+            // place rather than copied out (sixteen packets are 10 KB).
+            let first = unsafe { packets[0].assume_init_ref() };
+            // One walk needs one sign class (each packet has one).
+            let mut refs = [first; SQUARE];
+            for (r, packet) in refs.iter_mut().zip(&packets) {
+                // SAFETY: as above.
+                let packet = unsafe { packet.assume_init_ref() };
+                if packet.frustum.positive != first.frustum.positive {
+                    return None;
+                }
+                *r = packet;
+            }
+            Some(trace_packets_lanes::<V, SQUARE>(
+                self.p,
+                refs,
+                self.entry,
+                r.any_hit,
+                self.counts,
+            ))
+        }
+    }
+    let walk = Walk { p, rays, entry, counts };
+    let mut hits = dispatch(Isa::best(), walk)?;
+    if entry.speculative {
+        for (block_hits, dirs) in hits.iter_mut().zip(rays.dirs) {
+            for (h, &d) in block_hits.iter_mut().zip(dirs) {
+                if !h.is_hit() {
+                    *h = single_ray(p, rays.origin, d, rays.t_max, counts);
+                }
+            }
+        }
+    }
+    Some(hits)
 }

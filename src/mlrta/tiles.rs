@@ -20,7 +20,7 @@ use crate::mlrta::entry_point::{EntryPoint, entry_point};
 use crate::mlrta::frustum::{Frustum, sign_class};
 use crate::mlrta::packet::{MlrtaCounts, PACKET, Packet, trace_packet_lanes};
 use crate::mlrta::prepared::Prepared;
-use crate::mlrta::squares::trace_tile;
+use crate::mlrta::squares::{trace_shadow_tile, trace_tile};
 use crate::mlrta::tile_rows::tile_rows;
 use crate::ray::{Hit, Ray};
 use crate::simd::{Isa, Kernel, Lanes, dispatch};
@@ -563,23 +563,11 @@ fn trace_shadows(ctx: &Ctx, light: Vec3, out: &mut TileOut) {
         let Some(start) = shadow_tile_entry(ctx, light, rect, hit, &mut counts) else {
             continue;
         };
-        for block in block_rects(rect) {
-            let rays = ShadowRays::new(ctx, light, block, hit);
-            if rays.len == 0 {
-                continue;
-            }
-            let group = Group {
-                origin: light,
-                dirs: &rays.to_points[..rays.len],
-                t_max: 1.0 - SHADOW_EPSILON,
-                any_hit: true,
-            };
-            let blocked = trace_group(ctx.p, &group, &start, None, &mut counts);
-            for (j, &i) in rays.pixels[..rays.len].iter().enumerate() {
-                let (row, col) = tile.local(i, ctx.width);
-                shadowed[row][col] = blocked[j].is_hit();
-            }
-        }
+        let mut mark = |i: u32, blocked: bool| {
+            let (row, col) = tile.local(i, ctx.width);
+            shadowed[row][col] = blocked;
+        };
+        trace_shadow_tile(ctx, light, rect, &start, &hit, &mut mark, &mut counts);
     }
     out.shadow_counts += counts;
 }
