@@ -31,7 +31,7 @@ use super::{Bvh8, EMPTY_CHILD, LEAF_BIT, Node8, SLACK, WIDTH};
 use crate::kdtree::KdTree;
 use crate::kdtree::occlusion::{LANES, Rays, common_axes};
 use crate::ray::{Hit, Ray};
-use crate::simd::{Isa, Kernel, Lanes, Mask, dispatch};
+use crate::simd::{Isa, Kernel, Lanes, Mask, dispatch, set_lanes};
 
 /// Stack entries: as the single-ray walk's, at most seven per level.
 const STACK_SIZE: usize = 1024;
@@ -309,12 +309,7 @@ fn walk<V: Lanes>(
                     best_frame = V::select(V::M::from_bits(take), t, best_frame);
                     found |= take;
                     improved = true;
-                    let mut bits = take;
-                    while bits != 0 {
-                        let r = bits.trailing_zeros() as usize;
-                        bits &= bits - 1;
-                        triangle[r] = index;
-                    }
+                    set_lanes(&mut triangle, take, index);
                 }
             }
             if improved {

@@ -28,7 +28,7 @@ use crate::mlrta::entry_point::EntryPoint;
 use crate::mlrta::frustum::{Frustum, FrustumBounds, down, up};
 use crate::mlrta::prepared::Prepared;
 use crate::ray::Hit;
-use crate::simd::{Isa, Kernel, Lanes, Mask, dispatch};
+use crate::simd::{Isa, Kernel, Lanes, Mask, dispatch, set_lanes};
 
 /// Rays per packet (4x4).
 pub const PACKET: usize = 16;
@@ -652,12 +652,7 @@ fn test_leaf<V: Lanes>(
             }
             hit
         };
-        let mut h = hit;
-        while h != 0 {
-            let r = h.trailing_zeros() as usize;
-            h &= h - 1;
-            best_tri[r] = tri;
-        }
+        set_lanes(best_tri, hit, tri);
         if any_hit {
             active &= !hit;
             *done |= hit;

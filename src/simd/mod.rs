@@ -100,6 +100,18 @@ impl Isa {
     }
 }
 
+/// Writes `value` into `out[r]` for every lane `r` whose bit is set in
+/// `bits` (a mask's bits: the lanes a triangle hit, say).
+#[inline(always)]
+pub fn set_lanes<T: Copy>(out: &mut [T; 16], bits: u16, value: T) {
+    let mut bits = bits;
+    while bits != 0 {
+        let r = bits.trailing_zeros() as usize;
+        bits &= bits - 1;
+        out[r] = value;
+    }
+}
+
 /// Work generic over the lanes, run by `dispatch` in one instruction set.
 pub trait Kernel {
     type Out;
