@@ -3,8 +3,8 @@
 //! traversal of the hull of their frusta, each packet's own lanes tested
 //! at the leaves. Neighbouring packets from one entry point cross mostly
 //! the same cells; walked alone, each paid for every step (the bunny's
-//! 1024x1024 primary packets took 15.1 steps each, 5.6 walked four at a
-//! time).
+//! 1024x1024 primary packets: 15.1 steps each alone, 5.6 by 8x8 squares,
+//! 2.7 by 16x16 squares).
 
 use glam::Vec3;
 
@@ -12,7 +12,8 @@ use crate::mlrta::entry_point::EntryPoint;
 use crate::mlrta::packet::{MlrtaCounts, PACKET, Packet, trace_packets_lanes};
 use crate::mlrta::prepared::Prepared;
 use crate::mlrta::tiles::{
-    Ctx, Group, Rect, SHADOW_EPSILON, ShadowRays, TileOut, block_rects, pixels, single_ray, trace_block, trace_group,
+    Ctx, Group, Rect, SHADOW_EPSILON, ShadowRays, TileOut, block_rects, pixels, single_ray, squares, trace_block,
+    trace_group,
 };
 use crate::ray::Hit;
 use crate::simd::{Isa, Kernel, Lanes, dispatch};
@@ -39,18 +40,6 @@ pub(crate) fn trace_tile(ctx: &Ctx, rect: Rect, entry: &EntryPoint, out: &mut Ti
             }
         }
     }
-}
-
-/// `rect` cut into squares of `side` pixels (smaller at its far edges).
-fn squares(rect: Rect, side: u32) -> impl Iterator<Item = Rect> {
-    (rect.y..rect.y + rect.h).step_by(side as usize).flat_map(move |y| {
-        (rect.x..rect.x + rect.w).step_by(side as usize).map(move |x| Rect {
-            x,
-            y,
-            w: side.min(rect.x + rect.w - x),
-            h: side.min(rect.y + rect.h - y),
-        })
-    })
 }
 
 /// The 4x4 block `q` of a square of `side` blocks a side (row by row).

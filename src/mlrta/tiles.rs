@@ -434,12 +434,17 @@ pub(crate) fn split_tiles(ctx: &Ctx, rect: Rect, start: EntryPoint, level: u32, 
 
 /// The 4x4 blocks of a final tile (smaller at the image's edges).
 pub(crate) fn block_rects(rect: Rect) -> impl Iterator<Item = Rect> {
-    (rect.y..rect.y + rect.h).step_by(4).flat_map(move |y| {
-        (rect.x..rect.x + rect.w).step_by(4).map(move |x| Rect {
+    squares(rect, 4)
+}
+
+/// `rect` cut into squares of `side` pixels (smaller at its far edges).
+pub(crate) fn squares(rect: Rect, side: u32) -> impl Iterator<Item = Rect> {
+    (rect.y..rect.y + rect.h).step_by(side as usize).flat_map(move |y| {
+        (rect.x..rect.x + rect.w).step_by(side as usize).map(move |x| Rect {
             x,
             y,
-            w: 4.min(rect.x + rect.w - x),
-            h: 4.min(rect.y + rect.h - y),
+            w: side.min(rect.x + rect.w - x),
+            h: side.min(rect.y + rect.h - y),
         })
     })
 }
