@@ -294,13 +294,10 @@ impl<V: Lanes> PacketLanes<V> {
     /// `Packet::test_common` in the lanes: the lanes of `active` that hit
     /// the triangle before their `best_t`, whose `best_t` it updates.
     #[inline(always)]
-    fn test_common(&self, tri: [Vec3; 3], active: u16, best_t: &mut V, frame: &Frame) -> u16 {
-        let (o, scale, inv_scale) = (frame.origin, frame.scale, frame.inv_scale);
+    fn test_common(&self, [a, b, c]: &[[f32; 3]; 3], active: u16, best_t: &mut V, frame: &Frame) -> u16 {
+        let (scale, inv_scale) = (frame.scale, frame.inv_scale);
         // Every lane has lane 0's axes (`common_axes`).
         let [kx, ky, kz] = self.k0;
-        let a = (tri[0] - o).to_array();
-        let b = (tri[1] - o).to_array();
-        let c = (tri[2] - o).to_array();
         let s = V::splat;
         let ax = s(a[kx]).sub(self.sx.mul(s(a[kz])));
         let ay = s(a[ky]).sub(self.sy.mul(s(a[kz])));
@@ -531,21 +528,42 @@ pub(crate) fn trace_packets_lanes<V: Lanes, const N: usize>(
             // and shadow packets of bunny, dragon and kitchen reach) and cost
             // a box test per leaf.
             let entry_limit = down(t0);
+            let mut active = [0u16; N];
+            let mut m = [0u64; N];
             for j in 0..N {
-                if done[j] == u16::MAX {
-                    continue;
+                if done[j] != u16::MAX {
+                    active[j] = leaf_lanes::<V>(packets[j], &cell, &best_t[j], done[j], entry_limit);
+                    m[j] = active[j].count_ones() as u64;
+                    tested |= active[j] != 0;
                 }
-                tested |= test_leaf::<V>(
-                    tree,
-                    range.clone(),
-                    &cell,
-                    packets[j],
-                    entry_limit,
-                    &frame,
-                    any_hit,
-                    (&mut best_t[j], &mut best_tri[j], &mut done[j]),
-                    counts,
-                );
+            }
+            if tested {
+                // Triangle by triangle, each packet's lanes: a triangle's
+                // corners are made once for all the packets that test it.
+                for (&tri, verts) in tree.leaf_triangles[range.clone()]
+                    .iter()
+                    .zip(&tree.leaf_vertices[range])
+                {
+                    let o = frame.origin;
+                    let corners = [
+                        (verts[0] - o).to_array(),
+                        (verts[1] - o).to_array(),
+                        (verts[2] - o).to_array(),
+                    ];
+                    for j in 0..N {
+                        if active[j] == 0 {
+                            continue;
+                        }
+                        counts.isects += 1;
+                        counts.ray_tests += m[j];
+                        let hit = test_triangle::<V>(packets[j], verts, &corners, active[j], &frame, &mut best_t[j]);
+                        set_lanes(&mut best_tri[j], hit, tri);
+                        if any_hit {
+                            active[j] &= !hit;
+                            done[j] |= hit;
+                        }
+                    }
+                }
             }
         }
         // Next cell: skip those that start beyond every open ray's hit. (The
@@ -589,76 +607,55 @@ fn latest_of<V: Lanes, const N: usize>(best_t: &[[f32; PACKET]; N], done: &[u16;
     latest
 }
 
-/// One packet's lanes against the triangles of leaf `range` (its `cell`):
-/// the lanes still open whose hit does not lie before the cell's earliest
-/// entry and that pass through the cell. Returns whether any lane was
-/// tested (only then can a lane's hit have changed).
+/// A packet's lanes that test a leaf's triangles: those still open whose
+/// hit does not lie before the cell's earliest entry (`entry_limit`) and
+/// that pass through the `cell` (in the lanes: the same comparisons as lane
+/// by lane).
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn test_leaf<V: Lanes>(
-    tree: &crate::kdtree::KdTree,
-    range: std::ops::Range<usize>,
-    cell: &Aabb,
-    packet: &Packet,
-    entry_limit: f32,
-    frame: &Frame,
-    any_hit: bool,
-    (best_t, best_tri, done): (&mut [f32; PACKET], &mut [u32; PACKET], &mut u16),
-    counts: &mut MlrtaCounts,
-) -> bool {
+fn leaf_lanes<V: Lanes>(packet: &Packet, cell: &Aabb, best_t: &[f32; PACKET], done: u16, entry_limit: f32) -> u16 {
     let lanes = PacketLanes::<V>::new(packet);
-    // Lanes whose hit lies before this cell's earliest entry, or that do
-    // not pass through the cell, are masked (in the lanes: the same
-    // comparisons as lane by lane).
-    let open = !*done;
     let bt = V::from_array(*best_t);
     let (near, far) = lanes.slabs(packet, cell, bt);
     let reaches = lanes.down(near).le(lanes.up(far));
-    let mut active = bt
-        .ge(V::splat(entry_limit))
+    bt.ge(V::splat(entry_limit))
         .and(reaches)
-        .and(V::M::from_bits(open))
-        .bits();
-    let m = active.count_ones() as u64;
-    if m == 0 {
-        return false;
+        .and(V::M::from_bits(!done))
+        .bits()
+}
+
+/// The lanes of `active` that hit the triangle (`verts`; `corners` relative
+/// to the frame's origin) before their `best_t`, which it updates.
+#[inline(always)]
+fn test_triangle<V: Lanes>(
+    packet: &Packet,
+    verts: &[Vec3; 3],
+    corners: &[[f32; 3]; 3],
+    active: u16,
+    frame: &Frame,
+    best_t: &mut [f32; PACKET],
+) -> u16 {
+    // Few active lanes: testing them one by one beats running all sixteen
+    // side by side.
+    if packet.common_axes && active.count_ones() > LANE_BY_LANE {
+        let mut bt = V::from_array(*best_t);
+        let hit = PacketLanes::<V>::new(packet).test_common(corners, active, &mut bt, frame);
+        if hit != 0 {
+            *best_t = bt.to_array();
+        }
+        return hit;
     }
-    for (&tri, verts) in tree.leaf_triangles[range.clone()]
-        .iter()
-        .zip(&tree.leaf_vertices[range])
-    {
-        counts.isects += 1;
-        counts.ray_tests += m;
-        // Few active lanes: testing them one by one beats running all
-        // sixteen side by side.
-        let hit = if packet.common_axes && active.count_ones() > LANE_BY_LANE {
-            let mut bt = V::from_array(*best_t);
-            let hit = lanes.test_common(*verts, active, &mut bt, frame);
-            if hit != 0 {
-                *best_t = bt.to_array();
-            }
-            hit
-        } else {
-            let [v0, v1, v2] = *verts;
-            let mut hit = 0u16;
-            let mut left = active;
-            while left != 0 {
-                let r = left.trailing_zeros() as usize;
-                left &= left - 1;
-                if let Some(t) = packet.sheared(r, frame).intersect(v0, v1, v2, best_t[r]) {
-                    best_t[r] = t;
-                    hit |= 1 << r;
-                }
-            }
-            hit
-        };
-        set_lanes(best_tri, hit, tri);
-        if any_hit {
-            active &= !hit;
-            *done |= hit;
+    let [v0, v1, v2] = *verts;
+    let mut hit = 0u16;
+    let mut left = active;
+    while left != 0 {
+        let r = left.trailing_zeros() as usize;
+        left &= left - 1;
+        if let Some(t) = packet.sheared(r, frame).intersect(v0, v1, v2, best_t[r]) {
+            best_t[r] = t;
+            hit |= 1 << r;
         }
     }
-    true
+    hit
 }
 
 #[cfg(test)]
