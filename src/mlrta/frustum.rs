@@ -71,7 +71,6 @@ impl Interval {
         }
     }
 
-    /// Widened by `SLACK` relative to its magnitude.
     /// The smallest interval holding both.
     #[inline]
     pub fn hull(self, o: Interval) -> Interval {
@@ -81,6 +80,7 @@ impl Interval {
         }
     }
 
+    /// Widened by `SLACK` relative to its magnitude.
     pub fn widened(self) -> Interval {
         Interval {
             lo: down(self.lo),
