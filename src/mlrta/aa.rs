@@ -103,7 +103,7 @@ fn footprint_is_simple(
 ) -> bool {
     let (x0, y0, x1, y1) = (r.x as f32, r.y as f32, (r.x + r.w) as f32, (r.y + r.h) as f32);
     let corners = [(x0, y0), (x1, y0), (x0, y1), (x1, y1)].map(|(x, y)| camera.direction(width, height, x, y));
-    let Some(footprint) = Frustum::new(camera.eye, corners, f32::INFINITY) else {
+    let Some(footprint) = Frustum::from_corners(camera.eye, corners, f32::INFINITY) else {
         return false;
     };
     let mut steps = 0;

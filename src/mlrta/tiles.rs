@@ -50,8 +50,10 @@ pub struct MlrtaParams {
     /// a tile's frustum then comes from its four corner rays instead of all
     /// its rays. Directions are linear in the pixel position up to
     /// normalisation, so each component's sign, and each slope d_b / d_a (a
-    /// linear-fractional function), is extreme at the corners. Wrong for
-    /// other ray images, hence off by default. With it, that the rays share
+    /// linear-fractional function), is extreme at the corners; the least
+    /// `|1 / d_a|` is bounded from the slopes (`Frustum::from_corners`;
+    /// the directions must be of unit length, as the camera's are). Wrong
+    /// for other ray images, hence off by default. With it, that the rays share
     /// one origin is checked ray by ray as their blocks are traced, not in
     /// a pass over the whole image first (rays in tiles the entry points
     /// cull are not read at all).
@@ -380,7 +382,7 @@ pub(crate) fn split_tiles(ctx: &Ctx, rect: Rect, start: EntryPoint, level: u32, 
         let (x1, y1) = (rect.x + rect.w - 1, rect.y + rect.h - 1);
         let corners = [(rect.x, rect.y), (x1, rect.y), (rect.x, y1), (x1, y1)];
         let dirs = corners.map(|(x, y)| ctx.rays[(y * ctx.width + x) as usize].d());
-        Frustum::new(ctx.origin, dirs, f32::INFINITY)
+        Frustum::from_corners(ctx.origin, dirs, f32::INFINITY)
     } else {
         let dirs = pixels(rect, ctx.width).map(|i| ctx.rays[i as usize].d());
         Frustum::new(ctx.origin, dirs, f32::INFINITY)
