@@ -27,18 +27,51 @@ use crate::simd::{Isa, Kernel, Lanes, dispatch};
 /// dragon100k 25.0-25.5, 22.5-23.2, 22.9-23.2; the kitchen interior
 /// 35.6-36.0, 30.9-32.1, 29.2-30.1.
 pub(crate) fn trace_tile(ctx: &Ctx, rect: Rect, entry: &EntryPoint, out: &mut TileOut) {
+    by_squares(rect, &mut PrimaryTile { ctx, entry, out });
+}
+
+/// Rays of a final tile traced by squares of 4x4 blocks walked together.
+trait SquareTracer {
+    /// Walks the packets of a whole square of `SIDE x SIDE` blocks
+    /// together; false (nothing traced) when they cannot be.
+    fn square<const SIDE: usize, const SQUARE: usize>(&mut self, square: Rect) -> bool;
+    /// Traces one block (of at most 4x4 pixels) alone.
+    fn block(&mut self, block: Rect);
+}
+
+/// A final tile's 16x16 squares, where that fails (the image's edges, a
+/// sign change, pixels without rays) its 8x8 squares, and where that fails
+/// its blocks one by one.
+fn by_squares(rect: Rect, tracer: &mut impl SquareTracer) {
     for square in squares(rect, 16) {
-        if square.w == 16 && square.h == 16 && trace_square::<4, 16>(ctx, square, entry, out) {
+        if square.w == 16 && square.h == 16 && tracer.square::<4, 16>(square) {
             continue;
         }
         for quad in squares(square, 8) {
-            if quad.w == 8 && quad.h == 8 && trace_square::<2, 4>(ctx, quad, entry, out) {
+            if quad.w == 8 && quad.h == 8 && tracer.square::<2, 4>(quad) {
                 continue;
             }
             for block in block_rects(quad) {
-                trace_block(ctx, block, entry, out);
+                tracer.block(block);
             }
         }
+    }
+}
+
+/// A final tile's primary rays.
+struct PrimaryTile<'a, 'o, 'c, 'p, 'q> {
+    ctx: &'a Ctx<'p, 'q>,
+    entry: &'a EntryPoint,
+    out: &'o mut TileOut<'c>,
+}
+
+impl SquareTracer for PrimaryTile<'_, '_, '_, '_, '_> {
+    fn square<const SIDE: usize, const SQUARE: usize>(&mut self, square: Rect) -> bool {
+        trace_square::<SIDE, SQUARE>(self.ctx, square, self.entry, self.out)
+    }
+
+    fn block(&mut self, block: Rect) {
+        trace_block(self.ctx, block, self.entry, self.out);
     }
 }
 
@@ -117,19 +150,7 @@ pub(crate) fn trace_shadow_tile(
         shadowed,
         counts,
     };
-    for square in squares(rect, 16) {
-        if square.w == 16 && square.h == 16 && tile.square::<4, 16>(square) {
-            continue;
-        }
-        for quad in squares(square, 8) {
-            if quad.w == 8 && quad.h == 8 && tile.square::<2, 4>(quad) {
-                continue;
-            }
-            for block in block_rects(quad) {
-                tile.block(block);
-            }
-        }
-    }
+    by_squares(rect, &mut tile);
 }
 
 struct ShadowTile<'a, 'c, 'p, 'q> {
@@ -141,7 +162,7 @@ struct ShadowTile<'a, 'c, 'p, 'q> {
     counts: &'c mut MlrtaCounts,
 }
 
-impl ShadowTile<'_, '_, '_, '_> {
+impl SquareTracer for ShadowTile<'_, '_, '_, '_> {
     /// One 4x4 block's shadow rays (those of its pixels that hit).
     fn block(&mut self, block: Rect) {
         let rays = ShadowRays::new(self.ctx, self.light, block, self.hit);
@@ -164,13 +185,15 @@ impl ShadowTile<'_, '_, '_, '_> {
     /// hits (whole packets) and the rays share a sign class; false
     /// (nothing traced) otherwise.
     fn square<const SIDE: usize, const SQUARE: usize>(&mut self, square: Rect) -> bool {
+        // Whole packets only: every pixel hits (looked up before any ray is
+        // made, as the smaller squares and blocks look again).
+        if !pixels(square, self.ctx.width).all(|i| (self.hit)(i).is_hit()) {
+            return false;
+        }
         let mut dirs = [[Vec3::ZERO; PACKET]; SQUARE];
         let mut ids = [[0u32; PACKET]; SQUARE];
         for q in 0..SQUARE {
             let rays = ShadowRays::new(self.ctx, self.light, square_block(square, SIDE, q), self.hit);
-            if rays.len < PACKET {
-                return false;
-            }
             (dirs[q], ids[q]) = (rays.to_points, rays.pixels);
         }
         let rays = SquareRays {
