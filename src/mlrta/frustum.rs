@@ -143,6 +143,28 @@ impl FrustumBounds {
         Some(())
     }
 
+    /// Bounds already reduced over a group's rays (by `Packet::new_in`, in
+    /// SIMD lanes): sign class `class` (bit a set when component a is
+    /// negative), the extremes of `1 / d_a` and, per a, of `d_b * (1 / d_a)`,
+    /// exactly as `add` accumulates them ray by ray.
+    pub fn from_extremes(class: u32, inv: [[f32; 3]; 2], slope_lo: [[f32; 3]; 3], slope_hi: [[f32; 3]; 3]) -> Self {
+        FrustumBounds {
+            class: Some(class),
+            inv_lo: Vec3A::from_array(inv[0]),
+            inv_hi: Vec3A::from_array(inv[1]),
+            slope_lo: [
+                Vec3A::from_array(slope_lo[0]),
+                Vec3A::from_array(slope_lo[1]),
+                Vec3A::from_array(slope_lo[2]),
+            ],
+            slope_hi: [
+                Vec3A::from_array(slope_hi[0]),
+                Vec3A::from_array(slope_hi[1]),
+                Vec3A::from_array(slope_hi[2]),
+            ],
+        }
+    }
+
     pub fn finish(self, origin: Vec3, t_max: f32) -> Option<Frustum> {
         let class = self.class?;
         let interval = |lo: f32, hi: f32| Interval { lo, hi }.widened();

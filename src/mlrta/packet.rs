@@ -104,11 +104,30 @@ pub struct Packet {
 
 impl Packet {
     /// A packet of `dirs` from `origin`, or `None` if the directions do not
-    /// share one sign class (or there are none, or more than 16). Inlined
-    /// into its callers, so that inside a dispatched kernel its loops over
-    /// lanes use the kernel's registers.
-    #[inline(always)]
+    /// share one sign class (or there are none, or more than 16): outside
+    /// a dispatched kernel (inside one, `new_in` with the kernel's lanes).
     pub fn new(origin: Vec3, dirs: &[Vec3], t_max: f32) -> Option<Packet> {
+        struct New<'a> {
+            origin: Vec3,
+            dirs: &'a [Vec3],
+            t_max: f32,
+        }
+        impl Kernel for New<'_> {
+            type Out = Option<Packet>;
+            #[inline(always)]
+            fn run<V: Lanes>(self) -> Option<Packet> {
+                Packet::new_in::<V>(self.origin, self.dirs, self.t_max)
+            }
+        }
+        dispatch(Isa::best(), New { origin, dirs, t_max })
+    }
+
+    /// `new` in lanes `V`, inlined into the kernel that makes the packet.
+    /// The frustum's bounds are reductions over the lanes: made ray by ray
+    /// (`FrustumBounds::add`), the set-up of a packet took about an eighth
+    /// of the primary rays' time.
+    #[inline(always)]
+    pub(crate) fn new_in<V: Lanes>(origin: Vec3, dirs: &[Vec3], t_max: f32) -> Option<Packet> {
         let n = dirs.len();
         if n == 0 || n > PACKET {
             return None;
@@ -121,43 +140,51 @@ impl Packet {
                 d[a][r] = v[a];
             }
         }
-        let mut inv = [[0.0f32; PACKET]; 3];
-        for a in 0..3 {
-            for r in 0..PACKET {
-                inv[a][r] = 1.0 / d[a][r];
+        let dv = [V::from_array(d[0]), V::from_array(d[1]), V::from_array(d[2])];
+        let one = V::splat(1.0);
+        let iv = [one.div(dv[0]), one.div(dv[1]), one.div(dv[2])];
+        let inv = [iv[0].to_array(), iv[1].to_array(), iv[2].to_array()];
+        // One sign class, no zero or infinite (or NaN) component: lanes past
+        // `n` repeat lane 0, so all sixteen must agree.
+        let (zero, below, above) = (V::splat(0.0), V::splat(f32::NEG_INFINITY), V::splat(f32::INFINITY));
+        let mut class = 0u32;
+        for (a, x) in dv.iter().enumerate() {
+            if x.lt(zero).and(x.gt(below)).bits() == u16::MAX {
+                class |= 1 << a;
+            } else if x.gt(zero).and(x.lt(above)).bits() != u16::MAX {
+                return None;
             }
         }
-        let mut bounds = FrustumBounds::default();
-        for r in 0..n {
-            bounds.add(own[r], Vec3::new(inv[0][r], inv[1][r], inv[2][r]))?;
+        let mut extremes = [[0.0f32; 3]; 2];
+        let (mut slope_lo, mut slope_hi) = ([[0.0f32; 3]; 3], [[0.0f32; 3]; 3]);
+        for a in 0..3 {
+            extremes[0][a] = iv[a].min_lane();
+            extremes[1][a] = iv[a].max_lane();
+            for b in 0..3 {
+                let s = dv[b].mul(iv[a]);
+                slope_lo[a][b] = s.min_lane();
+                slope_hi[a][b] = s.max_lane();
+            }
         }
+        let bounds = FrustumBounds::from_extremes(class, extremes, slope_lo, slope_hi);
         // ShearedRay::new lane by lane: the axes, then the constants (the
         // same divisions as there, so that hits are bit-identical). The
         // lanes share their signs, so they share the axes when they share
         // the dominant one (the usual case: then the constants are divisions
         // of whole rows, and `sz` is the row of reciprocals made above).
         let k0 = shear_axes(own[0]);
-        let mut same_dominant = true;
-        for ((x, y), z) in d[0].iter().zip(&d[1]).zip(&d[2]) {
-            let (x, y, z) = (x.abs(), y.abs(), z.abs());
-            // `shear_axes`' choice, as selects.
-            let kz = if x >= y && x >= z {
-                0
-            } else if y >= z {
-                1
-            } else {
-                2
-            };
-            same_dominant &= kz == k0[2];
-        }
+        // `shear_axes`' choice of the dominant axis, lane by lane as masks.
+        let (ax, ay, az) = (magnitude(dv[0]), magnitude(dv[1]), magnitude(dv[2]));
+        let x_dominant = ax.ge(ay).and(ax.ge(az)).bits();
+        let y_dominant = ay.ge(az).bits() & !x_dominant;
+        let dominant = [x_dominant, y_dominant, !(x_dominant | y_dominant)];
+        let same_dominant = dominant[k0[2]] == u16::MAX;
         let (mut sx, mut sy) = ([0.0f32; PACKET], [0.0f32; PACKET]);
         let (k, sz, common_axes) = if same_dominant {
             let [kx, ky, kz] = k0;
-            for r in 0..PACKET {
-                sx[r] = d[kx][r] / d[kz][r];
-                sy[r] = d[ky][r] / d[kz][r];
-            }
-            ([k0.map(|a| a as u8); PACKET], inv[kz], true)
+            sx = dv[kx].div(dv[kz]).to_array();
+            sy = dv[ky].div(dv[kz]).to_array();
+            ([[kx as u8, ky as u8, kz as u8]; PACKET], inv[kz], true)
         } else {
             let k = own.map(shear_axes);
             let mut sz = [0.0f32; PACKET];
@@ -200,6 +227,13 @@ impl Packet {
             inv_scale: frame.inv_scale,
         }
     }
+}
+
+/// `|x|` per lane (lanes not NaN). A function, not a closure: a closure is
+/// compiled outside the dispatched kernel, without its registers.
+#[inline(always)]
+fn magnitude<V: Lanes>(x: V) -> V {
+    x.max(V::splat(0.0).sub(x))
 }
 
 /// Active lanes above which a triangle is tested in all sixteen lanes at
@@ -729,6 +763,71 @@ mod tests {
             walks[0],
             walks[1]
         );
+    }
+
+    /// Packets set up in the lanes of every instruction set the CPU has
+    /// are the ray-by-ray set-up's: the frustum `Frustum::new` makes from
+    /// the same directions (bit for bit), `None` exactly where it is (a
+    /// second sign class, a zero, infinite or NaN component), and the
+    /// lanes' shear constants `ShearedRay::in_frame`'s.
+    #[test]
+    fn packets_set_up_in_the_lanes_as_ray_by_ray() {
+        struct Make<'a> {
+            dirs: &'a [Vec3],
+        }
+        impl Kernel for Make<'_> {
+            type Out = Option<Packet>;
+            #[inline(always)]
+            fn run<V: Lanes>(self) -> Option<Packet> {
+                Packet::new_in::<V>(Vec3::new(0.5, -1.0, 2.0), self.dirs, 7.0)
+            }
+        }
+        let mut rng = Rng(23);
+        let frame = Frame {
+            origin: Vec3::ZERO,
+            scale: 1.0,
+            inv_scale: 1.0,
+        };
+        let (mut made, mut refused) = (0, 0);
+        for case in 0..3000 {
+            let n = 1 + case % PACKET;
+            let signs = Vec3::new(1.0, -1.0, 1.0) * if case % 2 == 0 { 1.0 } else { -1.0 };
+            let mut dirs: Vec<Vec3> = (0..n).map(|_| (rng.vec(0.05, 1.0) * signs).normalize()).collect();
+            let r = case / 7 % n;
+            match case % 7 {
+                0 => dirs[r].y = -dirs[r].y,
+                1 => dirs[r].z = 0.0,
+                2 => dirs[r].x = f32::INFINITY,
+                3 => dirs[r].y = f32::NAN,
+                4 => dirs[r].x = 1e-40 * dirs[r].x.signum(),
+                _ => {}
+            }
+            let reference = Frustum::new(Vec3::new(0.5, -1.0, 2.0), dirs.iter().copied(), 7.0);
+            for isa in Isa::available() {
+                let packet = dispatch(isa, Make { dirs: &dirs });
+                // As text: a lane with a denormal component has an
+                // infinite 1 / d, and its widened interval may hold a NaN.
+                let frustum = packet.as_ref().map(|p| p.frustum);
+                assert_eq!(format!("{frustum:?}"), format!("{reference:?}"), "{isa:?} {dirs:?}");
+                let Some(packet) = packet else {
+                    refused += 1;
+                    continue;
+                };
+                made += 1;
+                let mut axes = Vec::new();
+                for (r, &d) in dirs.iter().enumerate() {
+                    let lane = packet.sheared(r, &frame);
+                    let single = ShearedRay::in_frame(Vec3::ZERO, d, 1.0);
+                    assert_eq!((lane.kx, lane.ky, lane.kz), (single.kx, single.ky, single.kz), "{d:?}");
+                    let bits = |s: &ShearedRay| [s.sx, s.sy, s.sz].map(f32::to_bits);
+                    assert_eq!(bits(&lane), bits(&single), "{isa:?} {d:?}");
+                    axes.push((single.kx, single.ky, single.kz));
+                }
+                let common = axes.iter().all(|a| *a == axes[0]);
+                assert_eq!(packet.common_axes, common, "{isa:?} {dirs:?}");
+            }
+        }
+        assert!(made > 1000 && refused > 1000, "{made} made, {refused} refused");
     }
 
     /// Each lane's shear constants are `ShearedRay::in_frame`'s, bit for

@@ -244,7 +244,7 @@ fn walk_square<const SQUARE: usize>(
             let r = self.rays;
             let mut packets = [const { std::mem::MaybeUninit::<Packet>::uninit() }; SQUARE];
             for (packet, dirs) in packets.iter_mut().zip(r.dirs) {
-                packet.write(Packet::new(r.origin, dirs, r.t_max)?);
+                packet.write(Packet::new_in::<V>(r.origin, dirs, r.t_max)?);
             }
             // SAFETY: the loop wrote every element (or returned). Read in
             // place rather than copied out (sixteen packets are 10 KB).

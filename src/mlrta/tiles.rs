@@ -662,7 +662,7 @@ fn trace_group_in<V: Lanes>(
             }
             continue;
         }
-        let packet = Packet::new(g.origin, &dirs[..m], g.t_max).expect("one sign class");
+        let packet = Packet::new_in::<V>(g.origin, &dirs[..m], g.t_max).expect("one sign class");
         let entry = match search {
             None => Some(*start),
             Some(inside) => {
