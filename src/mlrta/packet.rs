@@ -558,13 +558,16 @@ pub(crate) fn trace_packets_lanes<V: Lanes, const N: usize>(
                 Some(frusta) => frusta.apart(f, &cell),
                 None => 0,
             };
+            // Packets (bit j) with lanes to test here.
+            let mut reaching = 0u16;
             for j in 0..N {
                 if done[j] != u16::MAX && apart & (1 << j) == 0 {
                     active[j] = leaf_lanes::<V>(packets[j], &cell, &best_t[j], done[j], entry_limit);
                     m[j] = active[j].count_ones() as u64;
-                    tested |= active[j] != 0;
+                    reaching |= ((active[j] != 0) as u16) << j;
                 }
             }
+            tested = reaching != 0;
             if tested {
                 // Triangle by triangle, each packet's lanes: a triangle's
                 // corners are made once for all the packets that test it.
@@ -578,10 +581,13 @@ pub(crate) fn trace_packets_lanes<V: Lanes, const N: usize>(
                         (verts[1] - o).to_array(),
                         (verts[2] - o).to_array(),
                     ];
-                    for j in 0..N {
-                        if active[j] == 0 {
-                            continue;
-                        }
+                    // The reaching packets only: a loop over all N that
+                    // skipped the others, for every triangle, took 8% of
+                    // the bunny's primary rays' time.
+                    let mut left = reaching;
+                    while left != 0 {
+                        let j = left.trailing_zeros() as usize;
+                        left &= left - 1;
                         counts.isects += 1;
                         counts.ray_tests += m[j];
                         let hit = test_triangle::<V>(packets[j], verts, &corners, active[j], &frame, &mut best_t[j]);
@@ -589,6 +595,7 @@ pub(crate) fn trace_packets_lanes<V: Lanes, const N: usize>(
                         if any_hit {
                             active[j] &= !hit;
                             done[j] |= hit;
+                            reaching &= !(((active[j] == 0) as u16) << j);
                         }
                     }
                 }
