@@ -767,6 +767,41 @@ mod tests {
         walk_together::<16>(&prepared, &mut rng);
     }
 
+    /// `n` packets of one origin and sign class around a random aim (with
+    /// directions spread up to `spread` about it), or `None` where they do
+    /// not share a sign class.
+    struct RandomGroup {
+        origin: Vec3,
+        aim: Vec3,
+        spread: f32,
+        packets: Vec<Packet>,
+    }
+
+    impl RandomGroup {
+        fn new(rng: &mut Rng, n: usize, t_max: f32) -> Option<RandomGroup> {
+            let origin = rng.vec(-3.0, 3.0);
+            let aim = (rng.vec(-0.8, 0.8) - origin).normalize();
+            let spread = 0.002 + 0.05 * rng.next_f32();
+            let dirs: Vec<Vec3> = (0..n * PACKET)
+                .map(|_| (aim + rng.vec(-spread, spread)).normalize())
+                .collect();
+            let packets = dirs
+                .chunks(PACKET)
+                .map(|d| Packet::new(origin, d, t_max))
+                .collect::<Option<Vec<_>>>()?;
+            let positive = packets[0].frustum.positive;
+            packets
+                .iter()
+                .all(|q| q.frustum.positive == positive)
+                .then_some(RandomGroup {
+                    origin,
+                    aim,
+                    spread,
+                    packets,
+                })
+        }
+    }
+
     fn walk_together<const N: usize>(prepared: &Prepared, rng: &mut Rng) {
         struct Walk<'a, const N: usize> {
             p: &'a Prepared<'a>,
@@ -789,25 +824,12 @@ mod tests {
         }
         let (mut groups, mut hits, mut walks) = (0, 0, [0, 0]);
         while groups < 1200 / N {
-            let origin = rng.vec(-3.0, 3.0);
-            let aim = (rng.vec(-0.8, 0.8) - origin).normalize();
-            let spread = 0.002 + 0.05 * rng.next_f32();
-            let dirs: Vec<Vec3> = (0..N * PACKET)
-                .map(|_| (aim + rng.vec(-spread, spread)).normalize())
-                .collect();
-            let Some(packets) = dirs
-                .chunks(PACKET)
-                .map(|d| Packet::new(origin, d, f32::INFINITY))
-                .collect::<Option<Vec<_>>>()
+            let Some(RandomGroup {
+                origin, aim, packets, ..
+            }) = RandomGroup::new(rng, N, f32::INFINITY)
             else {
                 continue;
             };
-            if packets
-                .iter()
-                .any(|q| q.frustum.positive != packets[0].frustum.positive)
-            {
-                continue;
-            }
             groups += 1;
             for any_hit in [false, true] {
                 for isa in Isa::available() {
@@ -873,25 +895,15 @@ mod tests {
         let mut rng = Rng(31);
         let (mut apart, mut reached, mut total) = (0, 0, 0);
         for _ in 0..200 {
-            let origin = rng.vec(-3.0, 3.0);
-            let aim = (rng.vec(-0.8, 0.8) - origin).normalize();
-            let spread = 0.002 + 0.05 * rng.next_f32();
-            let dirs: Vec<Vec3> = (0..16 * PACKET)
-                .map(|_| (aim + rng.vec(-spread, spread)).normalize())
-                .collect();
-            let Some(packets) = dirs
-                .chunks(PACKET)
-                .map(|d| Packet::new(origin, d, 20.0))
-                .collect::<Option<Vec<_>>>()
+            let Some(RandomGroup {
+                origin,
+                aim,
+                spread,
+                packets,
+            }) = RandomGroup::new(&mut rng, 16, 20.0)
             else {
                 continue;
             };
-            if packets
-                .iter()
-                .any(|q| q.frustum.positive != packets[0].frustum.positive)
-            {
-                continue;
-            }
             // Cells along the group's way, of sizes from a tenth of its
             // spread to all of it.
             let cells: Vec<Aabb> = (0..40)
