@@ -7,7 +7,7 @@
 //! * `entry_point`: the entry-point search with its stopping rules (4.1);
 //! * `packet`: 4x4 packets and the interval traversal (4.3);
 //! * `tiles`: tile splitting for primary rays, shadow rays (4.2, 6);
-//! * `squares`: a final tile's packets walked four at a time;
+//! * `squares`: a final tile's packets walked sixteen (or four) at a time;
 //! * `ao`: AO ray groups through the same machinery;
 //! * `runner`: a camera's image by single rays, packets or MLRTA, with
 //!   shadows and anti-aliasing, on any device (`penumbra trace`).

@@ -236,6 +236,18 @@ fn magnitude<V: Lanes>(x: V) -> V {
     x.max(V::splat(0.0).sub(x))
 }
 
+/// `frustum::down` per lane: `x - |x| SLACK`.
+#[inline(always)]
+fn down_lanes<V: Lanes>(x: V) -> V {
+    x.sub(magnitude(x).mul(V::splat(crate::mlrta::frustum::SLACK)))
+}
+
+/// `frustum::up` per lane: `x + |x| SLACK`.
+#[inline(always)]
+fn up_lanes<V: Lanes>(x: V) -> V {
+    x.add(magnitude(x).mul(V::splat(crate::mlrta::frustum::SLACK)))
+}
+
 /// Active lanes above which a triangle is tested in all sixteen lanes at
 /// once rather than lane by lane. 1 (was 2) since the packets' set-up moved
 /// into the kernel: 1024x1024 primary rays, one thread, best of 2-3
@@ -252,7 +264,6 @@ struct PacketLanes<V: Lanes> {
     sy: V,
     sz: V,
     k0: [usize; 3],
-    slack: V,
 }
 
 impl<V: Lanes> PacketLanes<V> {
@@ -271,20 +282,7 @@ impl<V: Lanes> PacketLanes<V> {
             sy: V::from_array(p.sy),
             sz: V::from_array(p.sz),
             k0: [kx as usize, ky as usize, kz as usize],
-            slack: V::splat(crate::mlrta::frustum::SLACK),
         }
-    }
-
-    /// `frustum::down` per lane: `x - |x| SLACK`.
-    #[inline(always)]
-    fn down(&self, x: V) -> V {
-        x.sub(x.max(V::splat(0.0).sub(x)).mul(self.slack))
-    }
-
-    /// `frustum::up` per lane.
-    #[inline(always)]
-    fn up(&self, x: V) -> V {
-        x.add(x.max(V::splat(0.0).sub(x)).mul(self.slack))
     }
 
     /// Every lane's interval `(near, far)` in `cell`, clamped to
@@ -481,7 +479,7 @@ pub(crate) fn trace_packets_lanes<V: Lanes, const N: usize>(
         let lanes = PacketLanes::<V>::new(packet);
         let (near, far) = lanes.slabs(packet, &entry.cell, V::splat(f.t_max));
         // NaN bounds (a degenerate lane) count as a miss.
-        let inside = lanes.down(near).le(lanes.up(far)).bits();
+        let inside = down_lanes(near).le(up_lanes(far)).bits();
         let used = u16::MAX >> (PACKET - packet.len);
         done[j] = !(inside & used);
     }
@@ -676,10 +674,7 @@ impl<V: Lanes> PacketFrusta<V> {
             near = near.max(enters);
             far = far.min(exits);
         }
-        let slack = V::splat(crate::mlrta::frustum::SLACK);
-        let down = near.sub(magnitude(near).mul(slack));
-        let up = far.add(magnitude(far).mul(slack));
-        down.gt(up).bits()
+        down_lanes(near).gt(up_lanes(far)).bits()
     }
 }
 
@@ -702,7 +697,7 @@ fn leaf_lanes<V: Lanes>(packet: &Packet, cell: &Aabb, best_t: &[f32; PACKET], do
     let lanes = PacketLanes::<V>::new(packet);
     let bt = V::from_array(*best_t);
     let (near, far) = lanes.slabs(packet, cell, bt);
-    let reaches = lanes.down(near).le(lanes.up(far));
+    let reaches = down_lanes(near).le(up_lanes(far));
     bt.ge(V::splat(entry_limit))
         .and(reaches)
         .and(V::M::from_bits(!done))
