@@ -16,7 +16,7 @@ use penumbra::kdtree::{KdTree, KdTreeParams};
 use penumbra::mlrta::ao::visibility_mlrta;
 use penumbra::mlrta::entry_point::EntryPoint;
 use penumbra::mlrta::tiles::{DEFAULT_MIN_TILE, Group, trace_group};
-use penumbra::mlrta::{MlrtaParams, Prepared, trace_image};
+use penumbra::mlrta::{ImageBuffers, MlrtaParams, Prepared, trace_image, trace_image_into};
 use penumbra::progress::Progress;
 use penumbra::ray::Hit;
 use penumbra::scene::procedural::all_scenes;
@@ -151,6 +151,61 @@ fn primary_and_shadow_rays_equal_single_rays_on_procedural_scenes() {
             &KdTreeParams::for_cpu(),
         );
     }
+}
+
+/// A frame traced into the buffers of another (another view, size and
+/// light) is the frame traced into fresh ones, pixel for pixel: every pixel
+/// the new frame's tiles cull, or whose shadow ray it does not cast, is
+/// cleared of the old frame's hit and flag.
+#[test]
+fn frames_traced_into_kept_buffers_equal_fresh_ones() {
+    let (name, mesh) = all_scenes().swap_remove(0);
+    let tree = KdTree::build(&mesh, &KdTreeParams::for_cpu()).unwrap();
+    let (prepared, _) = Prepared::new(&tree, &mesh);
+    let b = mesh.bounds();
+    let light = b.center() + Vec3::new(-0.4, 1.0, 0.3).normalize() * b.diagonal();
+    let near = Camera::default_for(&b);
+    // Farther away: the mesh covers a small part of the image, so most of
+    // the first frame's hits lie in tiles this one culls.
+    let far = Camera {
+        eye: near.target + (near.eye - near.target) * 3.0,
+        ..near
+    };
+    let p = MlrtaParams {
+        corner_frusta: true,
+        ..MlrtaParams::default()
+    };
+    let first = trace_image(&prepared, &near.primary_rays(160, 160), 160, 160, &p, Some(light)).unwrap();
+    let first_hits = first.hits.iter().filter(|h| h.is_hit()).count();
+    let first_shadowed = first.shadowed.as_ref().unwrap().iter().filter(|&&s| s).count();
+    let mut buffers = first.into_buffers();
+    for (size, light) in [(128, Some(light)), (128, None), (192, Some(light))] {
+        let rays = far.primary_rays(size, size);
+        let fresh = trace_image(&prepared, &rays, size, size, &p, light).unwrap();
+        let kept = trace_image_into(&prepared, &rays, size, size, &p, light, buffers).unwrap();
+        let hits = fresh.hits.iter().filter(|h| h.is_hit()).count();
+        println!(
+            "{name} {size}^2, light {}: {hits} hits (first frame {first_hits}, {first_shadowed} shadowed)",
+            light.is_some()
+        );
+        assert!(0 < hits && hits < first_hits, "the frames must differ");
+        assert_eq!(kept.hits.len(), fresh.hits.len());
+        let same = |a: &Hit, b: &Hit| a.t.to_bits() == b.t.to_bits() && a.triangle == b.triangle;
+        let differ = kept.hits.iter().zip(&fresh.hits).filter(|(a, b)| !same(a, b)).count();
+        assert_eq!(differ, 0, "{size}^2: {differ} hits differ from a fresh frame's");
+        assert_eq!(kept.shadowed, fresh.shadowed, "{size}^2: shadow flags differ");
+        buffers = kept.into_buffers();
+    }
+    let blank = trace_image_into(
+        &prepared,
+        &far.primary_rays(64, 64),
+        64,
+        64,
+        &p,
+        None,
+        ImageBuffers::new(64 * 64, true),
+    );
+    assert!(blank.unwrap().shadowed.is_none(), "no light, no shadow flags");
 }
 
 #[test]

@@ -13,7 +13,7 @@ use super::aa::{self, AaMode};
 use super::gpu::PacketBatches;
 use super::packet::MlrtaCounts;
 use super::prepared::{Prepared, PreparedStats};
-use super::tiles::{ImageTrace, MlrtaParams, SHADOW_EPSILON, TileReport, trace_image};
+use super::tiles::{ImageBuffers, ImageTrace, MlrtaParams, SHADOW_EPSILON, TileReport, trace_image_into};
 use crate::aabb::Aabb;
 use crate::bvh::packet::PacketCounts;
 use crate::device::{Device, GpuOutput, Timing, elapsed_ms};
@@ -393,6 +393,9 @@ fn packet_image(
     let (prepared, prepared_stats) = Prepared::new(tree, mesh);
     let prepare_ms = elapsed_ms(prepare);
     let mut gpu = device.prepare(|ctx| Ok((GpuKdTree::upload(&ctx.device, tree)?, PacketBatches::new(ctx))))?;
+    // The CPU path traces into storage made before the clock starts, as
+    // a host's next frame would (`ImageBuffers`).
+    let buffers = (!device.is_gpu()).then(|| ImageBuffers::new(rays.len(), light.is_some()));
     let (mut cpu_ms, mut wall_ms) = (None, None);
     let traced = gpu.run(
         |ctx, (gpu_tree, batches)| {
@@ -403,7 +406,7 @@ fn packet_image(
                 gpu_ms: t.gpu_ms,
             })
         },
-        || trace_image(&prepared, rays, w, h, params, light),
+        || trace_image_into(&prepared, rays, w, h, params, light, buffers.unwrap_or_default()),
     )?;
     let ImageTrace {
         hits,
