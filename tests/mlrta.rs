@@ -14,7 +14,8 @@ use penumbra::ao::points::vertex_points;
 use penumbra::ao::raycast::ao_rays;
 use penumbra::kdtree::{KdTree, KdTreeParams};
 use penumbra::mlrta::ao::visibility_mlrta;
-use penumbra::mlrta::entry_point::EntryPoint;
+use penumbra::mlrta::entry_point::{EntryPoint, entry_point};
+use penumbra::mlrta::frustum::Frustum;
 use penumbra::mlrta::tiles::{DEFAULT_MIN_TILE, Group, trace_group};
 use penumbra::mlrta::{ImageBuffers, MlrtaParams, Prepared, trace_image, trace_image_into};
 use penumbra::progress::Progress;
@@ -73,14 +74,25 @@ fn compare_image(name: &str, mesh: &Mesh, camera: &Camera, size: u32, params: Ml
         .collect();
     let b = mesh.bounds();
     let light = b.center() + Vec3::new(-0.4, 1.0, 0.3).normalize() * b.diagonal();
-    for (entry_points, corner_frusta) in [(false, false), (true, false), (true, true)] {
+    // Entry-point searches to the end (budget 0, the paper's), cut short
+    // after one node of a far subtree, and the default.
+    let budget = params.ep_budget;
+    for (entry_points, corner_frusta, ep_budget) in [
+        (false, false, budget),
+        (true, false, 0),
+        (true, false, budget),
+        (true, true, 1),
+        (true, true, budget),
+    ] {
         let p = MlrtaParams {
             entry_points,
             corner_frusta,
+            ep_budget,
             ..params.clone()
         };
         let traced = trace_image(&prepared, &rays, size, size, &p, Some(light)).unwrap();
-        let label = format!("{name} primary, entry points {entry_points}, corner frusta {corner_frusta}");
+        let label =
+            format!("{name} primary, entry points {entry_points}, corner frusta {corner_frusta}, budget {ep_budget}");
         check(&label, &agreement(&traced.hits, &single));
         // Shadows against single any-hit rays from the light to the points.
         let shadowed = traced.shadowed.unwrap();
@@ -206,6 +218,58 @@ fn frames_traced_into_kept_buffers_equal_fresh_ones() {
         ImageBuffers::new(64 * 64, true),
     );
     assert!(blank.unwrap().shadowed.is_none(), "no light, no shadow flags");
+}
+
+/// A budget on the entry-point search's far subtrees only moves entry
+/// points up: each tile's entry point with a budget is the exhaustive
+/// search's or one of its ancestors (so its subtree holds every leaf the
+/// tile's rays may reach); and on a mesh of thousands of triangles the
+/// budget saves steps. (A tile's search may take more steps with a budget:
+/// an occluder that ended the exhaustive search may lie beyond the cut.)
+#[test]
+fn a_search_budget_moves_entry_points_up_only() {
+    let mut scenes: Vec<(String, Mesh)> = all_scenes().into_iter().map(|(n, m)| (n.to_string(), m)).collect();
+    if let Some(path) = data_model("stanford-bunny.obj") {
+        scenes.push(("stanford-bunny".into(), load_obj(&path).unwrap()));
+    }
+    for (name, mesh) in scenes {
+        let tree = KdTree::build(&mesh, &KdTreeParams::for_cpu()).unwrap();
+        let (p, _) = Prepared::new(&tree, &mesh);
+        let camera = Camera::default_for(&mesh.bounds());
+        let inside = p.inside_object(camera.eye);
+        let (size, tile) = (256u32, 16u32);
+        let (mut searches, mut moved, mut steps_all, mut steps_cut) = (0, 0, 0u64, 0u64);
+        for ty in (0..size).step_by(tile as usize) {
+            for tx in (0..size).step_by(tile as usize) {
+                let (x0, y0, x1, y1) = (tx as f32, ty as f32, (tx + tile) as f32, (ty + tile) as f32);
+                let corners = [(x0, y0), (x1, y0), (x0, y1), (x1, y1)].map(|(x, y)| camera.direction(size, size, x, y));
+                let Some(f) = Frustum::from_corners(camera.eye, corners, f32::INFINITY) else {
+                    continue;
+                };
+                let root = (0, tree.bounds);
+                let (mut all, mut cut) = (0u64, 0u64);
+                let exhaustive = entry_point(&p, &f, root, inside, 0, &mut all);
+                let budgeted = entry_point(&p, &f, root, inside, 1, &mut cut);
+                steps_all += all;
+                steps_cut += cut;
+                let (Some(e), Some(b)) = (exhaustive, budgeted) else {
+                    assert_eq!(exhaustive.is_some(), budgeted.is_some(), "{name} tile {tx},{ty}");
+                    continue;
+                };
+                searches += 1;
+                moved += (b.node != e.node) as usize;
+                let holds = b.node <= e.node && e.node < b.node + p.subtree_size(b.node);
+                assert!(holds, "{name} tile {tx},{ty}: entry {} is not above {}", b.node, e.node);
+            }
+        }
+        println!("{name}: {searches} searches, {moved} entry points moved up, steps {steps_all} -> {steps_cut}");
+        if mesh.triangles.len() > 10_000 {
+            assert!(
+                2 * steps_cut < steps_all + steps_all / 2,
+                "{name}: the budget saved too few steps"
+            );
+        }
+    }
 }
 
 #[test]

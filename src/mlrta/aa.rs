@@ -107,7 +107,9 @@ fn footprint_is_simple(
         return false;
     };
     let mut steps = 0;
-    match entry_point(p, &footprint, (0, p.tree.bounds), origin_inside, &mut steps) {
+    // The exhaustive search (budget 0): a budget would stop some searches
+    // above a planar leaf, and more footprints would count as complex.
+    match entry_point(p, &footprint, (0, p.tree.bounds), origin_inside, 0, &mut steps) {
         None => true,
         Some(e) => e.covered && is_planar_leaf(p, e.node),
     }

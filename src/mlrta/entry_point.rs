@@ -10,7 +10,11 @@
 //! 2. then each bifurcation node is taken from the stack and its far subtree
 //!    searched for another leaf with potential intersections; if there is
 //!    one, that node becomes the candidate and the rest of its subtree is
-//!    abandoned (it cannot move the entry point lower);
+//!    abandoned (it cannot move the entry point lower). A search that has
+//!    visited `far_budget` nodes of a far subtree without an answer counts
+//!    it as having one (`MlrtaParams::ep_budget`): the entry point can
+//!    only move up, to a node whose subtree holds every leaf the exhaustive
+//!    search would allow for;
 //! 3. the search ends, returning the candidate, when the stack is empty or
 //!    when every ray of the group must end in the current leaf (stopping rule
 //!    (4)): a covered plane all rays cross, or an empty leaf inside a closed
@@ -157,12 +161,15 @@ fn classify_leaf(p: &Prepared, f: &Frustum, i: u32, cell: &Aabb, origin_inside: 
 /// Searches the entry point of the group `f`, starting at `start` (the root,
 /// or the entry point of an enclosing tile). `origin_inside` is the closed
 /// object containing the group's origin, if any (its empty occluders do not
-/// apply). Counts visited nodes in `steps`. `None`: the group can hit nothing.
+/// apply). A far subtree is searched for at most `far_budget` nodes (0: to
+/// the end, as the paper). Counts visited nodes in `steps`. `None`: the
+/// group can hit nothing.
 pub fn entry_point(
     p: &Prepared,
     f: &Frustum,
     start: (u32, Aabb),
     origin_inside: Option<u32>,
+    far_budget: u32,
     steps: &mut u64,
 ) -> Option<EntryPoint> {
     if !f.may_hit_box(&start.1) {
@@ -248,7 +255,14 @@ pub fn entry_point(
         }
         local.clear();
         local.push(far);
+        let mut budget = if far_budget == 0 { u32::MAX } else { far_budget };
         while let Some((i, cell)) = local.pop() {
+            if budget == 0 {
+                // Not known within the budget: as if it had potential hits.
+                candidate = node;
+                continue 'bifurcations;
+            }
+            budget -= 1;
             *steps += 1;
             if p.tree.nodes[i as usize].is_leaf() {
                 match classify_leaf(p, &f, i, &cell, origin_inside) {

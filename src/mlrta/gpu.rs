@@ -25,8 +25,8 @@ use crate::mlrta::frustum::sign_class;
 use crate::mlrta::packet::{MlrtaCounts, PACKET, Packet};
 use crate::mlrta::prepared::Prepared;
 use crate::mlrta::tiles::{
-    Ctx, ImageTrace, MlrtaParams, Rect, SHADOW_EPSILON, ShadowRays, TileOut, TileSummary, block_rects, pixels,
-    search_below, shadow_tile_entry, split_tiles, stray_origin,
+    Ctx, DEFAULT_EP_BUDGET, ImageTrace, MlrtaParams, Rect, SHADOW_EPSILON, ShadowRays, TileOut, TileSummary,
+    block_rects, pixels, search_below, shadow_tile_entry, split_tiles, stray_origin,
 };
 use crate::progress::Progress;
 use crate::ray::{Hit, Ray};
@@ -200,7 +200,7 @@ impl Batch {
                 None => Some(*start),
                 Some(inside) => {
                     counts.ep_searches += 1;
-                    search_below(p, f, start, inside, &mut counts.ep_steps)
+                    search_below(p, f, start, inside, DEFAULT_EP_BUDGET, &mut counts.ep_steps)
                 }
             };
             let Some(entry) = entry else { continue };

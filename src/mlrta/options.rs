@@ -5,7 +5,7 @@ use clap::Args;
 use super::MlrtaParams;
 use super::aa::AaMode;
 use super::runner::{AaRequest, ShadowLight, TraceRequest};
-use super::tiles::DEFAULT_MIN_TILE;
+use super::tiles::{DEFAULT_EP_BUDGET, DEFAULT_MIN_TILE};
 use crate::error::Result;
 use crate::options::{Applies, OnOff, applies};
 use crate::scene::View;
@@ -37,6 +37,11 @@ pub struct TraceOptions {
     /// Pieces a tile is split into (SF): 4, 16, 64...
     #[arg(long, default_value_t = 16, allow_negative_numbers = true)]
     pub split_factor: u32,
+    /// Nodes the entry-point search visits in a far subtree before it
+    /// counts it as one with potential hits (the entry point moves up); 0
+    /// searches every far subtree to the end, as the paper.
+    #[arg(long, default_value_t = DEFAULT_EP_BUDGET)]
+    pub ep_budget: u32,
     /// Point light "X,Y,Z": adds a shadow ray per hit (Table 3's statistics).
     #[arg(long, value_parser = crate::scene::frame::parse_point, allow_hyphen_values = true)]
     pub light: Option<glam::DVec3>,
@@ -59,7 +64,7 @@ pub struct TraceOptions {
 impl TraceOptions {
     /// Tile knobs apply to packets, anti-aliasing knobs to --aa.
     pub fn applies(&self) -> Vec<Applies> {
-        let mlrta = &["mlrta", "tile", "min_tile", "split_factor", "aa"];
+        let mlrta = &["mlrta", "tile", "min_tile", "split_factor", "ep_budget", "aa"];
         let aa = &["aa_samples", "reference"];
         let needs = "MLRTA packets (without --single-ray or --accel bvh)";
         vec![
@@ -88,6 +93,7 @@ impl TraceOptions {
                 split_factor: self.split_factor,
                 // The rays are the camera's.
                 corner_frusta: true,
+                ep_budget: self.ep_budget,
             },
             light: match (self.light, self.shadows.is_some_and(OnOff::on)) {
                 (Some(p), _) => ShadowLight::At(p),

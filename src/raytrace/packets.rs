@@ -17,7 +17,7 @@ use crate::error::Result;
 use crate::mlrta::entry_point::EntryPoint;
 use crate::mlrta::frustum::Frustum;
 use crate::mlrta::packet::PACKET;
-use crate::mlrta::tiles::{Group, Rect, block_rects, pixels, search_below, trace_group};
+use crate::mlrta::tiles::{DEFAULT_EP_BUDGET, Group, Rect, block_rects, pixels, search_below, trace_group};
 use crate::mlrta::{MlrtaCounts, MlrtaParams, Prepared, trace_image};
 use crate::ray::{Hit, Ray};
 use crate::raytrace::lights::DIRECTIONAL;
@@ -148,6 +148,7 @@ fn shade_tile(
                 &frustum,
                 &EntryPoint::root(prepared),
                 lights_inside[j],
+                DEFAULT_EP_BUDGET,
                 &mut counts.ep_steps,
             );
             for block in block_rects(rect) {

@@ -1,5 +1,5 @@
 //! `sweep trace`: the MLRTA paper's knobs (entry points, tile sizes, split
-//! factor), which change speed only: the error is the fraction of pixels
+//! factor, the entry-point search's budget), which change speed only: the error is the fraction of pixels
 //! whose closest hit differs from single-ray traversal, and must be 0.
 
 use serde_json::{Value, json};
@@ -10,7 +10,7 @@ use crate::error::Result;
 use crate::mlrta::MlrtaParams;
 use crate::mlrta::aa::AaMode;
 use crate::mlrta::runner::{AaRequest, ShadowLight, TraceRequest, trace_view};
-use crate::mlrta::tiles::DEFAULT_MIN_TILE;
+use crate::mlrta::tiles::{DEFAULT_EP_BUDGET, DEFAULT_MIN_TILE};
 use crate::progress::Bars;
 use crate::ray::Hit;
 use crate::scene::{Mesh, View};
@@ -40,6 +40,11 @@ const KNOBS: &[Knob] = &[
     Knob {
         name: "split-factor",
         help: "pieces a tile is split into",
+        default_grid: &[],
+    },
+    Knob {
+        name: "ep-budget",
+        help: "nodes the entry-point search visits in a far subtree (0: all)",
         default_grid: &[],
     },
 ];
@@ -76,6 +81,7 @@ impl TraceSweep {
                 min_tile: s.get("min-tile")?.unwrap_or(DEFAULT_MIN_TILE.min(tile)),
                 split_factor: s.get("split-factor")?.unwrap_or(16),
                 corner_frusta: true,
+                ep_budget: s.get("ep-budget")?.unwrap_or(DEFAULT_EP_BUDGET),
             },
             light: ShadowLight::None,
             aa: AaRequest {
