@@ -50,6 +50,38 @@ pub unsafe trait Lanes: Copy {
     fn ne(self, o: Self) -> Self::M;
     /// `m ? a : b` per lane.
     fn select(m: Self::M, a: Self, b: Self) -> Self;
+    /// Whether `compress` and `expand` are single instructions (else lane
+    /// by lane: correct, but too slow to pay for themselves).
+    const FAST_COMPRESS: bool = false;
+    /// The lanes of `m`, in order, moved to the lowest lanes (zeros above).
+    #[inline(always)]
+    fn compress(self, m: Self::M) -> Self {
+        let (a, bits) = (self.to_array(), m.bits());
+        let mut out = [0.0f32; 16];
+        let mut n = 0;
+        for (r, &x) in a.iter().enumerate() {
+            if bits & (1 << r) != 0 {
+                out[n] = x;
+                n += 1;
+            }
+        }
+        Self::from_array(out)
+    }
+    /// The lowest lanes, in order, spread to the lanes of `m`; `src`'s lanes
+    /// elsewhere (the inverse of `compress`).
+    #[inline(always)]
+    fn expand(self, m: Self::M, src: Self) -> Self {
+        let (a, bits) = (self.to_array(), m.bits());
+        let mut out = src.to_array();
+        let mut n = 0;
+        for (r, x) in out.iter_mut().enumerate() {
+            if bits & (1 << r) != 0 {
+                *x = a[n];
+                n += 1;
+            }
+        }
+        Self::from_array(out)
+    }
     /// The smallest lane (lanes not NaN; either zero where both signs are
     /// there, as `min`).
     #[inline(always)]

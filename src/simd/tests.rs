@@ -11,6 +11,8 @@ fn ops<V: Lanes>(a: [f32; 16], b: [f32; 16], m: u16) -> Vec<u32> {
         x.mul(y),
         x.div(y),
         V::select(V::M::from_bits(m), x, y),
+        x.compress(V::M::from_bits(m)),
+        x.expand(V::M::from_bits(m), y),
     ] {
         out.extend(v.to_array().map(f32::to_bits));
     }
@@ -100,6 +102,21 @@ fn every_isa_computes_what_scalar_code_does() {
             );
         }
     }
+}
+
+/// `compress` and `expand` as defined (the scalar lanes' default, which
+/// the other sets are compared with above).
+#[test]
+fn compress_packs_and_expand_spreads_in_order() {
+    let x = Scalar16::from_array(std::array::from_fn(|i| i as f32));
+    let packed = x.compress(0b1000_0000_0001_0110).to_array();
+    assert_eq!(packed[..5], [1.0, 2.0, 4.0, 15.0, 0.0]);
+    let back = Scalar16::from_array(packed).expand(0b1000_0000_0001_0110, Scalar16::splat(-1.0));
+    let mut expect = [-1.0f32; 16];
+    for r in [1, 2, 4, 15] {
+        expect[r] = r as f32;
+    }
+    assert_eq!(back.to_array(), expect);
 }
 
 #[test]

@@ -96,6 +96,17 @@ unsafe impl Lanes for Avx512 {
     cmp512!(ge, _CMP_GE_OQ);
     cmp512!(eq, _CMP_EQ_OQ);
     cmp512!(ne, _CMP_NEQ_UQ);
+    const FAST_COMPRESS: bool = true;
+    #[inline(always)]
+    fn compress(self, m: K16) -> Self {
+        // SAFETY: see the trait's contract.
+        Avx512(unsafe { _mm512_maskz_compress_ps(m.0, self.0) })
+    }
+    #[inline(always)]
+    fn expand(self, m: K16, src: Self) -> Self {
+        // SAFETY: see the trait's contract.
+        Avx512(unsafe { _mm512_mask_expand_ps(src.0, m.0, self.0) })
+    }
     #[inline(always)]
     fn select(m: K16, a: Self, b: Self) -> Self {
         // The blend takes its second operand where the mask bit is set.
