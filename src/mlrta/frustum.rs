@@ -172,7 +172,16 @@ impl FrustumBounds {
             origin,
             positive: [class & 1 == 0, class & 2 == 0, class & 4 == 0],
             inv: std::array::from_fn(|a| interval(self.inv_lo[a], self.inv_hi[a])),
-            slope: std::array::from_fn(|a| std::array::from_fn(|b| interval(self.slope_lo[a][b], self.slope_hi[a][b]))),
+            // `d_a / d_a` is 1 (and unused): not reduced (`Packet::new_in`).
+            slope: std::array::from_fn(|a| {
+                std::array::from_fn(|b| {
+                    if a == b {
+                        Interval { lo: 1.0, hi: 1.0 }
+                    } else {
+                        interval(self.slope_lo[a][b], self.slope_hi[a][b])
+                    }
+                })
+            }),
             t_max,
         })
     }
@@ -186,7 +195,8 @@ pub struct Frustum {
     pub positive: [bool; 3],
     /// Per axis, the interval of `1 / d_a` (widened).
     pub inv: [Interval; 3],
-    /// `slope[a][b]`: the interval of `d_b / d_a` (widened); unused for a = b.
+    /// `slope[a][b]`: the interval of `d_b / d_a` (widened); exactly 1 for
+    /// a = b, where it is unused.
     pub slope: [[Interval; 3]; 3],
     /// Rays end at `t_max` (in units of their directions).
     pub t_max: f32,

@@ -160,7 +160,8 @@ impl Packet {
         for a in 0..3 {
             extremes[0][a] = iv[a].min_lane();
             extremes[1][a] = iv[a].max_lane();
-            for b in 0..3 {
+            // Not `b == a`: that slope is 1 (`FrustumBounds::finish`).
+            for b in [(a + 1) % 3, (a + 2) % 3] {
                 let s = dv[b].mul(iv[a]);
                 slope_lo[a][b] = s.min_lane();
                 slope_hi[a][b] = s.max_lane();
@@ -853,7 +854,7 @@ struct LanePool {
 
 /// Groups a leaf's lanes are packed into at most (more lanes are tested
 /// packet by packet).
-const POOL_GROUPS: usize = 4;
+const POOL_GROUPS: usize = 8;
 /// Lanes of the pool, with room for the last packet's whole vector.
 const POOL_LANES: usize = (POOL_GROUPS + 1) * PACKET;
 
