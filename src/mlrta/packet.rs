@@ -257,14 +257,10 @@ fn up_lanes<V: Lanes>(x: V) -> V {
 /// 84.7 in the scalar lanes (noise); 4 was slower (53.8 ms).
 const LANE_BY_LANE: u32 = 1;
 
-/// The packet's per-lane constants as vectors of lanes `V`, made once per
-/// packet: the leaves' slab tests and triangle tests run on them.
+/// The packet's `1 / d` as vectors of lanes `V`, for the lanes' own slab
+/// tests at cells.
 struct PacketLanes<V: Lanes> {
     inv: [V; 3],
-    sx: V,
-    sy: V,
-    sz: V,
-    k0: [usize; 3],
 }
 
 impl<V: Lanes> PacketLanes<V> {
@@ -272,17 +268,12 @@ impl<V: Lanes> PacketLanes<V> {
     fn new(p: &Packet) -> Self {
         // No `array::map`: generic library code, compiled outside the
         // dispatched kernel (this runs at every leaf a packet reaches).
-        let [kx, ky, kz] = p.k[0];
         PacketLanes {
             inv: [
                 V::from_array(p.inv[0]),
                 V::from_array(p.inv[1]),
                 V::from_array(p.inv[2]),
             ],
-            sx: V::from_array(p.sx),
-            sy: V::from_array(p.sy),
-            sz: V::from_array(p.sz),
-            k0: [kx as usize, ky as usize, kz as usize],
         }
     }
 
@@ -303,6 +294,30 @@ impl<V: Lanes> PacketLanes<V> {
             far = V::select(f.lt(far), f, far);
         }
         (near, far)
+    }
+}
+
+/// Lanes' shear constants (`ShearedRay`'s) as vectors of lanes `V`, lanes
+/// that share their shear axes `k0`: a packet's (`common_axes`) or a pool
+/// of several packets' open lanes (`LanePool`). The triangle tests run on
+/// them.
+struct ShearLanes<V: Lanes> {
+    sx: V,
+    sy: V,
+    sz: V,
+    k0: [usize; 3],
+}
+
+impl<V: Lanes> ShearLanes<V> {
+    #[inline(always)]
+    fn new(p: &Packet) -> Self {
+        let [kx, ky, kz] = p.k[0];
+        ShearLanes {
+            sx: V::from_array(p.sx),
+            sy: V::from_array(p.sy),
+            sz: V::from_array(p.sz),
+            k0: [kx as usize, ky as usize, kz as usize],
+        }
     }
 
     /// `Packet::test_common` in the lanes: the lanes of `active` that hit
@@ -778,7 +793,7 @@ fn test_leaf<V: Lanes>(
     // Few active lanes: testing them one by one beats running all sixteen
     // side by side.
     if packet.common_axes && active.count_ones() > LANE_BY_LANE {
-        let lanes = PacketLanes::<V>::new(packet);
+        let lanes = ShearLanes::<V>::new(packet);
         return test_lanes(&lanes, leaf, active, frame, best_t, best_tri, any_hit);
     }
     for (&[v0, v1, v2], &tri) in leaf.verts.iter().zip(leaf.tris) {
@@ -806,7 +821,7 @@ fn test_leaf<V: Lanes>(
 /// `test_leaf` for lanes that share their shear axes (`lanes`).
 #[inline(always)]
 fn test_lanes<V: Lanes>(
-    lanes: &PacketLanes<V>,
+    lanes: &ShearLanes<V>,
     leaf: &LeafTriangles,
     mut active: u16,
     frame: &Frame,
@@ -945,8 +960,7 @@ impl LanePool {
     fn test<V: Lanes>(&mut self, leaf: &LeafTriangles, frame: &Frame) {
         for g in 0..self.groups {
             let at = g * PACKET;
-            let lanes = PacketLanes::<V> {
-                inv: [V::splat(0.0); 3],
+            let lanes = ShearLanes::<V> {
                 sx: load_at(&self.sx, at),
                 sy: load_at(&self.sy, at),
                 sz: load_at(&self.sz, at),
