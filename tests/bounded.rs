@@ -202,6 +202,11 @@ fn occluder_scene() -> Scene {
 /// A scene file `json` whose mesh "floor" is a 12 x 12 square at y = 0,
 /// written to a temporary folder and read back.
 fn scene_over_floor(name: &str, json: &str) -> Scene {
+    scene_over_floor_with(name, json, &[])
+}
+
+/// `scene_over_floor` with more files beside the scene (name, text).
+fn scene_over_floor_with(name: &str, json: &str, files: &[(&str, &str)]) -> Scene {
     let dir = std::env::temp_dir().join(format!("penumbra-bounded-{name}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(
@@ -209,6 +214,9 @@ fn scene_over_floor(name: &str, json: &str) -> Scene {
         "v -6 0 -6\nv 6 0 -6\nv 6 0 6\nv -6 0 6\nf 1 4 3 2\n",
     )
     .unwrap();
+    for (file, text) in files {
+        std::fs::write(dir.join(file), text).unwrap();
+    }
     std::fs::write(dir.join("scene.json"), json).unwrap();
     let scene = load_scene_shaded(&dir.join("scene.json")).unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
@@ -437,6 +445,104 @@ fn a_textured_sphere_keeps_the_guarantee_over_a_walk() {
         assert!(
             on_ball > 100,
             "epsilon {epsilon}: only {on_ball} textured pixels interpolated"
+        );
+    }
+}
+
+/// A UV sphere of smooth triangles (an OBJ with `vn`) over the floor, lit
+/// by a point light: one smooth patch whose triangles cover a few pixels
+/// each at 320 x 240, as a user's mesh does.
+fn smooth_ball_scene() -> Scene {
+    let (rings, segments) = (24, 48);
+    let mut obj = String::new();
+    for r in 0..=rings {
+        let theta = std::f32::consts::PI * r as f32 / rings as f32;
+        for s in 0..segments {
+            let phi = std::f32::consts::TAU * s as f32 / segments as f32;
+            let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
+            let p = n + Vec3::new(0.0, 1.05, 0.0);
+            obj += &format!("v {} {} {}\nvn {} {} {}\n", p.x, p.y, p.z, n.x, n.y, n.z);
+        }
+    }
+    let at = |r: usize, s: usize| r * segments + s % segments + 1;
+    for r in 0..rings {
+        for s in 0..segments {
+            let (a, b, c, d) = (at(r, s), at(r, s + 1), at(r + 1, s + 1), at(r + 1, s));
+            if r > 0 {
+                obj += &format!("f {a}//{a} {b}//{b} {c}//{c}\n");
+            }
+            if r + 1 < rings {
+                obj += &format!("f {a}//{a} {c}//{c} {d}//{d}\n");
+            }
+        }
+    }
+    let json = r#"{
+        "ambient": [0.05, 0.05, 0.05],
+        "background": [0.3, 0.4, 0.6],
+        "camera": {"eye": [0.3, 2.2, 5.0], "fov": 40, "target": [0.0, 1.0, 0.0]},
+        "meshes": {"floor": "floor.obj", "ball": "ball.obj"},
+        "instances": [{"mesh": "floor", "material": "matte"}, {"mesh": "ball", "material": "clay"}],
+        "lights": [{"point": {"intensity": [60.0, 60.0, 60.0], "position": [3.0, 6.0, 4.0]}}],
+        "materials": {
+            "matte": {"kd": [0.6, 0.6, 0.6], "ka": [0.6, 0.6, 0.6], "illum": 1},
+            "clay": {"kd": [0.7, 0.5, 0.3], "ka": [0.7, 0.5, 0.3], "ks": [0.1, 0.1, 0.1], "ns": 8, "illum": 2}
+        }
+    }"#;
+    scene_over_floor_with("smooth-ball", json, &[("ball.obj", &obj)])
+}
+
+/// Over a smooth mesh, cells interpolate across its triangles (a smooth
+/// patch is one linetree surface), and the bound holds: against exact
+/// Whitted pixel by pixel, and on random lines of every accepted cell.
+/// Also on the shared teapot, where present.
+#[test]
+fn a_smooth_mesh_is_interpolated_across_its_triangles_within_the_bound() {
+    use penumbra::bounded::predicate::RootFace;
+    let mut scenes = vec![("smooth ball".to_string(), smooth_ball_scene())];
+    if let Some(path) = common::data_model("teapot.obj") {
+        let obj = penumbra::scene::load_obj_file(&path).unwrap();
+        let mut scene = Scene::from_obj_file("teapot", &path, obj);
+        scene.camera = Some(Camera {
+            eye: Vec3::new(2.0, 4.5, 7.5),
+            target: Vec3::new(0.2, 1.4, 0.0),
+            fov_degrees: 40.0,
+        });
+        scenes.push(("teapot".into(), scene));
+    }
+    for (name, scene) in scenes {
+        let path = CameraPath::Walk(scene.camera.unwrap());
+        let size = (320, 240);
+        let mut b = bounded(&scene, BoundedSettings::default());
+        let (mut across, mut lines) = (0, 0);
+        for f in 0..3 {
+            let camera = path.at(f, 3);
+            let frame = b.render(&camera, size.0, size.1).unwrap();
+            let e = compare(
+                &frame,
+                &exact(&scene, &camera, size),
+                b.settings.epsilon,
+                b.settings.floor,
+            );
+            assert_eq!(e.violations, 0, "{name} frame {f}: {e:?}");
+            let params = b.whitted.params(&camera, size.0, size.1, &b.settings.whitted).unwrap();
+            let check = b.check(&params, 16, f);
+            assert_eq!(check.violations, 0, "{name} frame {f}: {check:?}");
+            lines += check.lines - check.skipped;
+            assert_no_pixel_crosses_a_tree_change(&name, &b, &frame);
+            across += frame
+                .cells
+                .iter()
+                .filter(|&&c| c != u32::MAX)
+                .filter(|&&c| match &b.trees.cells[c as usize].state {
+                    CellState::Valid(i) => matches!(i.accepted.root, RootFace::Patch(_)) && i.accepted.pieces.len() > 1,
+                    _ => false,
+                })
+                .count();
+        }
+        println!("{name}: {across} pixels interpolated in cells over several triangles, {lines} random lines checked");
+        assert!(
+            across > 500,
+            "{name}: only {across} pixels interpolated across triangles"
         );
     }
 }

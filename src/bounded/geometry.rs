@@ -5,10 +5,12 @@
 //! for the triangles inside a box (the candidates of a shaft).
 
 use std::collections::HashMap;
+use std::sync::Mutex;
 
 use glam::DVec3;
 
 use crate::aabb::Aabb;
+use crate::bounded::patch::{Patch, patches_of};
 use crate::kdtree::KdTree;
 use crate::raytrace::RenderScene;
 use crate::raytrace::scene::{MISS, NO_NORMAL, SMOOTH_FACE};
@@ -68,6 +70,16 @@ pub struct SceneGeometry {
     pub object_bounds: Vec<Aabb>,
     /// Per primitive, its largest coordinate (the renderer's ray offsets).
     pub magnitude: Vec<f64>,
+    /// The smooth patches (`patch`) and each triangle's (`NO_PATCH`).
+    pub patches: Vec<Patch>,
+    pub triangle_patch: Vec<u32>,
+    /// The renderer's own triangles (f32, as its kd-tree holds them): the
+    /// patches' first hits are found on these.
+    render_triangles: Vec<[glam::Vec3; 3]>,
+    /// Per (patch triangle, light): whether every shadow ray from the
+    /// triangle to the light is proven clear (`predicate`'s cull of a
+    /// patch's pieces, the same for every cell).
+    piece_shadows: Mutex<HashMap<(u32, u32), bool>>,
     triangles: usize,
 }
 
@@ -151,7 +163,12 @@ impl SceneGeometry {
         for (t, &p) in triangle_polygon.iter().enumerate() {
             polygon_triangles[p as usize].push(t as u32);
         }
+        let (patches, triangle_patch) = patches_of(scene, &tree.triangles);
         SceneGeometry {
+            patches,
+            triangle_patch,
+            render_triangles: tree.triangles.clone(),
+            piece_shadows: Mutex::new(HashMap::new()),
             triangle_polygon,
             polygon_triangles,
             triangle_vertices: (0..tree.triangles.len()).map(tri).collect(),
@@ -202,15 +219,15 @@ impl SceneGeometry {
                 let (c, r) = self.spheres[p as usize - self.triangles];
                 vec![(c - DVec3::splat(r)).as_vec3(), (c + DVec3::splat(r)).as_vec3()]
             }
+            RootFace::Patch(p) => return self.patches[p as usize].bounds,
         };
         Aabb::from_points(points.iter())
     }
 
-    /// Whether primitive `p` is a sphere.
     /// Where the line `o + t d` first meets the root surface of a linetree
     /// from the front (t > 0): its plane for a polygon or a smooth triangle,
-    /// the sphere's near side. The distance and a primitive to shade with;
-    /// `None` where it misses.
+    /// a smooth patch's first triangle, the sphere's near side. The
+    /// distance and a primitive to shade with; `None` where it misses.
     pub fn root_hit(&self, root: crate::bounded::predicate::RootFace, o: DVec3, d: DVec3) -> Option<(f64, u32)> {
         use crate::bounded::predicate::RootFace;
         let plane = |p: u32| self.plane_distance(p, o, d);
@@ -235,6 +252,13 @@ impl SceneGeometry {
                 let disc = b * b - dd * (oc.length_squared() - r * r);
                 let t = (-b - disc.sqrt()) / dd;
                 (disc >= 0.0 && t > 0.0).then_some((t, primitive))
+            }
+            // The patch's first triangle along the line, found in f32 as
+            // the renderer finds it (`t` per unit of the given `d`).
+            RootFace::Patch(p) => {
+                let len = d.length();
+                let hit = self.patches[p as usize].first_hit(&self.render_triangles, o, d / len);
+                hit.map(|(t, tri)| (t / len, tri))
             }
         }
     }
@@ -276,6 +300,24 @@ impl SceneGeometry {
         -(b1.min(b2).min(1.0 - b1 - b2)).min(0.0)
     }
 
+    /// Whether patch triangle `t`'s shadow rays to light `j` are clear,
+    /// `cull` deciding the first time it is asked.
+    pub fn piece_shadow(&self, t: u32, j: u32, cull: impl FnOnce() -> bool) -> bool {
+        let known = self
+            .piece_shadows
+            .lock()
+            .map(|m| m.get(&(t, j)).copied())
+            .unwrap_or(None);
+        known.unwrap_or_else(|| {
+            let clear = cull();
+            if let Ok(mut m) = self.piece_shadows.lock() {
+                m.insert((t, j), clear);
+            }
+            clear
+        })
+    }
+
+    /// Whether primitive `p` is a sphere.
     pub fn is_sphere(&self, p: u32) -> bool {
         p as usize >= self.triangles
     }

@@ -1,5 +1,6 @@
 //! Linetrees (the bounded-error paper, sections 4.2, 4.3 and 7): per
-//! surface (a flat face, a sphere, a smooth triangle) and face pair a 4D tree over line space, built lazily: a cell is
+//! surface (a flat face, a sphere, a smooth patch of a mesh, a smooth
+//! mirror or glass triangle) and face pair a 4D tree over line space, built lazily: a cell is
 //! built (its 16 extremal rays traced and judged) only when a pixel's ray
 //! falls in it, and split (16 ways, or 4 along the coordinates the bound
 //! blames) only when it fails and covers enough pixels. Extremal rays are
@@ -88,7 +89,14 @@ impl Interpolant {
 
     /// Bytes it holds, for the memory cap.
     fn bytes(&self) -> usize {
-        std::mem::size_of::<Interpolant>() + self.diffuse.as_ref().map_or(0, |_| std::mem::size_of::<[Vec3; 16]>())
+        std::mem::size_of::<Interpolant>()
+            + self.diffuse.as_ref().map_or(0, |_| std::mem::size_of::<[Vec3; 16]>())
+            + std::mem::size_of_val(&*self.accepted.pieces)
+            + self
+                .accepted
+                .hit_points
+                .as_ref()
+                .map_or(0, |q| std::mem::size_of_val(&**q))
     }
 }
 

@@ -95,7 +95,9 @@ impl BoundedRenderer {
                     let (exact, first, texture) = self.trace_line(params, cell.tree, &coords);
                     s.lines += 1;
                     let same = first.is_some_and(|p| {
-                        RootFace::of(self.geometry(), self.whitted.scene(), p) == interp.accepted.root
+                        interp
+                            .accepted
+                            .covers(RootFace::of(self.geometry(), self.whitted.scene(), p), p)
                     });
                     if !same {
                         s.skipped += 1;

@@ -15,6 +15,7 @@ pub mod linespace;
 pub mod linetree;
 pub mod measure;
 pub mod options;
+pub mod patch;
 pub mod predicate;
 pub mod runner;
 pub mod samples;

@@ -22,6 +22,12 @@
 //! - `Tir`: total internal reflection must hold for all rays of the cell
 //!   or none of them, not only at the 16.
 //!
+//! On a smooth patch of a mesh (`patch`), the 16 rays may land on
+//! different triangles: the bound is carried over every triangle around
+//! them (`Predicate::patch_hit`), a pixel is interpolated only when its own
+//! hit lies on one of those (`Accepted::covers`), and each triangle's
+//! shadow rays are culled from the triangle itself.
+//!
 //! Radiance non-linearity (section 5.2), `Nonlinear`: the whole Whitted
 //! shading of the tree (hit points, normals, Phong lobes, 1/d^2, Fresnel
 //! weights, reflected and refracted directions) is evaluated in affine
@@ -42,8 +48,9 @@
 use glam::{DVec3, Vec3};
 
 use crate::bounded::affine::{AVec3, Aff};
-use crate::bounded::geometry::{Polygon, SceneGeometry, Surface};
+use crate::bounded::geometry::{Polygon, SceneGeometry, Surface, triangles_in_box};
 use crate::bounded::linespace::{CellBox, FacePair};
+use crate::bounded::patch::{NO_PATCH, NormalField, barycentric_blend, clip_to_box};
 use crate::bounded::shaft::{End, Exclude, Shafts};
 use crate::raytrace::lights::DIRECTIONAL;
 use crate::raytrace::offset::OFFSET_SCALE;
@@ -95,6 +102,8 @@ pub enum RootFace {
     Triangle(u32),
     /// A sphere (its primitive index).
     Sphere(u32),
+    /// A smooth patch of a mesh (index into `SceneGeometry::patches`).
+    Patch(u32),
 }
 
 impl RootFace {
@@ -104,7 +113,10 @@ impl RootFace {
         }
         match scene.triangles[primitive as usize].normals[0] {
             crate::raytrace::scene::NO_NORMAL => RootFace::Polygon(geometry.triangle_polygon[primitive as usize]),
-            _ => RootFace::Triangle(primitive),
+            _ => match geometry.triangle_patch[primitive as usize] {
+                NO_PATCH => RootFace::Triangle(primitive),
+                patch => RootFace::Patch(patch),
+            },
         }
     }
 }
@@ -117,9 +129,25 @@ pub struct Accepted {
     pub root: RootFace,
     /// The box of the cell's first hits (the shaft of reprojection).
     pub hits: (DVec3, DVec3),
+    /// A reprojectable patch cell's first hits over the cell (plain affine
+    /// forms): its reprojection shaft runs to these points, where the box
+    /// would take in the patch's neighbouring triangles around them.
+    pub hit_points: Option<Box<AVec3>>,
     /// Every ray of the cell hits the root surface (a flat face or a
     /// sphere): its pixels may be assigned by reprojection.
     pub reprojectable: bool,
+    /// On a smooth patch, the triangles the bound holds on (ascending):
+    /// a pixel whose hit lies on another is traced. Empty elsewhere. A
+    /// reprojectable patch cell has one: every line lands in it.
+    pub pieces: Box<[u32]>,
+}
+
+impl Accepted {
+    /// Whether a pixel whose primary hit is `primitive`, on `face`, may be
+    /// interpolated in the cell.
+    pub fn covers(&self, face: RootFace, primitive: u32) -> bool {
+        face == self.root && (self.pieces.is_empty() || self.pieces.binary_search(&primitive).is_ok())
+    }
 }
 
 /// A rejected cell, and which coordinates a 4-way split should halve.
@@ -183,6 +211,34 @@ struct AtHit<'a> {
     lifted: AVec3,
     n_g: AVec3,
     n_s: AVec3,
+    /// On a smooth patch's root, each triangle of the bound with its own
+    /// lifted points (its shadow rays start there); empty elsewhere.
+    pieces: &'a [PieceOrigin],
+}
+
+/// What a hit that is not a patch's puts in the place of a piece: no
+/// plane to exclude behind.
+const NO_PIECE: PieceOrigin = PieceOrigin {
+    triangle: u32::MAX,
+    points: AVec3 {
+        x: Aff::ZERO,
+        y: Aff::ZERO,
+        z: Aff::ZERO,
+    },
+    side: DVec3::ZERO,
+    beyond: f64::INFINITY,
+};
+
+/// Where the shadow rays of a patch's lines that meet one triangle start.
+struct PieceOrigin {
+    triangle: u32,
+    /// The triangle's points (a parallelogram over it, in its plane),
+    /// lifted as the renderer lifts a hit.
+    points: AVec3,
+    /// The triangle's normal on the lines' side, and a plane `side . x =
+    /// beyond` every lifted point lies beyond.
+    side: DVec3,
+    beyond: f64,
 }
 
 struct Hit {
@@ -227,11 +283,12 @@ impl Predicate<'_> {
         if template.nodes.is_empty() || template.nodes[0].hit.is_none() {
             return Err(reject(Failure::Topology));
         }
-        if trees[1..].iter().any(|t| !same_surfaces(template, t)) {
+        if trees[1..].iter().any(|t| !same_surfaces(self.geometry, template, t)) {
             return Err(reject(Failure::Topology));
         }
         let (origin, dir) = cell.family(pair);
-        let walk = self.walk(template, origin, dir).map_err(reject)?;
+        let pieces = self.patch_pieces(&trees).map_err(reject)?;
+        let walk = self.walk(template, origin, dir, pieces.as_ref()).map_err(reject)?;
         let split = if walk.linear_ac >= walk.linear_bd {
             0b0101
         } else {
@@ -284,13 +341,56 @@ impl Predicate<'_> {
             bound,
             root: walk.root,
             hits: walk.hits,
+            hit_points: walk.hit_points.map(Box::new),
             reprojectable: walk.reprojectable,
+            pieces: walk.pieces.into_boxed_slice(),
         })
+    }
+
+    /// Where the trees' root is a smooth patch, the triangles a cell's
+    /// bound is to cover: those the 16 corners hit (required: the corners'
+    /// samples must lie within the bound) and the patch's other triangles
+    /// around their hits (kept where the bound can be carried onto them,
+    /// so that pixels between the corners that hit them are interpolated
+    /// too). `None` where the root is not a patch.
+    fn patch_pieces(&self, trees: &[&RayTree; 16]) -> Outcome<Option<Pieces>> {
+        let roots: Vec<_> = trees.iter().filter_map(|t| t.nodes[0].hit).collect();
+        let patch = match RootFace::of(self.geometry, self.w.scene, roots[0].primitive) {
+            RootFace::Patch(p) => p,
+            _ => return Ok(None),
+        };
+        let mut required: Vec<u32> = roots.iter().map(|h| h.primitive).collect();
+        required.sort_unstable();
+        required.dedup();
+        if required.len() > MAX_PIECES {
+            return Err(Failure::Silhouette);
+        }
+        let (lo, hi) = roots
+            .iter()
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), h| {
+                let p = h.point.as_dvec3();
+                (lo.min(p), hi.max(p))
+            });
+        // Lines between the corners meet the surface around their hits,
+        // bulging out of the corners' box where it curves: a margin.
+        let margin = DVec3::splat(0.25 * (hi - lo).max_element());
+        let mut around = Vec::new();
+        triangles_in_box(self.w.tree, lo - margin, hi + margin, &mut around);
+        let optional: Vec<u32> = around
+            .into_iter()
+            .filter(|&t| self.geometry.triangle_patch[t as usize] == patch && required.binary_search(&t).is_err())
+            .take(MAX_PIECES - required.len())
+            .collect();
+        Ok(Some(Pieces {
+            base: trees[0].nodes[0].hit.map_or(u32::MAX, |h| h.primitive),
+            required,
+            optional,
+        }))
     }
 
     /// The affine radiance of the tree over the cell: certain terms and the
     /// terms of lights whose visibility is unknown, per channel.
-    fn walk(&self, template: &RayTree, origin: AVec3, dir: AVec3) -> Outcome<Walk> {
+    fn walk(&self, template: &RayTree, origin: AVec3, dir: AVec3, pieces: Option<&Pieces>) -> Outcome<Walk> {
         let root_dir = dir.normalize().ok_or(Failure::Silhouette)?;
         let mut pending: Vec<Option<Family>> = (0..template.nodes.len()).map(|_| None).collect();
         pending[0] = Some(Family {
@@ -308,9 +408,11 @@ impl Predicate<'_> {
             texture_range: (DVec3::ONE, DVec3::ONE),
             root: RootFace::Polygon(0),
             hits: (DVec3::ZERO, DVec3::ZERO),
+            hit_points: None,
             reprojectable: false,
             linear_ac: 0.0,
             linear_bd: 0.0,
+            pieces: Vec::new(),
         };
         for (i, node) in template.nodes.iter().enumerate() {
             let fam = pending[i].take().ok_or(Failure::Topology)?;
@@ -327,11 +429,32 @@ impl Predicate<'_> {
                 continue;
             };
             let surface = self.geometry.surface(self.w.scene, tree_hit.primitive);
-            let hit = self.hit(&fam, &surface, tree_hit.primitive, tree_hit.front)?;
+            let plain = |_| self.hit(&fam, &surface, tree_hit.primitive, tree_hit.front);
+            let (hit, piece_hits, whole) = match pieces.filter(|_| i == 0) {
+                // A patch cell whose lines all provably land in one triangle
+                // is that triangle's, as a smooth triangle's cell is (and
+                // may be reprojected); else the patch's bound.
+                Some(p) => match (p.required.len() == 1).then(|| plain(())).and_then(Result::ok) {
+                    Some(h) => (h, Vec::new(), Some(tree_hit.primitive)),
+                    None => {
+                        let (h, pieces) = self.patch_hit(&fam, p, tree_hit.front)?;
+                        (h, pieces, None)
+                    }
+                },
+                None => (plain(())?, Vec::new(), None),
+            };
             if i == 0 {
                 out.root = RootFace::of(self.geometry, self.w.scene, tree_hit.primitive);
                 out.hits = hit.q.bounds();
-                out.reprojectable = true;
+                // Lines of a patch's cell that miss the pieces are traced,
+                // when their pixels' own hits (the kd-tree's) say so; a
+                // cell is reprojected only where every line meets them.
+                out.reprojectable = piece_hits.is_empty() || self.pieces_cover(&fam, &piece_hits, tree_hit.front);
+                if out.reprojectable && !piece_hits.is_empty() {
+                    out.hit_points = Some(hit.q.map(Aff::plain));
+                }
+                out.pieces = piece_hits.iter().map(|(t, _)| *t).chain(whole).collect();
+                out.pieces.sort_unstable();
             } else {
                 // The segment from the parent's surface to this hit.
                 let shafts = self.shafts();
@@ -365,6 +488,29 @@ impl Predicate<'_> {
             let delta_lo = OFFSET_SCALE as f64 * hit.magnitude;
             let delta = Aff::interval(delta_lo.min(delta_hi), delta_hi);
             let lifted = hit.q.add(n_g.times(delta));
+            // A patch's shadow rays start on the triangle each line meets:
+            // its points (a parallelogram over it, in its plane), lifted.
+            let piece_origins: Vec<PieceOrigin> = piece_hits
+                .iter()
+                .map(|&(t, [v0, v1, v2])| {
+                    let (u, w) = (Aff::coordinate(0, 0.5, 0.5), Aff::coordinate(1, 0.5, 0.5));
+                    let on = AVec3::constant(v0)
+                        .add(AVec3::constant(v1 - v0).times(u))
+                        .add(AVec3::constant(v2 - v0).times(w));
+                    let normal = (v1 - v0).cross(v2 - v0).normalize();
+                    let side = if tree_hit.front { normal } else { -normal };
+                    // A point of the triangle reaches its magnitude at most:
+                    // the renderer lifts it by the triangle's own offset.
+                    let lift = OFFSET_SCALE as f64 * self.geometry.magnitude[t as usize];
+                    PieceOrigin {
+                        triangle: t,
+                        points: on.add(AVec3::constant(side * lift)),
+                        side,
+                        // Half the lift: every origin lies beyond it.
+                        beyond: side.dot(v0) + 0.5 * lift,
+                    }
+                })
+                .collect();
             let shading = *self.w.scene.surface(tree_hit.surface);
             let texture = if !shading.textured() {
                 Texture::Constant(DVec3::ONE)
@@ -383,6 +529,7 @@ impl Predicate<'_> {
                 lifted,
                 n_g,
                 n_s,
+                pieces: &piece_origins,
             };
             let local = self.local(node, &fam, &at, texture, &mut out)?;
             for (c, l) in local.iter().enumerate() {
@@ -415,6 +562,186 @@ impl Predicate<'_> {
             tree: self.w.tree,
             geometry: self.geometry,
         }
+    }
+
+    /// Where the family meets a smooth patch, for every line of the cell
+    /// whose first hit lies on one of `pieces`' triangles (and only for
+    /// those: the others are traced).
+    ///
+    /// The lines are met by one plane `P` for the region (normal: the
+    /// corners' triangles' mean; offset: halfway between the region's
+    /// lowest and highest points along it), and the shading is carried from
+    /// there, widened by what a line that meets a triangle `k` of the
+    /// pieces can differ by. Only the part of `k` the cell's lines can
+    /// reach counts (`k` clipped to the box of the lines' hits on its
+    /// plane: a convex polygon `R_k`):
+    /// - the hit: the line meets `k` at `q_k = q_P + (t_k - t_P) d` with
+    ///   `t_k - t_P = (n_P . q_k - w_P) / (n_P . d)`; `q_k` lies in `R_k`,
+    ///   so `|t_k - t_P| <= max over R_k's vertices |n_P . v - w_P| /
+    ///   min |n_P . d|` (the surface's curvature over the reachable part);
+    /// - the shading normal before it is normalised: the renderer blends
+    ///   `k`'s corner normals by the hit's barycentric coordinates in `k`,
+    ///   an affine function of the point over `k`; one affine field `N` is
+    ///   fitted to those blends at every `R_k`'s vertices (least squares),
+    ///   and `blend - N` is affine over `k`, so over `R_k` it is largest at
+    ///   a vertex: `N` at the widened hit, widened per component by the
+    ///   largest such difference (`patch::NormalField`);
+    /// - the geometric normal (used only for signs: facing, the lifted
+    ///   point, lights behind the surface): within `max |n_k - n_b|` of the
+    ///   base triangle `b`'s (the template tree's root).
+    ///
+    /// The widths enter the forms as bounded unknowns (`Aff::interval`: a
+    /// remainder, and a jet's non-smooth part), so the shading over the
+    /// widened forms bounds every covered line, whatever triangle it meets:
+    /// crossing an edge is a kink, which the widths pay for. A required
+    /// triangle (a corner's) seen edge-on or from behind by some line of
+    /// the cell fails the cell; an optional one is kept only if it is seen
+    /// from the front and widens nothing beyond what the required ones do.
+    /// Returns the hit and, per triangle kept, its points (the origins of
+    /// its shadow rays).
+    fn patch_hit(&self, fam: &Family, pieces: &Pieces, front: bool) -> Outcome<(Hit, Vec<PieceTriangle>)> {
+        let smooth = |t: u32| match self.geometry.surface(self.w.scene, t) {
+            Surface::Smooth { polygon, normals } => Ok((polygon, normals)),
+            _ => Err(Failure::Topology),
+        };
+        let (base, _) = smooth(pieces.base)?;
+        // The region's plane: its triangles' mean normal (the corners'
+        // triangles', each turned to b's side), so that the points' heights
+        // over it are the surface's curvature, not its tilt.
+        let facing = |n: DVec3| if n.dot(base.normal) < 0.0 { -n } else { n };
+        let normal = pieces
+            .required
+            .iter()
+            .filter_map(|&t| smooth(t).ok().map(|(p, _)| facing(p.normal)))
+            .sum::<DVec3>()
+            .try_normalize()
+            .unwrap_or(base.normal);
+        // Per triangle: its vertices; the part of it the cell's lines can
+        // reach (the triangle clipped to the box of the lines' hits on its
+        // plane) as a polygon, with the renderer's normal blend at its
+        // vertices; the range of their heights along `normal`; its normal's
+        // deviation from b's. The blend and the height are affine in the
+        // point, so over the reachable part they lie within their values at
+        // the polygon's vertices.
+        type Measured = (u32, [DVec3; 3], Vec<(DVec3, DVec3)>, (f64, f64), DVec3);
+        let measure = |t: u32| -> Outcome<Measured> {
+            let (poly, normals) = smooth(t)?;
+            consistent(&fam.dir.dot_const(poly.normal), front)?;
+            let v = [poly.vertices[0], poly.vertices[1], poly.vertices[2]];
+            let (on_plane, _) = plane_hit(fam, &poly, front)?;
+            let (reach_lo, reach_hi) = on_plane.bounds();
+            let reached = clip_to_box(v.to_vec(), reach_lo, reach_hi);
+            if reached.is_empty() {
+                return Err(Failure::Silhouette);
+            }
+            let blend = barycentric_blend(&poly, &normals);
+            let samples: Vec<(DVec3, DVec3)> = reached.into_iter().map(|x| (x, blend(x))).collect();
+            let heights = samples.iter().map(|(x, _)| normal.dot(*x));
+            let range = heights.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), h| (a.min(h), b.max(h)));
+            Ok((t, v, samples, range, (poly.normal - base.normal).abs()))
+        };
+        let mut kept = Vec::with_capacity(pieces.required.len() + pieces.optional.len());
+        for &t in &pieces.required {
+            kept.push(measure(t)?);
+        }
+        let ((lo, hi), normal_dev) = kept
+            .iter()
+            .fold(((f64::INFINITY, f64::NEG_INFINITY), DVec3::ZERO), |((lo, hi), g), k| {
+                ((lo.min(k.3.0), hi.max(k.3.1)), g.max(k.4))
+            });
+        for &t in &pieces.optional {
+            if let Ok(k) = measure(t)
+                && k.3.0 >= lo
+                && k.3.1 <= hi
+                && k.4.cmple(normal_dev).all()
+            {
+                kept.push(k);
+            }
+        }
+        // The lines meet the plane halfway between the region's lowest and
+        // highest points; any point of the region lies within `height` of
+        // it.
+        let mid = Polygon {
+            normal,
+            w: 0.5 * (lo + hi),
+            vertices: Vec::new(),
+        };
+        let height = 0.5 * (hi - lo);
+        let (q_b, t_b) = plane_hit(fam, &mid, front)?;
+        let denom = fam.dir.dot_const(normal);
+        let slowest = denom.lo().abs().min(denom.hi().abs());
+        let dt = height / slowest;
+        if !dt.is_finite() {
+            return Err(Failure::Silhouette);
+        }
+        let spread = |x: Aff, w: f64| if w > 0.0 { x.add(Aff::interval(-w, w)) } else { x };
+        let spread3 = |x: AVec3, w: DVec3| AVec3::new(spread(x.x, w.x), spread(x.y, w.y), spread(x.z, w.z));
+        let q = if dt > 0.0 {
+            q_b.add(fam.dir.times(Aff::interval(-dt, dt)))
+        } else {
+            q_b
+        };
+        let t = spread(t_b, dt);
+        // The corner normals as one affine field over the region, and how
+        // far any triangle's blend strays from it.
+        let samples: Vec<(DVec3, DVec3)> = kept.iter().flat_map(|k| k.2.iter().copied()).collect();
+        let field = NormalField::fit(normal, &samples).ok_or(Failure::Silhouette)?;
+        let blend = spread3(field.at_form(&q), field.deviation(&samples));
+        let n = blend.normalize().ok_or(Failure::Silhouette)?;
+        // The renderer turns each triangle's normal to its own side: one
+        // side for all of them, or no proof.
+        let mut sides = kept
+            .iter()
+            .map(|k| n.dot_const((k.1[1] - k.1[0]).cross(k.1[2] - k.1[0])).sign());
+        let first = sides.next().flatten().ok_or(Failure::Silhouette)?;
+        if !sides.all(|side| side == Some(first)) {
+            return Err(Failure::Silhouette);
+        }
+        let shading = if first { n } else { n.scale(-1.0) };
+        let hit = Hit {
+            q,
+            t,
+            geometric: spread3(AVec3::constant(base.normal), normal_dev),
+            shading,
+            magnitude: kept
+                .iter()
+                .map(|k| self.geometry.magnitude[k.0 as usize])
+                .fold(0.0, f64::max),
+            exclude: Exclude::None,
+        };
+        Ok((hit, kept.into_iter().map(|k| (k.0, k.1)).collect()))
+    }
+
+    /// Whether every line of the cell meets the triangles `pieces` (all
+    /// seen from the `front` side by every line, as `patch_hit` checked):
+    /// the number of times a line crosses them changes only where it
+    /// crosses the edge of the pieces' union or grazes a triangle, so if no
+    /// line crosses a boundary edge (an edge of one piece only: every line
+    /// meets that piece's plane on one side of it), the count is the same
+    /// for every line of the cell, and corner 0 meets them.
+    fn pieces_cover(&self, fam: &Family, pieces: &[PieceTriangle], front: bool) -> bool {
+        let key = |a: DVec3, b: DVec3| {
+            let (a, b) = (a.to_array().map(f64::to_bits), b.to_array().map(f64::to_bits));
+            if a <= b { (a, b) } else { (b, a) }
+        };
+        let mut edges: std::collections::HashMap<_, u32> = std::collections::HashMap::new();
+        for (_, v) in pieces {
+            for k in 0..3 {
+                *edges.entry(key(v[k], v[(k + 1) % 3])).or_default() += 1;
+            }
+        }
+        pieces.iter().all(|(t, v)| {
+            let Surface::Smooth { polygon, .. } = self.geometry.surface(self.w.scene, *t) else {
+                return false;
+            };
+            let Ok((q, _)) = plane_hit(fam, &polygon, front) else {
+                return false;
+            };
+            (0..3).all(|k| {
+                let (a, b) = (v[k], v[(k + 1) % 3]);
+                edges[&key(a, b)] > 1 || q.add_const(-a).dot_const(polygon.normal.cross(b - a)).sign().is_some()
+            })
+        })
     }
 
     /// Where the family meets `surface`, for all of its rays.
@@ -538,7 +865,19 @@ impl Predicate<'_> {
             lifted,
             n_g,
             n_s,
+            pieces,
         } = at;
+        // Where the shadow rays start, and what they leave: the hit's
+        // lifted points, or on a patch each triangle's own (a shadow ray
+        // from one triangle may be blocked by another of the patch).
+        let origins: Vec<(AVec3, Exclude, &PieceOrigin)> = if pieces.is_empty() {
+            vec![(lifted, hit.exclude, &NO_PIECE)]
+        } else {
+            pieces
+                .iter()
+                .map(|p| (p.points, Exclude::Primitive(p.triangle), p))
+                .collect()
+        };
         for (j, code) in node.lights.iter().enumerate() {
             let light = &self.w.scene.lights[j];
             let pos = Vec3::from_array(light.position).as_dvec3();
@@ -600,15 +939,58 @@ impl Predicate<'_> {
             } else {
                 Exclude::Behind(normal, normal.dot(pos))
             };
-            let exclude = [hit.exclude, behind];
+            let shadow_of = |o: &AVec3| {
+                if directional {
+                    shadow_dir
+                } else {
+                    o.scale(-1.0).add_const(pos)
+                }
+            };
+            // A patch's triangle lit from its front: its shadow segments run
+            // wholly in front of its plane (both ends are), so nothing wholly
+            // behind the plane can block them, its convex neighbours
+            // included (without this, every neighbour sharing an edge is a
+            // candidate no shaft cull clears).
+            let ahead = |p: &PieceOrigin| {
+                let lit = if directional {
+                    p.side.dot(-pos) > 0.0
+                } else {
+                    p.side.dot(pos) > p.beyond
+                };
+                if lit {
+                    Exclude::Behind(p.side, p.beyond)
+                } else {
+                    Exclude::None
+                }
+            };
+            let excludes = |leaves: Exclude, p: &PieceOrigin| [leaves, behind, ahead(p)];
             let visibility = match code {
                 LightCode::Visible => {
-                    if !shafts.clear(&lifted, &shadow_dir, end, &exclude) {
+                    // A patch triangle's shadow rays are the same for every
+                    // cell (its points, lifted by its own offset): their cull
+                    // is worked out once per triangle and light.
+                    let cull = |(o, leaves, p): &(AVec3, Exclude, &PieceOrigin)| {
+                        let run = || shafts.clear(o, &shadow_of(o), end, &excludes(*leaves, p));
+                        if p.triangle == u32::MAX {
+                            run()
+                        } else {
+                            self.geometry.piece_shadow(p.triangle, j as u32, run)
+                        }
+                    };
+                    let clear = origins.iter().all(cull);
+                    if !clear {
                         return Err(Failure::Shadow);
                     }
                     Some(1.0)
                 }
-                _ => self.proven_visibility(node.occluders.get(j).copied(), &lifted, &shadow_dir, end, &exclude),
+                _ => {
+                    let occluder = node.occluders.get(j).copied();
+                    let each = origins.iter().map(|(o, leaves, p)| {
+                        self.proven_visibility(occluder, o, &shadow_of(o), end, &excludes(*leaves, p))
+                    });
+                    each.reduce(|a, b| a.zip(b).filter(|(x, y)| x == y).map(|(x, _)| x))
+                        .flatten()
+                }
             };
             match visibility {
                 Some(v) => {
@@ -649,7 +1031,7 @@ impl Predicate<'_> {
         o: &AVec3,
         d: &AVec3,
         end: End,
-        exclude: &[Exclude; 2],
+        exclude: &[Exclude; 3],
     ) -> Option<f64> {
         let p = occluder.filter(|&p| p != u32::MAX)?;
         let shading = self.w.scene.surface(self.w.scene.primitive_surface(p));
@@ -677,9 +1059,9 @@ impl Predicate<'_> {
                 if kt.x != kt.y || kt.y != kt.z {
                     return None;
                 }
-                let clear = self
-                    .shafts()
-                    .clear(o, d, end, &[exclude[0], exclude[1], Exclude::Primitive(p)]);
+                let clear =
+                    self.shafts()
+                        .clear(o, d, end, &[exclude[0], exclude[1], exclude[2], Exclude::Primitive(p)]);
                 clear.then_some((kt.x as f64).powi(2))
             }
             Surface::Flat(poly) | Surface::Smooth { polygon: poly, .. } => {
@@ -708,10 +1090,16 @@ impl Predicate<'_> {
             lifted,
             n_g,
             n_s,
+            pieces,
         } = at;
         let mut out = Vec::new();
         if !(node.reflected || node.refracted || node.tir) {
             return Ok(out);
+        }
+        if !pieces.is_empty() {
+            // Patches neither reflect nor refract (`patch`): a tree that
+            // says otherwise is not the patch's.
+            return Err(Failure::Topology);
         }
         let fresnel = self.w.params.flags & FRESNEL != 0;
         let kr0 = Vec3::from_array(s.kr).as_dvec3();
@@ -827,23 +1215,56 @@ struct Walk {
     texture_range: (DVec3, DVec3),
     root: RootFace,
     hits: (DVec3, DVec3),
+    hit_points: Option<AVec3>,
     reprojectable: bool,
     /// The radiance's linear variation along (a, c) and along (b, d): a
     /// 4-way split halves the pair it varies more along.
     linear_ac: f64,
     linear_bd: f64,
+    /// On a patch, the triangles the bound covers.
+    pieces: Vec<u32>,
+}
+
+/// The most triangles of a patch one cell's bound covers; a cell whose
+/// corners alone hit more is split.
+const MAX_PIECES: usize = 24;
+
+/// A triangle of a patch's bound and its vertices.
+type PieceTriangle = (u32, [DVec3; 3]);
+
+/// The triangles of a patch a cell's bound is to cover (`patch_pieces`).
+struct Pieces {
+    /// The template tree's root triangle: the bound is carried from it.
+    base: u32,
+    /// The corners' triangles: each must take the bound.
+    required: Vec<u32>,
+    /// Triangles around them: kept where the bound can be carried over.
+    optional: Vec<u32>,
 }
 
 /// Two trees with the same topology and, node by node, the same
 /// primitive where the surface is a smooth triangle or a flat face's
 /// polygon (a polygon split into non-coplanar triangles has one id but
 /// several planes).
-fn same_surfaces(a: &RayTree, b: &RayTree) -> bool {
+/// At the root, a smooth patch's triangles are one surface (`patch`).
+fn same_surfaces(geometry: &SceneGeometry, a: &RayTree, b: &RayTree) -> bool {
+    let same_patch = |p: u32, q: u32| {
+        let patch = geometry.triangle_patch[p as usize];
+        patch != NO_PATCH && patch == geometry.triangle_patch[q as usize]
+    };
     a.same_topology(b)
-        && a.nodes.iter().zip(&b.nodes).all(|(x, y)| match (x.hit, y.hit) {
-            (Some(p), Some(q)) => p.face != crate::raytrace::scene::SMOOTH_FACE || p.primitive == q.primitive,
-            _ => true,
-        })
+        && a.nodes
+            .iter()
+            .zip(&b.nodes)
+            .enumerate()
+            .all(|(i, (x, y))| match (x.hit, y.hit) {
+                (Some(p), Some(q)) => {
+                    p.face != crate::raytrace::scene::SMOOTH_FACE
+                        || p.primitive == q.primitive
+                        || (i == 0 && same_patch(p.primitive, q.primitive))
+                }
+                _ => true,
+            })
 }
 
 /// Where the family meets the plane of `p` (from the side `front` says).

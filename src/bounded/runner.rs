@@ -226,10 +226,9 @@ impl BoundedRenderer {
                 let pair = self.trees.trees[tree as usize].pair;
                 match &self.trees.cells[cell as usize].state {
                     CellState::Valid(interp) => {
-                        let root = interp.accepted.root;
                         let c = self.trees.cells[cell as usize].cell;
                         for &(i, _, coords, face, hit) in pixels {
-                            if face == root {
+                            if interp.accepted.covers(face, hit.1) {
                                 paths[i as usize] = PixelPath::Interpolated;
                                 assigned.push((
                                     i,
@@ -577,8 +576,24 @@ impl BoundedRenderer {
                     RootFace::Polygon(p) => plane(p),
                     RootFace::Triangle(t) => plane(self.geometry.triangle_polygon[t as usize]),
                     RootFace::Sphere(t) => Exclude::Primitive(t),
+                    // A reprojectable patch cell's lines all land in its one
+                    // triangle (`Accepted::pieces`).
+                    RootFace::Patch(_) => match *interp.accepted.pieces {
+                        [t] => plane(self.geometry.triangle_polygon[t as usize]),
+                        _ => Exclude::None,
+                    },
                 };
-                if !shafts.clear(&AVec3::constant(eye_d), &d, End::At(Aff::constant(1.0)), &[exclude]) {
+                // A patch cell's lines land on its pieces, whichever first.
+                let pieces: &[u32] = match interp.accepted.root {
+                    RootFace::Patch(_) => &interp.accepted.pieces,
+                    _ => &[],
+                };
+                let eye = AVec3::constant(eye_d);
+                let d = match &interp.accepted.hit_points {
+                    Some(q) => q.add_const(-eye_d),
+                    None => d,
+                };
+                if !shafts.clear_but(&eye, &d, End::At(Aff::constant(1.0)), &[exclude], pieces) {
                     return (Vec::new(), 1);
                 }
                 (

@@ -54,6 +54,13 @@ impl Shafts<'_> {
     /// Whether no primitive but the excluded ones can meet a segment
     /// `o + t d`, `0 < t < end`, of the family.
     pub fn clear(&self, o: &AVec3, d: &AVec3, end: End, exclude: &[Exclude]) -> bool {
+        self.clear_but(o, d, end, exclude, &[])
+    }
+
+    /// `clear`, with the triangles `also` (ascending) excluded as well: a
+    /// smooth patch's pieces, which a reprojected cell's eye shaft may
+    /// cross (its lines' first hits are on one of them, whichever).
+    pub fn clear_but(&self, o: &AVec3, d: &AVec3, end: End, exclude: &[Exclude], also: &[u32]) -> bool {
         // Ranges are all a cull needs: the interpolation-error jets stay
         // behind (their arithmetic was most of a cull's).
         let (o, d) = (&o.plain(), &d.plain());
@@ -68,7 +75,7 @@ impl Shafts<'_> {
         let mut candidates = Vec::new();
         triangles_in_box(self.tree, lo, hi, &mut candidates);
         for &t in &candidates {
-            if self.excluded(t, exclude) {
+            if self.excluded(t, exclude) || also.binary_search(&t).is_ok() {
                 continue;
             }
             let polygon = match self.geometry.surface(self.scene, t) {
