@@ -491,10 +491,11 @@ fn smooth_ball_scene() -> Scene {
     scene_over_floor_with("smooth-ball", json, &[("ball.obj", &obj)])
 }
 
-/// Over a smooth mesh, cells interpolate across its triangles (a smooth
-/// patch is one linetree surface), and the bound holds: against exact
-/// Whitted pixel by pixel, and on random lines of every accepted cell.
-/// Also on the shared teapot, where present.
+/// Over a smooth mesh, with `patches` on, cells interpolate across its
+/// triangles (a smooth patch is one linetree surface), and the bound
+/// holds: against exact Whitted pixel by pixel, and on random lines of
+/// every accepted cell. Also on the shared teapot, where present. With
+/// `patches` off (the default) no cell spans triangles.
 #[test]
 fn a_smooth_mesh_is_interpolated_across_its_triangles_within_the_bound() {
     use penumbra::bounded::predicate::RootFace;
@@ -509,17 +510,21 @@ fn a_smooth_mesh_is_interpolated_across_its_triangles_within_the_bound() {
         });
         scenes.push(("teapot".into(), scene));
     }
-    for (name, scene) in scenes {
+    for ((name, scene), patches) in scenes.iter().flat_map(|s| [(s, true), (s, false)]) {
         let path = CameraPath::Walk(scene.camera.unwrap());
         let size = (320, 240);
-        let mut b = bounded(&scene, BoundedSettings::default());
+        let settings = BoundedSettings {
+            patches,
+            ..Default::default()
+        };
+        let mut b = bounded(scene, settings);
         let (mut across, mut lines) = (0, 0);
         for f in 0..3 {
             let camera = path.at(f, 3);
             let frame = b.render(&camera, size.0, size.1).unwrap();
             let e = compare(
                 &frame,
-                &exact(&scene, &camera, size),
+                &exact(scene, &camera, size),
                 b.settings.epsilon,
                 b.settings.floor,
             );
@@ -528,7 +533,7 @@ fn a_smooth_mesh_is_interpolated_across_its_triangles_within_the_bound() {
             let check = b.check(&params, 16, f);
             assert_eq!(check.violations, 0, "{name} frame {f}: {check:?}");
             lines += check.lines - check.skipped;
-            assert_no_pixel_crosses_a_tree_change(&name, &b, &frame);
+            assert_no_pixel_crosses_a_tree_change(name, &b, &frame);
             across += frame
                 .cells
                 .iter()
@@ -539,10 +544,16 @@ fn a_smooth_mesh_is_interpolated_across_its_triangles_within_the_bound() {
                 })
                 .count();
         }
-        println!("{name}: {across} pixels interpolated in cells over several triangles, {lines} random lines checked");
-        assert!(
-            across > 500,
-            "{name}: only {across} pixels interpolated across triangles"
+        println!(
+            "{name}, patches {patches}: {across} pixels interpolated in cells over several triangles, {lines} random lines checked"
         );
+        if patches {
+            assert!(
+                across > 500,
+                "{name}: only {across} pixels interpolated across triangles"
+            );
+        } else {
+            assert_eq!(across, 0, "{name}: cells span triangles with patches off");
+        }
     }
 }

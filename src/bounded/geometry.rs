@@ -10,7 +10,7 @@ use std::sync::Mutex;
 use glam::DVec3;
 
 use crate::aabb::Aabb;
-use crate::bounded::patch::{Patch, patches_of};
+use crate::bounded::patch::{NO_PATCH, Patch, patches_of};
 use crate::kdtree::KdTree;
 use crate::raytrace::RenderScene;
 use crate::raytrace::scene::{MISS, NO_NORMAL, SMOOTH_FACE};
@@ -89,7 +89,9 @@ fn plane_of(v: [DVec3; 3]) -> Option<(DVec3, f64)> {
 }
 
 impl SceneGeometry {
-    pub fn new(scene: &RenderScene, tree: &KdTree) -> SceneGeometry {
+    /// The scene's surfaces; `patches`: smooth triangles grouped into
+    /// patches (`BoundedSettings::patches`), else each its own surface.
+    pub fn new(scene: &RenderScene, tree: &KdTree, patches: bool) -> SceneGeometry {
         let tri = |t: usize| tree.triangles[t].map(|v| v.as_dvec3());
         // Flat faces: the triangles of one OBJ polygon, in fan order.
         let mut faces: HashMap<u32, Vec<u32>> = HashMap::new();
@@ -163,7 +165,11 @@ impl SceneGeometry {
         for (t, &p) in triangle_polygon.iter().enumerate() {
             polygon_triangles[p as usize].push(t as u32);
         }
-        let (patches, triangle_patch) = patches_of(scene, &tree.triangles);
+        let (patches, triangle_patch) = if patches {
+            patches_of(scene, &tree.triangles)
+        } else {
+            (Vec::new(), vec![NO_PATCH; scene.triangles.len()])
+        };
         SceneGeometry {
             patches,
             triangle_patch,

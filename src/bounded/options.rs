@@ -30,6 +30,9 @@ pub struct BoundedOptions {
     /// bounded: fill runs of reprojected pixels by screen-space interpolation (outside the guarantee).
     #[arg(long, value_enum, default_value_t = OnOff::Off)]
     pub span: OnOff,
+    /// bounded: linetrees over smooth patches of meshes (cells span triangles) or per smooth triangle.
+    #[arg(long, value_enum, default_value_t = OnOff::Off)]
+    pub patches: OnOff,
     /// bounded: memory cap of linetree cells and samples; least recently used cells are evicted.
     #[arg(long, default_value_t = 1024.0, allow_negative_numbers = true)]
     pub memory_mb: f64,
@@ -61,6 +64,7 @@ impl BoundedOptions {
             },
             reproject: self.reproject.on(),
             span: self.span.on(),
+            patches: self.patches.on(),
             memory_mb: self.memory_mb,
             min_pixels: self.min_pixels,
             slow_path: self.slow_path,
@@ -79,6 +83,7 @@ impl BoundedOptions {
             "split",
             "reproject",
             "span",
+            "patches",
             "memory_mb",
             "min_pixels",
             "slow_path",

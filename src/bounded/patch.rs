@@ -14,6 +14,9 @@
 //! interpolated only when its own hit (found by the kd-tree, exactly) lies
 //! on a triangle the predicate covered (`Accepted::covers`).
 //!
+//! Off by default (`BoundedSettings::patches`): on the shared meshes the
+//! cells cost more than they save (docs/results/bounded.md).
+//!
 //! Reflective and refractive smooth surfaces keep a linetree per triangle:
 //! their children's shafts start on the patch, and proving that no
 //! triangle of the patch blocks a reflected ray from another is not built.
@@ -38,6 +41,9 @@ pub struct Patch {
     /// Its triangles (indices into the scene's), ascending.
     pub triangles: Vec<u32>,
     pub bounds: Aabb,
+    /// Per triangle of `triangles` (same order), the patch's triangles
+    /// that share an edge with it (the same two vertex positions).
+    neighbours: Vec<Vec<u32>>,
     /// A kd-tree over the patch alone, made the first time a line asks
     /// where it meets the patch (`first_hit`); `None` if it cannot be made.
     tree: OnceLock<Option<KdTree>>,
@@ -68,6 +74,7 @@ pub fn patches_of(scene: &RenderScene, triangles: &[[Vec3; 3]]) -> (Vec<Patch>, 
             patches.push(Patch {
                 triangles: Vec::new(),
                 bounds: Aabb::EMPTY,
+                neighbours: Vec::new(),
                 tree: OnceLock::new(),
             });
         }
@@ -78,10 +85,54 @@ pub fn patches_of(scene: &RenderScene, triangles: &[[Vec3; 3]]) -> (Vec<Patch>, 
         }
         of[t as usize] = patches.len() as u32 - 1;
     }
+    for patch in &mut patches {
+        patch.neighbours = edge_neighbours(&patch.triangles, triangles);
+    }
     (patches, of)
 }
 
+/// The edge between two vertices, whichever way round: triangles share an
+/// edge where they share both vertices' positions bit for bit.
+pub(crate) fn edge_key(a: Vec3, b: Vec3) -> ([u32; 3], [u32; 3]) {
+    let (a, b) = (a.to_array().map(f32::to_bits), b.to_array().map(f32::to_bits));
+    if a <= b { (a, b) } else { (b, a) }
+}
+
+/// For each of `own` (indices into `triangles`), the others of `own` that
+/// share an edge with it.
+fn edge_neighbours(own: &[u32], triangles: &[[Vec3; 3]]) -> Vec<Vec<u32>> {
+    let key = edge_key;
+    let mut by_edge: std::collections::HashMap<_, Vec<u32>> = std::collections::HashMap::new();
+    for &t in own {
+        let v = triangles[t as usize];
+        for k in 0..3 {
+            by_edge.entry(key(v[k], v[(k + 1) % 3])).or_default().push(t);
+        }
+    }
+    own.iter()
+        .map(|&t| {
+            let v = triangles[t as usize];
+            let mut n: Vec<u32> = (0..3)
+                .flat_map(|k| by_edge[&key(v[k], v[(k + 1) % 3])].iter().copied())
+                .filter(|&u| u != t)
+                .collect();
+            n.sort_unstable();
+            n.dedup();
+            n
+        })
+        .collect()
+}
+
 impl Patch {
+    /// The triangles of the patch that share an edge with triangle `t` (a
+    /// triangle of it, the scene's index).
+    pub fn neighbours_of(&self, t: u32) -> &[u32] {
+        match self.triangles.binary_search(&t) {
+            Ok(i) => &self.neighbours[i],
+            Err(_) => &[],
+        }
+    }
+
     /// Where the line `o + t d` (unit `d`) first meets the patch, `t > 0`,
     /// ignoring everything else: the distance and the triangle (the
     /// scene's index). `triangles` are the scene's, as the renderer's

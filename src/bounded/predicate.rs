@@ -48,9 +48,9 @@
 use glam::{DVec3, Vec3};
 
 use crate::bounded::affine::{AVec3, Aff};
-use crate::bounded::geometry::{Polygon, SceneGeometry, Surface, triangles_in_box};
+use crate::bounded::geometry::{Polygon, SceneGeometry, Surface};
 use crate::bounded::linespace::{CellBox, FacePair};
-use crate::bounded::patch::{NO_PATCH, NormalField, barycentric_blend, clip_to_box};
+use crate::bounded::patch::{NO_PATCH, NormalField, barycentric_blend, clip_to_box, edge_key};
 use crate::bounded::shaft::{End, Exclude, Shafts};
 use crate::raytrace::lights::DIRECTIONAL;
 use crate::raytrace::offset::OFFSET_SCALE;
@@ -365,22 +365,16 @@ impl Predicate<'_> {
         if required.len() > MAX_PIECES {
             return Err(Failure::Silhouette);
         }
-        let (lo, hi) = roots
+        // Lines between the corners may meet the triangles around theirs:
+        // the corners' triangles' edge neighbours, as room allows.
+        let mut optional: Vec<u32> = required
             .iter()
-            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), h| {
-                let p = h.point.as_dvec3();
-                (lo.min(p), hi.max(p))
-            });
-        // Lines between the corners meet the surface around their hits,
-        // bulging out of the corners' box where it curves: a margin.
-        let margin = DVec3::splat(0.25 * (hi - lo).max_element());
-        let mut around = Vec::new();
-        triangles_in_box(self.w.tree, lo - margin, hi + margin, &mut around);
-        let optional: Vec<u32> = around
-            .into_iter()
-            .filter(|&t| self.geometry.triangle_patch[t as usize] == patch && required.binary_search(&t).is_err())
-            .take(MAX_PIECES - required.len())
+            .flat_map(|&t| self.geometry.patches[patch as usize].neighbours_of(t).iter().copied())
+            .filter(|t| required.binary_search(t).is_err())
             .collect();
+        optional.sort_unstable();
+        optional.dedup();
+        optional.truncate(MAX_PIECES - required.len());
         Ok(Some(Pieces {
             base: trees[0].nodes[0].hit.map_or(u32::MAX, |h| h.primitive),
             required,
@@ -624,11 +618,19 @@ impl Predicate<'_> {
         // point, so over the reachable part they lie within their values at
         // the polygon's vertices.
         type Measured = (u32, [DVec3; 3], Vec<(DVec3, DVec3)>, (f64, f64), DVec3);
+        // Ranges are all the measures need: the family without its jets.
+        let plain = Family {
+            origin: fam.origin.map(Aff::plain),
+            dir: fam.dir.map(Aff::plain),
+            weight: fam.weight,
+            media: Vec::new(),
+            leaves: fam.leaves,
+        };
         let measure = |t: u32| -> Outcome<Measured> {
             let (poly, normals) = smooth(t)?;
-            consistent(&fam.dir.dot_const(poly.normal), front)?;
+            consistent(&plain.dir.dot_const(poly.normal), front)?;
             let v = [poly.vertices[0], poly.vertices[1], poly.vertices[2]];
-            let (on_plane, _) = plane_hit(fam, &poly, front)?;
+            let (on_plane, _) = plane_hit(&plain, &poly, front)?;
             let (reach_lo, reach_hi) = on_plane.bounds();
             let reached = clip_to_box(v.to_vec(), reach_lo, reach_hi);
             if reached.is_empty() {
@@ -720,10 +722,8 @@ impl Predicate<'_> {
     /// meets that piece's plane on one side of it), the count is the same
     /// for every line of the cell, and corner 0 meets them.
     fn pieces_cover(&self, fam: &Family, pieces: &[PieceTriangle], front: bool) -> bool {
-        let key = |a: DVec3, b: DVec3| {
-            let (a, b) = (a.to_array().map(f64::to_bits), b.to_array().map(f64::to_bits));
-            if a <= b { (a, b) } else { (b, a) }
-        };
+        // The vertices are the renderer's f32 ones, widened exactly.
+        let key = |a: DVec3, b: DVec3| edge_key(a.as_vec3(), b.as_vec3());
         let mut edges: std::collections::HashMap<_, u32> = std::collections::HashMap::new();
         for (_, v) in pieces {
             for k in 0..3 {

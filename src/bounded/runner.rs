@@ -114,7 +114,7 @@ enum Found {
 impl BoundedRenderer {
     pub fn new(whitted: WhittedRenderer, settings: BoundedSettings) -> Result<BoundedRenderer> {
         settings.validate()?;
-        let geometry = SceneGeometry::new(whitted.scene(), whitted.tree());
+        let geometry = SceneGeometry::new(whitted.scene(), whitted.tree(), settings.patches);
         let gpu = whitted.context().map(|ctx| (ctx.clone(), Batched::new(ctx)));
         Ok(BoundedRenderer {
             whitted,

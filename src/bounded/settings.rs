@@ -56,6 +56,14 @@ pub struct BoundedSettings {
     pub min_pixels: u32,
     /// Where traced pixels are traced on a GPU.
     pub slow_path: SlowPath,
+    /// Linetrees over the smooth patches of meshes (`patch`): a cell may
+    /// span a mesh's triangles, instead of each smooth triangle being a
+    /// surface of its own. Off by default: on the shared meshes it
+    /// interpolates 1 to 18% of the pixels where per-triangle linetrees
+    /// interpolate none, but the cells cost more than the shadow rays and
+    /// shading they save (docs/results/bounded.md, "Smooth patches").
+    /// Read when the renderer is made.
+    pub patches: bool,
     pub whitted: WhittedSettings,
 }
 
@@ -71,6 +79,7 @@ impl Default for BoundedSettings {
             split: SplitKind::Sixteen,
             reproject: true,
             span: false,
+            patches: false,
             memory_mb: 1024.0,
             // Section 7's cost model: a cell built costs some 4 new extremal
             // rays (each a whole ray tree) and the predicate, 10 to 40
