@@ -25,6 +25,17 @@ pub struct Polygon {
 }
 
 impl Polygon {
+    /// For a triangle, its first vertex `v0` and the vectors `k1`, `k2`
+    /// whose dot products with `x - v0` are `x`'s barycentric coordinates
+    /// of `v1` and `v2` (an affine function of any point `x`).
+    pub fn barycentric_duals(&self) -> (DVec3, DVec3, DVec3) {
+        let [v0, v1, v2] = [self.vertices[0], self.vertices[1], self.vertices[2]];
+        let (e1, e2) = (v1 - v0, v2 - v0);
+        let (d00, d01, d11) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+        let denom = d00 * d11 - d01 * d01;
+        (v0, (e1 * d11 - e2 * d01) / denom, (e2 * d00 - e1 * d01) / denom)
+    }
+
     /// The polygon's edges as inward half-planes `(m, v)`: a point `x` of
     /// the plane is inside where `m . (x - v) >= 0` for all of them.
     pub fn edges(&self) -> impl Iterator<Item = (DVec3, DVec3)> + '_ {
@@ -73,9 +84,6 @@ pub struct SceneGeometry {
     /// The smooth patches (`patch`) and each triangle's (`NO_PATCH`).
     pub patches: Vec<Patch>,
     pub triangle_patch: Vec<u32>,
-    /// The renderer's own triangles (f32, as its kd-tree holds them): the
-    /// patches' first hits are found on these.
-    render_triangles: Vec<[glam::Vec3; 3]>,
     /// Per (patch triangle, light): whether every shadow ray from the
     /// triangle to the light is proven clear (`predicate`'s cull of a
     /// patch's pieces, the same for every cell).
@@ -173,7 +181,6 @@ impl SceneGeometry {
         SceneGeometry {
             patches,
             triangle_patch,
-            render_triangles: tree.triangles.clone(),
             piece_shadows: Mutex::new(HashMap::new()),
             triangle_polygon,
             polygon_triangles,
@@ -263,7 +270,7 @@ impl SceneGeometry {
             // the renderer finds it (`t` per unit of the given `d`).
             RootFace::Patch(p) => {
                 let len = d.length();
-                let hit = self.patches[p as usize].first_hit(&self.render_triangles, o, d / len);
+                let hit = self.patches[p as usize].first_hit(o, d / len);
                 hit.map(|(t, tri)| (t / len, tri))
             }
         }

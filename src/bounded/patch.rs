@@ -44,6 +44,8 @@ pub struct Patch {
     /// Per triangle of `triangles` (same order), the patch's triangles
     /// that share an edge with it (the same two vertex positions).
     neighbours: Vec<Vec<u32>>,
+    /// Its triangles' vertices (f32, as the renderer's kd-tree holds them).
+    vertices: Vec<[Vec3; 3]>,
     /// A kd-tree over the patch alone, made the first time a line asks
     /// where it meets the patch (`first_hit`); `None` if it cannot be made.
     tree: OnceLock<Option<KdTree>>,
@@ -75,18 +77,20 @@ pub fn patches_of(scene: &RenderScene, triangles: &[[Vec3; 3]]) -> (Vec<Patch>, 
                 triangles: Vec::new(),
                 bounds: Aabb::EMPTY,
                 neighbours: Vec::new(),
+                vertices: Vec::new(),
                 tree: OnceLock::new(),
             });
         }
         let patch = patches.last_mut().expect("pushed above");
         patch.triangles.push(t);
+        patch.vertices.push(triangles[t as usize]);
         for v in triangles[t as usize] {
             patch.bounds = patch.bounds.grow(v);
         }
         of[t as usize] = patches.len() as u32 - 1;
     }
     for patch in &mut patches {
-        patch.neighbours = edge_neighbours(&patch.triangles, triangles);
+        patch.neighbours = edge_neighbours(&patch.triangles, &patch.vertices);
     }
     (patches, of)
 }
@@ -98,22 +102,20 @@ pub(crate) fn edge_key(a: Vec3, b: Vec3) -> ([u32; 3], [u32; 3]) {
     if a <= b { (a, b) } else { (b, a) }
 }
 
-/// For each of `own` (indices into `triangles`), the others of `own` that
-/// share an edge with it.
-fn edge_neighbours(own: &[u32], triangles: &[[Vec3; 3]]) -> Vec<Vec<u32>> {
-    let key = edge_key;
+/// For each of `own` (the scene's indices, with their `vertices`), the
+/// others of `own` that share an edge with it.
+fn edge_neighbours(own: &[u32], vertices: &[[Vec3; 3]]) -> Vec<Vec<u32>> {
     let mut by_edge: std::collections::HashMap<_, Vec<u32>> = std::collections::HashMap::new();
-    for &t in own {
-        let v = triangles[t as usize];
+    for (&t, v) in own.iter().zip(vertices) {
         for k in 0..3 {
-            by_edge.entry(key(v[k], v[(k + 1) % 3])).or_default().push(t);
+            by_edge.entry(edge_key(v[k], v[(k + 1) % 3])).or_default().push(t);
         }
     }
     own.iter()
-        .map(|&t| {
-            let v = triangles[t as usize];
+        .zip(vertices)
+        .map(|(&t, v)| {
             let mut n: Vec<u32> = (0..3)
-                .flat_map(|k| by_edge[&key(v[k], v[(k + 1) % 3])].iter().copied())
+                .flat_map(|k| by_edge[&edge_key(v[k], v[(k + 1) % 3])].iter().copied())
                 .filter(|&u| u != t)
                 .collect();
             n.sort_unstable();
@@ -135,15 +137,11 @@ impl Patch {
 
     /// Where the line `o + t d` (unit `d`) first meets the patch, `t > 0`,
     /// ignoring everything else: the distance and the triangle (the
-    /// scene's index). `triangles` are the scene's, as the renderer's
-    /// kd-tree holds them.
-    pub fn first_hit(&self, triangles: &[[Vec3; 3]], o: DVec3, d: DVec3) -> Option<(f64, u32)> {
+    /// scene's index).
+    pub fn first_hit(&self, o: DVec3, d: DVec3) -> Option<(f64, u32)> {
         let tree = self
             .tree
-            .get_or_init(|| {
-                let own = self.triangles.iter().map(|&t| triangles[t as usize]).collect();
-                KdTree::from_triangles(own, &KdTreeParams::for_cpu()).ok()
-            })
+            .get_or_init(|| KdTree::from_triangles(self.vertices.clone(), &KdTreeParams::for_cpu()).ok())
             .as_ref()?;
         let hit = tree.closest_hit(o.as_vec3(), d.as_vec3(), f32::INFINITY);
         hit.is_hit()
@@ -183,11 +181,7 @@ pub(crate) fn clip_to_box(mut poly: Vec<DVec3>, lo: DVec3, hi: DVec3) -> Vec<DVe
 /// normalised), by `x`'s barycentric coordinates: an affine function of
 /// the point, as `smooth_normal` and the renderer compute it.
 pub(crate) fn barycentric_blend<'a>(p: &'a Polygon, normals: &'a [DVec3; 3]) -> impl Fn(DVec3) -> DVec3 + 'a {
-    let [v0, v1, v2] = [p.vertices[0], p.vertices[1], p.vertices[2]];
-    let (e1, e2) = (v1 - v0, v2 - v0);
-    let (d00, d01, d11) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
-    let denom = d00 * d11 - d01 * d01;
-    let (k1, k2) = ((e1 * d11 - e2 * d01) / denom, (e2 * d00 - e1 * d01) / denom);
+    let (v0, k1, k2) = p.barycentric_duals();
     move |x| {
         let rel = x - v0;
         let (b1, b2) = (rel.dot(k1), rel.dot(k2));
@@ -398,7 +392,7 @@ mod tests {
             let o = c + Vec3::new(a.cos() * 5.0, 1.0 + (k % 7) as f32 * 0.3, a.sin() * 5.0);
             let target = c + Vec3::new((a * 3.1).sin(), (a * 1.7).cos(), (a * 2.3).sin()) * 0.6;
             let d = (target - o).normalize();
-            let own = p.first_hit(&tree.triangles, o.as_dvec3(), d.as_dvec3());
+            let own = p.first_hit(o.as_dvec3(), d.as_dvec3());
             let full = tree.closest_hit(o, d, f32::INFINITY);
             if let Some((t, tri)) = own {
                 hits += 1;

@@ -138,7 +138,8 @@ pub struct Accepted {
     pub reprojectable: bool,
     /// On a smooth patch, the triangles the bound holds on (ascending):
     /// a pixel whose hit lies on another is traced. Empty elsewhere. A
-    /// reprojectable patch cell has one: every line lands in it.
+    /// reprojectable patch cell's lines all meet them (one triangle whose
+    /// edges no line crosses, or several whose union's edge none crosses).
     pub pieces: Box<[u32]>,
 }
 
@@ -354,6 +355,11 @@ impl Predicate<'_> {
     /// so that pixels between the corners that hit them are interpolated
     /// too). `None` where the root is not a patch.
     fn patch_pieces(&self, trees: &[&RayTree; 16]) -> Outcome<Option<Pieces>> {
+        // No patches (`BoundedSettings::patches` off): nothing to gather
+        // on every cell's way through the predicate.
+        if self.geometry.patches.is_empty() {
+            return Ok(None);
+        }
         let roots: Vec<_> = trees.iter().filter_map(|t| t.nodes[0].hit).collect();
         let patch = match RootFace::of(self.geometry, self.w.scene, roots[0].primitive) {
             RootFace::Patch(p) => p,
@@ -423,19 +429,19 @@ impl Predicate<'_> {
                 continue;
             };
             let surface = self.geometry.surface(self.w.scene, tree_hit.primitive);
-            let plain = |_| self.hit(&fam, &surface, tree_hit.primitive, tree_hit.front);
+            let plain = || self.hit(&fam, &surface, tree_hit.primitive, tree_hit.front);
             let (hit, piece_hits, whole) = match pieces.filter(|_| i == 0) {
                 // A patch cell whose lines all provably land in one triangle
                 // is that triangle's, as a smooth triangle's cell is (and
                 // may be reprojected); else the patch's bound.
-                Some(p) => match (p.required.len() == 1).then(|| plain(())).and_then(Result::ok) {
+                Some(p) => match (p.required.len() == 1).then(plain).and_then(Result::ok) {
                     Some(h) => (h, Vec::new(), Some(tree_hit.primitive)),
                     None => {
                         let (h, pieces) = self.patch_hit(&fam, p, tree_hit.front)?;
                         (h, pieces, None)
                     }
                 },
-                None => (plain(())?, Vec::new(), None),
+                None => (plain()?, Vec::new(), None),
             };
             if i == 0 {
                 out.root = RootFace::of(self.geometry, self.w.scene, tree_hit.primitive);
@@ -1283,13 +1289,10 @@ fn plane_hit(fam: &Family, p: &Polygon, front: bool) -> Outcome<(AVec3, Aff)> {
 /// renderer computes it (barycentric blend, normalised, turned to the
 /// triangle's side).
 fn smooth_normal(q: &AVec3, p: &Polygon, normals: &[DVec3; 3]) -> Outcome<AVec3> {
-    let [v0, v1, v2] = [p.vertices[0], p.vertices[1], p.vertices[2]];
-    let (e1, e2) = (v1 - v0, v2 - v0);
-    let (d00, d01, d11) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
-    let denom = d00 * d11 - d01 * d01;
+    let (v0, k1, k2) = p.barycentric_duals();
     let rel = q.add_const(-v0);
-    let b1 = rel.dot_const((e1 * d11 - e2 * d01) / denom);
-    let b2 = rel.dot_const((e2 * d00 - e1 * d01) / denom);
+    let b1 = rel.dot_const(k1);
+    let b2 = rel.dot_const(k2);
     let b0 = b1.add(b2).neg().add_const(1.0);
     let blend = AVec3::constant(normals[0])
         .times(b0)
