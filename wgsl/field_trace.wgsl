@@ -49,6 +49,26 @@ struct FieldTrace {
     hidden: bool,
 }
 
+// Where the line o + s d (d unit) crosses the field's bounding sphere:
+// (s0, s1), (-1, -1) where it does not (DisplacementField::trace's first step).
+fn field_sphere_span(o: vec3<f32>, d: vec3<f32>) -> vec2<f32> {
+    let oc = o - field.center;
+    let b = dot(oc, d);
+    let h = oc - b * d;
+    let disc = field.radius * field.radius - dot(h, h);
+    if (disc < 0.0) {
+        return vec2<f32>(-1.0, -1.0);
+    }
+    let q = sqrt(disc);
+    return vec2<f32>(-b - q, -b + q);
+}
+
+// Whether the ray (not only its line) reaches the sphere: the lookup's
+// work is for these rays alone (field_ao.wgsl tests the rest first).
+fn field_enters(span: vec2<f32>) -> bool {
+    return span.y > 0.0;
+}
+
 // DisplacementField::trace: the object-space ray o + s d, d unit.
 fn field_trace(o: vec3<f32>, d: vec3<f32>) -> FieldTrace {
     var r: FieldTrace;
@@ -57,19 +77,12 @@ fn field_trace(o: vec3<f32>, d: vec3<f32>) -> FieldTrace {
     r.sample = vec2<f32>(0.0);
     r.inside = false;
     r.hidden = false;
-    let oc = o - field.center;
-    let b = dot(oc, d);
-    let h = oc - b * d;
-    let disc = field.radius * field.radius - dot(h, h);
-    if (disc < 0.0) {
+    let span = field_sphere_span(o, d);
+    if (!field_enters(span)) {
         return r;
     }
-    let q = sqrt(disc);
-    let s0 = -b - q;
-    let s1 = -b + q;
-    if (s1 <= 0.0) {
-        return r;
-    }
+    let s0 = span.x;
+    let s1 = span.y;
     r.inside = s0 < 0.0;
     var p = (o + s0 * d - field.center) / field.radius;
     let len = length(p);

@@ -507,11 +507,9 @@ impl FieldAoPass {
         let mut grown = self.points.write(device, queue, bytemuck::cast_slice(points))?;
         grown |= self.owners.write(device, queue, bytemuck::cast_slice(owners))?;
         grown |= self.classes.reserve(device, 3 * words * 4)?;
-        let n = settings.rays_per_point as u64;
-        let (gx, gy, pitch) = dispatch_grid(
-            (points.len() as u64 * n) as u32,
-            device.limits().max_compute_workgroups_per_dimension,
-        );
+        // One invocation per mask word (`field_ao`), so the row pitch is in
+        // words.
+        let (gx, gy, pitch) = dispatch_grid(words as u32, device.limits().max_compute_workgroups_per_dimension);
         while self.groups.len() < groups.len() {
             self.groups.push(GroupIo {
                 instances: GrowingBuffer::new("field instances", STORAGE_IN),
