@@ -13,8 +13,10 @@
 //!   1024x1024 primary rays of the default camera through
 //!   `mlrta::trace_image` in a rayon pool of that many threads; modes
 //!   `single-ray` (the kd-tree's closest hit per ray, in the same pool),
-//!   `packets` (`--mlrta off`), `mlrta` (`--mlrta on`), `mlrta-min-tile-8`
-//!   (`--min-tile 8`: fewest traversal steps) and `mlrta+shadows`
+//!   `packets` (`--mlrta off`), `mlrta` (`--mlrta on`), `mlrta-camera`
+//!   (`mlrta::trace_camera_into`: whole squares make their directions from
+//!   the camera instead of reading the image of rays, as `penumbra trace`
+//!   does), `mlrta-min-tile-8` (`--min-tile 8`: fewest traversal steps) and `mlrta+shadows`
 //!   (plus a shadow ray per hit to the CLI's default light; the rays counted
 //!   are the primary ones).
 //! - `mlrta_gpu/<model>/<mode>/<W>x<H>`: `mlrta::gpu::PacketBatches::trace_image`
@@ -33,8 +35,9 @@ use penumbra::gpu::GpuContext;
 use penumbra::kdtree::gpu::GpuKdTree;
 use penumbra::mlrta::gpu::PacketBatches;
 use penumbra::mlrta::tiles::DEFAULT_MIN_TILE;
-use penumbra::mlrta::{MlrtaParams, Prepared, trace_image};
+use penumbra::mlrta::{ImageBuffers, MlrtaParams, Prepared, trace_camera_into, trace_image};
 use penumbra::ray::{Hit, Ray};
+use penumbra::scene::{Camera, CameraRays};
 use rayon::prelude::*;
 
 /// The CLI's default light: above the scene, one diagonal away.
@@ -121,6 +124,16 @@ fn bench_cpu(c: &mut Criterion, models: &[Model], threads: usize) {
             ("mlrta-min-tile-8", true, 8, None),
             ("mlrta+shadows", true, DEFAULT_MIN_TILE, Some(light)),
         ];
+        let camera = CameraRays::new(&Camera::default_for(&m.mesh.bounds()), CPU_IMAGE, CPU_IMAGE);
+        let p = params(true, DEFAULT_MIN_TILE);
+        // Fresh pixel storage each frame, as `trace_image` in the modes below.
+        group.bench_function(BenchmarkId::new(m.name.as_str(), "mlrta-camera"), |b| {
+            b.iter(|| {
+                pool.install(|| trace_camera_into(&prepared, black_box(&camera), &p, None, ImageBuffers::default()))
+                    .expect("trace_camera_into")
+                    .hits
+            })
+        });
         for (mode, entry_points, min_tile, light) in modes {
             let p = params(entry_points, min_tile);
             group.bench_function(BenchmarkId::new(m.name.as_str(), mode), |b| {

@@ -17,11 +17,11 @@ use penumbra::mlrta::ao::visibility_mlrta;
 use penumbra::mlrta::entry_point::{EntryPoint, entry_point};
 use penumbra::mlrta::frustum::Frustum;
 use penumbra::mlrta::tiles::{DEFAULT_MIN_TILE, Group, trace_group};
-use penumbra::mlrta::{ImageBuffers, MlrtaParams, Prepared, trace_image, trace_image_into};
+use penumbra::mlrta::{ImageBuffers, MlrtaParams, Prepared, trace_camera_into, trace_image, trace_image_into};
 use penumbra::progress::Progress;
 use penumbra::ray::Hit;
 use penumbra::scene::procedural::all_scenes;
-use penumbra::scene::{Camera, Mesh, load_obj};
+use penumbra::scene::{Camera, CameraRays, Mesh, load_obj};
 
 struct Agreement {
     rays: usize,
@@ -218,6 +218,52 @@ fn frames_traced_into_kept_buffers_equal_fresh_ones() {
         ImageBuffers::new(64 * 64, true),
     );
     assert!(blank.unwrap().shadowed.is_none(), "no light, no shadow flags");
+}
+
+/// A camera's image traced from its pixel directions (`trace_camera_into`,
+/// whole squares remaking their rays in the lanes) is the image of its
+/// rays: the same hits, shadow flags and counts, on every procedural scene
+/// and the shared bunny, near and far, for sizes that leave partial squares
+/// and blocks at the edges, with and without corner frusta and a light.
+#[test]
+fn camera_images_equal_the_images_of_their_rays() {
+    let mut scenes: Vec<(String, Mesh)> = all_scenes().into_iter().map(|(n, m)| (n.to_string(), m)).collect();
+    if let Some(path) = data_model("stanford-bunny.obj") {
+        scenes.push(("stanford-bunny".into(), load_obj(&path).unwrap()));
+    }
+    let mut compared = 0usize;
+    for (name, mesh) in &scenes {
+        let tree = KdTree::build(mesh, &KdTreeParams::for_cpu()).unwrap();
+        let (prepared, _) = Prepared::new(&tree, mesh);
+        let b = mesh.bounds();
+        let light = b.center() + Vec3::new(-0.4, 1.0, 0.3).normalize() * b.diagonal();
+        let near = Camera::default_for(&b);
+        let far = Camera {
+            eye: near.target + (near.eye - near.target) * 2.5,
+            ..near
+        };
+        for (camera, (w, h)) in [(near, (160, 96)), (far, (100, 76)), (near, (37, 53))] {
+            let image = CameraRays::new(&camera, w, h);
+            for corner_frusta in [true, false] {
+                let p = MlrtaParams {
+                    corner_frusta,
+                    ..MlrtaParams::default()
+                };
+                for light in [None, Some(light)] {
+                    let want = trace_image(&prepared, image.rays(), w, h, &p, light).unwrap();
+                    let got = trace_camera_into(&prepared, &image, &p, light, ImageBuffers::default()).unwrap();
+                    let same = |a: &Hit, b: &Hit| a.t.to_bits() == b.t.to_bits() && a.triangle == b.triangle;
+                    let differ = got.hits.iter().zip(&want.hits).filter(|(a, b)| !same(a, b)).count();
+                    assert_eq!(got.hits.len(), want.hits.len());
+                    assert_eq!(differ, 0, "{name} {w}x{h}: {differ} hits differ");
+                    assert_eq!(got.shadowed, want.shadowed, "{name} {w}x{h}: shadow flags differ");
+                    assert_eq!(got.counts, want.counts, "{name} {w}x{h}: counts differ");
+                    compared += got.hits.len();
+                }
+            }
+        }
+    }
+    println!("{compared} pixels compared over {} scenes", scenes.len());
 }
 
 /// A budget on the entry-point search's far subtrees only moves entry

@@ -32,4 +32,4 @@ pub mod tiles;
 
 pub use packet::MlrtaCounts;
 pub use prepared::Prepared;
-pub use tiles::{ImageBuffers, ImageTrace, MlrtaParams, trace_image, trace_image_into};
+pub use tiles::{ImageBuffers, ImageTrace, MlrtaParams, trace_camera_into, trace_image, trace_image_into};

@@ -13,7 +13,7 @@ use super::aa::{self, AaMode};
 use super::gpu::PacketBatches;
 use super::packet::MlrtaCounts;
 use super::prepared::{Prepared, PreparedStats};
-use super::tiles::{ImageBuffers, ImageTrace, MlrtaParams, SHADOW_EPSILON, TileReport, trace_image_into};
+use super::tiles::{ImageBuffers, ImageTrace, MlrtaParams, SHADOW_EPSILON, TileReport, trace_camera_into};
 use crate::aabb::Aabb;
 use crate::bvh::packet::PacketCounts;
 use crate::device::{Device, GpuOutput, Timing, elapsed_ms};
@@ -22,7 +22,7 @@ use crate::kdtree::gpu::GpuKdTree;
 use crate::kdtree::{BuildStats, KdTree};
 use crate::progress::Bars;
 use crate::ray::{Hit, Ray};
-use crate::scene::{Camera, Mesh, View};
+use crate::scene::{Camera, CameraRays, Mesh, View};
 use crate::tracer::{Accel, BvhStats, Tracer, build_tree, tree_params};
 
 /// Rays per side of a packet in the statistics.
@@ -238,16 +238,17 @@ pub fn trace_view(
     let camera = request.view.camera.resolve(scene_camera, &bounds, mesh.origin)?;
     let light = request.light.position(&bounds, mesh.origin);
     let tree = build_tree(mesh, &tree_params(device), bars, "trace")?;
-    let rays = camera.primary_rays(width, height);
+    let camera_rays = CameraRays::new(&camera, width, height);
+    let rays = camera_rays.rays();
     let packets = (width.div_ceil(PACKET) as u64 * height.div_ceil(PACKET) as u64) as f64;
     let progress = bars.spinner(&format!("tracing {width}x{height} primary rays"));
     let kdtree = tree.stats.clone();
     let mut t = if request.single_ray {
-        single_ray(device, tree, &rays, light, request.accel)?
+        single_ray(device, tree, rays, light, request.accel)?
     } else if request.accel == Accel::Bvh && !device.is_gpu() {
-        bvh_packets(&tree, &rays, (width, height), light)
+        bvh_packets(&tree, rays, (width, height), light)
     } else {
-        packet_image(device, &tree, mesh, &camera, &rays, request, light, packets)?
+        packet_image(device, &tree, mesh, &camera, &camera_rays, request, light, packets)?
     };
     progress.finish();
     let hits = t.hits.iter().filter(|h| h.is_hit()).count();
@@ -281,7 +282,7 @@ pub fn trace_view(
         camera,
         width,
         height,
-        rays,
+        rays: camera_rays.into_rays(),
         hits: t.hits,
         shadowed: t.shadowed,
         light,
@@ -382,12 +383,13 @@ fn packet_image(
     tree: &KdTree,
     mesh: &Mesh,
     camera: &Camera,
-    rays: &[Ray],
+    camera_rays: &CameraRays,
     request: &TraceRequest,
     light: Option<Vec3>,
     packets: f64,
 ) -> Result<Traced> {
     let (w, h) = (request.view.width, request.view.height);
+    let rays = camera_rays.rays();
     let params = &request.params;
     let prepare = std::time::Instant::now();
     let (prepared, prepared_stats) = Prepared::new(tree, mesh);
@@ -406,7 +408,7 @@ fn packet_image(
                 gpu_ms: t.gpu_ms,
             })
         },
-        || trace_image_into(&prepared, rays, w, h, params, light, buffers.unwrap_or_default()),
+        || trace_camera_into(&prepared, camera_rays, params, light, buffers.unwrap_or_default()),
     )?;
     let ImageTrace {
         hits,

@@ -16,6 +16,7 @@ use crate::mlrta::tiles::{
     trace_group,
 };
 use crate::ray::Hit;
+use crate::scene::PixelDirections;
 use crate::simd::{Isa, Kernel, Lanes, dispatch};
 
 /// Traces a final tile's primary rays on the CPU: its 16x16 squares as
@@ -129,19 +130,25 @@ fn trace_square<const SIDE: usize, const SQUARE: usize>(
     out: &mut TileOut,
 ) -> bool {
     debug_assert_eq!(SIDE * SIDE, SQUARE);
-    let mut dirs = [[Vec3::ZERO; PACKET]; SQUARE];
-    let mut stray = false;
-    for (q, d) in dirs.iter_mut().enumerate() {
-        for (m, i) in pixels(square_block(square, SIDE, q), ctx.width).enumerate() {
-            let ray = &ctx.rays[i as usize];
-            d[m] = ray.d();
-            stray |= ray.o() != ctx.origin;
+    let dirs = match ctx.pinhole {
+        Some(camera) => camera_square::<SIDE, SQUARE>(Isa::best(), camera, square),
+        None => {
+            let mut dirs = [[Vec3::ZERO; PACKET]; SQUARE];
+            let mut stray = false;
+            for (q, d) in dirs.iter_mut().enumerate() {
+                for (m, i) in pixels(square_block(square, SIDE, q), ctx.width).enumerate() {
+                    let ray = &ctx.rays[i as usize];
+                    d[m] = ray.d();
+                    stray |= ray.o() != ctx.origin;
+                }
+            }
+            if stray {
+                out.stray_origin = true;
+                return true;
+            }
+            dirs
         }
-    }
-    if stray {
-        out.stray_origin = true;
-        return true;
-    }
+    };
     let rays = SquareRays {
         origin: ctx.origin,
         dirs: &dirs,
@@ -161,6 +168,57 @@ fn trace_square<const SIDE: usize, const SQUARE: usize>(
         }
     }
     true
+}
+
+/// The directions of a square's blocks (row by row, each block's pixels
+/// row by row) made from a camera's tables, as `PixelDirections::at` makes
+/// them: the same operations in the same order, lane by lane, so the same
+/// bits. Run in the walk's instruction set, where sixteen pixels'
+/// square roots and divisions are one instruction each.
+fn camera_square<const SIDE: usize, const SQUARE: usize>(
+    isa: Isa,
+    camera: &PixelDirections,
+    square: Rect,
+) -> [[Vec3; PACKET]; SQUARE] {
+    struct Make<'a, const SIDE: usize, const SQUARE: usize> {
+        camera: &'a PixelDirections,
+        square: Rect,
+    }
+    impl<const SIDE: usize, const SQUARE: usize> Kernel for Make<'_, SIDE, SQUARE> {
+        type Out = [[Vec3; PACKET]; SQUARE];
+        #[inline(always)]
+        fn run<V: Lanes>(self) -> Self::Out {
+            let c = self.camera;
+            let (f, r, u) = (c.forward, c.right, c.up);
+            let mut dirs = [[Vec3::ZERO; PACKET]; SQUARE];
+            for (q, block) in dirs.iter_mut().enumerate() {
+                let b = square_block(self.square, SIDE, q);
+                let px: &[f32; 4] = c.px[b.x as usize..][..4].try_into().expect("a whole block");
+                let py: &[f32; 4] = c.py[b.y as usize..][..4].try_into().expect("a whole block");
+                let sx = V::from_array(std::array::from_fn(|m| px[m % 4]));
+                let sy = V::from_array(std::array::from_fn(|m| py[m / 4]));
+                // (forward + px * right + py * up).normalize(), as glam
+                // evaluates it: ((f + px r) + py u) * (1 / sqrt(dot)).
+                let axis = |a: usize| {
+                    let along = V::splat(f[a]).add(sx.mul(V::splat(r[a])));
+                    along.add(sy.mul(V::splat(u[a])))
+                };
+                let (x, y, z) = (axis(0), axis(1), axis(2));
+                let dot = x.mul(x).add(y.mul(y)).add(z.mul(z));
+                let recip = V::splat(1.0).div(dot.sqrt());
+                let (x, y, z) = (
+                    x.mul(recip).to_array(),
+                    y.mul(recip).to_array(),
+                    z.mul(recip).to_array(),
+                );
+                for (m, d) in block.iter_mut().enumerate() {
+                    *d = Vec3::new(x[m], y[m], z[m]);
+                }
+            }
+            dirs
+        }
+    }
+    dispatch(isa, Make::<SIDE, SQUARE> { camera, square })
 }
 
 /// The shadow rays of a final tile (from `light` to its pixels' `hit`s,
@@ -314,4 +372,51 @@ fn walk_square<const SQUARE: usize>(
         }
     }
     Some(hits)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Camera;
+
+    /// The lanes make each pixel's direction bit for bit as the camera's
+    /// rays have it, in every instruction set, for views of every kind.
+    #[test]
+    fn squares_make_the_directions_of_the_cameras_rays() {
+        let views = [
+            (Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, 45.0, 64, 48),
+            (Vec3::new(3.2, 1.6, 2.2), Vec3::new(-1.0, 0.9, -1.5), 60.0, 40, 40),
+            (Vec3::new(1e-3, 7.0, 0.0), Vec3::new(0.0, -2.0, 0.0), 120.0, 32, 16),
+            (Vec3::new(-1e4, 3e3, 2e4), Vec3::new(17.0, -0.25, 3.0), 5.0, 48, 32),
+        ];
+        for (eye, target, fov, width, height) in views {
+            let camera = Camera {
+                eye,
+                target,
+                fov_degrees: fov,
+            };
+            let dirs = camera.pixel_directions(width, height);
+            let rays = camera.primary_rays(width, height);
+            for isa in Isa::available() {
+                for y in (0..height).step_by(8) {
+                    for x in (0..width).step_by(8) {
+                        let square = Rect { x, y, w: 8, h: 8 };
+                        let made = camera_square::<2, 4>(isa, &dirs, square);
+                        for (q, block) in made.iter().enumerate() {
+                            let b = square_block(square, 2, q);
+                            for (m, d) in block.iter().enumerate() {
+                                let i = (b.y + m as u32 / 4) * width + b.x + m as u32 % 4;
+                                let want = rays[i as usize].d();
+                                assert_eq!(
+                                    d.to_array().map(f32::to_bits),
+                                    want.to_array().map(f32::to_bits),
+                                    "{isa:?}, pixel {i} of {width}x{height}"
+                                );
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
 }

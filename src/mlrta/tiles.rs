@@ -23,6 +23,7 @@ use crate::mlrta::prepared::Prepared;
 use crate::mlrta::squares::{trace_shadow_tile, trace_tile};
 use crate::mlrta::tile_rows::tile_rows;
 use crate::ray::{Hit, Ray};
+use crate::scene::{CameraRays, PixelDirections};
 use crate::simd::{Isa, Kernel, Lanes, dispatch};
 
 /// `MlrtaParams::min_tile` unless chosen.
@@ -200,11 +201,24 @@ impl ImageBuffers {
 /// Shadow rays end this far (relative) before the shaded point.
 pub const SHADOW_EPSILON: f32 = 1e-4;
 
+/// Whether the rays of an image are known to share their origin.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(crate) enum OriginCheck {
+    /// Check them (unless the caller vouches with `corner_frusta`).
+    Unknown,
+    /// A camera's rays, made from its eye.
+    Shared,
+}
+
 pub(crate) struct Ctx<'p, 'a> {
     pub p: &'p Prepared<'a>,
     pub params: &'p MlrtaParams,
     pub origin: Vec3,
     pub rays: &'p [Ray],
+    /// The directions `rays` were made from, when they are a camera's
+    /// (`trace_camera_into`): whole squares of packets then remake their
+    /// directions in registers instead of reading them.
+    pub pinhole: Option<&'p PixelDirections>,
     pub width: u32,
     pub light: Option<Vec3>,
     pub origin_inside: Option<u32>,
@@ -279,7 +293,26 @@ pub fn trace_image_into(
     light: Option<Vec3>,
     buffers: ImageBuffers,
 ) -> Result<ImageTrace> {
-    let ctx = Ctx::new(p, rays, width, height, params, light)?;
+    let ctx = Ctx::new(p, rays, width, height, params, light, OriginCheck::Unknown)?;
+    trace_tiles(&ctx, &ctx.initial_tiles(height), height, buffers)
+}
+
+/// `trace_image_into` of a camera's primary rays. The same hits, shadows
+/// and counts; whole 16x16 and 8x8 squares of pixels make their rays'
+/// directions from the camera's tables, in the instruction set the walk
+/// runs in, rather than read them from the image of rays: the kitchen
+/// interior's packets read all 24 MB of its 1024^2 rays each frame.
+pub fn trace_camera_into(
+    p: &Prepared,
+    camera: &CameraRays,
+    params: &MlrtaParams,
+    light: Option<Vec3>,
+    buffers: ImageBuffers,
+) -> Result<ImageTrace> {
+    let dirs = camera.directions();
+    let (width, height) = (dirs.width(), dirs.height());
+    let mut ctx = Ctx::new(p, camera.rays(), width, height, params, light, OriginCheck::Shared)?;
+    ctx.pinhole = Some(dirs);
     trace_tiles(&ctx, &ctx.initial_tiles(height), height, buffers)
 }
 
@@ -337,7 +370,7 @@ pub fn trace_rects(
     params: &MlrtaParams,
     rects: &[Rect],
 ) -> Result<ImageTrace> {
-    let ctx = Ctx::new(p, rays, width, height, params, None)?;
+    let ctx = Ctx::new(p, rays, width, height, params, None, OriginCheck::Unknown)?;
     trace_tiles(&ctx, rects, height, ImageBuffers::default())
 }
 
@@ -349,6 +382,7 @@ impl<'p, 'a> Ctx<'p, 'a> {
         height: u32,
         params: &'p MlrtaParams,
         light: Option<Vec3>,
+        origins: OriginCheck,
     ) -> Result<Ctx<'p, 'a>> {
         params.validate()?;
         if rays.len() != width as usize * height as usize || rays.is_empty() {
@@ -362,7 +396,10 @@ impl<'p, 'a> Ctx<'p, 'a> {
         // ms of a 1024^2 frame on one thread, memory-bound). Rays of tiles
         // that the entry points cull are not read, as their directions are
         // not either.
-        if !params.corner_frusta && rays.par_chunks(1 << 14).any(|c| c.iter().any(|r| r.o() != origin)) {
+        if origins == OriginCheck::Unknown
+            && !params.corner_frusta
+            && rays.par_chunks(1 << 14).any(|c| c.iter().any(|r| r.o() != origin))
+        {
             return Err(stray_origin());
         }
         Ok(Ctx {
@@ -370,6 +407,7 @@ impl<'p, 'a> Ctx<'p, 'a> {
             params,
             origin,
             rays,
+            pinhole: None,
             width,
             light,
             origin_inside: p.inside_object(origin),

@@ -198,31 +198,148 @@ impl Camera {
     /// Primary rays through the point `(ox, oy)` of each pixel, offsets in
     /// [0, 1) from the pixel's top-left corner (0.5, 0.5 is its centre).
     pub fn primary_rays_at(&self, width: u32, height: u32, ox: f32, oy: f32) -> Vec<Ray> {
-        let direction = self.projection(width, height);
-        let mut rays = Vec::with_capacity(width as usize * height as usize);
-        for y in 0..height {
-            for x in 0..width {
-                rays.push(Ray::new(self.eye, direction(x as f32 + ox, y as f32 + oy)));
-            }
+        self.pixel_directions_at(width, height, ox, oy).rays(self.eye)
+    }
+
+    /// The directions of `primary_rays` without the image of rays: a
+    /// tracer that makes each pixel's direction as it needs it reads no
+    /// ray buffer (24 MB at 1024^2).
+    pub fn pixel_directions(&self, width: u32, height: u32) -> PixelDirections {
+        self.pixel_directions_at(width, height, 0.5, 0.5)
+    }
+
+    fn pixel_directions_at(&self, width: u32, height: u32, ox: f32, oy: f32) -> PixelDirections {
+        let (right, up, forward) = self.basis();
+        let (tan_half, aspect) = self.projection_scales(width, height);
+        PixelDirections {
+            right,
+            up,
+            forward,
+            px: (0..width)
+                .map(|x| screen_x(x as f32 + ox, width, tan_half, aspect))
+                .collect(),
+            py: (0..height).map(|y| screen_y(y as f32 + oy, height, tan_half)).collect(),
         }
-        rays
     }
 
     /// The unit direction through image point `(x, y)` of a `width x height`
     /// image, in pixels from its top-left corner.
     pub fn direction(&self, width: u32, height: u32, x: f32, y: f32) -> Vec3 {
-        self.projection(width, height)(x, y)
+        let (right, up, forward) = self.basis();
+        let (tan_half, aspect) = self.projection_scales(width, height);
+        let (px, py) = (screen_x(x, width, tan_half, aspect), screen_y(y, height, tan_half));
+        pixel_direction(forward, right, up, px, py)
     }
 
-    fn projection(&self, width: u32, height: u32) -> impl Fn(f32, f32) -> Vec3 {
-        let (right, up, forward) = self.basis();
+    fn projection_scales(&self, width: u32, height: u32) -> (f32, f32) {
         let tan_half = (0.5 * self.fov_degrees.to_radians()).tan();
-        let aspect = width as f32 / height as f32;
-        move |x, y| {
-            let py = (1.0 - 2.0 * y / height as f32) * tan_half;
-            let px = (2.0 * x / width as f32 - 1.0) * tan_half * aspect;
-            (forward + px * right + py * up).normalize()
+        (tan_half, width as f32 / height as f32)
+    }
+}
+
+/// Image x (pixels from the left) on the image plane at distance 1.
+fn screen_x(x: f32, width: u32, tan_half: f32, aspect: f32) -> f32 {
+    (2.0 * x / width as f32 - 1.0) * tan_half * aspect
+}
+
+/// Image y (pixels from the top) on the image plane at distance 1.
+fn screen_y(y: f32, height: u32, tan_half: f32) -> f32 {
+    (1.0 - 2.0 * y / height as f32) * tan_half
+}
+
+/// The unit direction through the image plane's point `(px, py)`.
+#[inline(always)]
+fn pixel_direction(forward: Vec3, right: Vec3, up: Vec3, px: f32, py: f32) -> Vec3 {
+    (forward + px * right + py * up).normalize()
+}
+
+/// A pinhole camera's pixel directions for one image size: the image
+/// plane's coordinates of each column and each row, so that a pixel's
+/// direction is a few multiplications, a square root and a division
+/// (`Camera::primary_rays` is made from these, so the two agree bit for
+/// bit).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PixelDirections {
+    pub(crate) right: Vec3,
+    pub(crate) up: Vec3,
+    pub(crate) forward: Vec3,
+    /// Image-plane x of each column.
+    pub(crate) px: Vec<f32>,
+    /// Image-plane y of each row.
+    pub(crate) py: Vec<f32>,
+}
+
+impl PixelDirections {
+    pub fn width(&self) -> u32 {
+        self.px.len() as u32
+    }
+
+    pub fn height(&self) -> u32 {
+        self.py.len() as u32
+    }
+
+    /// The unit direction of pixel `(x, y)`.
+    #[inline(always)]
+    pub fn at(&self, x: u32, y: u32) -> Vec3 {
+        pixel_direction(
+            self.forward,
+            self.right,
+            self.up,
+            self.px[x as usize],
+            self.py[y as usize],
+        )
+    }
+
+    /// The image of rays from `eye`, row-major.
+    pub fn rays(&self, eye: Vec3) -> Vec<Ray> {
+        let mut rays = Vec::with_capacity(self.px.len() * self.py.len());
+        for y in 0..self.height() {
+            for x in 0..self.width() {
+                rays.push(Ray::new(eye, self.at(x, y)));
+            }
         }
+        rays
+    }
+}
+
+/// A camera's image of primary rays together with the pixel directions
+/// they were made from, so that a tracer may remake any ray's direction
+/// instead of reading it (`mlrta::trace_camera_into`); equal by
+/// construction.
+#[derive(Debug, Clone)]
+pub struct CameraRays {
+    eye: Vec3,
+    directions: PixelDirections,
+    rays: Vec<Ray>,
+}
+
+impl CameraRays {
+    /// `camera.primary_rays(width, height)` with its directions.
+    pub fn new(camera: &Camera, width: u32, height: u32) -> CameraRays {
+        let directions = camera.pixel_directions(width, height);
+        let rays = directions.rays(camera.eye);
+        CameraRays {
+            eye: camera.eye,
+            directions,
+            rays,
+        }
+    }
+
+    pub fn eye(&self) -> Vec3 {
+        self.eye
+    }
+
+    pub fn directions(&self) -> &PixelDirections {
+        &self.directions
+    }
+
+    /// The rays, row-major.
+    pub fn rays(&self) -> &[Ray] {
+        &self.rays
+    }
+
+    pub fn into_rays(self) -> Vec<Ray> {
+        self.rays
     }
 }
 

@@ -35,7 +35,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use serde::Deserialize;
 
-pub use camera::{Camera, CameraSpec, MAX_PIXELS, View, check_image_size, parse_vec3};
+pub use camera::{Camera, CameraRays, CameraSpec, MAX_PIXELS, PixelDirections, View, check_image_size, parse_vec3};
 pub use camera_path::CameraPath;
 pub use environment::EnvironmentMap;
 pub use gltf::{load_gltf, load_gltf_animation};

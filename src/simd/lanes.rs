@@ -40,6 +40,8 @@ pub unsafe trait Lanes: Copy {
     fn sub(self, o: Self) -> Self;
     fn mul(self, o: Self) -> Self;
     fn div(self, o: Self) -> Self;
+    /// The correctly rounded square root, as `f32::sqrt`.
+    fn sqrt(self) -> Self;
     fn min(self, o: Self) -> Self;
     fn max(self, o: Self) -> Self;
     fn lt(self, o: Self) -> Self::M;

@@ -72,6 +72,10 @@ unsafe impl Lanes for Scalar16 {
         zip(self.0, o.0, |a, b| a / b)
     }
     #[inline(always)]
+    fn sqrt(self) -> Self {
+        Scalar16(self.0.map(f32::sqrt))
+    }
+    #[inline(always)]
     fn min(self, o: Self) -> Self {
         zip(self.0, o.0, f32::min)
     }

@@ -10,6 +10,7 @@ fn ops<V: Lanes>(a: [f32; 16], b: [f32; 16], m: u16) -> Vec<u32> {
         x.sub(y),
         x.mul(y),
         x.div(y),
+        x.sqrt(),
         V::select(V::M::from_bits(m), x, y),
         x.compress(V::M::from_bits(m)),
         x.expand(V::M::from_bits(m), y),

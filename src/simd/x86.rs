@@ -88,6 +88,11 @@ unsafe impl Lanes for Avx512 {
     op512!(sub, _mm512_sub_ps);
     op512!(mul, _mm512_mul_ps);
     op512!(div, _mm512_div_ps);
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        // SAFETY: see the trait's contract.
+        Avx512(unsafe { _mm512_sqrt_ps(self.0) })
+    }
     op512!(min, _mm512_min_ps);
     op512!(max, _mm512_max_ps);
     cmp512!(lt, _CMP_LT_OQ);
@@ -157,7 +162,7 @@ pub struct SseMask([__m128; 4]);
 macro_rules! parts {
     ($lanes:ident, $mask:ident, $n:literal, $w:literal, $reg:ty,
      set1: $set1:ident, loadu: $loadu:ident, storeu: $storeu:ident,
-     add: $add:ident, sub: $sub:ident, mul: $mul:ident, div: $div:ident,
+     add: $add:ident, sub: $sub:ident, mul: $mul:ident, div: $div:ident, sqrt: $sqrt:ident,
      min: $min:ident, max: $max:ident, and: $and:ident, or: $or:ident, andnot: $andnot:ident,
      movemask: $movemask:ident, blend: $blend:expr, from_bits: $from_bits:expr,
      cmp: $cmp:expr, hmin: $hmin:expr, hmax: $hmax:expr, avx2: $avx2:literal, parts: [$($p:literal),*]) => {
@@ -221,6 +226,10 @@ macro_rules! parts {
             #[inline(always)]
             fn div(self, o: Self) -> Self {
                 $lanes([$(unsafe { $div(self.0[$p], o.0[$p]) }),*])
+            }
+            #[inline(always)]
+            fn sqrt(self) -> Self {
+                $lanes([$(unsafe { $sqrt(self.0[$p]) }),*])
             }
             #[inline(always)]
             fn min(self, o: Self) -> Self {
@@ -372,14 +381,14 @@ unsafe fn hmax256(x: __m256) -> f32 {
 
 parts!(Avx2x2, Avx2Mask, 2, 8, __m256,
     set1: _mm256_set1_ps, loadu: _mm256_loadu_ps, storeu: _mm256_storeu_ps,
-    add: _mm256_add_ps, sub: _mm256_sub_ps, mul: _mm256_mul_ps, div: _mm256_div_ps,
+    add: _mm256_add_ps, sub: _mm256_sub_ps, mul: _mm256_mul_ps, div: _mm256_div_ps, sqrt: _mm256_sqrt_ps,
     min: _mm256_min_ps, max: _mm256_max_ps, and: _mm256_and_ps, or: _mm256_or_ps, andnot: _mm256_andnot_ps,
     movemask: _mm256_movemask_ps, blend: blend256, from_bits: bits256, cmp: cmp256,
     hmin: hmin256, hmax: hmax256, avx2: true, parts: [0, 1]);
 
 parts!(Ssex4, SseMask, 4, 4, __m128,
     set1: _mm_set1_ps, loadu: _mm_loadu_ps, storeu: _mm_storeu_ps,
-    add: _mm_add_ps, sub: _mm_sub_ps, mul: _mm_mul_ps, div: _mm_div_ps,
+    add: _mm_add_ps, sub: _mm_sub_ps, mul: _mm_mul_ps, div: _mm_div_ps, sqrt: _mm_sqrt_ps,
     min: _mm_min_ps, max: _mm_max_ps, and: _mm_and_ps, or: _mm_or_ps, andnot: _mm_andnot_ps,
     movemask: _mm_movemask_ps, blend: blend128, from_bits: bits128, cmp: cmp128,
     hmin: hmin128, hmax: hmax128, avx2: false, parts: [0, 1, 2, 3]);
