@@ -83,8 +83,14 @@ impl SquareTracer for PrimaryTile<'_, '_, '_, '_, '_> {
 
     /// The square's rays: 16 rows of 384 bytes, 24 KB apart in a 1024-wide
     /// image, which the hardware's stream prefetchers did not fetch ahead
-    /// (the kitchen interior reads all 24 MB of its 1024^2 rays).
+    /// (the kitchen interior reads all 24 MB of its 1024^2 rays), unless
+    /// the square will make its rays from the camera.
     fn prefetch(&self, square: Rect) {
+        if self.ctx.pinhole.is_some() {
+            // Whole squares make their directions from the camera; the
+            // blocks of those that cannot be walked whole are few.
+            return;
+        }
         let width = self.ctx.width as usize;
         for y in square.y as usize..(square.y + square.h) as usize {
             let first = y * width + square.x as usize;
