@@ -77,8 +77,7 @@ fn field_ao(@builtin(global_invocation_id) gid: vec3<u32>) {
     var dirs: array<vec3<f32>, 32>;
     for (var b = 0u; b < count; b++) {
         let uv = sequence_sample(ao.seed, stream, first + b);
-        let local = cosine_hemisphere(uv.x, uv.y);
-        dirs[b] = frame[0] * local.x + frame[1] * local.y + frame[2] * local.z;
+        dirs[b] = basis_to_world(frame, cosine_hemisphere(uv.x, uv.y));
     }
     var occluded = 0u;
     var inside = 0u;

@@ -14,8 +14,12 @@ fn frame_basis(n: vec3<f32>) -> mat3x3<f32> {
     return mat3x3<f32>(t, bt, n);
 }
 
+// Frame::to_world(local) of a frame_basis made once for many directions.
+fn basis_to_world(f: mat3x3<f32>, local: vec3<f32>) -> vec3<f32> {
+    return f[0] * local.x + f[1] * local.y + f[2] * local.z;
+}
+
 // Frame::from_normal(n).to_world(local).
 fn frame_to_world(n: vec3<f32>, local: vec3<f32>) -> vec3<f32> {
-    let f = frame_basis(n);
-    return f[0] * local.x + f[1] * local.y + f[2] * local.z;
+    return basis_to_world(frame_basis(n), local);
 }

@@ -25,8 +25,8 @@ use crate::mlrta::frustum::sign_class;
 use crate::mlrta::packet::{MlrtaCounts, PACKET, Packet};
 use crate::mlrta::prepared::Prepared;
 use crate::mlrta::tiles::{
-    Ctx, DEFAULT_EP_BUDGET, ImageTrace, MlrtaParams, OriginCheck, Rect, SHADOW_EPSILON, ShadowRays, TileOut,
-    TileSummary, block_rects, pixels, search_below, shadow_tile_entry, split_tiles, stray_origin,
+    Ctx, DEFAULT_EP_BUDGET, ImageTrace, MlrtaParams, Rect, SHADOW_EPSILON, ShadowRays, TileOut, TileSummary,
+    block_rects, pixels, search_below, shadow_tile_entry, split_tiles, stray_origin,
 };
 use crate::progress::Progress;
 use crate::ray::{Hit, Ray};
@@ -252,7 +252,7 @@ impl Batched<PacketPass> {
         light: Option<Vec3>,
     ) -> Result<GpuImageTrace> {
         let start = Instant::now();
-        let c = Ctx::new(p, rays, width, height, params, light, OriginCheck::Unknown)?;
+        let c = Ctx::new(p, rays, width, height, params, light, None)?;
         // Tiles and entry points on the CPU; each final block becomes packets.
         let parts: Vec<(TileOut, Batch)> = c
             .initial_tiles(height)

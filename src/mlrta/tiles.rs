@@ -201,15 +201,6 @@ impl ImageBuffers {
 /// Shadow rays end this far (relative) before the shaded point.
 pub const SHADOW_EPSILON: f32 = 1e-4;
 
-/// Whether the rays of an image are known to share their origin.
-#[derive(Clone, Copy, PartialEq, Eq)]
-pub(crate) enum OriginCheck {
-    /// Check them (unless the caller vouches with `corner_frusta`).
-    Unknown,
-    /// A camera's rays, made from its eye.
-    Shared,
-}
-
 pub(crate) struct Ctx<'p, 'a> {
     pub p: &'p Prepared<'a>,
     pub params: &'p MlrtaParams,
@@ -293,7 +284,7 @@ pub fn trace_image_into(
     light: Option<Vec3>,
     buffers: ImageBuffers,
 ) -> Result<ImageTrace> {
-    let ctx = Ctx::new(p, rays, width, height, params, light, OriginCheck::Unknown)?;
+    let ctx = Ctx::new(p, rays, width, height, params, light, None)?;
     trace_tiles(&ctx, &ctx.initial_tiles(height), height, buffers)
 }
 
@@ -311,8 +302,7 @@ pub fn trace_camera_into(
 ) -> Result<ImageTrace> {
     let dirs = camera.directions();
     let (width, height) = (dirs.width(), dirs.height());
-    let mut ctx = Ctx::new(p, camera.rays(), width, height, params, light, OriginCheck::Shared)?;
-    ctx.pinhole = Some(dirs);
+    let ctx = Ctx::new(p, camera.rays(), width, height, params, light, Some(dirs))?;
     trace_tiles(&ctx, &ctx.initial_tiles(height), height, buffers)
 }
 
@@ -370,7 +360,7 @@ pub fn trace_rects(
     params: &MlrtaParams,
     rects: &[Rect],
 ) -> Result<ImageTrace> {
-    let ctx = Ctx::new(p, rays, width, height, params, None, OriginCheck::Unknown)?;
+    let ctx = Ctx::new(p, rays, width, height, params, None, None)?;
     trace_tiles(&ctx, rects, height, ImageBuffers::default())
 }
 
@@ -382,7 +372,7 @@ impl<'p, 'a> Ctx<'p, 'a> {
         height: u32,
         params: &'p MlrtaParams,
         light: Option<Vec3>,
-        origins: OriginCheck,
+        pinhole: Option<&'p PixelDirections>,
     ) -> Result<Ctx<'p, 'a>> {
         params.validate()?;
         if rays.len() != width as usize * height as usize || rays.is_empty() {
@@ -396,7 +386,8 @@ impl<'p, 'a> Ctx<'p, 'a> {
         // ms of a 1024^2 frame on one thread, memory-bound). Rays of tiles
         // that the entry points cull are not read, as their directions are
         // not either.
-        if origins == OriginCheck::Unknown
+        // A camera's rays (`pinhole`) were all made from its eye.
+        if pinhole.is_none()
             && !params.corner_frusta
             && rays.par_chunks(1 << 14).any(|c| c.iter().any(|r| r.o() != origin))
         {
@@ -407,7 +398,7 @@ impl<'p, 'a> Ctx<'p, 'a> {
             params,
             origin,
             rays,
-            pinhole: None,
+            pinhole,
             width,
             light,
             origin_inside: p.inside_object(origin),
