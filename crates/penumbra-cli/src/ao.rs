@@ -1,0 +1,183 @@
+//! `penumbra ao`: ambient accessibility per vertex (CSV) and per pixel (PNG),
+//! by ray casting (`ao::runner`) or through displacement fields
+//! (`field::runner`).
+
+use std::path::{Path, PathBuf};
+
+use serde_json::Value;
+
+use crate::args::{CameraArgs, Common, check_outputs, load_input};
+use crate::io::{merged, note, note_choice};
+use crate::options::GreyImageOptions;
+pub use crate::options::ao::AoMethod as Method;
+use crate::options::ao::AoOptions;
+use crate::options::field::FieldOptions;
+use penumbra::error::{Error, Result};
+use penumbra::field::budget::{Fixed, fields_for};
+use penumbra::field::reach::Reach;
+use penumbra::field::report::FieldRunReport;
+use penumbra::raycast::report::{AoOutputs, RaycastReport};
+use penumbra::raycast::runner::{AoRequest, raycast};
+use penumbra::scene::{Scene, View};
+
+#[derive(clap::Args)]
+pub struct AoArgs {
+    /// The occluding mesh; without --receiver it also receives (self-occlusion).
+    #[arg(long)]
+    pub mesh: Option<PathBuf>,
+    /// AO at this mesh's vertices, occluded by --mesh only.
+    #[arg(long, requires = "mesh")]
+    pub receiver: Option<PathBuf>,
+    /// A scene file instead of --mesh: receivers get AO, casters occlude.
+    #[arg(long, conflicts_with_all = ["mesh", "receiver"])]
+    pub scene: Option<PathBuf>,
+    #[command(flatten)]
+    pub knobs: AoOptions,
+    /// Per-vertex output: `index,ao` lines, or for a .ply name the mesh with AO as vertex colours.
+    #[arg(long)]
+    pub per_vertex: Option<PathBuf>,
+    /// Per-pixel output: AO at the primary hits, .png (linear grey), .exr or .pfm (float).
+    #[arg(long)]
+    pub image: Option<PathBuf>,
+    #[command(flatten)]
+    pub grey: GreyImageOptions,
+    #[command(flatten)]
+    pub size: crate::options::ImageSize,
+    /// --method field: the caster's precomputed field (else it is built
+    /// with --positions/--res/--bits/--directions).
+    #[arg(long, conflicts_with = "max_error")]
+    pub field: Option<PathBuf>,
+    #[command(flatten)]
+    pub field_options: FieldOptions,
+    #[command(flatten)]
+    pub camera: CameraArgs,
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// The scene the options describe: `--mesh` alone is caster and receiver;
+/// with `--receiver` the mesh only casts and the receiver only receives.
+fn scene_of(args: &AoArgs) -> Result<Scene> {
+    let scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
+    match &args.receiver {
+        Some(receiver) => scene.with_receiver_file(receiver),
+        None => Ok(scene),
+    }
+}
+
+pub fn run(args: &AoArgs) -> Result<Value> {
+    let threads = args.common.init_threads()?;
+    let settings = args.knobs.settings(args.common.seed)?;
+    let (outputs, request) = request(args, settings)?;
+    if args.knobs.method == Method::Field {
+        let (report, device) = field(args, outputs, &request)?;
+        return merged(args.common.report(&device, threads), report);
+    }
+    let scene = scene_of(args)?;
+    let device = args.common.open_device()?;
+    let runs = args.common.runs.runs(1)?;
+    let once = || raycast(&device, &scene, &request, &crate::progress::stderr());
+    let (ao, times) = runs.run("ao_ms", once, |ao| ao.ao_ms())?;
+    let written = outputs.write(&scene, 0, settings.radius, ao.vertices.as_ref(), ao.image.as_ref())?;
+    written.notes.iter().for_each(|n| note(n));
+    let report = RaycastReport::new(&ao, &settings, written).with_runs(times);
+    merged(args.common.report(&device, threads), report)
+}
+
+/// The checked `--per-vertex` and `--image` paths (at least one), and what
+/// they ask of a runner.
+fn request(args: &AoArgs, settings: penumbra::raycast::AoSettings) -> Result<(AoOutputs<'_>, AoRequest)> {
+    if args.per_vertex.is_none() && args.image.is_none() {
+        return Err(Error::param("--per-vertex/--image", "give at least one output"));
+    }
+    let outputs = check_outputs(&[(&args.per_vertex, "--per-vertex"), (&args.image, "--image")])?;
+    let style = args.grey.style();
+    outputs[1].map(|p| style.check(p, "--image")).transpose()?;
+    let image = match outputs[1] {
+        Some(_) => Some(View::new(args.camera.spec(), args.size.width, args.size.height)?),
+        None => None,
+    };
+    let vertices = outputs[0].is_some();
+    let outputs = AoOutputs {
+        per_vertex: outputs[0],
+        image: outputs[1],
+        style,
+    };
+    Ok((
+        outputs,
+        AoRequest {
+            settings,
+            vertices,
+            image,
+        },
+    ))
+}
+
+/// `--method field`: Algorithm 2 of the displacement-field paper.
+fn field(
+    args: &AoArgs,
+    outputs: AoOutputs,
+    request: &AoRequest,
+) -> Result<(FieldRunReport, penumbra::gpu::device::Device)> {
+    if args.mesh.is_some() && args.receiver.is_none() {
+        return Err(Error::param(
+            "--method field",
+            "needs --receiver (or --scene with receivers): a field answers for rays from outside its \
+             object, so it cannot shade the object's own vertices",
+        ));
+    }
+    if args.field.is_some() && args.scene.is_some() {
+        let problem = "goes with --mesh/--receiver; a scene file names its fields in \"fields\"";
+        return Err(Error::param("--field", problem));
+    }
+    let frames = args.knobs.frames()?;
+    let params = args.field_options.params()?;
+    let mut scene = scene_of(args)?;
+    if let Some(file) = &args.field {
+        scene.fields.insert(0, file.clone());
+    }
+    let device = args.common.open_device()?;
+    let reach = Reach {
+        radius: request.settings.radius,
+        frames,
+    };
+    let fixed = Fixed {
+        directions: args.field_options.directions,
+        positional: args.knobs.positional,
+        reach,
+    };
+    let files: Vec<&Path> = [&args.mesh, &args.receiver, &args.scene]
+        .into_iter()
+        .flatten()
+        .map(PathBuf::as_path)
+        .collect();
+    let inputs = (&scene, &files[..]);
+    let (mut fields, choice) = fields_for(
+        &device,
+        inputs,
+        request,
+        (fixed, &params),
+        args.knobs.max_error.map(crate::args::error_budget).as_ref(),
+        &crate::progress::stderr(),
+    )?;
+    choice.iter().for_each(note_choice);
+    let runs = args.common.runs.runs(1)?;
+    let radius = request.settings.radius;
+    let mut write = |f, v: Option<&_>, i: Option<&_>| outputs.write_frame(&scene, (f, false), radius, v, i).map(drop);
+    let mut once = || {
+        fields.run_frames(
+            request,
+            frames,
+            args.knobs.reference,
+            outputs.per_frame().then_some(&mut write),
+        )
+    };
+    let (run, times) = runs.run("ao_ms", &mut once, |r| r.frame_ao_ms.last().copied().unwrap_or(0.0))?;
+    let (vertices, image) = (run.vertices.as_ref(), run.image.as_ref());
+    let written = outputs.write_frame(&scene, (frames - 1, true), radius, vertices, image)?;
+    written.notes.iter().for_each(|n| note(n));
+    let mut report = FieldRunReport::new(&fields, run, &request.settings, written);
+    report.max_error = choice;
+    report.ao.runs = Some(times);
+    Ok((report, device))
+}

@@ -1,0 +1,185 @@
+//! The `penumbra` command line, as `../shared/CONTRACT.md` specifies it. It
+//! parses, calls a library runner and reports: the methods themselves live
+//! in the `penumbra` library.
+//!
+//! Every subcommand returns a JSON object; with `--json` it is the only thing
+//! printed on stdout, otherwise a readable summary is. Messages and progress
+//! go to stderr. Exit codes: 0 success, 2 bad input or unavailable device
+//! (including usage errors from clap), 1 internal error (panics included).
+//! Library errors name parameters in the library's language; `args::flag`
+//! maps them to this command line's options.
+
+mod ao;
+mod applies;
+mod args;
+mod field;
+mod files;
+mod gen_assets;
+mod info;
+mod io;
+mod options;
+mod plot;
+mod progress;
+mod prt;
+mod raytrace;
+mod raytrace_bounded;
+mod ssao;
+mod sweep;
+mod trace;
+mod trace_rays;
+
+use std::ffi::OsString;
+
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
+use serde_json::Value;
+
+use penumbra::error::Result;
+
+pub use args::{Common, DEFAULT_SEED, flag};
+
+#[derive(Parser)]
+#[command(
+    name = "penumbra",
+    version,
+    about = "Visibility on the GPU: ambient occlusion and ray casting with wgpu/WGSL, with a CPU reference path"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// List GPU adapters and the one penumbra would use.
+    Info(info::InfoArgs),
+    /// Trace rays from a file against a mesh (closest hits).
+    TraceRays(trace_rays::TraceRaysArgs),
+    /// Ambient occlusion per vertex (CSV) and/or per pixel (PNG).
+    Ao(ao::AoArgs),
+    /// Primary rays from a camera, with traversal statistics.
+    Trace(trace::TraceArgs),
+    /// Self-shadowed rendering under an environment map, transfer recomputed every frame.
+    Prt(Box<prt::PrtArgs>),
+    /// Displacement fields: build one from a mesh, or inspect a .dfield file.
+    Field(field::FieldArgs),
+    /// Screen-space ambient occlusion and indirect light (the paper's estimators).
+    Ssao(ssao::SsaoArgs),
+    /// Whitted ray tracing of OBJ/MTL materials or a scene file (PNG, EXR or PFM).
+    Raytrace(raytrace::RaytraceArgs),
+    /// Time and error of every setting of a grid of a method's knobs on your scene.
+    Sweep(sweep::SweepArgs),
+    /// Write the procedural scenes (corner, closed box, well, ...) as OBJ files, the ray tracer's scenes into OUT/raytrace, example animations into OUT/animations and the chess-like scene into OUT/chess and OUT/scenes/chess.json.
+    GenAssets(GenAssetsArgs),
+}
+
+#[derive(clap::Args)]
+struct GenAssetsArgs {
+    /// Output folder.
+    #[arg(long, default_value = "assets")]
+    out: std::path::PathBuf,
+    /// Print exactly one JSON object on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Every option a rule of `args`' subcommand names, with whether the
+/// subcommand has it (a misspelt id would never be given: its rule could
+/// never fire). For tests.
+pub fn rule_options(args: &[&str]) -> Vec<(&'static str, bool)> {
+    let cli = Cli::try_parse_from(args).expect("a valid command line");
+    let command = Cli::command();
+    let sub = command.find_subcommand(args[1]).expect("a subcommand");
+    let has = |id: &str| sub.get_arguments().any(|a| a.get_id() == id);
+    let rules = applies::rules(&cli.command);
+    rules
+        .iter()
+        .flat_map(|r| r.options.iter().map(|&id| (id, has(id))))
+        .collect()
+}
+
+/// Runs the command line; returns the process exit code.
+pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
+    let parsed = Cli::command()
+        .try_get_matches_from(args)
+        .and_then(|m| Cli::from_arg_matches(&m).map(|cli| (cli, m)));
+    let (cli, matches) = match parsed {
+        Ok(parsed) => parsed,
+        Err(e) => {
+            let _ = e.print();
+            return e.exit_code();
+        }
+    };
+    remove_unfinished_on_interrupt();
+    prefer_isa_from_env();
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        let sub = matches.subcommand().map(|(_, m)| m);
+        if let Some(sub) = sub {
+            applies::refuse_unused(&cli.command, sub)?;
+        }
+        dispatch(cli.command)
+    }));
+    match outcome {
+        Ok(Ok(())) => 0,
+        Ok(Err(e)) => {
+            eprintln!("penumbra: error: {}", e.clone().with_names(args::flag));
+            e.exit_code()
+        }
+        Err(panic) => {
+            let what = panic
+                .downcast_ref::<String>()
+                .map(String::as_str)
+                .or_else(|| panic.downcast_ref::<&str>().copied())
+                .unwrap_or("unknown panic");
+            eprintln!("penumbra: internal error (a bug, please report it): {what}");
+            1
+        }
+    }
+}
+
+fn dispatch(command: Command) -> Result<()> {
+    files::of(&command).check()?;
+    match command {
+        Command::Info(a) => emit(a.json, info::run(&a)?),
+        Command::TraceRays(a) => emit(a.common.json, trace_rays::run(&a)?),
+        Command::Ao(a) => emit(a.common.json, ao::run(&a)?),
+        Command::Trace(a) => emit(a.common.json, trace::run(&a)?),
+        Command::Prt(a) => emit(a.common.json, prt::run(&a)?),
+        Command::Field(a) => emit(field::json_flag(&a), field::run(&a)?),
+        Command::Ssao(a) => emit(a.common.json, ssao::run(&a)?),
+        Command::Raytrace(a) => emit(a.common.json, raytrace::run(&a)?),
+        Command::Sweep(a) => emit(a.common.json, sweep::run(&a)?),
+        Command::GenAssets(a) => {
+            let written = gen_assets::write_every_asset(&a.out)?;
+            let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+            emit(a.json, serde_json::json!({ "files": files }))
+        }
+    }
+}
+
+/// Prints the result (`io::print_report`).
+fn emit(json: bool, value: Value) -> Result<()> {
+    io::print_report(json, &value)
+}
+
+/// `PENUMBRA_ISA=avx512|avx2|sse|scalar` runs the CPU's vector lanes at a
+/// narrower instruction set, to measure what the wider one buys.
+fn prefer_isa_from_env() {
+    let asked = std::env::var("PENUMBRA_ISA")
+        .ok()
+        .and_then(|s| penumbra::geom::simd::Isa::parse(&s));
+    if let Some(isa) = asked {
+        penumbra::geom::simd::Isa::prefer(isa);
+    }
+}
+
+/// On SIGINT/SIGTERM (Ctrl-C): removes every output being written (the
+/// library's temporaries), says so on stderr and exits with 130, as shells
+/// expect of an interrupted program. Outputs already in place are complete;
+/// none is half written.
+fn remove_unfinished_on_interrupt() {
+    let _ = ctrlc::set_handler(|| {
+        penumbra::io::output::remove_unfinished();
+        eprintln!("penumbra: interrupted; unfinished outputs removed");
+        std::process::exit(130);
+    });
+}

@@ -1,0 +1,321 @@
+//! Closest-hit and any-hit traversal of the wide BVH: at each node the ray
+//! is clipped against all eight children's boxes at once (the slab test,
+//! Kay and Kajiya 1986), the nearest child entered is visited next and the
+//! others are pushed farthest first; a popped entry whose box starts beyond
+//! the best hit is dropped.
+//!
+//! The slab test is conservative: NaN slabs (a zero direction component
+//! with the origin on a plane) do not restrict the interval, and the
+//! interval is widened by `SLACK` relatively (Ize 2013, "Robust BVH ray
+//! traversal", bounds the rounding at 2 gamma_3, about 4e-7), on top of the
+//! boxes' padding by the builder: a box is never missed by a ray the
+//! triangle test inside it would accept.
+
+use std::mem::MaybeUninit;
+
+use glam::Vec3;
+
+use super::{Bvh8, LEAF_BIT, Node8, SLACK, WIDTH};
+use crate::accel::kdtree::KdTree;
+use crate::accel::kdtree::watertight::ShearedRay;
+use crate::geom::ray::{Hit, Ray};
+
+/// Stack entries: the builder bounds the binary tree's depth by 48 + 32
+/// levels, and each level pushes at most seven children.
+const STACK_SIZE: usize = 1024;
+const STACK_MASK: usize = STACK_SIZE - 1;
+
+/// What the box test keeps of a ray: origin and reciprocal direction, and
+/// per axis which plane row (`Node8::planes`) the ray enters and leaves by.
+pub(super) struct BoxRay {
+    pub o: [f32; 3],
+    pub inv: [f32; 3],
+    pub near: [usize; 3],
+    pub far: [usize; 3],
+}
+
+impl BoxRay {
+    #[inline(always)]
+    pub fn new(origin: Vec3, dir: Vec3) -> BoxRay {
+        let inv = dir.recip().to_array();
+        // The sign bit decides (a -0 direction has a -inf reciprocal, and
+        // enters by the maximum plane).
+        let near = [0, 1, 2].map(|a| if inv[a].is_sign_negative() { a + 3 } else { a });
+        BoxRay {
+            o: origin.to_array(),
+            inv,
+            near,
+            far: near.map(|p| (p + 3) % 6),
+        }
+    }
+}
+
+/// The eight-lane box test in one instruction set.
+pub(super) trait BoxTest {
+    /// Which children `ray` enters before `t_far` (bit i for child i), and
+    /// the entry distance of each.
+    fn test(node: &Node8, ray: &BoxRay, t_far: f32) -> (u32, [f32; WIDTH]);
+}
+
+/// The box test in plain lanes (any CPU).
+pub(super) struct Lanes8;
+
+impl BoxTest for Lanes8 {
+    #[inline(always)]
+    fn test(node: &Node8, ray: &BoxRay, t_far: f32) -> (u32, [f32; WIDTH]) {
+        let mut near = [0.0f32; WIDTH];
+        let mut far = [t_far; WIDTH];
+        for axis in 0..3 {
+            let (o, inv) = (ray.o[axis], ray.inv[axis]);
+            let (pn, pf) = (&node.planes[ray.near[axis]], &node.planes[ray.far[axis]]);
+            for l in 0..WIDTH {
+                narrow(&mut near, &mut far, l, (pn[l] - o) * inv, (pf[l] - o) * inv);
+            }
+        }
+        (entered(&near, &far), near)
+    }
+}
+
+/// Narrows lane `l`'s interval by `[tn, tf]`. Comparisons are false on
+/// NaN: a NaN bound (a zero direction component with the origin on a
+/// plane, or 0 x inf) keeps the interval.
+#[inline(always)]
+pub(super) fn narrow(near: &mut [f32; WIDTH], far: &mut [f32; WIDTH], l: usize, tn: f32, tf: f32) {
+    if tn > near[l] {
+        near[l] = tn;
+    }
+    if tf < far[l] {
+        far[l] = tf;
+    }
+}
+
+/// The lanes whose interval, widened by `SLACK`, is not empty (bit l).
+#[inline(always)]
+pub(super) fn entered(near: &[f32; WIDTH], far: &[f32; WIDTH]) -> u32 {
+    let mut mask = 0;
+    for l in 0..WIDTH {
+        mask |= ((near[l] * (1.0 - SLACK) <= far[l] * (1.0 + SLACK)) as u32) << l;
+    }
+    mask
+}
+
+/// The box test in one AVX register.
+#[cfg(target_arch = "x86_64")]
+pub(super) struct Avx8;
+
+#[cfg(target_arch = "x86_64")]
+impl BoxTest for Avx8 {
+    #[inline(always)]
+    fn test(node: &Node8, ray: &BoxRay, t_far: f32) -> (u32, [f32; WIDTH]) {
+        use std::arch::x86_64::*;
+        // SAFETY: only compiled into `closest_avx2`, which requires AVX2;
+        // each plane row is 32 bytes at a 32-byte boundary (`Node8` is
+        // `align(64)`, rows 32 bytes).
+        unsafe {
+            let mut near = _mm256_setzero_ps();
+            let mut far = _mm256_set1_ps(t_far);
+            for axis in 0..3 {
+                let o = _mm256_set1_ps(ray.o[axis]);
+                let inv = _mm256_set1_ps(ray.inv[axis]);
+                let pn = _mm256_load_ps(node.planes[ray.near[axis]].as_ptr());
+                let pf = _mm256_load_ps(node.planes[ray.far[axis]].as_ptr());
+                // max/min return their second operand when either is NaN:
+                // the running interval, so a NaN slab keeps it.
+                near = _mm256_max_ps(_mm256_mul_ps(_mm256_sub_ps(pn, o), inv), near);
+                far = _mm256_min_ps(_mm256_mul_ps(_mm256_sub_ps(pf, o), inv), far);
+            }
+            entered_avx(near, far)
+        }
+    }
+}
+
+/// `entered` of eight intervals in AVX registers, and the entries.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(super) unsafe fn entered_avx(
+    near: std::arch::x86_64::__m256,
+    far: std::arch::x86_64::__m256,
+) -> (u32, [f32; WIDTH]) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller checked AVX2.
+    unsafe {
+        let enter = _mm256_cmp_ps::<_CMP_LE_OQ>(
+            _mm256_mul_ps(near, _mm256_set1_ps(1.0 - SLACK)),
+            _mm256_mul_ps(far, _mm256_set1_ps(1.0 + SLACK)),
+        );
+        let mut out = [0.0f32; WIDTH];
+        _mm256_storeu_ps(out.as_mut_ptr(), near);
+        (_mm256_movemask_ps(enter) as u32, out)
+    }
+}
+
+/// Traces `rays` into `hits` with the widest box test the CPU has; a ray
+/// whose hit is a contact (`Bvh8::contact`) gets `tree`'s answer.
+pub(super) fn dispatch<const ANY: bool>(bvh: &Bvh8, tree: &KdTree, rays: &[Ray], t_max: f32, hits: &mut [Hit]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2.
+        unsafe { trace_avx2::<ANY>(bvh, rays, t_max, hits) };
+    } else {
+        trace::<ANY, Lanes8>(bvh, rays, t_max, hits);
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    trace::<ANY, Lanes8>(bvh, rays, t_max, hits);
+    for (r, h) in rays.iter().zip(hits) {
+        if h.is_hit() && is_contact(bvh, h.t, r.d()) {
+            *h = if ANY {
+                match tree.any_hit(r.o(), r.d(), t_max) {
+                    true => *h,
+                    false => Hit::MISS,
+                }
+            } else {
+                tree.closest_hit(r.o(), r.d(), t_max)
+            };
+        }
+    }
+}
+
+/// Whether a hit at `t` along `dir` is closer than the contact distance.
+#[inline(always)]
+pub(super) fn is_contact(bvh: &Bvh8, t: f32, dir: Vec3) -> bool {
+    t * t * dir.length_squared() < bvh.contact * bvh.contact
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn trace_avx2<const ANY: bool>(bvh: &Bvh8, rays: &[Ray], t_max: f32, hits: &mut [Hit]) {
+    trace::<ANY, Avx8>(bvh, rays, t_max, hits);
+}
+
+#[inline(always)]
+fn trace<const ANY: bool, T: BoxTest>(bvh: &Bvh8, rays: &[Ray], t_max: f32, hits: &mut [Hit]) {
+    for (r, h) in rays.iter().zip(hits) {
+        *h = walk::<ANY, T>(bvh, r.o(), r.d(), t_max);
+    }
+}
+
+/// One ray's traversal.
+#[inline(always)]
+fn walk<const ANY: bool, T: BoxTest>(bvh: &Bvh8, origin: Vec3, dir: Vec3, t_max: f32) -> Hit {
+    let sheared = ShearedRay::in_frame(origin, dir, bvh.frame_scale);
+    let ray = BoxRay::new(origin, dir);
+    let mut best = Hit {
+        t: t_max,
+        triangle: Hit::MISS_INDEX,
+    };
+    // The best t in the triangle test's frame (a power of two times `t`).
+    let mut best_frame = t_max * sheared.scale;
+    // Uninitialised: every slot below `sp` was written by its push.
+    let mut stack = [const { MaybeUninit::<(u32, f32)>::uninit() }; STACK_SIZE];
+    let mut sp = 0usize;
+    let mut current = 0u32;
+    loop {
+        if current & LEAF_BIT == 0 {
+            let node = &bvh.nodes[current as usize];
+            let (mask, near) = T::test(node, &ray, best.t);
+            if mask != 0 {
+                let first = mask.trailing_zeros() as usize;
+                let rest = mask & (mask - 1);
+                if rest == 0 {
+                    current = node.child[first];
+                    continue;
+                }
+                current = nearest_first(node, mask, &near, &mut stack, &mut sp);
+                prefetch_pushed(bvh, &stack, sp);
+                continue;
+            }
+        } else {
+            let block = &bvh.blocks[(current & !LEAF_BIT) as usize];
+            let t = sheared.intersect_block(block);
+            for (&t, &triangle) in t.iter().zip(&block.triangles) {
+                if triangle == Hit::MISS_INDEX {
+                    break;
+                }
+                // Closest first; at an equal t the smaller index (never
+                // a t equal to t_max itself).
+                let closer = t < best_frame || (t == best_frame && best.is_hit() && triangle < best.triangle);
+                if t > 0.0 && closer {
+                    best_frame = t;
+                    best = Hit {
+                        t: t * sheared.inv_scale,
+                        triangle,
+                    };
+                    if ANY {
+                        return best;
+                    }
+                }
+            }
+        }
+        // Pop the next child whose box begins before the best hit.
+        loop {
+            if sp == 0 {
+                return if best.is_hit() { best } else { Hit::MISS };
+            }
+            sp -= 1;
+            // SAFETY: slot `sp` was written by the push that raised `sp`
+            // above it.
+            let (child, near) = unsafe { stack[sp & STACK_MASK].assume_init() };
+            if near * (1.0 - SLACK) <= best.t * (1.0 + SLACK) {
+                current = child;
+                break;
+            }
+        }
+    }
+}
+
+/// Pushes the entered children of `node` but the nearest, farthest first,
+/// and returns the nearest.
+#[inline(always)]
+fn nearest_first(
+    node: &Node8,
+    mut mask: u32,
+    near: &[f32; WIDTH],
+    stack: &mut [MaybeUninit<(u32, f32)>; STACK_SIZE],
+    sp: &mut usize,
+) -> u32 {
+    // Insertion sort of at most eight (distance, child), nearest last.
+    let mut order = [(0.0f32, 0u32); WIDTH];
+    let mut n = 0;
+    while mask != 0 {
+        let i = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        let entry = (near[i], node.child[i]);
+        let mut j = n;
+        while j > 0 && order[j - 1].0 < entry.0 {
+            order[j] = order[j - 1];
+            j -= 1;
+        }
+        order[j] = entry;
+        n += 1;
+    }
+    for &(d, child) in &order[..n - 1] {
+        stack[*sp & STACK_MASK].write((child, d));
+        *sp += 1;
+    }
+    order[n - 1].1
+}
+
+/// Asks for the node or block on top of the stack ahead of its pop.
+#[inline(always)]
+fn prefetch_pushed(bvh: &Bvh8, stack: &[MaybeUninit<(u32, f32)>; STACK_SIZE], sp: usize) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        // SAFETY: slot sp - 1 was just written (sp >= 1 after a push).
+        let (child, _) = unsafe { stack[(sp - 1) & STACK_MASK].assume_init() };
+        let p: *const i8 = if child & LEAF_BIT == 0 {
+            bvh.nodes.as_ptr().wrapping_add(child as usize).cast()
+        } else {
+            bvh.blocks.as_ptr().wrapping_add((child & !LEAF_BIT) as usize).cast()
+        };
+        // SAFETY: a prefetch never faults.
+        unsafe {
+            for line in 0..4 {
+                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * line));
+            }
+        }
+    }
+}

@@ -1,0 +1,10 @@
+//! Geometry and numerics every layer above uses: boxes and rays, float
+//! ordering, colour conversions, sample sequences and the vector lanes of
+//! the CPU traversals.
+
+pub mod aabb;
+pub mod color;
+pub mod float;
+pub mod ray;
+pub mod sampling;
+pub mod simd;

@@ -1,0 +1,858 @@
+//! The PRT runner: per-frame transfer and radiance of a deforming mesh on
+//! any device (the masks are rasterised on the CPU; integration, rotation
+//! and shading run in `sh_transfer.wgsl` on a GPU or in their CPU twin),
+//! with the Monte Carlo ray-traced reference for checks. `PrtRunner::frame`
+//! is what a host calls every frame with its own vertex positions;
+//! `animate` is the command line's loop over a scene mesh's animation.
+
+use std::time::Instant;
+
+use glam::{DMat3, Vec3};
+use serde::Serialize;
+
+use super::blockers::SceneBlockers;
+use super::gpu::{FrameInputs, GpuTransfer, MAX_GPU_BANDS};
+use super::hierarchy::NearField;
+use super::pipeline::{FrameOutput, FrameStats, Prt, PrtSettings};
+use super::reference::{reference_transfer, relative_l2_error};
+use super::selfcheck::{SelfCheck, SelfCheckReport};
+use super::sides::Sides;
+use super::transfer::{Brdf, Integration, radiance};
+use crate::accel::kdtree::{KdTree, KdTreeParams};
+use crate::error::{Error, Result};
+use crate::gpu::device::{Device, OnDevice, elapsed_ms};
+use crate::progress::Reporter;
+use crate::report::repeats::{Repeats, RunTimes};
+use crate::scene::deform::{AnimationSource, Clip};
+use crate::scene::{EnvironmentMap, SceneMesh};
+use crate::sh::window::{Deringing, nonnegative};
+use crate::sh::{ShRgb, ShRotation, coefficient_count, project_environment};
+
+/// Where a frame's visibility comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum Shadows {
+    /// Hemispherical rasterisation.
+    On,
+    /// No visibility (unshadowed transfer).
+    Off,
+    /// Monte Carlo ray-traced visibility (the reference's rays per vertex; slow).
+    Raytraced,
+}
+
+/// The Monte Carlo ray-traced reference: rays per vertex and the sequence's seed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RayTraced {
+    pub rays: u32,
+    pub seed: u32,
+}
+
+/// Transfer of one mesh, frame after frame, on a device.
+pub struct PrtRunner {
+    prt: Prt,
+    triangles: Vec<[u32; 3]>,
+    shadows: Shadows,
+    reference: RayTraced,
+    device: Device,
+    gpu: OnDevice<GpuTransfer>,
+    notes: Vec<String>,
+}
+
+impl PrtRunner {
+    /// Builds the tables and hierarchy of the mesh from its rest pose and,
+    /// on a GPU, uploads them. A device chosen automatically runs what its
+    /// GPU kernel cannot (more than `MAX_GPU_BANDS` bands) on the CPU, with
+    /// a note; a GPU asked for explicitly is an error then.
+    pub fn new(
+        device: &Device,
+        rest: &[Vec3],
+        triangles: &[[u32; 3]],
+        settings: &PrtSettings,
+        shadows: Shadows,
+        reference: RayTraced,
+    ) -> Result<PrtRunner> {
+        Self::build(device, &[rest], triangles, settings, (shadows, reference))
+    }
+
+    /// `new` for an animated mesh: `poses[0]` is the rest pose, the others
+    /// poses its coarse level is checked on too (`Playback::poses`).
+    pub fn new_posed(
+        device: &Device,
+        poses: &[Vec<Vec3>],
+        triangles: &[[u32; 3]],
+        settings: &PrtSettings,
+        shadows: Shadows,
+        reference: RayTraced,
+    ) -> Result<PrtRunner> {
+        let poses: Vec<&[Vec3]> = poses.iter().map(Vec::as_slice).collect();
+        Self::build(device, &poses, triangles, settings, (shadows, reference))
+    }
+
+    fn build(
+        device: &Device,
+        poses: &[&[Vec3]],
+        triangles: &[[u32; 3]],
+        settings: &PrtSettings,
+        (shadows, reference): (Shadows, RayTraced),
+    ) -> Result<PrtRunner> {
+        let settings = PrtSettings {
+            shadows: shadows == Shadows::On,
+            ..settings.clone()
+        };
+        settings.validate()?;
+        let mut notes = Vec::new();
+        let mut device = device.clone();
+        if device.is_gpu() && settings.bands > MAX_GPU_BANDS && device.is_automatic() {
+            notes.push(format!(
+                "the GPU kernel integrates up to {MAX_GPU_BANDS} SH bands; `bands` {} runs on the CPU",
+                settings.bands
+            ));
+            device = device.cpu_instead();
+        }
+        let prt = Prt::new_posed(poses, triangles, &settings)?;
+        // Ray-traced shadows need no kernel: the GPU integrates masks only.
+        let gpu = match shadows {
+            Shadows::Raytraced => OnDevice::Cpu,
+            _ => device.prepare(|ctx| GpuTransfer::new(ctx, &prt))?,
+        };
+        Ok(PrtRunner {
+            prt,
+            triangles: triangles.to_vec(),
+            shadows,
+            reference,
+            device,
+            gpu,
+            notes,
+        })
+    }
+
+    pub fn prt(&self) -> &Prt {
+        &self.prt
+    }
+
+    /// The device the runner computes on (the CPU where it fell back).
+    pub fn device(&self) -> &Device {
+        &self.device
+    }
+
+    /// What the runner chose on its own (e.g. falling back to the CPU).
+    pub fn notes(&self) -> &[String] {
+        &self.notes
+    }
+
+    /// Replaces the hierarchy's blocker lists by potentially visible sets
+    /// gathered from sampled poses (positions per pose).
+    pub fn use_pvs(&mut self, poses: &[Vec<Vec3>]) -> Result<()> {
+        let pvs = super::pvs::build_pvs(&self.prt, poses)?;
+        self.prt.set_pvs(Some(pvs));
+        Ok(())
+    }
+
+    /// One frame: transfer, radiance and shading normals at every vertex
+    /// for `positions` (the mesh's current pose), seen from `eye` (two-sided
+    /// meshes, glossy BRDFs), under planar RGB SH `lighting` (`3 x coeffs`).
+    /// Returns the GPU kernel's time where there is one.
+    pub fn frame(
+        &mut self,
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        lighting: &[f32],
+        profile: bool,
+        out: &mut FrameOutput,
+    ) -> Result<Option<f64>> {
+        self.frame_with(positions, eye, lighting, profile, None, out)
+    }
+
+    /// `frame` of object `id` of a scene, with the other objects'
+    /// `blockers` in its masks (`blockers`; on a GPU too: the masks are
+    /// the CPU's). Ray-traced shadows here are the mesh's own.
+    pub fn frame_with(
+        &mut self,
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        lighting: &[f32],
+        profile: bool,
+        others: Option<(&SceneBlockers, usize)>,
+        out: &mut FrameOutput,
+    ) -> Result<Option<f64>> {
+        let prt = &self.prt;
+        match (self.shadows, &mut self.gpu) {
+            (Shadows::Raytraced, _) => {
+                prt.shading_normals(positions, eye, &mut out.normals);
+                out.transfer = self.reference_transfer(positions, &out.normals, eye)?;
+                out.radiance = out
+                    .transfer
+                    .chunks(prt.coeffs())
+                    .map(|t| radiance(lighting, t))
+                    .collect();
+                out.stats = FrameStats::default();
+                Ok(None)
+            }
+            (_, OnDevice::Gpu { ctx, state }) => {
+                prt.frame_masks_with(positions, eye, profile, others, out)?;
+                let inputs = FrameInputs {
+                    masks: &out.masks,
+                    positions,
+                    normals: &out.normals,
+                    eye,
+                    lighting,
+                };
+                let g = state.run_frame(ctx, &inputs)?;
+                out.transfer = g.transfer;
+                out.radiance = g.radiance;
+                Ok(g.kernel_ms)
+            }
+            (_, OnDevice::Cpu) => {
+                prt.frame_with(positions, eye, lighting, (profile, false), others, out)?;
+                Ok(None)
+            }
+        }
+    }
+
+    /// Monte Carlo ray-traced transfer of a pose (kd-tree of the full mesh)
+    /// for the given shading normals.
+    pub fn reference_transfer(&self, positions: &[Vec3], normals: &[Vec3], eye: Option<Vec3>) -> Result<Vec<f32>> {
+        let soup: Vec<[Vec3; 3]> = self
+            .triangles
+            .iter()
+            .map(|t| t.map(|i| positions[i as usize]))
+            .collect();
+        let tree = KdTree::from_triangles(soup, &KdTreeParams::default())?;
+        let s = &self.prt.settings;
+        let RayTraced { rays, seed } = self.reference;
+        Ok(reference_transfer(
+            &tree,
+            positions,
+            normals,
+            self.prt.scale,
+            s.bands,
+            &s.brdf,
+            eye,
+            rays,
+            seed,
+        ))
+    }
+
+    /// The self-check's estimate of the transfer error on `poses` (frame
+    /// index and positions each), from a sample of vertices (`selfcheck`).
+    pub fn self_check(
+        &self,
+        poses: &[(usize, Vec<Vec3>)],
+        eye: Option<Vec3>,
+        check: &SelfCheck,
+    ) -> Result<SelfCheckReport> {
+        super::selfcheck::estimate(&self.prt, &self.triangles, poses, eye, check, self.reference.seed)
+    }
+
+    /// The frame's mean relative L2 transfer error against ray tracing:
+    /// (error, vertices counted, vertices skipped as nearly dark).
+    pub fn transfer_error(
+        &self,
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        frame: &FrameOutput,
+    ) -> Result<(f64, usize, usize)> {
+        // Ray-traced shadows already are the reference: no second trace.
+        let reference = match self.shadows {
+            Shadows::Raytraced => frame.transfer.clone(),
+            _ => self.reference_transfer(positions, &frame.normals, eye)?,
+        };
+        let t = &self.prt.tables;
+        let unoccluded = t.unoccluded.iter().map(|v| v * v).sum::<f32>().sqrt();
+        Ok(relative_l2_error(
+            &frame.transfer,
+            &reference,
+            t.coeffs,
+            0.01 * unoccluded,
+        ))
+    }
+}
+
+/// How an animation is played: frames, time, lighting spin, PVS, checks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Playback {
+    pub frames: usize,
+    /// Animation time of the first frame and between frames, seconds.
+    pub start: f32,
+    pub dt: f32,
+    /// Turn the lighting about +y by this many degrees per frame.
+    pub env_spin: f32,
+    pub pvs: Option<PvsSampling>,
+    /// Frames compared with ray tracing, evenly spread (0: none).
+    pub check_frames: usize,
+    /// Per-phase times (the paper's Table 2).
+    pub profile: bool,
+    /// The ray-traced error estimate at setup (`selfcheck`; None: none).
+    pub self_check: Option<SelfCheck>,
+    /// Progress of the PVS, the self-check and the frames (with their checks).
+    pub bars: Reporter,
+}
+
+/// Poses a PVS is gathered from: `frames` over `span` seconds from the
+/// start (default: the frames' span, at least 2 s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PvsSampling {
+    pub frames: usize,
+    pub span: Option<f32>,
+}
+
+impl Playback {
+    pub fn validate(&self) -> Result<()> {
+        for (name, v) in [
+            ("frames", self.frames),
+            ("pvs_frames", self.pvs.map_or(1, |p| p.frames)),
+        ] {
+            if v == 0 {
+                return Err(Error::param(name, format!("must be positive, got {v}")));
+            }
+        }
+        if !(self.dt.is_finite() && self.start.is_finite() && self.env_spin.is_finite()) {
+            return Err(Error::param("dt/start/env_spin", "must be finite"));
+        }
+        if let Some(c) = &self.self_check {
+            c.validate()?;
+        }
+        Ok(())
+    }
+
+    /// Plays a user's animation `clip` (a sequence, a glTF clip): `start`
+    /// counts from the clip's start; without `frames_given` every frame of
+    /// the clip is played (at `dt` where given, else at the clip's rate);
+    /// without `dt_given` the frames sample the clip evenly, first and last
+    /// keyframes included.
+    pub fn fit_clip(&mut self, clip: Option<Clip>, frames_given: bool, dt_given: bool) -> Result<()> {
+        let Some(clip) = clip else {
+            return Ok(());
+        };
+        self.start += clip.start;
+        if !frames_given {
+            self.frames = match dt_given {
+                true if self.dt > 0.0 => (clip.duration / self.dt).floor() as usize + 1,
+                _ => clip.frames,
+            };
+        }
+        if !dt_given {
+            self.dt = clip.spacing(self.frames);
+        }
+        self.validate()
+    }
+
+    pub(crate) fn time(&self, frame: usize) -> f32 {
+        self.start + frame as f32 * self.dt
+    }
+
+    /// The frames checked against ray tracing.
+    pub(crate) fn checked(&self) -> Vec<usize> {
+        self.spread(self.check_frames)
+    }
+
+    /// `k` frames evenly spread over the run (fewer if there are fewer).
+    /// The poses a runner for `mesh` is built on: the first frame's (the
+    /// rest pose), then, for an animated mesh, those of `k` frames spread
+    /// over the playback, the rest pose's repeat left out.
+    pub fn poses(&self, mesh: &SceneMesh, k: usize) -> Vec<Vec<Vec3>> {
+        let at = |f: usize| {
+            let mut p = Vec::new();
+            mesh.positions_at(self.time(f), &mut p);
+            p
+        };
+        let mut poses = vec![at(0)];
+        if mesh.animation.is_some() {
+            poses.extend(self.spread(k).into_iter().filter(|&f| f > 0).map(at));
+        }
+        poses
+    }
+
+    pub(crate) fn spread(&self, k: usize) -> Vec<usize> {
+        let k = k.min(self.frames);
+        (0..k)
+            .map(|i| if k == 1 { 0 } else { i * (self.frames - 1) / (k - 1) })
+            .collect()
+    }
+}
+
+/// Runs `animation` of `mesh` under `env`, seen from `eye`, calling
+/// `on_frame` with each frame's index, pose and results.
+/// `animate` played `runs.warmup` untimed times, then `runs.repeat`
+/// measured times (each play's measure: the sum of its frame times, setup
+/// and checks apart); `on_frame` sees only the last play's frames, and the
+/// report is the last play's.
+pub fn animate_runs(
+    runner: &mut PrtRunner,
+    (mesh, env): (&SceneMesh, &EnvironmentMap),
+    eye: Option<Vec3>,
+    animation: &Playback,
+    runs: Repeats,
+    mut on_frame: impl FnMut(usize, &[Vec3], &FrameOutput) -> Result<()>,
+) -> Result<(PrtReport, RunTimes)> {
+    let (plays, mut play) = (runs.warmup + runs.repeat, 0);
+    let once = || {
+        play += 1;
+        let last = play == plays;
+        animate(runner, mesh, env, eye, animation, |f, positions, out| match last {
+            true => on_frame(f, positions, out),
+            false => Ok(()),
+        })
+    };
+    runs.run("animation_ms", once, |r| r.frame_ms.mean * r.frames as f64)
+}
+
+pub fn animate(
+    runner: &mut PrtRunner,
+    mesh: &SceneMesh,
+    env: &EnvironmentMap,
+    eye: Option<Vec3>,
+    animation: &Playback,
+    mut on_frame: impl FnMut(usize, &[Vec3], &FrameOutput) -> Result<()>,
+) -> Result<PrtReport> {
+    animation.validate()?;
+    let bands = runner.prt.settings.bands;
+    // Non-negative lighting, so that no visibility shades below zero
+    // (`sh::window`).
+    let (lighting_world, deringing) = nonnegative(&project_environment(env, bands));
+    let rotation = ShRotation::new(bands);
+    let bars = &animation.bars;
+    let pvs = match animation.pvs {
+        Some(sampling) => {
+            let _shown = bars.spinner("gathering the PVS");
+            Some(gather_pvs(runner, mesh, animation, sampling)?)
+        }
+        None => None,
+    };
+    let self_check = match animation.self_check {
+        Some(c) if runner.shadows == Shadows::On => {
+            let _shown = bars.spinner("self-check");
+            Some(self_check(runner, mesh, eye, animation, &c)?)
+        }
+        _ => None,
+    };
+    let checked = animation.checked();
+    let label = if checked.is_empty() {
+        "frames"
+    } else {
+        "frames (ray-traced checks)"
+    };
+    let progress = bars.bar(animation.frames as u64, label);
+    let mut check = CheckReport {
+        rays: runner.reference.rays,
+        frames: checked.clone(),
+        per_frame: Vec::new(),
+        vertices: 0,
+        skipped_dark: 0,
+        seed: runner.reference.seed,
+    };
+    let mut frame_ms = Vec::with_capacity(animation.frames);
+    let mut phases = FramePhases::default();
+    let mut gpu_ms = Vec::new();
+    let mut sum = FrameStats::default();
+    let mut out = FrameOutput::default();
+    let mut positions = Vec::new();
+    for f in 0..animation.frames {
+        // The whole frame is timed: the pose, the
+        // lighting's rotation, then masks, transfer and shading; checks and
+        // the host's output (`on_frame`) are not.
+        let start = Instant::now();
+        mesh.positions_at(animation.time(f), &mut positions);
+        let posed = Instant::now();
+        let lighting = spun(&lighting_world, &rotation, animation.env_spin * f as f32).to_f32_planar();
+        let lit = Instant::now();
+        if let Some(ms) = runner.frame(&positions, eye, &lighting, animation.profile, &mut out)? {
+            gpu_ms.push(ms);
+        }
+        let done = Instant::now();
+        frame_ms.push(ms_between(start, done));
+        phases.animate += ms_between(start, posed);
+        phases.lighting += ms_between(posed, lit);
+        phases.transfer += ms_between(lit, done);
+        sum += &out.stats;
+        progress.inc(1);
+        if checked.contains(&f) {
+            let (e, counted, skipped) = runner.transfer_error(&positions, eye, &out)?;
+            check.per_frame.push(e);
+            check.vertices += counted;
+            check.skipped_dark += skipped;
+        }
+        let output = Instant::now();
+        on_frame(f, &positions, &out)?;
+        phases.output += elapsed_ms(output);
+    }
+    Ok(PrtReport::new(
+        runner,
+        animation,
+        &frame_ms,
+        &gpu_ms,
+        &sum,
+        pvs,
+        (!checked.is_empty()).then_some(check),
+    )
+    .with_setup(self_check, deringing)
+    .with_frames(phases, mesh))
+}
+
+pub(crate) fn ms_between(a: Instant, b: Instant) -> f64 {
+    (b - a).as_secs_f64() * 1e3
+}
+
+/// The self-check on the poses `--check` would compare (the default four
+/// frames; one pose for a static mesh).
+fn self_check(
+    runner: &PrtRunner,
+    mesh: &SceneMesh,
+    eye: Option<Vec3>,
+    animation: &Playback,
+    check: &SelfCheck,
+) -> Result<SelfCheckReport> {
+    let frames = match (&mesh.animation, animation.check_frames) {
+        (None, _) => vec![0],
+        (Some(_), 0) => animation.spread(4),
+        (Some(_), k) => animation.spread(k),
+    };
+    let poses: Vec<(usize, Vec<Vec3>)> = frames
+        .into_iter()
+        .map(|f| {
+            let mut p = Vec::new();
+            mesh.positions_at(animation.time(f), &mut p);
+            (f, p)
+        })
+        .collect();
+    runner.self_check(&poses, eye, check)
+}
+
+fn gather_pvs(
+    runner: &mut PrtRunner,
+    mesh: &SceneMesh,
+    animation: &Playback,
+    sampling: PvsSampling,
+) -> Result<PvsReport> {
+    let start = Instant::now();
+    let span = sampling
+        .span
+        .unwrap_or(((animation.frames - 1) as f32 * animation.dt).max(2.0));
+    let poses: Vec<Vec<Vec3>> = (0..sampling.frames)
+        .map(|k| {
+            let mut p = Vec::new();
+            let time = animation.start + span * k as f32 / (sampling.frames.max(2) - 1) as f32;
+            mesh.positions_at(time, &mut p);
+            p
+        })
+        .collect();
+    runner.use_pvs(&poses)?;
+    let prt = &runner.prt;
+    let size = prt.pvs().map_or(0, |p| p.items.len());
+    Ok(PvsReport {
+        frames: sampling.frames,
+        build_ms: elapsed_ms(start),
+        avg_size: size as f64 / prt.vertex_count.max(1) as f64,
+    })
+}
+
+/// `lighting` turned about +y by `degrees`.
+pub fn spun(lighting: &ShRgb, rotation: &ShRotation, degrees: f32) -> ShRgb {
+    if degrees == 0.0 {
+        return lighting.clone();
+    }
+    lighting.rotated(rotation, DMat3::from_rotation_y((degrees as f64).to_radians()))
+}
+
+/// What a run measured, with the settings it ran with (`prt --json`).
+#[derive(Debug, Clone, Serialize)]
+pub struct PrtReport {
+    pub vertices: usize,
+    pub triangles: usize,
+    /// Blockers rasterised per vertex (after every culling; see `blockers_per_vertex`).
+    pub avg_blockers_per_vertex: f64,
+    /// Blockers per vertex before and after culling (the paper's Table 1 counts before).
+    pub blockers_per_vertex: BlockerCounts,
+    /// Frames per second of whole frames: animation, lighting, transfer and
+    /// shading (`phases_ms`); not checks, images or CSV rows.
+    pub fps: f64,
+    pub fps_best: f64,
+    /// Milliseconds per frame by phase, averaged, and over the run.
+    pub phases_ms: Option<PhaseReport>,
+    /// Where the animation comes from (None: a static mesh).
+    pub animation: Option<AnimationSource>,
+    /// Animation time of the first frame and between frames, seconds.
+    pub start: f32,
+    pub dt: f32,
+    /// Mean relative L2 error of the transfer against ray tracing (checks only).
+    pub transfer_l2_error: Option<f64>,
+    pub frames: usize,
+    /// Whole frames (as `fps`).
+    pub frame_ms: FrameTimes,
+    pub gpu_ms_per_frame: Option<f64>,
+    pub order: usize,
+    pub coefficients: usize,
+    pub mask: usize,
+    pub integration: Integration,
+    pub lut: LutReport,
+    pub brdf: Brdf,
+    pub shadows: Shadows,
+    pub hierarchy: HierarchyReport,
+    pub backface_culling: bool,
+    pub two_sided: bool,
+    /// How culling and sidedness were decided (`prt::sides`).
+    pub sides: Sides,
+    pub pvs: Option<PvsReport>,
+    /// Blockers per vertex before culling (= `blockers_per_vertex.before_culling`).
+    pub avg_candidates_per_vertex: f64,
+    pub culling_per_vertex: CullingReport,
+    pub without_normal: u64,
+    pub phases: Option<Phases>,
+    pub setup_ms: f64,
+    pub check: Option<CheckReport>,
+    /// The ray-traced estimate of the error made at setup (`prt::selfcheck`).
+    pub self_check: Option<SelfCheckReport>,
+    /// How the lighting was windowed to keep it non-negative (`sh::window`).
+    pub lighting: Option<Deringing>,
+}
+
+/// Blockers per vertex: candidates from the hierarchy (or PVS) lists, and
+/// those rasterised after group, horizon, back-face and edge-on culling.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct BlockerCounts {
+    pub before_culling: f64,
+    pub after_culling: f64,
+}
+
+/// Time of each phase of a frame, summed over the frames.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct FramePhases {
+    /// The pose: the animation's positions (sequence interpolation, skinning).
+    pub animate: f64,
+    /// The probe's SH lighting turned by `env_spin`.
+    pub lighting: f64,
+    /// Visibility masks, transfer, rotation and shading (one pass per
+    /// vertex on the CPU; uploads, kernel and readback on a GPU).
+    pub transfer: f64,
+    /// The host's work per frame (images, CSV rows): not in `fps`.
+    pub output: f64,
+}
+
+/// `phases_ms`: per frame on average and over the run, ms.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct PhaseReport {
+    pub per_frame: FramePhases,
+    pub total: FramePhases,
+}
+
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct FrameTimes {
+    pub mean: f64,
+    pub median: f64,
+    pub best: f64,
+}
+
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct LutReport {
+    pub size: usize,
+    pub bytes: usize,
+    /// The paper's six-face layout (we store three faces and complement).
+    pub paper_layout_bytes: usize,
+    pub build_ms: f64,
+}
+
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct HierarchyReport {
+    pub enabled: bool,
+    pub near: NearField,
+    pub ring: usize,
+    pub low_res_triangles: Option<usize>,
+    /// `HierarchySettings::tolerance`, radians (0: no refinement).
+    pub tolerance: f32,
+    /// Coarse triangles' deviation from the fine surface (`prt::proxy`),
+    /// relative to the rest pose's bounding-box diagonal: mean and largest.
+    pub deviation_mean: Option<f64>,
+    pub deviation_max: Option<f64>,
+    /// Per vertex, on average: fine triangles drawn near it and coarse
+    /// triangles they replace (the near field, refinement included).
+    pub near_triangles_per_vertex: f64,
+    pub replaced_per_vertex: f64,
+    pub groups: usize,
+    pub group_culling: bool,
+}
+
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct PvsReport {
+    pub frames: usize,
+    pub build_ms: f64,
+    pub avg_size: f64,
+}
+
+/// Blockers culled per vertex, by reason.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct CullingReport {
+    pub groups: f64,
+    pub below_horizon: f64,
+    pub back_facing: f64,
+    pub edge_on: f64,
+}
+
+/// Share of frame time per phase (the paper's Table 2) and ms per frame.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Phases {
+    pub transform: f64,
+    pub rasterization: f64,
+    pub integration: f64,
+    pub other: f64,
+    pub ms_per_frame: [f64; 4],
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct CheckReport {
+    pub rays: u32,
+    pub frames: Vec<usize>,
+    pub per_frame: Vec<f64>,
+    pub vertices: usize,
+    pub skipped_dark: usize,
+    pub seed: u32,
+}
+
+impl PrtReport {
+    fn new(
+        runner: &PrtRunner,
+        animation: &Playback,
+        frame_ms: &[f64],
+        gpu_ms: &[f64],
+        sum: &FrameStats,
+        pvs: Option<PvsReport>,
+        check: Option<CheckReport>,
+    ) -> PrtReport {
+        let prt = &runner.prt;
+        let s = &prt.settings;
+        let nf = animation.frames as f64;
+        let verts = sum.vertices.max(1) as f64;
+        let total_ms: f64 = frame_ms.iter().sum();
+        let best = frame_ms.iter().cloned().fold(f64::INFINITY, f64::min);
+        let mut sorted = frame_ms.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        let gpu_ms_per_frame = (!gpu_ms.is_empty()).then(|| mean(gpu_ms));
+        let phases = animation.profile.then(|| {
+            // CPU phases are summed over threads; per frame they are divided
+            // by the thread count. On the GPU path integration is the
+            // kernel's time and "other" the rest of the frame (uploads,
+            // readback, waits).
+            let threads = rayon::current_num_threads() as f64;
+            let mut ms = sum.phase_ns.map(|n| n as f64 * 1e-6 / nf / threads);
+            if let Some(kernel) = gpu_ms_per_frame {
+                ms[2] = kernel;
+                ms[3] = (total_ms / nf - ms[0] - ms[1] - ms[2]).max(0.0);
+            }
+            let total: f64 = ms.iter().sum::<f64>().max(1e-12);
+            Phases {
+                transform: ms[0] / total,
+                rasterization: ms[1] / total,
+                integration: ms[2] / total,
+                other: ms[3] / total,
+                ms_per_frame: ms,
+            }
+        });
+        let h = &prt.hierarchy;
+        PrtReport {
+            vertices: prt.vertex_count,
+            triangles: runner.triangles.len(),
+            avg_blockers_per_vertex: sum.drawn as f64 / verts,
+            blockers_per_vertex: BlockerCounts {
+                before_culling: sum.candidates as f64 / verts,
+                after_culling: sum.drawn as f64 / verts,
+            },
+            phases_ms: None,
+            animation: None,
+            start: animation.start,
+            dt: animation.dt,
+            fps: 1e3 * nf / total_ms.max(1e-9),
+            fps_best: 1e3 / best.max(1e-9),
+            transfer_l2_error: check.as_ref().map(|c| mean(&c.per_frame)),
+            frames: animation.frames,
+            frame_ms: FrameTimes {
+                mean: total_ms / nf,
+                median: sorted[sorted.len() / 2],
+                best,
+            },
+            gpu_ms_per_frame,
+            order: s.bands,
+            coefficients: coefficient_count(s.bands),
+            mask: s.mask_side,
+            integration: s.integration,
+            lut: LutReport {
+                size: s.lut_size,
+                bytes: prt.lut.bytes(),
+                paper_layout_bytes: prt.lut.six_face_bytes(),
+                build_ms: prt.lut_ms,
+            },
+            brdf: s.brdf,
+            shadows: runner.shadows,
+            hierarchy: HierarchyReport {
+                enabled: s.hierarchy.enabled,
+                near: s.hierarchy.near,
+                ring: s.hierarchy.ring,
+                low_res_triangles: h.coarse.then_some(h.far.len()),
+                tolerance: s.hierarchy.tolerance,
+                deviation_mean: (!h.deviation.is_empty()).then(|| {
+                    h.deviation.iter().map(|&d| d as f64).sum::<f64>() / h.deviation.len() as f64 / prt.scale as f64
+                }),
+                deviation_max: h
+                    .deviation
+                    .iter()
+                    .copied()
+                    .reduce(f32::max)
+                    .map(|d| d as f64 / prt.scale as f64),
+                near_triangles_per_vertex: h.near.items.len() as f64 / prt.vertex_count.max(1) as f64,
+                replaced_per_vertex: h.excluded.items.len() as f64 / prt.vertex_count.max(1) as f64,
+                groups: h.groups.len(),
+                group_culling: s.group_culling,
+            },
+            backface_culling: prt.cull_backfaces,
+            two_sided: prt.two_sided,
+            sides: prt.sides,
+            pvs,
+            avg_candidates_per_vertex: sum.candidates as f64 / verts,
+            culling_per_vertex: CullingReport {
+                groups: sum.group_culled as f64 / verts,
+                below_horizon: sum.below_horizon as f64 / verts,
+                back_facing: sum.back_facing as f64 / verts,
+                edge_on: sum.edge_on as f64 / verts,
+            },
+            without_normal: sum.without_normal / animation.frames as u64,
+            phases,
+            setup_ms: prt.setup_ms,
+            check,
+            self_check: None,
+            lighting: None,
+        }
+    }
+
+    /// With the frames' phase times and the animation's source.
+    fn with_frames(self, phases: FramePhases, mesh: &SceneMesh) -> PrtReport {
+        let n = self.frames.max(1) as f64;
+        let per_frame = FramePhases {
+            animate: phases.animate / n,
+            lighting: phases.lighting / n,
+            transfer: phases.transfer / n,
+            output: phases.output / n,
+        };
+        PrtReport {
+            phases_ms: Some(PhaseReport {
+                per_frame,
+                total: phases,
+            }),
+            animation: mesh.animation.as_ref().map(|a| a.source()),
+            ..self
+        }
+    }
+
+    /// The self-check's warning, if it has one.
+    pub fn warnings(&self) -> Vec<String> {
+        self.self_check.iter().flat_map(|c| c.warning()).collect()
+    }
+
+    /// With what was decided and measured before the first frame.
+    fn with_setup(self, self_check: Option<SelfCheckReport>, lighting: Deringing) -> PrtReport {
+        PrtReport {
+            self_check,
+            lighting: Some(lighting),
+            ..self
+        }
+    }
+}

@@ -1,0 +1,112 @@
+//! AO by ray casting on the CPU: the reference path and the twin of
+//! `wgsl/ao_rays.wgsl` (`ao_rays`, `ao_samples`).
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::{AoPoint, AoSettings, PointDirections, VisibilityMasks, packets, ray_direction};
+use crate::accel::kdtree::KdTree;
+use crate::accel::kdtree::occlusion::Walk;
+use crate::geom::sampling::SampleSequence;
+use crate::geom::simd::Isa;
+use crate::progress::Bar;
+
+/// How the CPU casts a point's AO rays; every way gives the same bits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Casting {
+    /// One ray at a time (`KdTree::any_hit`).
+    Single,
+    /// Packets of 16 sharing the origin (`ao::packets`) through the
+    /// kd-tree, in an instruction set.
+    Packets(Isa),
+    /// The same packets through the tree's wide BVH (`bvh::occlusion`;
+    /// rays that start in a triangle's plane get the kd-tree's answer).
+    BvhPackets(Isa),
+}
+
+/// Casts `rays_per_point` AO rays from every point (rayon, all threads of the
+/// current pool) and returns which escaped: packets of 16 in the widest
+/// instruction set the CPU has, through the kd-tree (the twin of the
+/// `ao_rays` kernel; `tracer::Tracer` casts them through the tree's wide
+/// BVH on the CPU, `Casting::BvhPackets`).
+pub fn ao_rays(tree: &KdTree, points: &[AoPoint], settings: &AoSettings, progress: &Bar) -> VisibilityMasks {
+    ao_rays_by(tree, points, settings, progress, Casting::Packets(Isa::best()))
+}
+
+/// `ao_rays`, casting the rays as `casting` says.
+pub fn ao_rays_by(
+    tree: &KdTree,
+    points: &[AoPoint],
+    settings: &AoSettings,
+    progress: &Bar,
+    casting: Casting,
+) -> VisibilityMasks {
+    let words = settings.words_per_point() as usize;
+    let seq = SampleSequence::new(settings.seed);
+    let mut bits = vec![0u32; points.len() * words];
+    bits.par_chunks_mut(words)
+        .zip(points.par_iter())
+        .with_min_len(16)
+        .for_each(|(mask, point)| {
+            point_visibility(tree, &seq, point, settings, casting, mask);
+            progress.inc(1);
+        });
+    VisibilityMasks {
+        rays_per_point: settings.rays_per_point,
+        words_per_point: words as u32,
+        bits,
+    }
+}
+
+fn point_visibility(
+    tree: &KdTree,
+    seq: &SampleSequence,
+    point: &AoPoint,
+    settings: &AoSettings,
+    casting: Casting,
+    mask: &mut [u32],
+) {
+    let n = settings.rays_per_point;
+    if !point.has_hemisphere() {
+        for j in 0..n {
+            mask[(j / 32) as usize] |= 1 << (j % 32);
+        }
+        return;
+    }
+    let origin = Vec3::from_array(point.origin);
+    let dirs = PointDirections::new(seq, point.stream, Vec3::from_array(point.normal));
+    match casting {
+        Casting::Packets(isa) | Casting::BvhPackets(isa) => {
+            let walk = if matches!(casting, Casting::Packets(_)) {
+                Walk::KdTree
+            } else {
+                Walk::Bvh
+            };
+            packets::point_visibility((tree, walk), origin, &dirs, n, settings.radius, isa, mask)
+        }
+        Casting::Single => {
+            for j in 0..n {
+                if !tree.any_hit(origin, dirs.direction(j), settings.radius) {
+                    mask[(j / 32) as usize] |= 1 << (j % 32);
+                }
+            }
+        }
+    }
+}
+
+/// The sample point and direction of every AO ray (point-major): what the
+/// `ao_samples` kernel writes, per ray `([u, v], direction)`.
+pub fn ao_samples(points: &[AoPoint], settings: &AoSettings) -> Vec<([f32; 2], [f32; 3])> {
+    let seq = SampleSequence::new(settings.seed);
+    points
+        .iter()
+        .flat_map(|p| {
+            let normal = Vec3::from_array(p.normal);
+            let seq = &seq;
+            (0..settings.rays_per_point).map(move |j| {
+                let uv = seq.sample(p.stream, j);
+                (uv, ray_direction(seq, p.stream, j, normal).to_array())
+            })
+        })
+        .collect()
+}

@@ -1,0 +1,242 @@
+//! What an AO run writes and reports: the per-vertex file and the image
+//! with their summaries, the notes a user should read, and the report of
+//! `ao --method raycast` (the CLI's `--json`). The field runner's report
+//! (`field::report`) shares the outputs and the common fields.
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use super::AoSettings;
+use super::runner::{PixelAo, RaycastAo, VertexAo, mean, near_zero_warning, write_vertex_ao};
+use crate::error::Result;
+use crate::io::image::{GreyStyle, write_grey};
+use crate::io::output::{frame_output, frame_path};
+use crate::raycast::tracer::BvhStats;
+use crate::report::repeats::RunTimes;
+use crate::scene::{Camera, Scene};
+
+/// Where an AO run's results go; `None`: not asked for.
+#[derive(Debug, Clone, Copy)]
+pub struct AoOutputs<'a> {
+    /// CSV `index,ao`, or a `.ply` with AO as vertex colours.
+    pub per_vertex: Option<&'a Path>,
+    /// AO per pixel: PNG, EXR or PFM.
+    pub image: Option<&'a Path>,
+    pub style: GreyStyle,
+}
+
+/// The per-vertex file written.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct VertexSummary {
+    pub file: String,
+    pub vertices: usize,
+    /// Vertices no triangle of non-zero area uses (ao = 1, no rays).
+    pub without_normal: usize,
+    pub mean_ao: f64,
+    /// Ray casting's time for the vertices (the field runner reports per frame instead).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ao_ms: Option<f64>,
+}
+
+/// The image written.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ImageSummary {
+    pub file: String,
+    pub width: u32,
+    pub height: u32,
+    pub pixels_hit: usize,
+    pub mean_ao: f64,
+    pub ao_ms: f64,
+    pub eye: [f32; 3],
+    pub target: [f32; 3],
+    pub fov: f32,
+}
+
+/// What `AoOutputs::write` wrote, and what a user should be told about it.
+#[derive(Debug, Clone, Default)]
+pub struct Written {
+    pub per_vertex: Option<VertexSummary>,
+    pub image: Option<ImageSummary>,
+    /// Warnings worth a line on stderr (AO near 0 everywhere, vertices without a normal).
+    pub notes: Vec<String>,
+}
+
+impl AoOutputs<'_> {
+    /// Writes the asked-for results of the receivers at `frame` (`radius`:
+    /// the settings', infinite for none).
+    pub fn write(
+        &self,
+        scene: &Scene,
+        frame: u32,
+        radius: f32,
+        vertices: Option<&VertexAo>,
+        image: Option<&PixelAo>,
+    ) -> Result<Written> {
+        let mut written = Written::default();
+        let radius = radius.is_finite().then_some(radius);
+        if let (Some(path), Some(v)) = (self.per_vertex, vertices) {
+            if v.without_normal > 0 {
+                written.notes.push(format!(
+                    "{} vertices are used by no triangle of non-zero area; they have no normal, cast no rays and \
+                     are reported as ao = 1",
+                    v.without_normal
+                ));
+            }
+            written.notes.extend(near_zero_warning(&v.ao, radius, scene));
+            write_vertex_ao(path, scene, frame, &v.ao)?;
+            written.per_vertex = Some(VertexSummary {
+                file: path.display().to_string(),
+                vertices: v.ao.len(),
+                without_normal: v.without_normal,
+                mean_ao: mean(&v.ao),
+                ao_ms: (v.ms > 0.0).then_some(v.ms),
+            });
+        }
+        if let (Some(path), Some(image)) = (self.image, image) {
+            let values: Vec<f32> = image.values.iter().flatten().copied().collect();
+            written.notes.extend(near_zero_warning(&values, radius, scene));
+            write_grey(path, image.width, image.height, &image.values, self.style)?;
+            written.image = Some(ImageSummary::of(path, image));
+        }
+        Ok(written)
+    }
+
+    /// `write` for frame `frame` of an animation (`last`: its last frame):
+    /// an output whose name holds `{}` or `{:04}` gets a file per frame,
+    /// any other only the last frame.
+    pub fn write_frame(
+        &self,
+        scene: &Scene,
+        (frame, last): (u32, bool),
+        radius: f32,
+        vertices: Option<&VertexAo>,
+        image: Option<&PixelAo>,
+    ) -> Result<Written> {
+        let per_vertex = self.per_vertex.and_then(|p| frame_output(p, frame, last));
+        let image_file = self.image.and_then(|p| frame_output(p, frame, last));
+        let outputs = AoOutputs {
+            per_vertex: per_vertex.as_deref(),
+            image: image_file.as_deref(),
+            style: self.style,
+        };
+        outputs.write(scene, frame, radius, vertices, image)
+    }
+
+    /// Whether an output is a file per frame (its name holds `{}`).
+    pub fn per_frame(&self) -> bool {
+        [self.per_vertex, self.image]
+            .into_iter()
+            .flatten()
+            .any(|p| frame_path(p, 0).is_some())
+    }
+}
+
+impl ImageSummary {
+    fn of(path: &Path, image: &PixelAo) -> Self {
+        let Camera {
+            eye,
+            target,
+            fov_degrees,
+            ..
+        } = image.camera;
+        ImageSummary {
+            file: path.display().to_string(),
+            width: image.width,
+            height: image.height,
+            pixels_hit: image.hit(),
+            mean_ao: image.mean(),
+            ao_ms: image.ms,
+            eye: eye.to_array(),
+            target: target.to_array(),
+            fov: fov_degrees,
+        }
+    }
+}
+
+/// The fields every AO report has.
+#[derive(Debug, Clone, Serialize)]
+pub struct AoReport {
+    pub method: &'static str,
+    pub rays_per_point: u32,
+    /// `None`: infinite.
+    pub radius: Option<f32>,
+    pub seed: u32,
+    /// Kd-tree (ray casting) or field (fields) build time.
+    pub build_ms: f64,
+    /// Points that cast rays.
+    pub points: usize,
+    /// AO time (the field runner: its last frame's).
+    pub ao_ms: f64,
+    pub mrays_per_s: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub per_vertex: Option<VertexSummary>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub image: Option<ImageSummary>,
+    /// The measured runs' `ao_ms` (`--warmup`, `--repeat`); the rest is the last run's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub runs: Option<RunTimes>,
+}
+
+impl AoReport {
+    pub fn new(method: &'static str, settings: &AoSettings, build_ms: f64, (points, ao_ms): (usize, f64)) -> Self {
+        AoReport {
+            method,
+            rays_per_point: settings.rays_per_point,
+            radius: settings.radius.is_finite().then_some(settings.radius),
+            seed: settings.seed,
+            build_ms,
+            points,
+            ao_ms,
+            mrays_per_s: points as f64 * settings.rays_per_point as f64 / (ao_ms.max(1e-9) * 1e3),
+            per_vertex: None,
+            image: None,
+            runs: None,
+        }
+    }
+
+    /// The report with the outputs' summaries.
+    pub fn with(mut self, written: Written) -> Self {
+        self.per_vertex = written.per_vertex;
+        self.image = written.image;
+        self
+    }
+}
+
+/// The casters' size.
+#[derive(Debug, Clone, Serialize)]
+pub struct Casters {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub instances: Option<usize>,
+    pub triangles: usize,
+}
+
+/// `ao --method raycast`'s report.
+#[derive(Debug, Clone, Serialize)]
+pub struct RaycastReport {
+    #[serde(flatten)]
+    pub ao: AoReport,
+    pub casters: Casters,
+    /// The casters' wide BVH on the CPU: its build (apart from `build_ms`,
+    /// the kd-tree's, and from `ao_ms`), nodes, blocks and bytes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bvh: Option<BvhStats>,
+}
+
+impl RaycastReport {
+    pub fn with_runs(mut self, runs: RunTimes) -> Self {
+        self.ao.runs = Some(runs);
+        self
+    }
+
+    pub fn new(ao: &RaycastAo, settings: &AoSettings, written: Written) -> Self {
+        RaycastReport {
+            ao: AoReport::new("raycast", settings, ao.build_ms, (ao.points(), ao.ao_ms())).with(written),
+            casters: Casters {
+                instances: None,
+                triangles: ao.caster_triangles,
+            },
+            bvh: ao.bvh.clone(),
+        }
+    }
+}

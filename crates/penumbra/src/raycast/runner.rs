@@ -1,0 +1,238 @@
+//! The reference AO runner (`ao --method raycast`): a scene's casters
+//! occlude; its receivers' vertices, and the pixels a camera sees, get
+//! ambient accessibility by ray casting, on whatever device it is given.
+//! The displacement-field runner (`field::runner`) answers the same
+//! request through fields and shares the pieces below.
+
+use super::points::{hit_points, points_without_hemisphere, vertex_points};
+use super::{AoPoint, AoSettings};
+use crate::error::{Error, Result};
+use crate::geom::ray::Ray;
+use crate::gpu::device::{Device, Timed};
+use crate::progress::Reporter;
+use crate::raycast::tracer::{BvhStats, Tracer};
+use crate::scene::{Camera, Mesh, Role, Scene, View};
+
+/// What AO is asked for: the receivers' vertices and/or an image.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AoRequest {
+    pub settings: AoSettings,
+    pub vertices: bool,
+    pub image: Option<View>,
+}
+
+/// AO at the receivers' vertices, in `Scene::receivers` order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VertexAo {
+    pub ao: Vec<f32>,
+    /// Vertices no triangle of non-zero area uses: no normal, no rays, ao = 1.
+    pub without_normal: usize,
+    pub ms: f64,
+}
+
+/// AO at the pixels a camera sees; `None` where the primary ray misses.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PixelAo {
+    pub values: Vec<Option<f32>>,
+    pub camera: Camera,
+    pub width: u32,
+    pub height: u32,
+    pub ms: f64,
+}
+
+impl PixelAo {
+    /// Pixels whose primary ray hit.
+    pub fn hit(&self) -> usize {
+        self.values.iter().flatten().count()
+    }
+
+    /// Mean AO over the pixels hit.
+    pub fn mean(&self) -> f64 {
+        mean(&self.values.iter().flatten().copied().collect::<Vec<_>>())
+    }
+}
+
+/// The reference AO of a scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RaycastAo {
+    pub caster_triangles: usize,
+    /// The casters' kd-tree build.
+    pub build_ms: f64,
+    /// On the CPU, the wide BVH the AO packets walked (`tracer::Accel`).
+    pub bvh: Option<BvhStats>,
+    pub vertices: Option<VertexAo>,
+    pub image: Option<PixelAo>,
+}
+
+impl RaycastAo {
+    /// Points that cast rays (vertices and pixels hit).
+    pub fn points(&self) -> usize {
+        self.vertices.as_ref().map_or(0, |v| v.ao.len()) + self.image.as_ref().map_or(0, PixelAo::hit)
+    }
+
+    /// AO time, vertices and pixels together.
+    pub fn ao_ms(&self) -> f64 {
+        self.vertices.as_ref().map_or(0.0, |v| v.ms) + self.image.as_ref().map_or(0.0, |i| i.ms)
+    }
+}
+
+/// AO of `request` by ray casting against the scene's casters on `device`.
+pub fn raycast(device: &Device, scene: &Scene, request: &AoRequest, bars: &Reporter) -> Result<RaycastAo> {
+    request.settings.validate()?;
+    let occluders = casters(scene, 0)?;
+    let mut tracer = Tracer::build(device, &occluders, bars, "casters")?;
+    let vertices = if request.vertices {
+        let points = vertex_points(&receivers(scene, 0)?);
+        let masks = tracer.ao_visibility(
+            &points,
+            &request.settings,
+            &bars.bar(points.len() as u64, "AO vertices"),
+        )?;
+        Some(VertexAo {
+            ao: masks.value.accessibility(),
+            without_normal: points_without_hemisphere(&points),
+            ms: masks.ms,
+        })
+    } else {
+        None
+    };
+    let image = match &request.image {
+        Some(view) => {
+            let everything = scene.world_mesh(|_| true);
+            // Primary visibility sees every instance; only casters occlude.
+            let mut all;
+            let primary = if everything.triangles.len() == occluders.triangles.len() {
+                &mut tracer
+            } else {
+                all = Tracer::build(device, &everything, bars, "all instances")?;
+                &mut all
+            };
+            let seen = visible_points(primary, &everything, scene.camera, view)?;
+            let masks = tracer.ao_visibility(
+                &seen.points,
+                &request.settings,
+                &bars.bar(seen.points.len() as u64, "AO pixels"),
+            )?;
+            Some(seen.image(&masks.value.accessibility(), masks.ms))
+        }
+        None => None,
+    };
+    Ok(RaycastAo {
+        caster_triangles: occluders.triangles.len(),
+        build_ms: tracer.tree().stats.build_ms,
+        bvh: tracer.bvh_stats().cloned(),
+        vertices,
+        image,
+    })
+}
+
+/// The casters at `frame`, merged; an error if there are none.
+pub fn casters(scene: &Scene, frame: u32) -> Result<Mesh> {
+    let mesh = scene.world_mesh_at(frame, Role::casts);
+    if mesh.triangles.is_empty() {
+        return Err(Error::param("scene", "no instance is a caster: nothing occludes"));
+    }
+    Ok(mesh)
+}
+
+/// The receivers at `frame`, merged; an error if there are none.
+pub fn receivers(scene: &Scene, frame: u32) -> Result<Mesh> {
+    let mesh = scene.world_mesh_at(frame, Role::receives);
+    if mesh.triangles.is_empty() {
+        return Err(Error::param("scene", "no instance is a receiver: no vertices to shade"));
+    }
+    Ok(mesh)
+}
+
+/// Writes per-vertex AO of the receivers at `frame` to `path`: CSV, or
+/// the receivers' mesh with AO as vertex colours for a `.ply` name
+/// (`crate::io::vertex`).
+pub fn write_vertex_ao(path: &std::path::Path, scene: &Scene, frame: u32, ao: &[f32]) -> Result<()> {
+    match crate::io::vertex::VertexFormat::of(path) {
+        crate::io::vertex::VertexFormat::Csv => crate::io::vertex::write_ao_csv(path, ao),
+        crate::io::vertex::VertexFormat::Ply => crate::io::vertex::write_ao_ply(path, &receivers(scene, frame)?, ao),
+    }
+}
+
+/// AO at most this everywhere, with an infinite radius, earns a warning.
+pub const NEAR_ZERO: f32 = 0.02;
+
+/// A warning when every value of `ao` is near 0 with no `radius`: every
+/// ray hits something, as inside a closed scene (a room), where AO with an
+/// infinite radius is 0 everywhere and says nothing; it suggests a tenth
+/// of the scene's bounding-box diagonal as `radius`.
+pub fn near_zero_warning(ao: &[f32], radius: Option<f32>, scene: &Scene) -> Option<String> {
+    let most = ao.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    if radius.is_some_and(f32::is_finite) || ao.is_empty() || most > NEAR_ZERO {
+        return None;
+    }
+    let size = scene.world_mesh(|_| true).bounds().diagonal();
+    Some(format!(
+        "warning: AO is at most {most:.3} everywhere: with the default infinite `radius` every ray hits something, \
+         as inside a closed scene (a room); give a finite `radius` for local occlusion, e.g. `radius` {:.3} \
+         (a tenth of the scene's size)",
+        0.1 * size
+    ))
+}
+
+/// The AO points of the pixels a view sees, from `tracer`'s closest hits
+/// on `everything` (the scene at that moment).
+pub struct VisiblePoints {
+    pub camera: Camera,
+    pub width: u32,
+    pub height: u32,
+    pub rays: Vec<Ray>,
+    /// Closest hit per pixel.
+    pub hits: Timed<Vec<crate::geom::ray::Hit>>,
+    /// One point per pixel hit, in pixel order (`stream` = pixel index).
+    pub points: Vec<AoPoint>,
+}
+
+/// The points of `view` on `everything` (the scene's camera fills in what
+/// the view leaves out).
+pub fn visible_points(
+    tracer: &mut Tracer,
+    everything: &Mesh,
+    scene_camera: Option<Camera>,
+    view: &View,
+) -> Result<VisiblePoints> {
+    let camera = view
+        .camera
+        .resolve(scene_camera, &everything.bounds(), everything.origin)?;
+    let rays = camera.primary_rays(view.width, view.height);
+    let hits = tracer.closest(&rays)?;
+    let points = hit_points(everything, &rays, &hits.value, everything.origin_offset());
+    Ok(VisiblePoints {
+        camera,
+        width: view.width,
+        height: view.height,
+        rays,
+        hits,
+        points,
+    })
+}
+
+impl VisiblePoints {
+    /// Per-pixel values from one AO value per point.
+    pub fn image(&self, ao: &[f32], ms: f64) -> PixelAo {
+        let mut values = vec![None; self.rays.len()];
+        for (p, a) in self.points.iter().zip(ao) {
+            values[p.stream as usize] = Some(*a);
+        }
+        PixelAo {
+            values,
+            camera: self.camera,
+            width: self.width,
+            height: self.height,
+            ms,
+        }
+    }
+}
+
+/// Mean of `v` in f64 (0 for none).
+pub fn mean(v: &[f32]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.iter().map(|&x| x as f64).sum::<f64>() / v.len() as f64
+}

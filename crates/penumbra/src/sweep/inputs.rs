@@ -1,0 +1,149 @@
+//! From a user's files to a sweep: which method, on which mesh or scene,
+//! seen how, against how many truth rays. Each method's adapter is built
+//! here with the defaults `penumbra sweep` documents, so a host tool sweeps
+//! exactly as the command line does.
+
+use std::path::Path;
+
+use super::SweepMethod;
+use crate::error::{Error, Result};
+use crate::gpu::device::Device;
+use crate::progress::Reporter;
+use crate::prt::runner::RayTraced;
+use crate::raycast::AoSettings;
+use crate::scene::{Scene, View, file_stem, load_input_in, load_mesh, load_shaded_input_in};
+use crate::whitted::{LightingOptions, RenderScene, WhittedRenderer, WhittedSettings};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum SweepKind {
+    /// Displacement fields against ray casting (receivers: --receiver, the scene's, or a ground).
+    Field,
+    /// Screen-space AO estimators against ray-traced AO.
+    Ssao,
+    /// Hemispherical rasterisation against ray-traced transfer.
+    Prt,
+    /// MLRTA traversal knobs (exact: error = hits that differ).
+    Trace,
+    /// Bounded-error ray tracing against exact Whitted.
+    Bounded,
+}
+
+impl SweepKind {
+    /// What the method's GPU path needs of a device (`Device::require`).
+    pub fn gpu_needs(self) -> &'static crate::gpu::device::Needs {
+        match self {
+            SweepKind::Ssao => &crate::gpu::device::Needs::SSAO,
+            _ => &crate::gpu::device::Needs::COMPUTE,
+        }
+    }
+}
+
+/// What a sweep runs on.
+#[derive(Debug, Clone, Copy)]
+pub struct SweepInputs<'a> {
+    pub mesh: Option<&'a Path>,
+    pub scene: Option<&'a Path>,
+    /// field: AO at this mesh's vertices [default: a ground under `mesh`].
+    pub receiver: Option<&'a Path>,
+    /// Image size and camera (ssao, trace, bounded; prt: the eye).
+    pub view: View,
+    /// Rays per point of the truth [default: field 64, ssao 256, prt 1024].
+    pub truth_rays: Option<u32>,
+    /// field and ssao: the AO radius [default: field infinite, ssao 5% of the scene's diagonal].
+    pub radius: Option<f32>,
+    pub seed: u32,
+    /// What `$PENUMBRA_DATA` in a scene file stands for.
+    pub data_dir: Option<&'a Path>,
+}
+
+/// Runs `sweep` on the adapter of `kind` for `inputs` on `device`.
+pub fn with_method<R>(
+    kind: SweepKind,
+    inputs: &SweepInputs,
+    device: &Device,
+    bars: &Reporter,
+    sweep: impl FnOnce(&mut dyn SweepMethod) -> Result<R>,
+) -> Result<R> {
+    let SweepInputs { view, seed, .. } = *inputs;
+    let rays = inputs.truth_rays;
+    match kind {
+        SweepKind::Field => {
+            let scene = field_scene(inputs)?;
+            let settings = AoSettings {
+                rays_per_point: rays.unwrap_or(64),
+                radius: inputs.radius.unwrap_or(f32::INFINITY),
+                seed,
+            };
+            sweep(&mut super::field::FieldSweep::new(device.clone(), &scene, settings)?)
+        }
+        SweepKind::Ssao => {
+            let scene = load_input_in(inputs.mesh, inputs.scene, inputs.data_dir)?;
+            let bounds = scene.world_mesh(|_| true).bounds();
+            let radius = inputs.radius.unwrap_or(0.05 * bounds.diagonal());
+            let camera = scene.complete_camera(&view.camera, &bounds)?;
+            let view = View { camera, ..view };
+            let truth = rays.unwrap_or(256);
+            sweep(&mut super::ssao::SsaoSweep::new(
+                device.clone(),
+                scene,
+                view,
+                radius,
+                truth,
+                seed,
+            )?)
+        }
+        SweepKind::Prt => {
+            let path = inputs
+                .mesh
+                .ok_or_else(|| Error::param("mesh", "sweep prt needs a mesh"))?;
+            let mesh = load_mesh(path)?;
+            let eye = view.camera.resolve(None, &mesh.bounds(), mesh.origin)?.eye;
+            let reference = RayTraced {
+                rays: rays.unwrap_or(1024),
+                seed,
+            };
+            let device = device.clone();
+            sweep(&mut super::prt::PrtSweep::new(
+                device,
+                mesh.positions,
+                mesh.triangles,
+                eye,
+                reference,
+            ))
+        }
+        SweepKind::Trace => {
+            let scene = load_input_in(inputs.mesh, inputs.scene, inputs.data_dir)?;
+            let mesh = scene.world_mesh(|_| true);
+            let camera = scene.complete_camera(&view.camera, &mesh.bounds())?;
+            let view = View { camera, ..view };
+            sweep(&mut super::trace::TraceSweep::new(device.clone(), mesh, view))
+        }
+        SweepKind::Bounded => {
+            let scene = load_shaded_input_in(inputs.mesh, inputs.scene, inputs.data_dir)?;
+            let render_scene = RenderScene::new(&scene, 0, &LightingOptions::default())?;
+            let whitted = WhittedRenderer::new(device, render_scene, bars)?;
+            let camera = view.camera.resolve(scene.camera, &whitted.bounds(), scene.origin)?;
+            let settings = WhittedSettings {
+                seed,
+                ..WhittedSettings::default()
+            };
+            let size = (view.width, view.height);
+            sweep(&mut super::bounded::BoundedSweep::new(whitted, camera, size, settings))
+        }
+    }
+}
+
+/// field: the scene file, or the mesh casting onto the receiver or a ground.
+fn field_scene(inputs: &SweepInputs) -> Result<Scene> {
+    let mut scene = load_input_in(inputs.mesh, inputs.scene, inputs.data_dir)?;
+    match (inputs.mesh, inputs.receiver) {
+        (Some(_), Some(receiver)) => scene = scene.with_receiver_file(receiver)?,
+        (Some(path), None) => {
+            let mesh = scene.meshes.remove(0).mesh;
+            scene = super::field::on_ground(&file_stem(path), path, mesh)?;
+        }
+        _ => {}
+    }
+    Ok(scene)
+}

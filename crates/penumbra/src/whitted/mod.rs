@@ -1,0 +1,28 @@
+//! Whitted ray tracing (the base ray tracer of Bala, Dorsey and Teller's
+//! bounded-error paper, section 3 and 8.1): OBJ/MTL materials, emissive
+//! faces as lights, mirror reflection, refraction with total internal
+//! reflection through nested glass, analytic spheres beside triangles, and
+//! per-pixel ray trees, on the CPU and in `wgsl/whitted.wgsl`.
+
+pub mod gpu;
+pub mod image;
+pub mod lights;
+pub mod offset;
+pub mod optics;
+pub mod packets;
+pub mod pixel_rays;
+pub mod ray_tree;
+pub mod report;
+pub mod runner;
+pub mod scene;
+pub mod scenes;
+pub mod sequence;
+pub mod sphere;
+pub mod surface;
+pub mod tree_records;
+pub mod whitted;
+
+pub use ray_tree::{LightCode, RayKind, RayNode, RayTree};
+pub use runner::{PACKETS_FROM_TRIANGLES, Packets, RayCounts, RenderStats, Rendered, WhittedRenderer, WhittedSettings};
+pub use scene::{LightingOptions, RenderScene};
+pub use whitted::{PixelOut, Whitted, WhittedParams};

@@ -1,0 +1,118 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+
+use penumbra::gpu::GpuContext;
+use penumbra::gpu::device::Device;
+
+/// The GPU if there is one. Tests must pass without an adapter: they then run
+/// their CPU half and say that the GPU half was skipped.
+pub fn gpu() -> Option<GpuContext> {
+    match GpuContext::headless() {
+        Ok(ctx) => {
+            println!("GPU adapter: {}", ctx.name);
+            Some(ctx)
+        }
+        Err(e) => {
+            println!("no GPU adapter ({e}): GPU half skipped");
+            None
+        }
+    }
+}
+
+/// The CPU, then the GPU if there is one: every runner should give the
+/// same answers on both.
+pub fn devices() -> Vec<Device> {
+    let mut devices = vec![Device::cpu()];
+    devices.extend(gpu().map(Device::gpu));
+    devices
+}
+
+/// The repository's root (the workspace's folder).
+pub fn repo_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// The shared data set, when `PENUMBRA_DATA` is set; a relative path is
+/// taken from the repository's root (where the README's commands run),
+/// since cargo runs each test in its own package's folder.
+pub fn data_root() -> Option<PathBuf> {
+    let root = PathBuf::from(std::env::var_os("PENUMBRA_DATA")?);
+    Some(if root.is_relative() {
+        repo_root().join(root)
+    } else {
+        root
+    })
+}
+
+/// A model of the shared data set, when `PENUMBRA_DATA` is set. If it is set
+/// but the file is missing, that is a broken setup: panic.
+pub fn data_model(name: &str) -> Option<PathBuf> {
+    let Some(root) = data_root() else {
+        println!("PENUMBRA_DATA not set: skipping the {name} evaluation");
+        return None;
+    };
+    let path = root.join("models").join(name);
+    assert!(path.is_file(), "PENUMBRA_DATA is set but {} is missing", path.display());
+    Some(path)
+}
+
+/// A scene of the shared data set (`scenes/`), when `PENUMBRA_DATA` is set.
+pub fn data_scene(name: &str) -> Option<PathBuf> {
+    let Some(root) = data_root() else {
+        println!("PENUMBRA_DATA not set: skipping the {name} evaluation");
+        return None;
+    };
+    let path = root.join("scenes").join(name);
+    assert!(path.is_file(), "PENUMBRA_DATA is set but {} is missing", path.display());
+    Some(path)
+}
+
+pub fn asset(name: &str) -> PathBuf {
+    repo_root().join("assets").join(name)
+}
+
+/// Deterministic xorshift numbers for test inputs.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn f32(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+    pub fn vec3(&mut self, lo: f32, hi: f32) -> glam::Vec3 {
+        glam::Vec3::new(self.f32(), self.f32(), self.f32()) * (hi - lo) + glam::Vec3::splat(lo)
+    }
+}
+
+/// A per-test folder under the system temp dir, removed on drop.
+pub struct TempDir(pub PathBuf);
+
+impl TempDir {
+    pub fn new(test: &str) -> TempDir {
+        let dir = std::env::temp_dir().join(format!("penumbra-cli-{}-{test}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        TempDir(dir)
+    }
+
+    /// Path of `name` in the folder, as a command-line string.
+    pub fn p(&self, name: &str) -> String {
+        self.0.join(name).to_str().expect("UTF-8 temp path").to_string()
+    }
+
+    /// Writes `bytes` to `name`; returns its path.
+    pub fn write(&self, name: &str, bytes: impl AsRef<[u8]>) -> String {
+        std::fs::write(self.0.join(name), bytes).unwrap();
+        self.p(name)
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}

@@ -1,0 +1,458 @@
+//! SSAO (src/ssao): the G-buffer pass against kd-tree primary rays, every
+//! SSAO kernel against its CPU twin on the same G-buffer and samples, and
+//! the extremes (R -> 0, huge R, background, image borders, grazing
+//! normals, NaN-free output).
+//!
+//! Tolerances:
+//! * G-buffer: >= 99% of pixels agree (same coverage, depth within 1e-3
+//!   relative, normals within 0.999 dot); every other pixel is a silhouette
+//!   pixel (a 3x3 neighbour differs from it in the CPU G-buffer by the same
+//!   thresholds, or is background).
+//! * Kernels: every pixel within 1e-4 of the CPU twin (AO before and after
+//!   the filter, at full and half resolution, L~, the image), given the
+//!   same G-buffer and sample table.
+
+mod common;
+
+use common::{asset, data_model, gpu};
+use glam::Vec3;
+use penumbra::accel::kdtree::{KdTree, KdTreeParams};
+use penumbra::gpu::GpuContext;
+use penumbra::progress::Bar;
+use penumbra::scene::procedural::all_scenes;
+use penumbra::scene::{Camera, Mesh, load_obj};
+use penumbra::ssao::gbuffer::{GBuffer, ScreenView, gbuffer};
+use penumbra::ssao::gpu::{GBufferSource, run_frame};
+use penumbra::ssao::truth::{raytraced, screen_reference};
+use penumbra::ssao::{Estimator, Measure, Resolution, ShadeSettings, SsaoSettings, rmse, run_cpu};
+
+const W: u32 = 160;
+const H: u32 = 120;
+
+fn kitchen_inside() -> Camera {
+    Camera {
+        eye: Vec3::new(3.2, 1.6, 2.2),
+        target: Vec3::new(-1.0, 0.9, -1.5),
+        fov_degrees: 60.0,
+    }
+}
+
+fn cpu_gbuffer(mesh: &Mesh, camera: &Camera, w: u32, h: u32) -> GBuffer {
+    let tree = KdTree::build(mesh, &KdTreeParams::default()).unwrap();
+    gbuffer(&tree, mesh, camera, &[], w, h)
+}
+
+/// Whether CPU texels a and b agree as the issue asks.
+fn texels_agree(a: [f32; 4], b: [f32; 4]) -> bool {
+    if (a[3] > 0.0) != (b[3] > 0.0) {
+        return false;
+    }
+    if a[3] <= 0.0 {
+        return true;
+    }
+    let dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let zero = |t: [f32; 4]| t[0] == 0.0 && t[1] == 0.0 && t[2] == 0.0;
+    (b[3] - a[3]).abs() <= 1e-3 * a[3] && (dot >= 0.999 || (zero(a) && zero(b)))
+}
+
+fn compare_gbuffers(ctx: &GpuContext, name: &str, mesh: &Mesh, camera: &Camera) {
+    let view = ScreenView::new(camera, W, H);
+    let cpu = cpu_gbuffer(mesh, camera, W, H);
+    let settings = SsaoSettings::new(Estimator::Importance, 4, 0.1);
+    let source = GBufferSource::Render {
+        mesh,
+        camera,
+        lights: &[],
+        albedos: None,
+    };
+    let gpu = run_frame(ctx, source, &view, &settings, None, 1).unwrap().gbuffer;
+    let (mut agree, mut not_silhouette, mut worst_z, mut worst_dot) = (0usize, 0usize, 0f32, 1f32);
+    let (mut radiance_worst, mut albedo_differs) = (0f32, 0usize);
+    for y in 0..H as i32 {
+        for x in 0..W as i32 {
+            let i = (y * W as i32 + x) as usize;
+            let (c, g) = (cpu.geometry[i], gpu.geometry[i]);
+            if texels_agree(c, g) {
+                agree += 1;
+                if c[3] > 0.0 {
+                    worst_z = worst_z.max((g[3] - c[3]).abs() / c[3]);
+                    worst_dot = worst_dot.min(c[0] * g[0] + c[1] * g[1] + c[2] * g[2]);
+                    // Same facet (neighbouring facets of a tessellated
+                    // surface also agree within 0.999): same radiance.
+                    if c[0] * g[0] + c[1] * g[1] + c[2] * g[2] > 0.999999 && cpu.shade[i][3] == gpu.shade[i][3] {
+                        for k in 0..3 {
+                            radiance_worst = radiance_worst.max((cpu.shade[i][k] - gpu.shade[i][k]).abs());
+                        }
+                    }
+                    // Coplanar overlapping objects (kitchen) may show either albedo.
+                    albedo_differs += (cpu.shade[i][3] != gpu.shade[i][3]) as usize;
+                }
+                continue;
+            }
+            let silhouette = (-1..=1).any(|dy| {
+                (-1..=1).any(|dx| {
+                    let (qx, qy) = (x + dx, y + dy);
+                    (0..W as i32).contains(&qx)
+                        && (0..H as i32).contains(&qy)
+                        && !texels_agree(c, cpu.geometry[(qy * W as i32 + qx) as usize])
+                })
+            });
+            if !silhouette {
+                not_silhouette += 1;
+                println!("{name}: pixel {x},{y} differs inside a surface: cpu {c:?} gpu {g:?}");
+            }
+        }
+    }
+    let n = (W * H) as f64;
+    println!(
+        "{name}: {:.3}% of pixels agree, worst relative depth {worst_z:.2e}, worst normal dot {worst_dot:.6}, \
+         worst radiance difference {radiance_worst:.2e}, {not_silhouette} non-silhouette disagreements, \
+         {albedo_differs} agreeing pixels of another object (coplanar overlap)",
+        100.0 * agree as f64 / n
+    );
+    assert!(
+        albedo_differs as f64 <= 0.005 * n,
+        "{name}: {albedo_differs} pixels show another object"
+    );
+    assert!(agree as f64 >= 0.99 * n, "{name}: only {agree} of {n} pixels agree");
+    assert_eq!(not_silhouette, 0, "{name}: disagreements away from silhouettes");
+    assert!(radiance_worst < 1e-4, "{name}: radiance differs by {radiance_worst}");
+}
+
+#[test]
+fn gbuffer_pass_agrees_with_kd_tree_primary_rays() {
+    let Some(ctx) = gpu() else { return };
+    for (name, mesh) in all_scenes() {
+        compare_gbuffers(&ctx, name, &mesh, &Camera::default_for(&mesh.bounds()));
+    }
+    for model in ["stanford-bunny.obj", "kitchen.obj"] {
+        let Some(path) = data_model(model) else { return };
+        let mesh = load_obj(&path).unwrap();
+        compare_gbuffers(&ctx, model, &mesh, &Camera::default_for(&mesh.bounds()));
+        if model == "kitchen.obj" {
+            compare_gbuffers(&ctx, "kitchen.obj inside", &mesh, &kitchen_inside());
+        }
+    }
+}
+
+fn max_diff(a: &[f32], b: &[f32]) -> (f32, usize) {
+    a.iter()
+        .zip(b)
+        .enumerate()
+        .map(|(i, (x, y))| ((x - y).abs(), i))
+        .fold((0.0, 0), |m, v| if v.0 > m.0 { v } else { m })
+}
+
+fn flat(v: &[[f32; 4]]) -> Vec<f32> {
+    v.iter().flatten().copied().collect()
+}
+
+/// Every kernel on the GPU against its CPU twin, same G-buffer and samples.
+fn compare_kernels(ctx: &GpuContext, name: &str, gb: &GBuffer, view: &ScreenView, radius: f32) {
+    let shade = ShadeSettings::default();
+    for estimator in Estimator::ALL {
+        let (full, half) = (Resolution::Full, Resolution::Half);
+        for (interleave, filter, resolution) in [
+            (true, true, full),
+            (false, false, full),
+            (true, true, half),
+            (true, false, half),
+        ] {
+            let mut s = SsaoSettings::new(estimator, 16, radius);
+            s.interleave = interleave;
+            s.filter = filter;
+            s.resolution = resolution;
+            let cpu = run_cpu(gb, view, &s, Some(&shade)).unwrap();
+            let g = run_frame(ctx, GBufferSource::Upload(gb), view, &s, Some(&shade), 1).unwrap();
+            assert_eq!(&g.gbuffer, gb, "the uploaded G-buffer reads back unchanged");
+            let gpu = g.frame;
+            let checks = [
+                ("ao (raw)", max_diff(&cpu.ao_raw, &gpu.ao_raw)),
+                ("ao (final)", max_diff(&cpu.ao, &gpu.ao)),
+                (
+                    "indirect",
+                    max_diff(
+                        &flat(cpu.indirect.as_ref().unwrap()),
+                        &flat(gpu.indirect.as_ref().unwrap()),
+                    ),
+                ),
+                (
+                    "image",
+                    max_diff(&flat(cpu.image.as_ref().unwrap()), &flat(gpu.image.as_ref().unwrap())),
+                ),
+            ];
+            let label = format!(
+                "{name} {} interleave={interleave} filter={filter} resolution={}",
+                estimator.name(),
+                resolution.name()
+            );
+            println!("{label}: worst |gpu - cpu| {checks:?}");
+            for (what, (d, at)) in checks {
+                assert!(d <= 1e-4, "{label}: {what} differs by {d} at element {at}");
+            }
+        }
+    }
+}
+
+#[test]
+fn ssao_kernels_equal_their_cpu_twins() {
+    let Some(ctx) = gpu() else { return };
+    let mesh = load_obj(&asset("sphere-on-plane.obj")).unwrap();
+    let camera = Camera::default_for(&mesh.bounds());
+    let view = ScreenView::new(&camera, W, H);
+    compare_kernels(&ctx, "sphere-on-plane", &cpu_gbuffer(&mesh, &camera, W, H), &view, 0.5);
+    if let Some(path) = data_model("kitchen.obj") {
+        let mesh = load_obj(&path).unwrap();
+        let camera = kitchen_inside();
+        let view = ScreenView::new(&camera, W, H);
+        compare_kernels(&ctx, "kitchen inside", &cpu_gbuffer(&mesh, &camera, W, H), &view, 0.3);
+    }
+    // Odd sizes: the half-resolution grid's last column and row have no
+    // right or lower neighbour.
+    let (w, h) = (W + 1, H - 1);
+    let view = ScreenView::new(&camera, w, h);
+    compare_kernels(
+        &ctx,
+        "sphere-on-plane odd",
+        &cpu_gbuffer(&mesh, &camera, w, h),
+        &view,
+        0.5,
+    );
+}
+
+/// Runs every estimator on the CPU (and GPU when there is one) and hands
+/// the final AO to `check`.
+fn each_estimator(gb: &GBuffer, view: &ScreenView, radius: f32, check: impl Fn(&str, &[f32])) {
+    let ctx = gpu();
+    for estimator in Estimator::ALL {
+        let (full, half) = (Resolution::Full, Resolution::Half);
+        for (interleave, filter, resolution) in [(true, true, full), (false, false, full), (true, true, half)] {
+            let mut s = SsaoSettings::new(estimator, 8, radius);
+            s.interleave = interleave;
+            s.filter = filter;
+            s.resolution = resolution;
+            let label = format!(
+                "{} interleave={interleave} filter={filter} resolution={}",
+                estimator.name(),
+                resolution.name()
+            );
+            let cpu = run_cpu(gb, view, &s, Some(&ShadeSettings::default())).unwrap();
+            for v in cpu.image.as_ref().unwrap().iter().flatten() {
+                assert!(v.is_finite(), "{label}: non-finite image value on the CPU");
+            }
+            check(&format!("cpu {label}"), &cpu.ao);
+            if let Some(ctx) = &ctx {
+                let g = run_frame(
+                    ctx,
+                    GBufferSource::Upload(gb),
+                    view,
+                    &s,
+                    Some(&ShadeSettings::default()),
+                    1,
+                )
+                .unwrap()
+                .frame;
+                for v in g.image.as_ref().unwrap().iter().flatten() {
+                    assert!(v.is_finite(), "{label}: non-finite image value on the GPU");
+                }
+                check(&format!("gpu {label}"), &g.ao);
+            }
+        }
+    }
+}
+
+fn sphere_scene() -> (GBuffer, ScreenView) {
+    let mesh = load_obj(&asset("sphere-on-plane.obj")).unwrap();
+    let camera = Camera::default_for(&mesh.bounds());
+    (cpu_gbuffer(&mesh, &camera, W, H), ScreenView::new(&camera, W, H))
+}
+
+#[test]
+fn radius_to_zero_gives_accessibility_one_everywhere() {
+    let (gb, view) = sphere_scene();
+    each_estimator(&gb, &view, 1e-6, |label, ao| {
+        let worst = ao.iter().map(|a| (1.0 - a).abs()).fold(0.0f32, f32::max);
+        assert!(
+            worst <= 1e-5,
+            "{label}: accessibility {worst} away from 1 with R = 1e-6"
+        );
+    });
+}
+
+#[test]
+fn huge_radius_stays_finite_and_in_range() {
+    let (gb, view) = sphere_scene();
+    for radius in [1e4f32, 1e30] {
+        each_estimator(&gb, &view, radius, |label, ao| {
+            assert!(
+                ao.iter().all(|a| a.is_finite() && (0.0..=1.0).contains(a)),
+                "{label}: R = {radius}"
+            );
+        });
+    }
+}
+
+#[test]
+fn background_and_border_pixels_and_grazing_normals() {
+    // A plane seen almost edge-on (grazing normals), cut off by the image
+    // border, above a background: every pixel's AO is finite and in range;
+    // background pixels are 1; border pixels are estimated like the others.
+    let positions = vec![
+        Vec3::new(-50.0, 0.0, -50.0),
+        Vec3::new(50.0, 0.0, -50.0),
+        Vec3::new(50.0, 0.0, 50.0),
+        Vec3::new(-50.0, 0.0, 50.0),
+        // a small box standing on it, so something occludes
+        Vec3::new(-0.5, 0.0, -0.5),
+        Vec3::new(0.5, 0.0, -0.5),
+        Vec3::new(0.5, 1.0, -0.5),
+        Vec3::new(-0.5, 1.0, -0.5),
+    ];
+    let triangles = vec![[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7]];
+    let mesh = Mesh::new(positions, triangles).unwrap();
+    let camera = Camera {
+        eye: Vec3::new(0.0, 0.05, 6.0),
+        target: Vec3::new(0.0, 0.0, 0.0),
+        fov_degrees: 40.0,
+    };
+    let gb = cpu_gbuffer(&mesh, &camera, W, H);
+    let view = ScreenView::new(&camera, W, H);
+    let background = (0..gb.pixels()).filter(|&i| !gb.is_surface(i)).count();
+    assert!(background > 0 && background < gb.pixels());
+    // Grazing: the plane's normal is nearly perpendicular to the view.
+    let grazing = (0..gb.pixels())
+        .filter(|&i| gb.is_surface(i) && gb.normal(i).z.abs() < 0.05)
+        .count();
+    assert!(grazing > 100, "{grazing} grazing pixels");
+    each_estimator(&gb, &view, 0.5, |label, ao| {
+        for (i, a) in ao.iter().enumerate() {
+            assert!(a.is_finite() && (0.0..=1.0).contains(a), "{label}: pixel {i} = {a}");
+            if !gb.is_surface(i) {
+                assert_eq!(*a, 1.0, "{label}: background pixel {i}");
+            }
+        }
+        // Bottom row (the border): surface pixels, estimated, not NaN.
+        let row = (H - 1) as usize * W as usize;
+        assert!((row..row + W as usize).all(|i| gb.is_surface(i)));
+        // The box's foot is occluded somewhere.
+        assert!(ao.iter().any(|&a| a < 0.9), "{label}");
+    });
+}
+
+#[test]
+fn nan_and_far_plane_depths_are_background() {
+    // A G-buffer with NaN and infinite depths and NaN normals: treated as
+    // background or open, never propagated.
+    let (mut gb, view) = sphere_scene();
+    let n = gb.pixels();
+    for i in (0..n).step_by(7) {
+        gb.geometry[i] = [f32::NAN, 0.0, 0.0, f32::NAN];
+    }
+    for i in (3..n).step_by(11) {
+        gb.geometry[i][3] = f32::INFINITY;
+    }
+    for estimator in Estimator::ALL {
+        let s = SsaoSettings::new(estimator, 8, 0.5);
+        let f = run_cpu(&gb, &view, &s, Some(&ShadeSettings::default())).unwrap();
+        assert!(
+            f.ao.iter().all(|a| a.is_finite() && (0.0..=1.0).contains(a)),
+            "{}",
+            estimator.name()
+        );
+    }
+}
+
+#[test]
+fn open_plane_is_fully_accessible_for_truth_reference_and_estimators() {
+    let mesh = load_obj(&asset("open-plane.obj")).unwrap();
+    let b = mesh.bounds();
+    let camera = Camera {
+        eye: b.center() + Vec3::new(0.0, 0.5, 0.8) * b.diagonal(),
+        target: b.center(),
+        fov_degrees: 30.0,
+    };
+    let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+    let gb = gbuffer(&tree, &mesh, &camera, &[], 64, 48);
+    let view = ScreenView::new(&camera, 64, 48);
+    let radius = 0.05 * b.diagonal();
+    let truth = raytraced(
+        &tree,
+        &camera,
+        &view,
+        &gb,
+        Measure::Poly4,
+        radius,
+        (64, 1),
+        &Bar::hidden(),
+    );
+    let s = SsaoSettings::new(Estimator::Importance, 16, radius);
+    let reference = screen_reference(&gb, &view, &s, 256, &Bar::hidden());
+    for (what, v) in [("truth", &truth.values), ("reference", &reference.values)] {
+        assert!(v.iter().all(|&a| a == 1.0), "{what}");
+    }
+    for estimator in Estimator::ALL {
+        let s = SsaoSettings::new(estimator, 16, radius);
+        let f = run_cpu(&gb, &view, &s, None).unwrap();
+        let e = rmse(&gb, &f.ao, &truth.values);
+        assert!(e < 1e-5, "{}: rmse {e} on an open plane", estimator.name());
+    }
+}
+
+#[test]
+fn estimators_converge_to_the_screen_reference() {
+    // Every estimator of the volumetric integral approaches the dense
+    // quadrature as samples grow (tangent-sphere and base-disk keep their
+    // approximations' bias: looser bound).
+    let (gb, view) = sphere_scene();
+    let radius = 0.5;
+    let base = SsaoSettings::new(Estimator::Importance, 16, radius);
+    let reference = screen_reference(&gb, &view, &base, 2048, &Bar::hidden());
+    for estimator in Estimator::ALL {
+        let errors: Vec<f64> = [4, 64]
+            .iter()
+            .map(|&spp| {
+                let mut s = SsaoSettings::new(estimator, spp, radius);
+                s.filter = false;
+                rmse(&gb, &run_cpu(&gb, &view, &s, None).unwrap().ao, &reference.values)
+            })
+            .collect();
+        println!("{}: rmse vs reference at 4 and 64 spp: {errors:?}", estimator.name());
+        assert!(errors[1] < errors[0], "{}: {errors:?}", estimator.name());
+        let bound = match estimator {
+            Estimator::TangentSphere | Estimator::BaseDisk | Estimator::Raymarch => 0.1,
+            _ => 0.03,
+        };
+        assert!(errors[1] < bound, "{}: {errors:?}", estimator.name());
+    }
+}
+
+#[test]
+fn ground_truth_noise_is_reported_and_shrinks() {
+    let (gb, view) = sphere_scene();
+    let mesh = load_obj(&asset("sphere-on-plane.obj")).unwrap();
+    let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+    let camera = Camera::default_for(&mesh.bounds());
+    let truth = |rays| {
+        raytraced(
+            &tree,
+            &camera,
+            &view,
+            &gb,
+            Measure::Step,
+            0.5,
+            (rays, 1),
+            &Bar::hidden(),
+        )
+    };
+    let (a, b) = (truth(16), truth(256));
+    println!("truth noise: 16 rays {:.4}, 256 rays {:.4}", a.noise_rms, b.noise_rms);
+    assert!(b.noise_rms < 0.5 * a.noise_rms && b.noise_rms > 0.0);
+    // The estimate of the noise is honest: the 16-ray truth differs from
+    // the 256-ray one by about its own noise.
+    let diff = rmse(&gb, &a.values, &b.values);
+    assert!(
+        diff < 2.0 * a.noise_rms && diff > 0.5 * a.noise_rms,
+        "{diff} vs {}",
+        a.noise_rms
+    );
+}

@@ -1,0 +1,95 @@
+//! Every WGSL file parses and validates with naga, alone and as composed into
+//! kernels; every file in `wgsl/` is compiled into the library. Errors name
+//! the file and line.
+
+use penumbra::gpu::wgsl::{FILES, MODULES};
+
+#[test]
+fn every_wgsl_file_is_compiled_in() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/wgsl");
+    let mut on_disk: Vec<String> = std::fs::read_dir(dir)
+        .expect("wgsl/ exists")
+        .map(|e| e.expect("readable entry").file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".wgsl"))
+        .map(|n| format!("wgsl/{n}"))
+        .collect();
+    on_disk.sort();
+    let mut compiled: Vec<String> = FILES.iter().map(|f| f.path.to_string()).collect();
+    compiled.sort();
+    assert_eq!(on_disk, compiled, "wgsl/ and penumbra::gpu::wgsl::FILES differ");
+}
+
+/// Library files validate alone, or after the library files that precede
+/// them in a kernel module (the displacement-field map-access files need the
+/// field's parameters); kernel files (the last part of a module) only make
+/// sense after their libraries and are validated as composed.
+#[test]
+fn every_library_file_validates_alone() {
+    let mut failures = Vec::new();
+    let kernels: Vec<&str> = MODULES.iter().filter_map(|m| m.parts.last()).map(|f| f.path).collect();
+    for file in FILES.iter().filter(|f| !kernels.contains(&f.path)) {
+        let prefix = MODULES.iter().find_map(|m| {
+            let at = m.parts.iter().position(|p| p == file)?;
+            Some(penumbra::gpu::wgsl::Composition {
+                name: m.name,
+                parts: &m.parts[..=at],
+            })
+        });
+        let result = file.validate().or_else(|alone| match prefix {
+            Some(p) if p.parts.len() > 1 => p.validate(),
+            _ => Err(alone),
+        });
+        match result {
+            Ok(module) => println!(
+                "{}: ok ({} functions, {} entry points)",
+                file.path,
+                module.functions.len(),
+                module.entry_points.len()
+            ),
+            Err(e) => failures.push(e),
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn every_file_is_validated_somewhere() {
+    for file in FILES {
+        let in_module = MODULES.iter().any(|m| m.parts.contains(file));
+        assert!(
+            in_module || file.validate().is_ok(),
+            "{} is in no kernel module",
+            file.path
+        );
+    }
+}
+
+#[test]
+fn every_kernel_module_validates() {
+    let mut failures = Vec::new();
+    for module in MODULES {
+        match module.validate() {
+            Ok(m) => {
+                let entries: Vec<&str> = m.entry_points.iter().map(|e| e.name.as_str()).collect();
+                println!("{}: ok, entry points {entries:?}", module.name);
+                assert!(!entries.is_empty(), "{} has no entry point", module.name);
+            }
+            Err(e) => failures.push(e),
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn errors_point_at_the_original_file_and_line() {
+    // A broken copy of a kernel: the error must name the kernel file, not the
+    // line in the concatenated module.
+    let broken = penumbra::gpu::wgsl::WgslFile {
+        path: "wgsl/broken.wgsl",
+        text: "fn ok() {}\nfn bad() -> u32 { return 1.5; }\n",
+    };
+    let parts: &'static [penumbra::gpu::wgsl::WgslFile] = Box::leak(Box::new([penumbra::gpu::wgsl::SAMPLING, broken]));
+    let composed = penumbra::gpu::wgsl::Composition { name: "broken", parts };
+    let err = composed.validate().unwrap_err();
+    assert!(err.starts_with("wgsl/broken.wgsl:2:"), "{err}");
+}

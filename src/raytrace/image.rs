@@ -1,6 +1,0 @@
-//! Radiance images out: linear float radiance as OpenEXR (`.exr`) or
-//! Portable FloatMap (`.pfm`), or tone-mapped sRGB (`.png`); the format
-//! follows the extension and another extension is refused before
-//! rendering. The writers are `crate::image_out`'s, shared by every command.
-
-pub use crate::image_out::{ImageFormat, RadianceFormat, read_pfm, write_radiance};
