@@ -210,7 +210,7 @@ impl SequenceReport {
         self.memory_peak_bytes = renderer.trees.peak_bytes;
         (self.cells, self.leaves, self.valid_cells) = renderer.trees.counts();
         self.mrays_per_s =
-            crate::mlrta::runner::mrays_per_s((self.rays.slow_path + self.rays.extremal) as usize, self.render_ms);
+            crate::report::mrays_per_s((self.rays.slow_path + self.rays.extremal) as usize, self.render_ms);
         self.measured.speedup = self.measured.reference_ms.map(|r| r / self.render_ms);
         if checked && self.measured.check.is_none() {
             self.measured.check = Some(CheckStats::default());

@@ -16,6 +16,20 @@ pub fn floor(x: f32) -> f32 {
     (if t > x { t - 1.0 } else { t }).copysign(x)
 }
 
+/// The power of two that brings a scene whose largest extent is `extent`
+/// to a size in [0.5, 1): exact to apply, kept within the normal range.
+/// Read off the float's exponent bits (no logarithm): it runs per triangle
+/// in unit normals, barycentrics and clipped areas.
+#[inline]
+pub fn frame_scale(extent: f32) -> f32 {
+    if !(extent.is_finite() && extent > 0.0) {
+        return 1.0;
+    }
+    // extent is in [2^(e-1), 2^e) for e = biased exponent - 126.
+    let e = (((extent.to_bits() >> 23) & 0xff) as i32 - 126).clamp(-120, 120);
+    f32::from_bits(((127 - e) as u32) << 23)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -271,7 +271,7 @@ pub fn trace_view(
         bvh_packets: t.bvh_packets,
         timing: t.timing,
         trace_ms: t.trace_ms,
-        mrays_per_s: mrays_per_s(traced, t.trace_ms),
+        mrays_per_s: crate::report::mrays_per_s(traced, t.trace_ms),
         cells_per_packet: t.cells / packets,
         isects_per_packet: t.isects / packets,
         packets: t.packets,
@@ -290,11 +290,6 @@ pub fn trace_view(
         aa: t.aa,
         stats,
     })
-}
-
-/// Millions of rays per second of `rays` in `ms` (0 when nothing was timed).
-pub fn mrays_per_s(rays: usize, ms: f64) -> f64 {
-    if ms > 0.0 { rays as f64 / (ms * 1e3) } else { 0.0 }
 }
 
 /// The foundation's single-ray path (statistics summed over all rays: the

@@ -83,7 +83,7 @@ pub fn trace_ray_file(
         hits: traced.value.iter().filter(|h| h.is_hit()).count(),
         build_ms: kdtree.build_ms,
         trace_ms: traced.ms,
-        mrays_per_s: crate::mlrta::runner::mrays_per_s(rays.len(), traced.ms),
+        mrays_per_s: crate::report::mrays_per_s(rays.len(), traced.ms),
         timing: traced.timing,
         kdtree,
         bvh: tracer.bvh_stats().cloned(),

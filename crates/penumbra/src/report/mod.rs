@@ -3,3 +3,8 @@
 
 pub mod repeats;
 pub mod skipped;
+
+/// Millions of rays per second of `rays` in `ms` (0 when nothing was timed).
+pub fn mrays_per_s(rays: usize, ms: f64) -> f64 {
+    if ms > 0.0 { rays as f64 / (ms * 1e3) } else { 0.0 }
+}

@@ -254,7 +254,7 @@ pub fn unit_normal([a, b, c]: [Vec3; 3]) -> Vec3 {
     if !(largest > 0.0 && largest.is_finite()) {
         return Vec3::ZERO;
     }
-    let k = crate::accel::kdtree::watertight::frame_scale(largest);
+    let k = crate::geom::float::frame_scale(largest);
     (e1 * k).cross(e2 * k).normalize_or_zero()
 }
 

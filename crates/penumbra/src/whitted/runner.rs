@@ -18,10 +18,10 @@ use crate::error::{Error, Result};
 use crate::geom::aabb::Aabb;
 use crate::gpu::device::{Device, GpuOutput, OnDevice, Timing};
 use crate::mlrta::prepared::PreparedTables;
-use crate::mlrta::runner::mrays_per_s;
 use crate::mlrta::{MlrtaParams, Prepared};
 use crate::progress::{Bar, Reporter};
 use crate::raycast::tracer::{build_tree, tree_params};
+use crate::report::mrays_per_s;
 use crate::scene::Camera;
 
 /// The knobs of a render.

@@ -56,7 +56,7 @@ impl WhittedRenderer {
             last = Some(image);
         }
         let last = last.ok_or_else(|| Error::param("frames", "must be at least 1"))?;
-        report.mrays_per_s = crate::mlrta::runner::mrays_per_s(report.rays.total() as usize, report.render_ms);
+        report.mrays_per_s = crate::report::mrays_per_s(report.rays.total() as usize, report.render_ms);
         Ok((report, last))
     }
 }
