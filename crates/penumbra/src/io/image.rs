@@ -21,6 +21,7 @@ use std::path::Path;
 use glam::Vec3;
 
 use crate::error::{Error, Result};
+#[cfg(feature = "png")]
 use crate::geom::color::srgb8;
 
 /// The image formats penumbra writes.
@@ -40,8 +41,8 @@ impl ImageFormat {
     pub fn check(path: &Path, option: &str) -> Result<ImageFormat> {
         let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
         match ext.as_deref() {
-            Some("png") => Ok(ImageFormat::Png),
-            Some("exr") => Ok(ImageFormat::Exr),
+            Some("png") => ImageFormat::Png.compiled_in(path, option),
+            Some("exr") => ImageFormat::Exr.compiled_in(path, option),
             Some("pfm") => Ok(ImageFormat::Pfm),
             _ => Err(Error::param(
                 option,
@@ -51,6 +52,28 @@ impl ImageFormat {
                 ),
             )),
         }
+    }
+
+    /// `self` where this build writes it (PNG and EXR sit behind the `png`
+    /// and `exr` features), else an error naming the feature, before any
+    /// work.
+    fn compiled_in(self, path: &Path, option: &str) -> Result<ImageFormat> {
+        let (on, feature) = match self {
+            ImageFormat::Png => (cfg!(feature = "png"), "png"),
+            ImageFormat::Exr => (cfg!(feature = "exr"), "exr"),
+            ImageFormat::Pfm => (true, ""),
+        };
+        if on {
+            return Ok(self);
+        }
+        Err(Error::param(
+            option,
+            format!(
+                "{}: this build of penumbra does not write .{feature} (the `{feature}` cargo feature is off); \
+                 use .pfm or enable the feature",
+                path.display()
+            ),
+        ))
     }
 
     /// `check` for `--out`.
@@ -154,11 +177,13 @@ pub fn write_grey(path: &Path, width: u32, height: u32, values: &[Option<f32>], 
     let format = style.check(path, "out")?;
     let transparent = style.background == Background::Transparent;
     match (format, style.bits, transparent) {
+        #[cfg(feature = "png")]
         (ImageFormat::Png, PngBits::Eight, false) => {
             let data = values.iter().map(|v| quantise(*v, 255.0) as u8).collect();
             let img = image::GrayImage::from_raw(width, height, data).ok_or_else(wrong_size)?;
             crate::io::output::write_image(path, &img, image::ImageFormat::Png)
         }
+        #[cfg(feature = "png")]
         (ImageFormat::Png, PngBits::Eight, true) => {
             let data = values
                 .iter()
@@ -167,12 +192,14 @@ pub fn write_grey(path: &Path, width: u32, height: u32, values: &[Option<f32>], 
             let img = image::GrayAlphaImage::from_raw(width, height, data).ok_or_else(wrong_size)?;
             crate::io::output::write_image(path, &img, image::ImageFormat::Png)
         }
+        #[cfg(feature = "png")]
         (ImageFormat::Png, PngBits::Sixteen, false) => {
             let data = values.iter().map(|v| quantise(*v, 65535.0)).collect();
             let img = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_raw(width, height, data)
                 .ok_or_else(wrong_size)?;
             crate::io::output::write_image(path, &img, image::ImageFormat::Png)
         }
+        #[cfg(feature = "png")]
         (ImageFormat::Png, PngBits::Sixteen, true) => {
             let data = values
                 .iter()
@@ -182,11 +209,13 @@ pub fn write_grey(path: &Path, width: u32, height: u32, values: &[Option<f32>], 
                 .ok_or_else(wrong_size)?;
             crate::io::output::write_image(path, &img, image::ImageFormat::Png)
         }
+        #[cfg(feature = "exr")]
         (ImageFormat::Exr, _, false) => {
             let data = values.iter().flat_map(|v| [v.unwrap_or(0.0); 3]).collect();
             let img = image::Rgb32FImage::from_raw(width, height, data).ok_or_else(wrong_size)?;
             crate::io::output::write_image(path, &img, image::ImageFormat::OpenExr)
         }
+        #[cfg(feature = "exr")]
         (ImageFormat::Exr, _, true) => {
             let data = values
                 .iter()
@@ -202,10 +231,13 @@ pub fn write_grey(path: &Path, width: u32, height: u32, values: &[Option<f32>], 
             let grey: Vec<f32> = values.iter().map(|v| v.unwrap_or(0.0)).collect();
             crate::io::output::write_bytes(path, &pfm_bytes(width, height, 1, &grey))
         }
+        #[allow(unreachable_patterns)]
+        (format, _, _) => format.compiled_in(path, "out").map(drop),
     }
 }
 
 /// `v` in [0, 1] as an integer in [0, `max`]; no surface is 0.
+#[cfg(feature = "png")]
 fn quantise(v: Option<f32>, max: f32) -> u16 {
     v.map_or(0, |v| (v.clamp(0.0, 1.0) * max).round() as u16)
 }
@@ -227,10 +259,13 @@ fn pfm_bytes(width: u32, height: u32, channels: usize, data: &[f32]) -> Vec<u8> 
 /// Writes `radiance` (row-major, row 0 at the top) to `path` in the format
 /// its extension names; `exposure` scales what a PNG shows.
 pub fn write_radiance(path: &Path, width: u32, height: u32, radiance: &[Vec3], exposure: f32) -> Result<()> {
+    // Only a tone-mapped PNG uses the exposure.
+    let _ = exposure;
     if radiance.len() != width as usize * height as usize {
         return Err(wrong_size());
     }
     match ImageFormat::of(path)? {
+        #[cfg(feature = "png")]
         ImageFormat::Png => {
             let mut img = image::RgbImage::new(width, height);
             for (p, l) in img.pixels_mut().zip(radiance) {
@@ -238,6 +273,7 @@ pub fn write_radiance(path: &Path, width: u32, height: u32, radiance: &[Vec3], e
             }
             crate::io::output::write_image(path, &img, image::ImageFormat::Png)
         }
+        #[cfg(feature = "exr")]
         ImageFormat::Exr => {
             let data: Vec<f32> = radiance.iter().flat_map(|l| l.to_array()).collect();
             let img = image::Rgb32FImage::from_raw(width, height, data).ok_or_else(wrong_size)?;
@@ -247,6 +283,8 @@ pub fn write_radiance(path: &Path, width: u32, height: u32, radiance: &[Vec3], e
             let data: Vec<f32> = radiance.iter().flat_map(|l| l.to_array()).collect();
             crate::io::output::write_bytes(path, &pfm_bytes(width, height, 3, &data))
         }
+        #[allow(unreachable_patterns)]
+        format => format.compiled_in(path, "out").map(drop),
     }
 }
 
@@ -318,6 +356,7 @@ pub fn read_pfm(path: &Path) -> Result<(u32, u32, Vec<Vec3>)> {
 }
 
 /// An RGB image, 8 bits per channel.
+#[cfg(feature = "png")]
 pub fn write_rgb_png(path: &Path, width: u32, height: u32, pixels: &[[u8; 3]]) -> Result<()> {
     let mut img = image::RgbImage::new(width, height);
     for (p, v) in img.pixels_mut().zip(pixels) {
@@ -326,7 +365,13 @@ pub fn write_rgb_png(path: &Path, width: u32, height: u32, pixels: &[[u8; 3]]) -
     crate::io::output::write_image(path, &img, image::ImageFormat::Png)
 }
 
-#[cfg(test)]
+/// An RGB image, 8 bits per channel: refused, this build has no PNG writer.
+#[cfg(not(feature = "png"))]
+pub fn write_rgb_png(path: &Path, _width: u32, _height: u32, _pixels: &[[u8; 3]]) -> Result<()> {
+    ImageFormat::Png.compiled_in(path, "out").map(drop)
+}
+
+#[cfg(all(test, feature = "png", feature = "exr"))]
 mod tests {
     use super::*;
 

@@ -7,7 +7,7 @@
 //! (Ctrl-C, with `remove_unfinished`) removes the temporaries
 //! it was writing, so it leaves no trace at all.
 
-use std::io::{BufWriter, Seek, Write};
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
@@ -131,6 +131,7 @@ pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
 }
 
 /// Writes an image in the format `format` (encoders need to seek).
+#[cfg(any(feature = "png", feature = "exr"))]
 pub fn write_image<W>(path: &Path, image: &W, format: image::ImageFormat) -> Result<()>
 where
     W: ImageWrite,
@@ -139,17 +140,27 @@ where
 }
 
 /// An image the `image` crate can encode.
+#[cfg(any(feature = "png", feature = "exr"))]
 pub trait ImageWrite {
-    fn encode<O: Write + Seek>(&self, out: &mut O, format: image::ImageFormat) -> std::result::Result<(), String>;
+    fn encode<O: Write + std::io::Seek>(
+        &self,
+        out: &mut O,
+        format: image::ImageFormat,
+    ) -> std::result::Result<(), String>;
 }
 
+#[cfg(any(feature = "png", feature = "exr"))]
 impl<P, C> ImageWrite for image::ImageBuffer<P, C>
 where
     P: image::PixelWithColorType,
     [P::Subpixel]: image::EncodableLayout,
     C: std::ops::Deref<Target = [P::Subpixel]>,
 {
-    fn encode<O: Write + Seek>(&self, out: &mut O, format: image::ImageFormat) -> std::result::Result<(), String> {
+    fn encode<O: Write + std::io::Seek>(
+        &self,
+        out: &mut O,
+        format: image::ImageFormat,
+    ) -> std::result::Result<(), String> {
         self.write_to(out, format).map_err(|e| e.to_string())
     }
 }

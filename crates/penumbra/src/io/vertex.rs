@@ -173,7 +173,7 @@ pub fn read_prt_csv(path: &Path) -> Result<(Vec<String>, Vec<Vec<f64>>)> {
     Ok((header, rows))
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "ply"))]
 mod tests {
     use glam::Vec3;
 

@@ -129,7 +129,18 @@ fn build(poses: &[&[Vec3]], triangles: &[[u32; 3]], target: usize, tolerance: f3
 
 /// The coarse mesh: meshoptimizer's simplifier on the rest pose, aiming at
 /// `target` triangles with no error bound (it stops earlier only where the
+/// topology forbids collapses). Without the `simplify` feature there is no
+/// simplifier: no coarse level is made and every vertex considers every
+/// triangle, as with the hierarchy off.
+#[cfg(not(feature = "simplify"))]
+fn simplify(_rest: &[Vec3], _triangles: &[[u32; 3]], _target: usize) -> Vec<[u32; 3]> {
+    Vec::new()
+}
+
+/// The coarse mesh: meshoptimizer's simplifier on the rest pose, aiming at
+/// `target` triangles with no error bound (it stops earlier only where the
 /// topology forbids collapses).
+#[cfg(feature = "simplify")]
 fn simplify(rest: &[Vec3], triangles: &[[u32; 3]], target: usize) -> Vec<[u32; 3]> {
     // A target of the whole mesh or more keeps it whole (`--coarse` at its
     // top end); meshoptimizer asserts, aborting the process, above it.

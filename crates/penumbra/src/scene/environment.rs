@@ -29,6 +29,7 @@ pub const MAX_PROBE_SIDE: u32 = 16384;
 /// channel: a file of `len` bytes decodes to at most about 64 x `len`
 /// pixels. A header promising more (or nothing) is refused before any
 /// pixel is allocated.
+#[cfg(feature = "hdr")]
 fn check_promised_size((width, height): (u32, u32), len: usize) -> std::result::Result<(), String> {
     if width == 0 || height == 0 {
         return Err(format!("declares {width}x{height} pixels; a probe needs at least one"));
@@ -49,7 +50,19 @@ fn check_promised_size((width, height): (u32, u32), len: usize) -> std::result::
 
 impl EnvironmentMap {
     /// Loads and checks an .hdr file: readable RGBE, 2:1 aspect, finite and
+    /// non-negative texels. Without the `hdr` feature, an error naming it.
+    #[cfg(not(feature = "hdr"))]
+    pub fn load(path: &Path) -> Result<EnvironmentMap> {
+        Err(Error::file(
+            path,
+            "",
+            "this build of penumbra does not read Radiance .hdr probes (the `hdr` cargo feature is off)",
+        ))
+    }
+
+    /// Loads and checks an .hdr file: readable RGBE, 2:1 aspect, finite and
     /// non-negative texels.
+    #[cfg(feature = "hdr")]
     pub fn load(path: &Path) -> Result<EnvironmentMap> {
         let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
         let decoder = image::codecs::hdr::HdrDecoder::new(std::io::Cursor::new(&bytes))
@@ -169,7 +182,7 @@ impl EnvironmentMap {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "hdr"))]
 mod tests {
     use super::*;
 

@@ -45,10 +45,10 @@ use glam::{DMat4, Vec3};
 
 use super::animated::Animation;
 use super::mesh::MeshObject;
+use super::mesh_file::is_glb;
 use super::mtl::Material;
 use super::obj::ObjFile;
 use crate::error::{Error, Result};
-pub use container::{is_glb, is_gltf_json};
 use nodes::{Instance, instances};
 use out::{Out, assemble};
 

@@ -12,11 +12,36 @@
 
 use std::path::Path;
 
-use super::gltf::{gltf_from_bytes, is_glb, is_gltf_json};
+#[cfg(feature = "gltf")]
+use super::gltf::gltf_from_bytes;
 use super::mesh::Mesh;
 use super::obj::{ObjFile, looks_like_obj, obj_file_from_bytes, obj_from_bytes};
-use super::ply::{is_ply, parse_ply};
+#[cfg(feature = "ply")]
+use super::ply::parse_ply;
 use crate::error::{Error, Result};
+
+/// Whether `bytes` start with the PLY magic line (`ply`, then LF or CRLF).
+pub fn is_ply(bytes: &[u8]) -> bool {
+    bytes.starts_with(b"ply\n") || bytes.starts_with(b"ply\r\n")
+}
+
+/// Whether `bytes` start with the GLB magic (`glTF` as a little-endian u32).
+pub fn is_glb(bytes: &[u8]) -> bool {
+    bytes.starts_with(b"glTF")
+}
+
+/// Whether `bytes` are a JSON object with an `asset` key: what every glTF
+/// asset has and other JSON files rarely do. Only the keys are looked at
+/// (serde skips the values without building them).
+pub fn is_gltf_json(bytes: &[u8]) -> bool {
+    #[derive(serde::Deserialize)]
+    struct Probe {
+        asset: Option<serde::de::IgnoredAny>,
+    }
+    let bytes = bytes.strip_prefix(b"\xef\xbb\xbf").unwrap_or(bytes);
+    let start = bytes.iter().position(|b| !b.is_ascii_whitespace());
+    start.is_some_and(|i| bytes[i] == b'{') && serde_json::from_slice::<Probe>(bytes).is_ok_and(|p| p.asset.is_some())
+}
 
 /// The mesh formats penumbra reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -80,8 +105,28 @@ pub fn load_mesh(path: &Path) -> Result<Mesh> {
     let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
     match MeshFormat::detect(path, &bytes)? {
         MeshFormat::Obj => obj_from_bytes(path, &bytes),
-        MeshFormat::Ply => parse_ply(&bytes).map(|f| f.mesh).map_err(|e| e.in_file(path)),
-        format => gltf_from_bytes(path, &bytes, format == MeshFormat::Glb).map(|f| f.mesh),
+        format => read_other(path, &bytes, format).map(|f| f.mesh),
+    }
+}
+
+/// A PLY or glTF file, where this build reads it (the `ply` and `gltf`
+/// features), else an error naming the feature.
+fn read_other(path: &Path, bytes: &[u8], format: MeshFormat) -> Result<ObjFile> {
+    match format {
+        MeshFormat::Obj => obj_file_from_bytes(path, bytes),
+        #[cfg(feature = "ply")]
+        MeshFormat::Ply => parse_ply(bytes).map_err(|e| e.in_file(path)),
+        #[cfg(feature = "gltf")]
+        MeshFormat::Gltf | MeshFormat::Glb => gltf_from_bytes(path, bytes, format == MeshFormat::Glb),
+        #[allow(unreachable_patterns)]
+        _ => {
+            let feature = if format == MeshFormat::Ply { "ply" } else { "gltf" };
+            Err(Error::file(
+                path,
+                "",
+                format!("this build of penumbra does not read {format:?} files (the `{feature}` cargo feature is off)"),
+            ))
+        }
     }
 }
 
@@ -90,11 +135,8 @@ pub fn load_mesh(path: &Path) -> Result<Mesh> {
 /// warnings. The same geometry as `load_mesh`.
 pub fn load_mesh_file(path: &Path) -> Result<ObjFile> {
     let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
-    match MeshFormat::detect(path, &bytes)? {
-        MeshFormat::Obj => obj_file_from_bytes(path, &bytes),
-        MeshFormat::Ply => parse_ply(&bytes).map_err(|e| e.in_file(path)),
-        format => gltf_from_bytes(path, &bytes, format == MeshFormat::Glb),
-    }
+    let format = MeshFormat::detect(path, &bytes)?;
+    read_other(path, &bytes, format)
 }
 
 /// Files a mesh file names and a reader opens with it: an OBJ's `mtllib`
@@ -112,6 +154,7 @@ pub fn companion_files(path: &Path) -> Vec<std::path::PathBuf> {
             .filter_map(|l| l.trim_start().strip_prefix("mtllib"))
             .flat_map(|names| names.split_whitespace().map(|n| dir.join(n)).collect::<Vec<_>>())
             .collect(),
+        #[cfg(feature = "gltf")]
         Ok(MeshFormat::Gltf) => {
             let json: serde_json::Value = serde_json::from_slice(&bytes).unwrap_or_default();
             let buffers = json["buffers"].as_array().cloned().unwrap_or_default();

@@ -17,12 +17,14 @@ pub mod chess;
 pub mod deform;
 pub mod environment;
 pub mod frame;
+#[cfg(feature = "gltf")]
 mod gltf;
 mod input;
 mod mesh;
 mod mesh_file;
 pub mod mtl;
 mod obj;
+#[cfg(feature = "ply")]
 mod ply;
 pub mod procedural;
 mod scene_file;
@@ -38,15 +40,17 @@ use serde::Deserialize;
 pub use camera::{Camera, CameraRays, CameraSpec, MAX_PIXELS, PixelDirections, View, check_image_size, parse_vec3};
 pub use camera_path::CameraPath;
 pub use environment::EnvironmentMap;
+#[cfg(feature = "gltf")]
 pub use gltf::{load_gltf, load_gltf_animation};
 pub use input::{file_stem, load_input, load_input_in, load_shaded_input, load_shaded_input_in};
 pub use mesh::{Mesh, MeshObject, ORIGIN_OFFSET, used_bounds, vertex_normals};
-pub use mesh_file::{MeshFormat, companion_files, load_mesh, load_mesh_file};
+pub use mesh_file::{MeshFormat, companion_files, is_glb, is_gltf_json, is_ply, load_mesh, load_mesh_file};
 pub use mtl::{Checker, Material, load_mtl, parse_mtl, write_mtl};
 pub use obj::{
     DEFAULT_CREASE_DEGREES, NO_NORMAL, ObjFile, SMOOTH_DEFAULT, load_obj, load_obj_file, parse_obj, parse_obj_file,
     write_obj,
 };
+#[cfg(feature = "ply")]
 pub use ply::{load_ply, parse_ply};
 pub use scene_file::{load_scene, load_scene_in, load_scene_shaded, load_scene_shaded_in, referenced_files};
 pub use shading::{MeshShading, SceneSphere};

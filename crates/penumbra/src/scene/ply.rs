@@ -33,7 +33,6 @@ use super::mtl::Material;
 use super::obj::{NO_NORMAL, ObjFile, SMOOTH_DEFAULT};
 use crate::error::{Error, Result};
 use body::{Ascii, Binary, Body};
-pub use header::is_ply;
 use header::{Element, Format, Kind, Property, Scalar};
 
 /// Reads a PLY file; errors name the file, the header line or the

@@ -7,29 +7,12 @@
 //! the declared length unchecked (a length below 12 underflows) and reports
 //! a bad chunk without saying which chunk or by how much.
 
+use crate::scene::mesh_file::is_glb;
 use std::path::{Path, PathBuf};
 
 use base64::Engine;
 
 use crate::error::{Error, Result};
-
-/// Whether `bytes` start with the GLB magic (`glTF` as a little-endian u32).
-pub fn is_glb(bytes: &[u8]) -> bool {
-    bytes.starts_with(b"glTF")
-}
-
-/// Whether `bytes` are a JSON object with an `asset` key: what every glTF
-/// asset has and other JSON files rarely do. Only the keys are looked at
-/// (serde skips the values without building them).
-pub fn is_gltf_json(bytes: &[u8]) -> bool {
-    #[derive(serde::Deserialize)]
-    struct Probe {
-        asset: Option<serde::de::IgnoredAny>,
-    }
-    let bytes = bytes.strip_prefix(b"\xef\xbb\xbf").unwrap_or(bytes);
-    let start = bytes.iter().position(|b| !b.is_ascii_whitespace());
-    start.is_some_and(|i| bytes[i] == b'{') && serde_json::from_slice::<Probe>(bytes).is_ok_and(|p| p.asset.is_some())
-}
 
 const HEADER: usize = 12;
 const CHUNK_HEADER: usize = 8;
@@ -187,6 +170,7 @@ fn relative_path(uri: &str, dir: &Path) -> std::result::Result<PathBuf, String> 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::mesh_file::is_gltf_json;
 
     fn glb(chunks: &[(&[u8; 4], &[u8])], length: Option<u32>) -> Vec<u8> {
         let mut body = Vec::new();

@@ -120,11 +120,6 @@ pub struct Header {
     pub end_line: usize,
 }
 
-/// Whether `bytes` start with the PLY magic line (`ply`, then LF or CRLF).
-pub fn is_ply(bytes: &[u8]) -> bool {
-    bytes.starts_with(b"ply\n") || bytes.starts_with(b"ply\r\n")
-}
-
 /// Parses the header and checks that the body can hold what it declares.
 /// Errors name the header line and the problem.
 pub fn parse(bytes: &[u8]) -> Result<Header> {
