@@ -12,7 +12,7 @@ use penumbra::scene::Scene;
 use penumbra::sweep::budget::ErrorBudget;
 
 /// The default `--seed`: outputs repeat bit for bit on one device.
-pub const DEFAULT_SEED: u32 = 0x5eed;
+pub const DEFAULT_SEED: u32 = penumbra::geom::sampling::DEFAULT_SEED;
 
 #[derive(Args, Clone, Debug)]
 pub struct Common {

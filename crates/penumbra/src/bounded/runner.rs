@@ -38,7 +38,7 @@ use crate::bounded::shaft::{End, Exclude, Shafts};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::gpu::batch::Batched;
-use crate::gpu::device::elapsed_ms;
+use crate::gpu::device::{Device, elapsed_ms};
 use crate::progress::Bar;
 use crate::scene::Camera;
 use crate::whitted::WhittedRenderer;
@@ -112,6 +112,31 @@ enum Found {
 }
 
 impl BoundedRenderer {
+    /// A bounded-error renderer of `scene` on `device` with `settings`:
+    /// radiance interpolants over Whitted ray tracing, every interpolated
+    /// pixel within `settings.epsilon` of the exact one (Bala, Dorsey and
+    /// Teller 1999).
+    ///
+    /// ```
+    /// use penumbra::{BoundedRenderer, BoundedSettings, Device, Scene};
+    /// use penumbra::scene::procedural::sphere_on_plane;
+    ///
+    /// let scene = Scene::from_mesh("sphere", "sphere.obj".as_ref(), sphere_on_plane());
+    /// let mut renderer = BoundedRenderer::for_scene(&Device::cpu(), &scene, BoundedSettings::default())?;
+    /// let camera = scene.camera_in(&Default::default(), &renderer.whitted.bounds())?;
+    /// let frame = renderer.render(&camera, 64, 48)?;
+    /// assert_eq!(frame.radiance.len(), 64 * 48);
+    /// # Ok::<(), penumbra::Error>(())
+    /// ```
+    pub fn for_scene(
+        device: &Device,
+        scene: &crate::scene::Scene,
+        settings: BoundedSettings,
+    ) -> Result<BoundedRenderer> {
+        BoundedRenderer::new(WhittedRenderer::for_scene(device, scene)?, settings)
+    }
+
+    /// A bounded-error renderer over `whitted`'s scene and device.
     pub fn new(whitted: WhittedRenderer, settings: BoundedSettings) -> Result<BoundedRenderer> {
         settings.validate()?;
         let geometry = SceneGeometry::new(whitted.scene(), whitted.tree(), settings.patches);

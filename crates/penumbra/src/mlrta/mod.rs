@@ -18,6 +18,7 @@
 
 pub mod aa;
 pub mod ao;
+mod entry;
 pub mod entry_point;
 pub mod frustum;
 pub mod gpu;
@@ -29,6 +30,7 @@ mod squares;
 mod tile_rows;
 pub mod tiles;
 
+pub use entry::{PrimaryRays, TraceSettings};
 pub use packet::MlrtaCounts;
 pub use prepared::Prepared;
 pub use tiles::{ImageBuffers, ImageTrace, MlrtaParams, trace_camera_into, trace_image, trace_image_into};

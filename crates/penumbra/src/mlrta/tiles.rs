@@ -30,7 +30,7 @@ use crate::scene::{CameraRays, PixelDirections};
 pub const DEFAULT_MIN_TILE: u32 = 32;
 
 /// The knobs of section 4.2.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct MlrtaParams {
     /// Entry-point search on (MLRTA) or off (every packet from the root: the
     /// paper's "no MLRT" rows).

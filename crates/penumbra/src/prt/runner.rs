@@ -24,7 +24,7 @@ use crate::gpu::device::{Device, OnDevice, elapsed_ms};
 use crate::progress::Reporter;
 use crate::report::repeats::{Repeats, RunTimes};
 use crate::scene::deform::{AnimationSource, Clip};
-use crate::scene::{EnvironmentMap, SceneMesh};
+use crate::scene::{EnvironmentMap, Mesh, SceneMesh};
 use crate::sh::window::{Deringing, nonnegative};
 use crate::sh::{ShRgb, ShRotation, coefficient_count, project_environment};
 
@@ -60,6 +60,42 @@ pub struct PrtRunner {
 }
 
 impl PrtRunner {
+    /// Precomputed radiance transfer of `mesh` on `device` with `settings`
+    /// (shadows by hemispherical rasterisation when `settings.shadows`,
+    /// Kautz, Lehtinen and Aila 2004): the tables and hierarchy are built
+    /// from `mesh` as the rest pose, then `frame` shades any pose of it
+    /// under SH lighting.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use penumbra::{Device, PrtRunner, PrtSettings};
+    /// use penumbra::prt::pipeline::FrameOutput;
+    /// use penumbra::scene::procedural::sphere_on_plane;
+    ///
+    /// let mesh = sphere_on_plane();
+    /// let settings = PrtSettings { bands: 3, ..Default::default() };
+    /// let mut prt = PrtRunner::for_mesh(&Device::cpu(), &mesh, &settings)?;
+    /// // Constant white light: only the first SH coefficient of each channel.
+    /// let coeffs = prt.prt().coeffs();
+    /// let mut lighting = vec![0.0; 3 * coeffs];
+    /// for c in 0..3 {
+    ///     lighting[c * coeffs] = 1.0;
+    /// }
+    /// let mut out = FrameOutput::default();
+    /// prt.frame(&mesh.positions, Some(Vec3::new(0.0, 3.0, 5.0)), &lighting, false, &mut out)?;
+    /// assert_eq!(out.radiance.len(), mesh.positions.len());
+    /// # Ok::<(), penumbra::Error>(())
+    /// ```
+    pub fn for_mesh(device: &Device, mesh: &Mesh, settings: &PrtSettings) -> Result<PrtRunner> {
+        let shadows = if settings.shadows { Shadows::On } else { Shadows::Off };
+        // The command line's `--reference-rays` default.
+        let reference = RayTraced {
+            rays: 4096,
+            seed: crate::geom::sampling::DEFAULT_SEED,
+        };
+        PrtRunner::new(device, &mesh.positions, &mesh.triangles, settings, shadows, reference)
+    }
+
     /// Builds the tables and hierarchy of the mesh from its rest pose and,
     /// on a GPU, uploads them. A device chosen automatically runs what its
     /// GPU kernel cannot (more than `MAX_GPU_BANDS` bands) on the CPU, with

@@ -9,12 +9,15 @@
 //! return the per-ray results as bit masks so they can be compared ray by ray.
 
 pub mod ao_rays;
+mod entry;
 pub mod gpu;
 pub mod packets;
 pub mod points;
 pub mod report;
 pub mod runner;
 pub mod tracer;
+
+pub use entry::AmbientOcclusion;
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -62,10 +65,24 @@ const _: () = assert!(std::mem::size_of::<AoPoint>() == 32);
 /// How many rays, how far, which sample sequence.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AoSettings {
+    /// Rays per point; AO is the fraction that escape (default 256).
     pub rays_per_point: u32,
-    /// Occluders farther than this do not count; `f32::INFINITY` for none.
+    /// Occluders farther than this do not count; `f32::INFINITY` for none
+    /// (the default).
     pub radius: f32,
+    /// The sample sequence's seed: the same seed gives the same rays, bit
+    /// for bit, on one device (default [`DEFAULT_SEED`](crate::geom::sampling::DEFAULT_SEED)).
     pub seed: u32,
+}
+
+impl Default for AoSettings {
+    fn default() -> Self {
+        AoSettings {
+            rays_per_point: 256,
+            radius: f32::INFINITY,
+            seed: crate::geom::sampling::DEFAULT_SEED,
+        }
+    }
 }
 
 impl AoSettings {

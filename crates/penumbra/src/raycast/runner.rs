@@ -4,7 +4,8 @@
 //! The displacement-field runner (`field::runner`) answers the same
 //! request through fields and shares the pieces below.
 
-use super::points::{hit_points, points_without_hemisphere, vertex_points};
+use super::entry::AmbientOcclusion;
+use super::points::hit_points;
 use super::{AoPoint, AoSettings};
 use crate::error::{Error, Result};
 use crate::geom::ray::Ray;
@@ -79,48 +80,20 @@ impl RaycastAo {
 /// AO of `request` by ray casting against the scene's casters on `device`.
 pub fn raycast(device: &Device, scene: &Scene, request: &AoRequest, bars: &Reporter) -> Result<RaycastAo> {
     request.settings.validate()?;
-    let occluders = casters(scene, 0)?;
-    let mut tracer = Tracer::build(device, &occluders, bars, "casters")?;
-    let vertices = if request.vertices {
-        let points = vertex_points(&receivers(scene, 0)?);
-        let masks = tracer.ao_visibility(
-            &points,
-            &request.settings,
-            &bars.bar(points.len() as u64, "AO vertices"),
-        )?;
-        Some(VertexAo {
-            ao: masks.value.accessibility(),
-            without_normal: points_without_hemisphere(&points),
-            ms: masks.ms,
-        })
-    } else {
-        None
+    let mut ao = AmbientOcclusion::for_scene(device, scene)?.with_progress(bars.clone());
+    ao.prepare()?;
+    let vertices = match request.vertices {
+        true => Some(ao.vertices(&request.settings)?),
+        false => None,
     };
     let image = match &request.image {
-        Some(view) => {
-            let everything = scene.world_mesh(|_| true);
-            // Primary visibility sees every instance; only casters occlude.
-            let mut all;
-            let primary = if everything.triangles.len() == occluders.triangles.len() {
-                &mut tracer
-            } else {
-                all = Tracer::build(device, &everything, bars, "all instances")?;
-                &mut all
-            };
-            let seen = visible_points(primary, &everything, scene.camera, view)?;
-            let masks = tracer.ao_visibility(
-                &seen.points,
-                &request.settings,
-                &bars.bar(seen.points.len() as u64, "AO pixels"),
-            )?;
-            Some(seen.image(&masks.value.accessibility(), masks.ms))
-        }
+        Some(view) => Some(ao.image(view, &request.settings)?),
         None => None,
     };
     Ok(RaycastAo {
-        caster_triangles: occluders.triangles.len(),
-        build_ms: tracer.tree().stats.build_ms,
-        bvh: tracer.bvh_stats().cloned(),
+        caster_triangles: ao.caster_triangles(),
+        build_ms: ao.build_ms(),
+        bvh: ao.bvh_stats().cloned(),
         vertices,
         image,
     })

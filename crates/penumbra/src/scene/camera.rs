@@ -69,10 +69,30 @@ pub struct View {
     pub height: u32,
 }
 
+/// 800 x 600 pixels through the scene's camera (or one framing it), as
+/// the command line's `--width`/`--height` default.
+impl Default for View {
+    fn default() -> Self {
+        View::sized(800, 600)
+    }
+}
+
 impl View {
+    /// `width` x `height` pixels through `camera`; an error for an empty
+    /// image or one of more than `MAX_PIXELS` pixels.
     pub fn new(camera: CameraSpec, width: u32, height: u32) -> Result<View> {
         check_image_size(width, height)?;
         Ok(View { camera, width, height })
+    }
+
+    /// `width` x `height` pixels through the scene's camera, or one that
+    /// frames the scene (the size is checked where the view is used).
+    pub fn sized(width: u32, height: u32) -> View {
+        View {
+            camera: CameraSpec::default(),
+            width,
+            height,
+        }
     }
 
     pub fn pixels(&self) -> usize {

@@ -130,6 +130,13 @@ fn read_other(path: &Path, bytes: &[u8], format: MeshFormat) -> Result<ObjFile> 
     }
 }
 
+impl Mesh {
+    /// Reads the mesh in the file `path` (`load_mesh`).
+    pub fn load(path: impl AsRef<Path>) -> Result<Mesh> {
+        load_mesh(path.as_ref())
+    }
+}
+
 /// Reads a mesh in any format penumbra reads, with what rendering uses:
 /// materials (OBJ's MTL files, glTF's materials), shading normals and
 /// warnings. The same geometry as `load_mesh`.

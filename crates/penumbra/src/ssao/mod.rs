@@ -17,6 +17,7 @@
 //! 1 = open, 0 = occluded, with the fuzzy measure mu of `measure`.
 
 pub mod budget;
+mod entry;
 pub mod estimators;
 pub mod filter;
 pub mod gbuffer;
@@ -29,6 +30,7 @@ pub mod truth;
 
 use std::time::Instant;
 
+pub use entry::Ssao;
 pub use estimators::{Estimator, Family, SampleTable};
 pub use gbuffer::{GBuffer, ScreenConstants, ScreenView};
 pub use measure::{Measure, MeasureKind};
@@ -109,7 +111,20 @@ pub struct SsaoSettings {
     pub seed: u32,
 }
 
+/// The command line's defaults: the importance-sampled estimator at 16
+/// samples per pixel, `radius` 1 scene unit (set it for your scene, e.g.
+/// `Ssao::suggested_radius`), the fourth-order polynomial measure,
+/// interleaving, filter and calibration on, full resolution, the default
+/// seed.
+impl Default for SsaoSettings {
+    fn default() -> Self {
+        SsaoSettings::new(Estimator::Importance, 16, 1.0)
+    }
+}
+
 impl SsaoSettings {
+    /// `estimator` at `spp` samples per pixel in a neighbourhood of radius
+    /// `radius`, every other knob at its default.
     pub fn new(estimator: Estimator, spp: u32, radius: f32) -> SsaoSettings {
         SsaoSettings {
             estimator,
@@ -123,7 +138,7 @@ impl SsaoSettings {
             bias_px: DEFAULT_BIAS_PX,
             calibrate: true,
             resolution: Resolution::Full,
-            seed: 0x5eed,
+            seed: crate::geom::sampling::DEFAULT_SEED,
         }
     }
 

@@ -194,7 +194,28 @@ pub struct WhittedRenderer {
 }
 
 impl WhittedRenderer {
-    /// Builds the scene's kd-tree and, on a GPU, uploads it with the scene.
+    /// A renderer of `scene` (its materials as its OBJ/MTL or glTF files
+    /// give them, its lights, its first frame) on `device`, lit with the
+    /// default lighting.
+    ///
+    /// ```
+    /// use penumbra::{Device, Scene, WhittedRenderer, WhittedSettings};
+    /// use penumbra::scene::procedural::sphere_on_plane;
+    ///
+    /// let scene = Scene::from_mesh("sphere", "sphere.obj".as_ref(), sphere_on_plane());
+    /// let mut renderer = WhittedRenderer::for_scene(&Device::cpu(), &scene)?;
+    /// let camera = scene.camera_in(&Default::default(), &renderer.bounds())?;
+    /// let image = renderer.image(&camera, 64, 48, &WhittedSettings::default())?;
+    /// assert_eq!(image.radiance().len(), 64 * 48);
+    /// # Ok::<(), penumbra::Error>(())
+    /// ```
+    pub fn for_scene(device: &Device, scene: &crate::scene::Scene) -> Result<WhittedRenderer> {
+        let render_scene = RenderScene::new(scene, 0, &super::LightingOptions::default())?;
+        WhittedRenderer::new(device, render_scene, &Reporter::silent())
+    }
+
+    /// Builds the scene's kd-tree and, on a GPU, uploads it with the
+    /// scene, following the build with `bars`.
     pub fn new(device: &Device, scene: RenderScene, bars: &Reporter) -> Result<WhittedRenderer> {
         let tree = build_tree(&scene.mesh, &tree_params(device), bars, "raytrace")?;
         let gpu = device.prepare(|ctx| {
@@ -309,6 +330,12 @@ impl WhittedRenderer {
             tree: &self.tree,
             params,
         }
+    }
+
+    /// An image of `camera`, `width` x `height` pixels, rendered with
+    /// `settings` (`render` without following its rows).
+    pub fn image(&mut self, camera: &Camera, width: u32, height: u32, settings: &WhittedSettings) -> Result<Rendered> {
+        self.render(camera, width, height, settings, &Bar::hidden())
     }
 
     /// Renders an image of `camera`: on a GPU the kernel, on the CPU the

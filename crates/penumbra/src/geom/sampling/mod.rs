@@ -16,3 +16,7 @@ pub mod sequence;
 pub use concentric::{concentric_disk, concentric_square};
 pub use hemisphere::{Frame, cosine_hemisphere, malley_inverse};
 pub use sequence::{SampleSequence, StreamSampler, hash_u32, unit_float};
+
+/// The seed every method's sample sequence starts from unless told: the
+/// same seed gives the same samples, bit for bit, on one device.
+pub const DEFAULT_SEED: u32 = 0x5eed;
