@@ -1,12 +1,18 @@
 //! The examples a host engine author copies, run as they are: each builds
 //! its own wgpu device, so without an adapter they say they skipped.
 //!
+//! * `host_ao`: per-vertex AO of a mesh in at most 30 lines of code; the
+//!   CPU and the GPU give the same AO, ray for ray.
 //! * `host_ssao`: the host's own G-buffer pass and penumbra's SSAO in the
 //!   host's encoder; the AO equals the CPU twin run on the host's G-buffer
 //!   (within 1e-4 per pixel; the twins are bit-identical on lavapipe).
 //! * `host_prt`: the host's deforming mesh, radiance per vertex every frame
 //!   on the host's GPU; the last frame equals the CPU runner's (within 1e-4
 //!   relative) and is within 3% of Monte Carlo ray tracing.
+
+#[path = "../examples/host_ao.rs"]
+#[allow(dead_code)]
+mod host_ao;
 
 #[path = "../examples/host_ssao.rs"]
 #[allow(dead_code)]
@@ -108,4 +114,36 @@ fn host_prt_example_equals_the_cpu_runner_and_ray_tracing() {
     );
     assert!(report.transfer_error < 0.03, "transfer error {}", report.transfer_error);
     assert_eq!(image::open(&out).unwrap().to_rgb8().dimensions(), (320, 240));
+}
+
+/// Lines of code of an example: not blank, not a comment.
+fn code_lines(example: &str) -> usize {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join(example);
+    let text = std::fs::read_to_string(path).unwrap();
+    text.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with("//"))
+        .count()
+}
+
+#[test]
+fn host_ao_example_is_short_and_the_gpu_gives_the_cpus_ao() {
+    let lines = code_lines("host_ao.rs");
+    println!("host_ao: {lines} lines of code");
+    assert!(lines <= 30, "host_ao.rs has {lines} lines of code, more than 30");
+    let mesh = common::asset("sphere-on-plane.obj");
+    let cpu = host_ao::vertex_ao(&Device::cpu(), &mesh).unwrap();
+    let n = penumbra::Mesh::load(&mesh).unwrap().positions.len();
+    assert_eq!(cpu.ao.len(), n);
+    let mean = cpu.mean();
+    let darkest = cpu.ao.iter().copied().fold(1.0f32, f32::min);
+    println!("host_ao on the CPU: {n} vertices, mean AO {mean:.4}, darkest {darkest:.4}");
+    assert!((0.5..0.99).contains(&mean) && darkest < 0.5, "the sphere darkens the plane under it");
+    let Some(gpu) = common::gpu() else {
+        return;
+    };
+    let on_gpu = host_ao::vertex_ao(&Device::gpu(gpu), &mesh).unwrap();
+    let worst = cpu.ao.iter().zip(&on_gpu.ao).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+    println!("host_ao: worst |GPU - CPU| per vertex {worst:.2e} (tolerance 0: the same rays escape)");
+    assert_eq!(on_gpu.ao, cpu.ao, "the GPU's AO differs from the CPU twin's");
 }
