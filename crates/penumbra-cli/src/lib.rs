@@ -183,3 +183,74 @@ fn remove_unfinished_on_interrupt() {
         std::process::exit(130);
     });
 }
+
+/// Every method's settings `Default` in the library is what this command
+/// line builds when the options are left at their defaults (the options it
+/// requires given the library's default values).
+#[cfg(test)]
+mod defaults {
+    use super::{Cli, Command};
+    use clap::Parser;
+    use penumbra::scene::View;
+    use penumbra::{
+        AoSettings, BoundedSettings, FieldSettings, PrtSettings, SsaoSettings, TraceSettings, WhittedSettings,
+    };
+
+    fn parse(args: &str) -> Command {
+        Cli::try_parse_from(std::iter::once("penumbra").chain(args.split_whitespace()))
+            .expect("a valid command line")
+            .command
+    }
+
+    #[test]
+    fn ao_and_field() {
+        let Command::Ao(a) = parse("ao --mesh m.obj --method raycast --rays 256 --per-vertex o.csv") else {
+            unreachable!()
+        };
+        assert_eq!(a.knobs.settings(a.common.seed).unwrap(), AoSettings::default());
+        let field = FieldSettings {
+            sampling: a.field_options.params().unwrap(),
+            positional: a.knobs.positional,
+        };
+        assert_eq!(field, FieldSettings::default());
+    }
+
+    #[test]
+    fn ssao() {
+        let d = SsaoSettings::default();
+        let args = format!(
+            "ssao --mesh m.obj --estimator importance --spp {} --radius {}",
+            d.spp, d.radius
+        );
+        let Command::Ssao(a) = parse(&args) else { unreachable!() };
+        assert_eq!(a.knobs.settings(a.common.seed).unwrap(), d);
+    }
+
+    #[test]
+    fn prt() {
+        let Command::Prt(a) = parse("prt --mesh m.obj --env e.hdr") else {
+            unreachable!()
+        };
+        assert_eq!(a.knobs.settings(true).unwrap(), PrtSettings::default());
+    }
+
+    #[test]
+    fn trace() {
+        let Command::Trace(a) = parse("trace --mesh m.obj") else {
+            unreachable!()
+        };
+        let view = View::sized(a.size.width, a.size.height);
+        assert_eq!(view, View::default());
+        assert_eq!(a.knobs.request(view).unwrap(), TraceSettings::default().request(&view));
+    }
+
+    #[test]
+    fn whitted_and_bounded() {
+        let Command::Raytrace(a) = parse("raytrace --method bounded --mesh m.obj --out o.png") else {
+            unreachable!()
+        };
+        let whitted = a.whitted.settings(a.common.seed).unwrap();
+        assert_eq!(whitted, WhittedSettings::default());
+        assert_eq!(a.bounded.settings(whitted).unwrap(), BoundedSettings::default());
+    }
+}

@@ -125,7 +125,7 @@ fn the_reference_pages_are_what_help_prints() {
             .join("docs/reference")
             .join(format!("{}.md", command.replace(' ', "-")));
         let want = format!(
-            "# `penumbra {command}`\n\n<!-- Written by tests/docs.rs from `penumbra {command} --help`: \
+            "# `penumbra {command}`\n\n<!-- Written by crates/penumbra-cli/tests/docs.rs from `penumbra {command} --help`: \
              run it with PENUMBRA_BLESS=1 after changing an option. -->\n\n```text\n{}```\n",
             help(command)
         );
@@ -197,8 +197,10 @@ cargo() {
       local target=""; while [ $# -gt 0 ]; do
         if [ "$1" = "--$kind" ]; then target="$2"; fi; shift; done
       [ -n "$target" ] || { echo "cargo $kind without --$kind NAME"; return 1; }
-      [ -f "$ROOT/$dir/$target.rs" ] || { echo "no $dir/$target.rs"; return 1; }
-      echo "names $dir/$target.rs (not run here)" ;;
+      local found=""; for c in crates/penumbra crates/penumbra-cli; do
+        [ -f "$ROOT/$c/$dir/$target.rs" ] && found="$c/$dir/$target.rs"; done
+      [ -n "$found" ] || { echo "no crates/*/$dir/$target.rs"; return 1; }
+      echo "names $found (not run here)" ;;
     *) echo "unexpected cargo $*"; return 1 ;;
   esac
 }

@@ -118,7 +118,9 @@ fn host_prt_example_equals_the_cpu_runner_and_ray_tracing() {
 
 /// Lines of code of an example: not blank, not a comment.
 fn code_lines(example: &str) -> usize {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join(example);
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples")
+        .join(example);
     let text = std::fs::read_to_string(path).unwrap();
     text.lines()
         .map(str::trim)
@@ -138,12 +140,20 @@ fn host_ao_example_is_short_and_the_gpu_gives_the_cpus_ao() {
     let mean = cpu.mean();
     let darkest = cpu.ao.iter().copied().fold(1.0f32, f32::min);
     println!("host_ao on the CPU: {n} vertices, mean AO {mean:.4}, darkest {darkest:.4}");
-    assert!((0.5..0.99).contains(&mean) && darkest < 0.5, "the sphere darkens the plane under it");
+    assert!(
+        (0.5..0.99).contains(&mean) && darkest < 0.5,
+        "the sphere darkens the plane under it"
+    );
     let Some(gpu) = common::gpu() else {
         return;
     };
     let on_gpu = host_ao::vertex_ao(&Device::gpu(gpu), &mesh).unwrap();
-    let worst = cpu.ao.iter().zip(&on_gpu.ao).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+    let worst = cpu
+        .ao
+        .iter()
+        .zip(&on_gpu.ao)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
     println!("host_ao: worst |GPU - CPU| per vertex {worst:.2e} (tolerance 0: the same rays escape)");
     assert_eq!(on_gpu.ao, cpu.ao, "the GPU's AO differs from the CPU twin's");
 }

@@ -84,7 +84,7 @@ impl Default for WhittedSettings {
         WhittedSettings {
             max_depth: 5,
             spp: 1,
-            seed: 0,
+            seed: crate::geom::sampling::DEFAULT_SEED,
             fresnel: false,
             packets: Packets::Auto,
         }
