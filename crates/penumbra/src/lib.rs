@@ -22,6 +22,7 @@ pub mod scene;
 pub mod sh;
 pub mod ssao;
 pub mod sweep;
+pub mod tune;
 pub mod whitted;
 
 pub use error::{Error, Result};

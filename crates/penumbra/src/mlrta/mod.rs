@@ -28,6 +28,7 @@ pub mod runner;
 mod squares;
 mod tile_rows;
 pub mod tiles;
+pub mod tune;
 
 pub use packet::MlrtaCounts;
 pub use prepared::Prepared;
