@@ -9,7 +9,7 @@ use std::path::Path;
 
 use penumbra::error::Result;
 use penumbra::scene::Scene;
-use penumbra::sweep::budget::ErrorBudget;
+use penumbra::tune::ErrorBudget;
 
 /// The default `--seed`: outputs repeat bit for bit on one device.
 pub const DEFAULT_SEED: u32 = penumbra::geom::sampling::DEFAULT_SEED;

@@ -8,7 +8,7 @@ use serde_json::Value;
 use penumbra::error::{Error, Result};
 
 /// Says on stderr what `--max-error` chose, and warns when no setting met it.
-pub fn note_choice(c: &penumbra::sweep::budget::Choice) {
+pub fn note_choice(c: &penumbra::tune::Pick) {
     c.notes().iter().for_each(|n| note(n));
 }
 

@@ -11,7 +11,7 @@ use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::prelude::*;
 
 use penumbra::error::{Error, Result};
-use penumbra::sweep::SweepReport;
+use penumbra::tune::SweepReport;
 
 const WIDTH: u32 = 1000;
 const HEIGHT: u32 = 700;
@@ -116,7 +116,7 @@ where
     let first = report.axes.first();
     let mut groups: Vec<String> = Vec::new();
     for r in &report.rows {
-        let v = first.and_then(|k| r.knobs.0.get(k)).cloned().unwrap_or_default();
+        let v = first.and_then(|k| r.knobs.text(k)).unwrap_or_default().to_string();
         if !groups.contains(&v) {
             groups.push(v);
         }
@@ -126,7 +126,7 @@ where
         let rows = report
             .rows
             .iter()
-            .filter(|r| first.and_then(|k| r.knobs.0.get(k)) == Some(value));
+            .filter(|r| first.and_then(|k| r.knobs.text(k)) == Some(value.as_str()));
         let label = match first {
             Some(k) => format!("{k}={value}"),
             None => "setting".into(),

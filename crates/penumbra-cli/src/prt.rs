@@ -13,13 +13,13 @@ use crate::options::prt::{AnimationOptions, PlaybackOptions, PrtOptions};
 use penumbra::error::Result;
 use penumbra::io::image::ImageFormat;
 use penumbra::prt::blockers::InterObject;
-use penumbra::prt::budget::choose_cached;
 use penumbra::prt::images::FrameImages;
 use penumbra::prt::objects::{ObjectsRunner, shaded_pose};
 use penumbra::prt::pipeline::{FrameOutput, PrtSettings};
 use penumbra::prt::runner::{Playback, PrtRunner, RayTraced, Shadows, animate_runs};
 use penumbra::prt::scene_play::play_scene_runs;
 use penumbra::prt::sh_out::write_sh_json;
+use penumbra::prt::tune::choose_cached;
 use penumbra::scene::{EnvironmentMap, View, file_stem, load_scene_in, used_bounds};
 
 #[derive(clap::Args)]

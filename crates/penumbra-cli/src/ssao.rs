@@ -13,8 +13,8 @@ use crate::options::ssao::{SsaoOptions, SsaoRunOptions};
 use penumbra::error::{Error, Result};
 use penumbra::io::image::ImageFormat;
 use penumbra::scene::View;
-use penumbra::ssao::budget::choose_cached;
 use penumbra::ssao::runner::{SsaoRequest, run as run_ssao};
+use penumbra::ssao::tune::choose_cached;
 
 #[derive(clap::Args)]
 pub struct SsaoArgs {

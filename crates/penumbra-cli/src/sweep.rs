@@ -1,5 +1,6 @@
 //! `penumbra sweep METHOD`: time and error of every setting of a knob grid
-//! on the user's scene (`penumbra::sweep`), written to DIR/sweep.{csv,json,png}.
+//! on the user's scene (`penumbra::sweep` builds the method's sweep,
+//! `penumbra::tune` runs it), written to DIR/sweep.{csv,json,png}.
 
 use std::path::{Path, PathBuf};
 
@@ -9,7 +10,8 @@ use crate::args::{CameraArgs, Common};
 use penumbra::error::{Error, Result};
 use penumbra::scene::View;
 pub use penumbra::sweep::SweepKind as Method;
-use penumbra::sweep::{self, Grid, SweepInputs, SweepReport};
+use penumbra::sweep::{SweepInputs, with_method};
+use penumbra::tune::{self, Grid, SweepReport};
 
 #[derive(clap::Args)]
 pub struct SweepArgs {
@@ -54,7 +56,7 @@ pub struct SweepArgs {
 impl SweepArgs {
     /// The files the sweep writes.
     pub fn outputs(&self) -> [PathBuf; 3] {
-        sweep::output_files(&self.out)
+        tune::output_files(&self.out)
     }
 }
 
@@ -80,9 +82,9 @@ pub fn run(args: &SweepArgs) -> Result<Value> {
     };
     let device = args.common.open_device_for(args.method.gpu_needs())?;
     let progress = crate::progress::stderr();
-    let mut report = sweep::with_method(args.method, &inputs, &device, &progress, |method| {
+    let mut report = with_method(args.method, &inputs, &device, &progress, |method| {
         let grid = Grid::parse(&args.grid, method.knobs())?;
-        sweep::sweep(method, &grid, runs, &progress)
+        tune::sweep(method, &grid, runs, &progress)
     })?;
     write_outputs(&mut report, &args.out)?;
     crate::io::merged(args.common.report(&device, threads), &report)
@@ -94,9 +96,9 @@ pub fn write_outputs(report: &mut SweepReport, dir: &Path) -> Result<()> {
     if !dir.is_dir() {
         std::fs::create_dir(dir).map_err(|e| Error::file(dir, "", format!("cannot create the folder: {e}")))?;
     }
-    let [csv, json, png] = sweep::output_files(dir);
+    let [csv, json, png] = tune::output_files(dir);
     report.files = [&csv, &json, &png].iter().map(|p| p.display().to_string()).collect();
-    penumbra::io::output::write_bytes(&csv, sweep::csv_text(report).as_bytes())?;
+    penumbra::io::output::write_bytes(&csv, tune::csv_text(report).as_bytes())?;
     crate::plot::write_png(&png, report)?;
     let text = serde_json::to_string_pretty(report).map_err(|e| Error::internal(e.to_string()))?;
     penumbra::io::output::write_bytes(&json, text.as_bytes())

@@ -12,18 +12,18 @@ mod common;
 
 use std::path::Path;
 
-use penumbra::field::budget as field_budget;
 use penumbra::field::reach::Reach;
+use penumbra::field::tune as field_budget;
 use penumbra::field::{DirectionMapping, Positional};
 use penumbra::gpu::device::Device;
 use penumbra::progress::Reporter;
 use penumbra::raycast::AoSettings;
 use penumbra::raycast::runner::AoRequest;
 use penumbra::scene::{Scene, View, load_obj, load_scene};
-use penumbra::ssao::budget::{self as ssao_budget, Free};
 use penumbra::ssao::runner::{SsaoRequest, run};
+use penumbra::ssao::tune::{self as ssao_budget, Free};
 use penumbra::ssao::{Estimator, Measure, MeasureKind, SsaoSettings};
-use penumbra::sweep::budget::Choice;
+use penumbra::tune::{Pick, Setting};
 
 const SEEDS: u32 = 20;
 
@@ -100,7 +100,7 @@ fn load_scene_obj(path: &Path) -> Scene {
 }
 
 fn on_ground(mesh: &penumbra::scene::Mesh) -> Scene {
-    penumbra::sweep::field::on_ground("mesh", Path::new("mesh"), mesh.clone()).expect("ground")
+    penumbra::field::tune::on_ground("mesh", Path::new("mesh"), mesh.clone()).expect("ground")
 }
 
 fn ssao_request(radius: f32, seed: u32) -> SsaoRequest {
@@ -147,8 +147,8 @@ fn ssao_row(name: &str, scene: &Scene, radius: f32, e: f64) -> String {
             &Reporter::silent(),
         )
         .expect("choice");
-        request.settings.estimator = choice.chosen.get_enum("estimator").unwrap().unwrap();
-        request.settings.spp = choice.chosen.get("spp").unwrap().unwrap();
+        request.settings.estimator = choice.chosen.get("estimator").unwrap();
+        request.settings.spp = choice.chosen.get("spp").unwrap();
         let full = run(&device, scene, &request, &Reporter::silent())
             .expect("run")
             .report
@@ -162,8 +162,8 @@ fn ssao_row(name: &str, scene: &Scene, radius: f32, e: f64) -> String {
     let choice = first.expect("a seed");
     let fastest = fastest_meeting(&choice, e, |knobs| {
         let mut request = ssao_request(radius, 1000);
-        request.settings.estimator = knobs.get_enum("estimator").unwrap().unwrap();
-        request.settings.spp = knobs.get("spp").unwrap().unwrap();
+        request.settings.estimator = knobs.get("estimator").unwrap();
+        request.settings.spp = knobs.get("spp").unwrap();
         run(&device, scene, &request, &Reporter::silent())
             .expect("run")
             .report
@@ -207,10 +207,7 @@ fn field_row(name: &str, scene: &Scene, e: f64) -> String {
     let mut best: Option<(String, f64)> = None;
     let mut chosen_ms = f64::NAN;
     for (positions, res, bits) in all {
-        let mut s = penumbra::sweep::Setting::default();
-        s.0.insert("positions".into(), positions.to_string());
-        s.0.insert("res".into(), res.to_string());
-        s.0.insert("bits".into(), bits.to_string());
+        let s = field_budget::setting(positions, res, bits);
         let start = std::time::Instant::now();
         let mut fields = field_budget::fields_of(scene, &s, FIXED, &device, &Reporter::silent()).expect("fields");
         let request = AoRequest {
@@ -243,7 +240,7 @@ fn field_row(name: &str, scene: &Scene, e: f64) -> String {
 
 /// The fastest candidate of `choice` (by its measured time) whose full
 /// error meets `e`.
-fn fastest_meeting(choice: &Choice, e: f64, full: impl Fn(&penumbra::sweep::Setting) -> f64) -> Option<(String, f64)> {
+fn fastest_meeting(choice: &Pick, e: f64, full: impl Fn(&Setting) -> f64) -> Option<(String, f64)> {
     let mut candidates = choice.candidates.clone();
     candidates.sort_by(|a, b| a.time_ms.total_cmp(&b.time_ms));
     candidates
@@ -258,7 +255,7 @@ fn row(
     e: f64,
     within: u32,
     worst: f64,
-    choice: &Choice,
+    choice: &Pick,
     fastest: Option<(String, f64)>,
 ) -> String {
     let chosen_ms = choice

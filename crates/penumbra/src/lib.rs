@@ -60,6 +60,7 @@ pub mod scene;
 pub mod sh;
 pub mod ssao;
 pub mod sweep;
+pub mod tune;
 pub mod whitted;
 
 pub use bounded::{BoundedRenderer, BoundedSettings};

@@ -6,8 +6,8 @@ use crate::options::{Applies, OnOff, applies};
 use penumbra::error::Result;
 use penumbra::report::repeats::Repeats;
 use penumbra::scene::View;
-use penumbra::ssao::budget::Free;
 use penumbra::ssao::runner::SsaoRequest;
+use penumbra::ssao::tune::Free;
 use penumbra::ssao::{DEFAULT_BIAS_PX, Estimator, Measure, MeasureKind, Resolution, ShadeSettings, SsaoSettings};
 
 #[derive(Args, Clone, Debug)]

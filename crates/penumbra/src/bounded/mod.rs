@@ -22,6 +22,7 @@ pub mod screen;
 pub mod sequence;
 pub mod settings;
 pub mod shaft;
+pub mod tune;
 
 pub use frame::{BoundedFrame, FrameStats, PixelPath, TraceReason};
 pub use predicate::{BoundKind, Failure};

@@ -24,7 +24,6 @@
 
 pub mod ao;
 pub mod batch;
-pub mod budget;
 pub mod build;
 pub mod directions;
 mod entry;
@@ -37,6 +36,7 @@ pub mod reach;
 pub mod report;
 pub mod runner;
 pub mod storage;
+pub mod tune;
 
 pub use ao::{FieldCaster, NO_OWNER, RayClasses, field_ao};
 pub use build::{BuildStats, DisplacementField, FieldSummary, bounding_sphere};

@@ -18,7 +18,7 @@ use crate::raycast::report::{AoReport, Casters, Written};
 use crate::report::repeats::{Repeats, RunTimes};
 use crate::report::skipped::Skipped;
 use crate::scene::{Role, load_mesh};
-use crate::sweep::budget::Choice;
+use crate::tune::Pick;
 
 #[derive(Debug, Clone, Serialize)]
 pub struct FieldRunReport {
@@ -36,8 +36,9 @@ pub struct FieldRunReport {
     pub rays_hidden: u64,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reference: Option<FieldReference>,
+    /// What the error budget chose, where one was given.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub max_error: Option<Choice>,
+    pub max_error: Option<Pick>,
 }
 
 impl FieldRunReport {

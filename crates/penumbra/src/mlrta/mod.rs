@@ -29,6 +29,7 @@ pub mod runner;
 mod squares;
 mod tile_rows;
 pub mod tiles;
+pub mod tune;
 
 pub use entry::{PrimaryRays, TraceSettings};
 pub use packet::MlrtaCounts;

@@ -26,7 +26,6 @@
 //! * `scene_play` — a scene of objects played frame by frame, with its report
 
 pub mod blockers;
-pub mod budget;
 pub mod clip;
 pub mod clusters;
 pub mod geometry;
@@ -49,6 +48,7 @@ pub mod selfcheck;
 pub mod sh_out;
 pub mod sides;
 pub mod transfer;
+pub mod tune;
 
 /// Compressed lists: `items[offsets[i]..offsets[i+1]]` is list i.
 #[derive(Debug, Clone, Default, PartialEq)]

@@ -16,7 +16,6 @@
 //! Accessibility, as in the contract: O = (1/pi) int_Omega mu(D(w)) cos+ dw,
 //! 1 = open, 0 = occluded, with the fuzzy measure mu of `measure`.
 
-pub mod budget;
 mod entry;
 pub mod estimators;
 pub mod filter;
@@ -27,6 +26,7 @@ pub mod interleave;
 pub mod measure;
 pub mod runner;
 pub mod truth;
+pub mod tune;
 
 use std::time::Instant;
 

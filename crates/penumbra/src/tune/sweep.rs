@@ -1,22 +1,7 @@
-//! Speed against accuracy on the user's own scene (`penumbra sweep`): every
-//! setting of a grid of a method's knobs, timed on one device in one
-//! process (best of N repeats) and compared with the method's ground truth,
-//! computed once and reused; the settings no other beats on both time and
-//! error form the Pareto front.
-//!
-//! A method takes part by implementing `SweepMethod`: its knobs with a
-//! default grid, its truth, and one timed run of a setting. The adapters
-//! (`field`, `ssao`, `prt`, `trace`, `bounded`) drive the library's runners,
-//! never the command line.
-
-pub mod bounded;
-pub mod budget;
-pub mod field;
-pub mod grid;
-pub mod inputs;
-pub mod prt;
-pub mod ssao;
-pub mod trace;
+//! Speed against accuracy: every setting of a grid of a method's knobs,
+//! timed on one device in one process (best of N repeats) and compared
+//! with the method's ground truth, computed once and reused; the settings
+//! no other beats on both time and error form the Pareto front.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -24,20 +9,20 @@ use std::time::Instant;
 use serde::Serialize;
 use serde_json::Value;
 
+use super::Tunable;
+use super::grid::Grid;
+use super::knob::Setting;
 use crate::error::{Error, Result};
 use crate::gpu::device::elapsed_ms;
 use crate::progress::Reporter;
 use crate::report::repeats::Repeats;
 
-pub use grid::{Grid, Knob, Setting};
-pub use inputs::{SweepInputs, SweepKind, with_method};
-
 /// One timed run of a setting.
 #[derive(Debug, Clone, Default)]
 pub struct Run {
-    /// The method's own timed work (see `SweepMethod::time_measure`).
+    /// The method's own timed work (see [`Sweep::time_measure`]).
     pub time_ms: f64,
-    /// The error against the truth (see `SweepMethod::error_measure`).
+    /// The error against the truth (see [`Sweep::error_measure`]).
     pub error: f64,
     /// Memory the setting's data structures take, where the method knows.
     pub memory_bytes: Option<u64>,
@@ -45,17 +30,14 @@ pub struct Run {
     pub phases: Vec<(&'static str, f64)>,
 }
 
-/// A method the sweep can drive.
-pub trait SweepMethod {
-    /// The name on the command line (`sweep field`, ...).
-    fn name(&self) -> &'static str;
-    /// The knobs a grid may vary.
-    fn knobs(&self) -> &'static [Knob];
-    /// What `Run::time_ms` measures.
+/// A method a sweep drives: its truth, and one timed run of a setting.
+pub trait Sweep: Tunable {
+    /// What [`Run::time_ms`] measures.
     fn time_measure(&self) -> &'static str;
-    /// What `Run::error` measures, against which truth.
+    /// What [`Run::error`] measures, against which truth.
     fn error_measure(&self) -> &'static str;
-    /// Checks a setting before any work (bad values are refused up front).
+    /// Checks a setting before any work (values the method refuses are
+    /// refused up front).
     fn check(&self, setting: &Setting) -> Result<()>;
     /// Computes the ground truth once; returns what describes it.
     fn truth(&mut self, bars: &Reporter) -> Result<Value>;
@@ -66,43 +48,57 @@ pub trait SweepMethod {
 /// One row of the sweep: a setting and what it measured.
 #[derive(Debug, Clone, Serialize)]
 pub struct Row {
+    /// The setting.
     pub knobs: Setting,
     /// Best of the repeats.
     pub time_ms: f64,
     /// Every repeat, in order.
     pub times_ms: Vec<f64>,
+    /// The error against the truth.
     pub error: f64,
+    /// Memory the setting's data structures take, where the method knows.
     pub memory_bytes: Option<u64>,
     /// The fastest repeat's other phases.
     pub phases: serde_json::Map<String, Value>,
+    /// On the Pareto front.
     pub pareto: bool,
 }
 
-/// What `penumbra sweep --json` reports (and `sweep.json` holds).
+/// What a sweep reports (`penumbra sweep --json`, `sweep.json`).
 #[derive(Debug, Clone, Serialize)]
 pub struct SweepReport {
+    /// The method's name.
     pub method: &'static str,
+    /// What the times measure.
     pub time_measure: &'static str,
+    /// What the errors measure.
     pub error_measure: &'static str,
+    /// Timed runs per setting.
     pub repeats: u32,
     /// The knobs the grid varies or fixes, in the order given.
     pub axes: Vec<String>,
+    /// How many settings ran.
     pub settings: usize,
+    /// What describes the truth.
     pub truth: Value,
+    /// What the truth cost, ms.
     pub truth_ms: f64,
     /// Estimated before the settings ran: the first setting's time times
     /// the runs left.
     pub estimated_s: f64,
+    /// What the settings' runs cost, ms.
     pub sweep_ms: f64,
     /// Indices into `rows` of the Pareto front, fastest first.
     pub front: Vec<usize>,
+    /// One row per setting, in the grid's order.
     pub rows: Vec<Row>,
+    /// The files the report was written to (the caller's to fill).
     pub files: Vec<String>,
 }
 
-/// Runs every setting of `grid` `repeats` times against the truth.
-/// Each setting first runs `runs.warmup` untimed times.
-pub fn sweep(method: &mut dyn SweepMethod, grid: &Grid, runs: Repeats, bars: &Reporter) -> Result<SweepReport> {
+/// Runs every setting of `grid` `runs.repeat` times against the truth,
+/// each first `runs.warmup` untimed times.
+pub fn sweep(method: &mut dyn Sweep, grid: &Grid, runs: Repeats, bars: &Reporter) -> Result<SweepReport> {
     let repeats = runs.repeat;
     if repeats == 0 || repeats > 100 {
         return Err(Error::param(
@@ -151,7 +147,7 @@ pub fn sweep(method: &mut dyn SweepMethod, grid: &Grid, runs: Repeats, bars: &Re
         time_measure: method.time_measure(),
         error_measure: method.error_measure(),
         repeats,
-        axes: grid.axes.iter().map(|(name, _)| name.clone()).collect(),
+        axes: grid.axes.iter().map(|(name, _)| name.to_string()).collect(),
         settings: rows.len(),
         truth,
         truth_ms,
@@ -209,7 +205,8 @@ pub fn pareto_front(rows: &[Row]) -> Vec<usize> {
     front
 }
 
-/// The files a sweep writes into `dir`.
+/// The files a sweep writes into `dir`: `sweep.csv`, `sweep.json`,
+/// `sweep.png`.
 pub fn output_files(dir: &Path) -> [PathBuf; 3] {
     ["sweep.csv", "sweep.json", "sweep.png"].map(|f| dir.join(f))
 }
@@ -217,10 +214,10 @@ pub fn output_files(dir: &Path) -> [PathBuf; 3] {
 /// A header row (the knobs, time_ms, error, memory_bytes, pareto), then one
 /// row per setting.
 pub fn csv_text(report: &SweepReport) -> String {
-    let knobs: Vec<&String> = report
+    let knobs: Vec<&str> = report
         .rows
         .first()
-        .map(|r| r.knobs.0.keys().collect())
+        .map(|r| r.knobs.texts().map(|(k, _)| k).collect())
         .unwrap_or_default();
     let mut text = String::new();
     for k in &knobs {
@@ -229,7 +226,7 @@ pub fn csv_text(report: &SweepReport) -> String {
     text += "time_ms,error,memory_bytes,pareto\n";
     for r in &report.rows {
         for k in &knobs {
-            text += &format!("{},", csv_field(&r.knobs.0[*k]));
+            text += &format!("{},", csv_field(r.knobs.text(k).unwrap_or_default()));
         }
         let memory = r.memory_bytes.map_or(String::new(), |m| m.to_string());
         text += &format!("{},{},{memory},{}\n", r.time_ms, r.error, r.pareto);
@@ -249,10 +246,11 @@ fn csv_field(v: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tune::knob::{Given, Knob};
 
     fn row(time_ms: f64, error: f64) -> Row {
         Row {
-            knobs: Setting(Default::default()),
+            knobs: Setting::default(),
             time_ms,
             times_ms: vec![time_ms],
             error,
@@ -273,32 +271,115 @@ mod tests {
             row(10.0, 0.7), // as fast as the first, worse
         ];
         assert_eq!(pareto_front(&rows), vec![0, 1, 4]);
+        assert!(pareto_front(&[]).is_empty());
     }
 
-    #[test]
-    fn csv_has_a_header_and_one_row_per_setting() {
-        let mut r = row(1.5, 0.25);
-        r.knobs.0.insert("spp".into(), "8".into());
-        r.knobs.0.insert("estimator".into(), "a,b".into());
-        r.pareto = true;
-        let report = SweepReport {
-            method: "ssao",
+    fn report(rows: Vec<Row>) -> SweepReport {
+        SweepReport {
+            method: "test",
             time_measure: "",
             error_measure: "",
             repeats: 1,
-            axes: vec!["estimator".into(), "spp".into()],
-            settings: 1,
+            axes: vec![],
+            settings: rows.len(),
             truth: Value::Null,
             truth_ms: 0.0,
             estimated_s: 0.0,
             sweep_ms: 0.0,
-            front: vec![0],
-            rows: vec![r],
+            front: vec![],
+            rows,
             files: vec![],
+        }
+    }
+
+    #[test]
+    fn csv_has_a_header_and_one_row_per_setting() {
+        let name = Knob::new::<f64>("name", "", &[]);
+        let mut r = row(1.5, 0.25);
+        // A text with a comma cannot come from a grid; a host may build one.
+        let odd = Given {
+            value: crate::tune::KnobValue::Float(1.0),
+            text: "a,b".into(),
         };
+        r.knobs = Setting::default().with("spp", 8u32).with_given(name.name, odd);
+        r.pareto = true;
         assert_eq!(
-            csv_text(&report),
-            "estimator,spp,time_ms,error,memory_bytes,pareto\n\"a,b\",8,1.5,0.25,,true\n"
+            csv_text(&report(vec![r])),
+            "name,spp,time_ms,error,memory_bytes,pareto\n\"a,b\",8,1.5,0.25,,true\n"
         );
+        assert_eq!(csv_text(&report(vec![])), "time_ms,error,memory_bytes,pareto\n");
+    }
+
+    /// A method whose error is 1/spp and whose time is spp ms (as it says).
+    struct Fake {
+        truths: u32,
+        runs: Vec<u32>,
+    }
+
+    const KNOBS: [Knob; 1] = [Knob::new::<u32>("spp", "samples", &["1", "2", "4"])];
+
+    impl Tunable for Fake {
+        fn name(&self) -> &'static str {
+            "fake"
+        }
+        fn knobs(&self) -> &'static [Knob] {
+            &KNOBS
+        }
+    }
+
+    impl Sweep for Fake {
+        fn time_measure(&self) -> &'static str {
+            "spp"
+        }
+        fn error_measure(&self) -> &'static str {
+            "1/spp"
+        }
+        fn check(&self, setting: &Setting) -> Result<()> {
+            match setting.get::<u32>("spp") {
+                Some(0) => Err(Error::param("spp", "must be at least 1")),
+                _ => Ok(()),
+            }
+        }
+        fn truth(&mut self, _bars: &Reporter) -> Result<Value> {
+            self.truths += 1;
+            Ok(Value::from("exact"))
+        }
+        fn run(&mut self, setting: &Setting) -> Result<Run> {
+            let spp = setting.get::<u32>("spp").unwrap();
+            self.runs.push(spp);
+            Ok(Run {
+                time_ms: spp as f64,
+                error: 1.0 / spp as f64,
+                memory_bytes: None,
+                phases: vec![("other_ms", 1.0)],
+            })
+        }
+    }
+
+    #[test]
+    fn a_sweep_runs_every_setting_after_checking_them_all() {
+        let mut fake = Fake {
+            truths: 0,
+            runs: vec![],
+        };
+        let grid = Grid::parse(&[], &KNOBS).unwrap();
+        let runs = Repeats { repeat: 2, warmup: 1 };
+        let report = sweep(&mut fake, &grid, runs, &Reporter::silent()).unwrap();
+        assert_eq!(fake.truths, 1);
+        assert_eq!(fake.runs, [1, 1, 1, 2, 2, 2, 4, 4, 4], "a warm-up, then two repeats");
+        assert_eq!(
+            (report.settings, report.repeats, report.axes.clone()),
+            (3, 2, vec!["spp".to_string()])
+        );
+        assert_eq!(report.front, [0, 1, 2], "each slower setting is more accurate");
+        assert_eq!(report.rows[1].times_ms, [2.0, 2.0]);
+        assert_eq!(report.truth, Value::from("exact"));
+        let zero = Grid::parse(&["spp=4,0".into()], &KNOBS).unwrap();
+        let e = sweep(&mut fake, &zero, runs, &Reporter::silent()).unwrap_err();
+        assert_eq!(e, Error::param("spp", "must be at least 1"));
+        assert_eq!(fake.truths, 1, "no work before every setting is checked");
+        let none = Repeats { repeat: 0, warmup: 0 };
+        let e = sweep(&mut fake, &grid, none, &Reporter::silent()).unwrap_err();
+        assert_eq!(e, Error::param("repeat", "must be between 1 and 100, got 0"));
     }
 }

@@ -1,19 +1,27 @@
-//! From a user's files to a sweep: which method, on which mesh or scene,
-//! seen how, against how many truth rays. Each method's adapter is built
-//! here with the defaults `penumbra sweep` documents, so a host tool sweeps
-//! exactly as the command line does.
+//! From a user's files to a sweep (`penumbra sweep`): which method, on
+//! which mesh or scene, seen how, against how many truth rays. Each
+//! method's sweep (`field::tune::FieldSweep`, ...) is built here with the
+//! defaults `penumbra sweep` documents, so a host tool sweeps exactly as
+//! the command line does; the sweep itself is `tune::sweep`. This module
+//! sits above every method: it is the one place that names them all.
 
 use std::path::Path;
 
-use super::SweepMethod;
+use crate::bounded::tune::BoundedSweep;
 use crate::error::{Error, Result};
+use crate::field::tune::{FieldSweep, on_ground};
 use crate::gpu::device::Device;
+use crate::mlrta::tune::TraceSweep;
 use crate::progress::Reporter;
 use crate::prt::runner::RayTraced;
+use crate::prt::tune::PrtSweep;
 use crate::raycast::AoSettings;
 use crate::scene::{Scene, View, file_stem, load_input_in, load_mesh, load_shaded_input_in};
+use crate::ssao::tune::SsaoSweep;
+use crate::tune::Sweep;
 use crate::whitted::{LightingOptions, RenderScene, WhittedRenderer, WhittedSettings};
 
+/// The methods a sweep drives.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum SweepKind {
@@ -42,7 +50,9 @@ impl SweepKind {
 /// What a sweep runs on.
 #[derive(Debug, Clone, Copy)]
 pub struct SweepInputs<'a> {
+    /// A mesh file.
     pub mesh: Option<&'a Path>,
+    /// A scene file instead of `mesh`.
     pub scene: Option<&'a Path>,
     /// field: AO at this mesh's vertices [default: a ground under `mesh`].
     pub receiver: Option<&'a Path>,
@@ -52,18 +62,19 @@ pub struct SweepInputs<'a> {
     pub truth_rays: Option<u32>,
     /// field and ssao: the AO radius [default: field infinite, ssao 5% of the scene's diagonal].
     pub radius: Option<f32>,
+    /// The seed of every sample sequence.
     pub seed: u32,
     /// What `$PENUMBRA_DATA` in a scene file stands for.
     pub data_dir: Option<&'a Path>,
 }
 
-/// Runs `sweep` on the adapter of `kind` for `inputs` on `device`.
+/// Runs `sweep` on the method's sweep of `kind` for `inputs` on `device`.
 pub fn with_method<R>(
     kind: SweepKind,
     inputs: &SweepInputs,
     device: &Device,
     bars: &Reporter,
-    sweep: impl FnOnce(&mut dyn SweepMethod) -> Result<R>,
+    sweep: impl FnOnce(&mut dyn Sweep) -> Result<R>,
 ) -> Result<R> {
     let SweepInputs { view, seed, .. } = *inputs;
     let rays = inputs.truth_rays;
@@ -75,7 +86,7 @@ pub fn with_method<R>(
                 radius: inputs.radius.unwrap_or(f32::INFINITY),
                 seed,
             };
-            sweep(&mut super::field::FieldSweep::new(device.clone(), &scene, settings)?)
+            sweep(&mut FieldSweep::new(device.clone(), &scene, settings)?)
         }
         SweepKind::Ssao => {
             let scene = load_input_in(inputs.mesh, inputs.scene, inputs.data_dir)?;
@@ -84,14 +95,7 @@ pub fn with_method<R>(
             let camera = scene.complete_camera(&view.camera, &bounds)?;
             let view = View { camera, ..view };
             let truth = rays.unwrap_or(256);
-            sweep(&mut super::ssao::SsaoSweep::new(
-                device.clone(),
-                scene,
-                view,
-                radius,
-                truth,
-                seed,
-            )?)
+            sweep(&mut SsaoSweep::new(device.clone(), scene, view, radius, truth, seed)?)
         }
         SweepKind::Prt => {
             let path = inputs
@@ -104,7 +108,7 @@ pub fn with_method<R>(
                 seed,
             };
             let device = device.clone();
-            sweep(&mut super::prt::PrtSweep::new(
+            sweep(&mut PrtSweep::new(
                 device,
                 mesh.positions,
                 mesh.triangles,
@@ -117,7 +121,7 @@ pub fn with_method<R>(
             let mesh = scene.world_mesh(|_| true);
             let camera = scene.complete_camera(&view.camera, &mesh.bounds())?;
             let view = View { camera, ..view };
-            sweep(&mut super::trace::TraceSweep::new(device.clone(), mesh, view))
+            sweep(&mut TraceSweep::new(device.clone(), mesh, view))
         }
         SweepKind::Bounded => {
             let scene = load_shaded_input_in(inputs.mesh, inputs.scene, inputs.data_dir)?;
@@ -129,7 +133,7 @@ pub fn with_method<R>(
                 ..WhittedSettings::default()
             };
             let size = (view.width, view.height);
-            sweep(&mut super::bounded::BoundedSweep::new(whitted, camera, size, settings))
+            sweep(&mut BoundedSweep::new(whitted, camera, size, settings))
         }
     }
 }
@@ -141,7 +145,7 @@ fn field_scene(inputs: &SweepInputs) -> Result<Scene> {
         (Some(_), Some(receiver)) => scene = scene.with_receiver_file(receiver)?,
         (Some(path), None) => {
             let mesh = scene.meshes.remove(0).mesh;
-            scene = super::field::on_ground(&file_stem(path), path, mesh)?;
+            scene = on_ground(&file_stem(path), path, mesh)?;
         }
         _ => {}
     }

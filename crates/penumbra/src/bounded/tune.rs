@@ -1,45 +1,30 @@
-//! `sweep bounded`: the bounded-error renderer's epsilon, split and bound
-//! against exact Whitted ray tracing of the same camera (the truth of
-//! `raytrace --method bounded --reference`), rendered once. Each setting
-//! renders one frame from empty linetrees, so its time includes building
-//! the cells it uses.
+//! `sweep bounded` ([`BoundedSweep`], `crate::tune`): the bounded-error
+//! renderer's epsilon, split and bound against exact Whitted ray tracing
+//! of the same camera (the truth of `raytrace --method bounded
+//! --reference`), rendered once. Each setting renders one frame from empty
+//! linetrees, so its time includes building the cells it uses.
 
 use serde_json::{Value, json};
 
-use super::{Knob, Run, Setting, SweepMethod};
-use crate::bounded::measure::compare;
-use crate::bounded::{BoundKind, BoundedRenderer, BoundedSettings, SplitKind};
+use super::measure::compare;
+use super::{BoundKind, BoundedRenderer, BoundedSettings, SplitKind};
 use crate::error::{Error, Result};
 use crate::progress::Reporter;
 use crate::scene::Camera;
+use crate::tune::{Knob, Run, Setting, Sweep, Tunable};
 use crate::whitted::{WhittedRenderer, WhittedSettings};
 
-const KNOBS: &[Knob] = &[
-    Knob {
-        name: "epsilon",
-        help: "relative error bound",
-        default_grid: &["0.01", "0.02", "0.05", "0.1", "0.2"],
-    },
-    Knob {
-        name: "split",
-        help: "children of a failed cell: 16 or 4",
-        default_grid: &["16", "4"],
-    },
-    Knob {
-        name: "bound",
-        help: "non-linearity bound: conservative or paper",
-        default_grid: &[],
-    },
-    Knob {
-        name: "min-pixels",
-        help: "pixels per child a split needs",
-        default_grid: &[],
-    },
-    Knob {
-        name: "floor",
-        help: "radiance below which the bound is absolute",
-        default_grid: &[],
-    },
+/// The bounded-error renderer's knobs.
+pub const KNOBS: &[Knob] = &[
+    Knob::new::<f32>(
+        "epsilon",
+        "relative error bound",
+        &["0.01", "0.02", "0.05", "0.1", "0.2"],
+    ),
+    Knob::new::<u32>("split", "children of a failed cell: 16 or 4", &["16", "4"]),
+    Knob::new::<BoundKind>("bound", "non-linearity bound: conservative or paper", &[]),
+    Knob::new::<u32>("min-pixels", "pixels per child a split needs", &[]),
+    Knob::new::<f32>("floor", "radiance below which the bound is absolute", &[]),
 ];
 
 /// The bounded-error sweep of one scene and camera.
@@ -53,6 +38,8 @@ pub struct BoundedSweep {
 }
 
 impl BoundedSweep {
+    /// The sweep of `whitted`'s scene seen by `camera` at `size` pixels,
+    /// the truth and every setting traced with `settings`.
     pub fn new(whitted: WhittedRenderer, camera: Camera, size: (u32, u32), settings: WhittedSettings) -> Self {
         BoundedSweep {
             whitted: Some(whitted),
@@ -65,17 +52,17 @@ impl BoundedSweep {
 
     fn settings(&self, s: &Setting) -> Result<BoundedSettings> {
         let base = BoundedSettings::default();
-        let split = match s.get::<u32>("split")? {
+        let split = match s.get::<u32>("split") {
             None | Some(16) => SplitKind::Sixteen,
             Some(4) => SplitKind::Four,
             Some(n) => return Err(Error::param("grid", format!("split={n}: must be 16 or 4"))),
         };
         let settings = BoundedSettings {
-            epsilon: s.get("epsilon")?.unwrap_or(base.epsilon),
-            floor: s.get("floor")?.unwrap_or(base.floor),
-            bound: s.get_enum("bound")?.unwrap_or(BoundKind::Conservative),
+            epsilon: s.get("epsilon").unwrap_or(base.epsilon),
+            floor: s.get("floor").unwrap_or(base.floor),
+            bound: s.get("bound").unwrap_or(BoundKind::Conservative),
             split,
-            min_pixels: s.get("min-pixels")?.unwrap_or(base.min_pixels),
+            min_pixels: s.get("min-pixels").unwrap_or(base.min_pixels),
             whitted: self.whitted_settings,
             ..base
         };
@@ -84,7 +71,7 @@ impl BoundedSweep {
     }
 }
 
-impl SweepMethod for BoundedSweep {
+impl Tunable for BoundedSweep {
     fn name(&self) -> &'static str {
         "bounded"
     }
@@ -92,7 +79,9 @@ impl SweepMethod for BoundedSweep {
     fn knobs(&self) -> &'static [Knob] {
         KNOBS
     }
+}
 
+impl Sweep for BoundedSweep {
     fn time_measure(&self) -> &'static str {
         "one frame from empty linetrees, frame_ms"
     }
@@ -143,5 +132,20 @@ impl SweepMethod for BoundedSweep {
                 ("trace_ms", s.trace_ms),
             ],
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_default_grid_reads_as_its_knob() {
+        let grid = crate::tune::Grid::parse(&[], KNOBS).unwrap();
+        assert_eq!(grid.len(), 5 * 2);
+        for s in grid.settings() {
+            assert!(s.get::<f32>("epsilon").is_some());
+            assert!(matches!(s.get::<u32>("split"), Some(4 | 16)));
+        }
     }
 }

@@ -1,52 +1,38 @@
-//! `sweep trace`: the MLRTA paper's knobs (entry points, tile sizes, split
-//! factor, the entry-point search's budget), which change speed only: the error is the fraction of pixels
+//! `sweep trace` ([`TraceSweep`], `crate::tune`): the MLRTA paper's knobs
+//! (entry points, tile sizes, split factor, the entry-point search's
+//! budget), which change speed only: the error is the fraction of pixels
 //! whose closest hit differs from single-ray traversal, and must be 0.
 
 use serde_json::{Value, json};
 
-use super::{Knob, Run, Setting, SweepMethod};
+use super::MlrtaParams;
+use super::aa::AaMode;
+use super::runner::{AaRequest, ShadowLight, TraceRequest, trace_view};
+use super::tiles::{DEFAULT_EP_BUDGET, DEFAULT_MIN_TILE};
 use crate::error::Result;
 use crate::geom::ray::Hit;
 use crate::gpu::device::Device;
-use crate::mlrta::MlrtaParams;
-use crate::mlrta::aa::AaMode;
-use crate::mlrta::runner::{AaRequest, ShadowLight, TraceRequest, trace_view};
-use crate::mlrta::tiles::{DEFAULT_EP_BUDGET, DEFAULT_MIN_TILE};
 use crate::progress::Reporter;
 use crate::raycast::tracer::Accel;
 use crate::scene::{Mesh, View};
+use crate::tune::{Knob, Run, Setting, Sweep, Tunable};
 
-const KNOBS: &[Knob] = &[
-    Knob {
-        name: "mlrta",
-        help: "entry-point search with tile splitting (on/off)",
-        default_grid: &["on", "off"],
-    },
-    Knob {
-        name: "single-ray",
-        help: "rays one by one instead of 4x4 packets (on/off)",
-        default_grid: &[],
-    },
-    Knob {
-        name: "tile",
-        help: "initial tile side in pixels",
-        default_grid: &[],
-    },
-    Knob {
-        name: "min-tile",
-        help: "tiles this small are not split",
-        default_grid: &["8", "16", "32"],
-    },
-    Knob {
-        name: "split-factor",
-        help: "pieces a tile is split into",
-        default_grid: &[],
-    },
-    Knob {
-        name: "ep-budget",
-        help: "nodes the entry-point search visits in a far subtree (0: all)",
-        default_grid: &[],
-    },
+/// MLRTA's knobs.
+pub const KNOBS: &[Knob] = &[
+    Knob::new::<bool>(
+        "mlrta",
+        "entry-point search with tile splitting (on/off)",
+        &["on", "off"],
+    ),
+    Knob::new::<bool>("single-ray", "rays one by one instead of 4x4 packets (on/off)", &[]),
+    Knob::new::<u32>("tile", "initial tile side in pixels", &[]),
+    Knob::new::<u32>("min-tile", "tiles this small are not split", &["8", "16", "32"]),
+    Knob::new::<u32>("split-factor", "pieces a tile is split into", &[]),
+    Knob::new::<u32>(
+        "ep-budget",
+        "nodes the entry-point search visits in a far subtree (0: all)",
+        &[],
+    ),
 ];
 
 /// The trace sweep of one mesh and view.
@@ -58,6 +44,7 @@ pub struct TraceSweep {
 }
 
 impl TraceSweep {
+    /// The sweep of `mesh` seen as `view`.
     pub fn new(device: Device, mesh: Mesh, view: View) -> Self {
         TraceSweep {
             device,
@@ -68,20 +55,20 @@ impl TraceSweep {
     }
 
     fn request(&self, s: &Setting) -> Result<TraceRequest> {
-        let tile = s.get("tile")?.unwrap_or(128);
-        let single_ray = s.get_on_off("single-ray")?.unwrap_or(false);
+        let tile = s.get("tile").unwrap_or(128);
+        let single_ray = s.get("single-ray").unwrap_or(false);
         let request = TraceRequest {
             view: self.view,
             single_ray,
             // `trace`'s defaults: the BVH for single rays, MLRTA for packets.
             accel: if single_ray { Accel::Bvh } else { Accel::Kdtree },
             params: MlrtaParams {
-                entry_points: s.get_on_off("mlrta")?.unwrap_or(true),
+                entry_points: s.get("mlrta").unwrap_or(true),
                 initial_tile: tile,
-                min_tile: s.get("min-tile")?.unwrap_or(DEFAULT_MIN_TILE.min(tile)),
-                split_factor: s.get("split-factor")?.unwrap_or(16),
+                min_tile: s.get("min-tile").unwrap_or(DEFAULT_MIN_TILE.min(tile)),
+                split_factor: s.get("split-factor").unwrap_or(16),
                 corner_frusta: true,
-                ep_budget: s.get("ep-budget")?.unwrap_or(DEFAULT_EP_BUDGET),
+                ep_budget: s.get("ep-budget").unwrap_or(DEFAULT_EP_BUDGET),
             },
             light: ShadowLight::None,
             aa: AaRequest {
@@ -95,7 +82,7 @@ impl TraceSweep {
     }
 }
 
-impl SweepMethod for TraceSweep {
+impl Tunable for TraceSweep {
     fn name(&self) -> &'static str {
         "trace"
     }
@@ -103,7 +90,9 @@ impl SweepMethod for TraceSweep {
     fn knobs(&self) -> &'static [Knob] {
         KNOBS
     }
+}
 
+impl Sweep for TraceSweep {
     fn time_measure(&self) -> &'static str {
         "primary rays, trace_ms"
     }
@@ -117,8 +106,7 @@ impl SweepMethod for TraceSweep {
     }
 
     fn truth(&mut self, bars: &Reporter) -> Result<Value> {
-        let mut single = Setting::default();
-        single.0.insert("single-ray".into(), "on".into());
+        let single = Setting::default().with("single-ray", true);
         let traced = trace_view(&self.device, &self.mesh, None, &self.request(&single)?, bars)?;
         self.truth = traced.hits;
         Ok(json!({
@@ -154,5 +142,19 @@ impl SweepMethod for TraceSweep {
                 ("isects_per_packet", s.isects_per_packet),
             ],
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_default_grid_reads_as_its_knob() {
+        let grid = crate::tune::Grid::parse(&[], KNOBS).unwrap();
+        assert_eq!(grid.len(), 2 * 3);
+        for s in grid.settings() {
+            assert!(s.get::<bool>("mlrta").is_some() && s.get::<u32>("min-tile").is_some());
+        }
     }
 }
