@@ -6,11 +6,12 @@
 
 use super::points::{hit_points, points_without_hemisphere, vertex_points};
 use super::{AoPoint, AoSettings};
+use crate::accel::BvhStats;
 use crate::error::{Error, Result};
 use crate::geom::ray::Ray;
 use crate::gpu::device::{Device, Timed};
 use crate::progress::Reporter;
-use crate::raycast::tracer::{BvhStats, Tracer};
+use crate::raycast::tracer::Tracer;
 use crate::scene::{Camera, Mesh, Role, Scene, View};
 
 /// What AO is asked for: the receivers' vertices and/or an image.
@@ -58,7 +59,7 @@ pub struct RaycastAo {
     pub caster_triangles: usize,
     /// The casters' kd-tree build.
     pub build_ms: f64,
-    /// On the CPU, the wide BVH the AO packets walked (`tracer::Accel`).
+    /// On the CPU, the wide BVH the AO packets walked (`accel::Structure`).
     pub bvh: Option<BvhStats>,
     pub vertices: Option<VertexAo>,
     pub image: Option<PixelAo>,
@@ -119,7 +120,7 @@ pub fn raycast(device: &Device, scene: &Scene, request: &AoRequest, bars: &Repor
     };
     Ok(RaycastAo {
         caster_triangles: occluders.triangles.len(),
-        build_ms: tracer.tree().stats.build_ms,
+        build_ms: tracer.accel().kdtree().stats.build_ms,
         bvh: tracer.bvh_stats().cloned(),
         vertices,
         image,

@@ -5,6 +5,7 @@
 use serde_json::{Value, json};
 
 use super::{Knob, Run, Setting, SweepMethod};
+use crate::accel::Structure;
 use crate::error::Result;
 use crate::geom::ray::Hit;
 use crate::gpu::device::Device;
@@ -13,7 +14,6 @@ use crate::mlrta::aa::AaMode;
 use crate::mlrta::runner::{AaRequest, ShadowLight, TraceRequest, trace_view};
 use crate::mlrta::tiles::{DEFAULT_EP_BUDGET, DEFAULT_MIN_TILE};
 use crate::progress::Reporter;
-use crate::raycast::tracer::Accel;
 use crate::scene::{Mesh, View};
 
 const KNOBS: &[Knob] = &[
@@ -74,7 +74,7 @@ impl TraceSweep {
             view: self.view,
             single_ray,
             // `trace`'s defaults: the BVH for single rays, MLRTA for packets.
-            accel: if single_ray { Accel::Bvh } else { Accel::Kdtree },
+            accel: if single_ray { Structure::Bvh } else { Structure::Kdtree },
             params: MlrtaParams {
                 entry_points: s.get_on_off("mlrta")?.unwrap_or(true),
                 initial_tile: tile,
