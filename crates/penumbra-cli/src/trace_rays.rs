@@ -5,9 +5,10 @@ use std::path::PathBuf;
 use serde_json::Value;
 
 use crate::args::{Common, check_output};
+use penumbra::accel::Structure;
 use penumbra::error::Result;
 use penumbra::io::rays::{read_rays_in, write_hits};
-use penumbra::raycast::tracer::{Accel, trace_ray_file};
+use penumbra::raycast::tracer::trace_ray_file;
 use penumbra::scene::load_mesh;
 
 #[derive(clap::Args)]
@@ -22,8 +23,8 @@ pub struct TraceRaysArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// What the rays walk on the CPU (the GPU walks the kd-tree).
-    #[arg(long, value_enum, default_value_t = Accel::Bvh)]
-    pub accel: Accel,
+    #[arg(long, value_enum, default_value_t = Structure::Bvh)]
+    pub accel: Structure,
     #[command(flatten)]
     pub common: Common,
 }

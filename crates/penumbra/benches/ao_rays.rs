@@ -19,6 +19,7 @@ use std::time::Duration;
 
 use common::load_models_named;
 use criterion::{BenchmarkId, Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
+use penumbra::accel::Structure;
 use penumbra::geom::simd::Isa;
 use penumbra::progress::Bar;
 use penumbra::raycast::AoSettings;
@@ -41,10 +42,18 @@ fn all(c: &mut Criterion) {
         .warm_up_time(Duration::from_secs(1))
         .measurement_time(Duration::from_secs(5));
     for m in &models {
-        m.tree.bvh();
+        m.accel.bvh();
         let castings = std::iter::once(Casting::Single)
-            .chain(Isa::available().into_iter().map(Casting::Packets))
-            .chain(Isa::available().into_iter().map(Casting::BvhPackets));
+            .chain(
+                Isa::available()
+                    .into_iter()
+                    .map(|isa| Casting::Packets(Structure::Kdtree, isa)),
+            )
+            .chain(
+                Isa::available()
+                    .into_iter()
+                    .map(|isa| Casting::Packets(Structure::Bvh, isa)),
+            );
         let castings: Vec<Casting> = castings.collect();
         let points = vertex_points(&m.mesh);
         let rays = points.iter().filter(|p| p.has_hemisphere()).count() as u64 * SETTINGS.rays_per_point as u64;
@@ -52,11 +61,11 @@ fn all(c: &mut Criterion) {
         for &casting in &castings {
             let id = match casting {
                 Casting::Single => "single-ray".to_string(),
-                Casting::Packets(isa) => format!("packets-{isa:?}"),
-                Casting::BvhPackets(isa) => format!("bvh-packets-{isa:?}"),
+                Casting::Packets(Structure::Kdtree, isa) => format!("packets-{isa:?}"),
+                Casting::Packets(Structure::Bvh, isa) => format!("bvh-packets-{isa:?}"),
             };
             group.bench_function(BenchmarkId::new(m.name.as_str(), id), |b| {
-                b.iter(|| pool.install(|| ao_rays_by(&m.tree, black_box(&points), &SETTINGS, &Bar::hidden(), casting)))
+                b.iter(|| pool.install(|| ao_rays_by(&m.accel, black_box(&points), &SETTINGS, &Bar::hidden(), casting)))
             });
         }
     }

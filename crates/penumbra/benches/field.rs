@@ -21,6 +21,7 @@ use std::time::Duration;
 use common::{Model, load_models_named};
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use glam::{Quat, Vec3};
+use penumbra::accel::Accel;
 use penumbra::accel::kdtree::{KdTree, KdTreeParams};
 use penumbra::field::gpu::{FieldAoBatches, FieldGroup, GpuField, GpuInstance};
 use penumbra::field::{
@@ -123,7 +124,8 @@ fn all(c: &mut Criterion) {
     raycast.throughput(Throughput::Elements(rays));
     for m in &models {
         let t = placement(m);
-        let tree = KdTree::build(&m.mesh.map_positions(|p| t.apply_point(p)), &KdTreeParams::default()).unwrap();
+        let tree =
+            Accel::new(KdTree::build(&m.mesh.map_positions(|p| t.apply_point(p)), &KdTreeParams::default()).unwrap());
         raycast.bench_function(m.name.as_str(), |b| {
             b.iter(|| ao_rays(&tree, black_box(&points), &SETTINGS, &Bar::hidden()))
         });

@@ -69,7 +69,7 @@ fn bench_prepare(c: &mut Criterion, models: &[Model]) {
     for m in models {
         group.throughput(Throughput::Elements(m.mesh.triangles.len() as u64));
         group.bench_function(m.name.as_str(), |b| {
-            b.iter(|| Prepared::new(black_box(&m.tree), &m.mesh).1)
+            b.iter(|| Prepared::new(black_box(m.tree()), &m.mesh).1)
         });
     }
     group.finish();
@@ -77,7 +77,7 @@ fn bench_prepare(c: &mut Criterion, models: &[Model]) {
 
 fn single_rays(m: &Model, rays: &[Ray]) -> Vec<Hit> {
     rays.par_chunks(4096)
-        .flat_map_iter(|chunk| chunk.iter().map(|r| m.tree.closest_hit(r.o(), r.d(), f32::INFINITY)))
+        .flat_map_iter(|chunk| chunk.iter().map(|r| m.tree().closest_hit(r.o(), r.d(), f32::INFINITY)))
         .collect()
 }
 
@@ -91,7 +91,7 @@ fn bench_cpu(c: &mut Criterion, models: &[Model], threads: usize) {
     let mut group = c.benchmark_group(&name);
     configure(&mut group);
     for m in models {
-        let (prepared, _) = Prepared::new(&m.tree, &m.mesh);
+        let (prepared, _) = Prepared::new(m.tree(), &m.mesh);
         let rays = primary_rays(&m.mesh, CPU_IMAGE);
         let light = default_light(m);
         // Once untimed: the packets' hits must be the single rays'.
@@ -161,8 +161,8 @@ fn bench_gpu(c: &mut Criterion, models: &[Model]) {
     let mut group = c.benchmark_group("mlrta_gpu");
     configure(&mut group);
     for m in models {
-        let (prepared, _) = Prepared::new(&m.tree, &m.mesh);
-        let gpu_tree = GpuKdTree::upload(&ctx.device, &m.tree).expect("uploading the kd-tree");
+        let (prepared, _) = Prepared::new(m.tree(), &m.mesh);
+        let gpu_tree = GpuKdTree::upload(&ctx.device, m.tree()).expect("uploading the kd-tree");
         let rays = primary_rays(&m.mesh, size);
         group.throughput(Throughput::Elements(rays.len() as u64));
         let modes = [

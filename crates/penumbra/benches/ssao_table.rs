@@ -22,6 +22,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
+use penumbra::accel::Accel;
 use penumbra::accel::kdtree::{KdTree, KdTreeParams};
 use penumbra::gpu::GpuContext;
 use penumbra::progress::Bar;
@@ -102,7 +103,7 @@ fn main() {
     for config in &CONFIGS {
         let path = Path::new(&data).join("models").join(format!("{}.obj", config.model));
         let mesh = load_obj(&path).expect("shared model loads");
-        let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+        let accel = Accel::new(KdTree::build(&mesh, &KdTreeParams::default()).unwrap());
         let camera = (config.camera)(&mesh.bounds());
         let view = ScreenView::new(&camera, w, h);
         let source = || GBufferSource::Render {
@@ -115,7 +116,7 @@ fn main() {
         let gb = run_frame(&ctx, source(), &view, &base, None, 1).unwrap().gbuffer;
         eprintln!("{}: truth and reference on the CPU...", config.model);
         let truth = raytraced(
-            &tree,
+            &accel,
             &camera,
             &view,
             &gb,

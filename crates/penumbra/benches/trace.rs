@@ -45,6 +45,7 @@ use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_m
 use glam::Vec3;
 use penumbra::accel::bvh::{Bvh8, BvhParams, packet};
 use penumbra::accel::kdtree::{KdTree, KdTreeParams};
+use penumbra::accel::{Accel, Structure};
 use penumbra::geom::ray::{Hit, Ray};
 use penumbra::geom::simd::Isa;
 use penumbra::gpu::GpuContext;
@@ -70,9 +71,9 @@ fn bench_build(c: &mut Criterion, models: &[Model]) {
     group.finish();
 }
 
-fn bvh_sequential(tree: &KdTree, rays: &[Ray]) -> Vec<Hit> {
+fn bvh_sequential(accel: &Accel, rays: &[Ray]) -> Vec<Hit> {
     let mut hits = vec![Hit::MISS; rays.len()];
-    tree.bvh_closest_hits(rays, &mut hits);
+    accel.closest_hits(Structure::Bvh, rays, &mut hits);
     hits
 }
 
@@ -112,21 +113,21 @@ fn bench_bvh(c: &mut Criterion, models: &[Model]) {
         group.throughput(Throughput::Elements(m.mesh.triangles.len() as u64));
         for (id, params) in [("spatial", BvhParams::default()), ("objects", objects_only())] {
             group.bench_function(BenchmarkId::new(m.name.as_str(), id), |b| {
-                b.iter(|| pool.install(|| Bvh8::build(black_box(&m.tree), &params)))
+                b.iter(|| pool.install(|| Bvh8::build(black_box(m.tree()), &params)))
             });
         }
     }
     group.finish();
     let mut group = common::flat_group(c, "random_cpu_1thread", 5);
     for m in models {
-        m.tree.bvh();
-        let rays = random_rays(&m.tree, 1_000_000);
+        m.accel.bvh();
+        let rays = random_rays(m.tree(), 1_000_000);
         group.throughput(Throughput::Elements(rays.len() as u64));
         group.bench_function(BenchmarkId::new(m.name.as_str(), "kdtree"), |b| {
-            b.iter(|| pool.install(|| m.tree.trace_closest_incoherent(black_box(&rays))))
+            b.iter(|| pool.install(|| m.tree().trace_closest_incoherent(black_box(&rays))))
         });
         group.bench_function(BenchmarkId::new(m.name.as_str(), "bvh"), |b| {
-            b.iter(|| bvh_sequential(black_box(&m.tree), black_box(&rays)))
+            b.iter(|| bvh_sequential(black_box(&m.accel), black_box(&rays)))
         });
     }
     group.finish();
@@ -138,8 +139,9 @@ fn bench_packets(c: &mut Criterion, models: &[Model]) {
     let mut group = common::flat_group(c, "packets_cpu_1thread", 5);
     for m in models {
         let objects = KdTree::build(&m.mesh, &KdTreeParams::default()).expect("the model built once already");
+        let objects = Accel::new(objects);
         objects.bvh_with(&objects_only());
-        m.tree.bvh();
+        m.accel.bvh();
         let mut views = vec![(m.name.clone(), primary_rays(&m.mesh, CPU_IMAGE))];
         if m.name == "kitchen" {
             let inside = Camera {
@@ -151,11 +153,13 @@ fn bench_packets(c: &mut Criterion, models: &[Model]) {
         }
         for (view, rays) in &views {
             group.throughput(Throughput::Elements(rays.len() as u64));
-            for (id, tree) in [("spatial", &m.tree), ("objects", &objects)] {
+            for (id, accel) in [("spatial", &m.accel), ("objects", &objects)] {
+                let (bvh, tree) = (accel.bvh(), accel.kdtree());
                 group.bench_function(BenchmarkId::new(view.as_str(), id), |b| {
                     b.iter(|| {
                         pool.install(|| {
-                            packet::trace_image(black_box(tree), black_box(rays), CPU_IMAGE, CPU_IMAGE, Isa::best())
+                            let (bvh, tree, rays) = (black_box(bvh), black_box(tree), black_box(rays));
+                            packet::trace_image(bvh, tree, rays, CPU_IMAGE, CPU_IMAGE, Isa::best())
                         })
                     })
                 });
@@ -169,18 +173,18 @@ fn bench_cpu(c: &mut Criterion, models: &[Model]) {
     let mut group = common::flat_group(c, "trace_cpu_1thread", 5);
     for m in models {
         let rays = primary_rays(&m.mesh, CPU_IMAGE);
-        let hits = trace_sequential(&m.tree, &rays).iter().filter(|h| h.is_hit()).count();
+        let hits = trace_sequential(m.tree(), &rays).iter().filter(|h| h.is_hit()).count();
         eprintln!(
             "trace_cpu_1thread/{}: {CPU_IMAGE}x{CPU_IMAGE} primary rays, {hits} hits",
             m.name
         );
         group.throughput(Throughput::Elements(rays.len() as u64));
         group.bench_function(BenchmarkId::new(m.name.as_str(), "kdtree"), |b| {
-            b.iter(|| trace_sequential(black_box(&m.tree), black_box(&rays)))
+            b.iter(|| trace_sequential(black_box(m.tree()), black_box(&rays)))
         });
-        m.tree.bvh();
+        m.accel.bvh();
         group.bench_function(BenchmarkId::new(m.name.as_str(), "bvh"), |b| {
-            b.iter(|| bvh_sequential(black_box(&m.tree), black_box(&rays)))
+            b.iter(|| bvh_sequential(black_box(&m.accel), black_box(&rays)))
         });
     }
     group.finish();
@@ -205,14 +209,14 @@ fn bench_gpu(c: &mut Criterion, models: &[Model]) {
     let mut group = common::flat_group(c, "trace_gpu", 4);
     for m in models {
         let device = Device::gpu(ctx.clone());
-        let mut tracer = Tracer::from_tree(&device, m.tree.clone()).expect("uploading the kd-tree");
+        let mut tracer = Tracer::from_tree(&device, m.tree().clone()).expect("uploading the kd-tree");
         let rays = primary_rays(&m.mesh, size);
         // One untimed run: compiles the pipeline, checks against the CPU, and
         // reports the kernel-only time where timestamps exist.
         let start = std::time::Instant::now();
         let first = tracer.closest(&rays).expect("GPU trace");
         let wall_ms = penumbra::gpu::device::elapsed_ms(start);
-        let cpu = trace_sequential(&m.tree, &rays);
+        let cpu = trace_sequential(m.tree(), &rays);
         let differ = first.value.iter().zip(&cpu).filter(|(g, c)| g != c).count();
         let kernel = match first.timing {
             Timing::GpuTimestamps => format!(

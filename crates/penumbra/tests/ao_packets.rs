@@ -9,6 +9,7 @@ mod common;
 
 use common::data_model;
 use penumbra::accel::kdtree::{KdTree, KdTreeParams};
+use penumbra::accel::{Accel, Structure};
 use penumbra::geom::simd::Isa;
 use penumbra::progress::Bar;
 use penumbra::raycast::AoSettings;
@@ -18,7 +19,7 @@ use penumbra::scene::procedural::all_scenes;
 use penumbra::scene::{Mesh, load_obj};
 
 fn compare(name: &str, mesh: &Mesh, rays_per_point: u32) {
-    let tree = KdTree::build(mesh, &KdTreeParams::default()).unwrap();
+    let accel = Accel::new(KdTree::build(mesh, &KdTreeParams::default()).unwrap());
     let points = vertex_points(mesh);
     let diagonal = mesh.bounds().diagonal();
     for radius in [f32::INFINITY, 0.05 * diagonal] {
@@ -27,21 +28,22 @@ fn compare(name: &str, mesh: &Mesh, rays_per_point: u32) {
             radius,
             seed: 11,
         };
-        let single = ao_rays_by(&tree, &points, &settings, &Bar::hidden(), Casting::Single);
+        let single = ao_rays_by(&accel, &points, &settings, &Bar::hidden(), Casting::Single);
         let total = points.len() as u64 * rays_per_point as u64;
         let open: u64 = single.bits.iter().map(|w| w.count_ones() as u64).sum();
         for isa in Isa::available() {
-            let packets = ao_rays_by(&tree, &points, &settings, &Bar::hidden(), Casting::Packets(isa));
+            let kd = Casting::Packets(Structure::Kdtree, isa);
+            let packets = ao_rays_by(&accel, &points, &settings, &Bar::hidden(), kd);
             let differ = single.differing_rays(&packets);
             println!("{name} radius {radius}: {isa:?}, {total} rays ({open} open), {differ} differ");
             assert_eq!(differ, 0, "{name}, radius {radius}, {isa:?}");
-            let wide = Casting::BvhPackets(isa);
-            let bvh = ao_rays_by(&tree, &points, &settings, &Bar::hidden(), wide);
+            let wide = Casting::Packets(Structure::Bvh, isa);
+            let bvh = ao_rays_by(&accel, &points, &settings, &Bar::hidden(), wide);
             let differ = single.differing_rays(&bvh);
             println!("{name} radius {radius}: BVH packets {isa:?}, {differ} differ");
             assert_eq!(differ, 0, "{name}, radius {radius}, BVH packets {isa:?}");
         }
-        assert_eq!(ao_rays(&tree, &points, &settings, &Bar::hidden()), single);
+        assert_eq!(ao_rays(&accel, &points, &settings, &Bar::hidden()), single);
     }
 }
 

@@ -7,6 +7,7 @@ use common::{Rng, data_model};
 use glam::Vec3;
 use penumbra::accel::kdtree::watertight::ShearedRay;
 use penumbra::accel::kdtree::{KdTree, KdTreeParams};
+use penumbra::accel::{Accel, Structure};
 use penumbra::geom::ray::Ray;
 use penumbra::scene::load_mesh;
 
@@ -37,10 +38,13 @@ fn rays_at(rng: &mut Rng, lo: Vec3, hi: Vec3, n: usize) -> Vec<Ray> {
 /// the BVH breaks towards the smaller index).
 fn compare(path: &std::path::Path, n: usize) {
     let mesh = load_mesh(path).unwrap();
-    let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
-    let bvh = tree.bvh();
+    let accel = Accel::new(KdTree::build(&mesh, &KdTreeParams::default()).unwrap());
+    let (tree, bvh) = (accel.kdtree(), accel.bvh());
     let rays = rays_at(&mut Rng(0x5eed), tree.bounds.min, tree.bounds.max, n);
-    let (kd, wide) = (tree.trace_closest(&rays), tree.bvh_trace_closest(&rays));
+    let (kd, wide) = (
+        accel.trace_closest(Structure::Kdtree, &rays),
+        accel.trace_closest(Structure::Bvh, &rays),
+    );
     let (mut hits, mut ties) = (0, 0);
     for (k, (a, b)) in kd.iter().zip(&wide).enumerate() {
         assert_eq!(
@@ -93,7 +97,7 @@ fn packets_give_the_single_rays_hits_on_camera_images() {
     for name in ["stanford-bunny.obj", "dragon100k.obj", "kitchen.obj", "cow.obj"] {
         let Some(path) = data_model(name) else { continue };
         let mesh = load_mesh(&path).unwrap();
-        let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+        let accel = Accel::new(KdTree::build(&mesh, &KdTreeParams::default()).unwrap());
         // The kitchen from inside, as `benches/embree_table.py` views it
         // (world coordinates into the mesh's frame).
         let local = |x: f64, y: f64, z: f64| (glam::DVec3::new(x, y, z) - mesh.origin).as_vec3();
@@ -107,9 +111,9 @@ fn packets_give_the_single_rays_hits_on_camera_images() {
         };
         let (w, h) = (258, 190);
         let rays = camera.primary_rays(w, h);
-        let expect = tree.bvh_trace_closest(&rays);
+        let expect = accel.trace_closest(Structure::Bvh, &rays);
         for isa in Isa::available() {
-            let (got, counts) = trace_image(&tree, &rays, w, h, isa);
+            let (got, counts) = trace_image(accel.bvh(), accel.kdtree(), &rays, w, h, isa);
             let differ = got.iter().zip(&expect).filter(|(a, b)| a != b).count();
             assert_eq!(differ, 0, "{name}, {isa:?}: {differ} of {} pixels differ", rays.len());
             println!("{name} {isa:?}: {counts:?}");

@@ -7,6 +7,7 @@ mod common;
 
 use common::{Rng, data_model, gpu};
 use glam::{Quat, Vec3};
+use penumbra::accel::Accel;
 use penumbra::accel::kdtree::{KdTree, KdTreeParams};
 use penumbra::field::gpu::{FieldAoBatches, FieldGroup, GpuField, GpuInstance, probe_gpu};
 use penumbra::field::reach::Reach;
@@ -391,8 +392,8 @@ fn tiny_and_huge_objects() {
         let points = vertex_points(&receiver);
         let owners = vec![NO_OWNER; points.len()];
         let world = unit.map_positions(|p| transform.apply_point(p));
-        let tree = KdTree::build(&world, &KdTreeParams::default()).unwrap();
-        let truth = ao_rays(&tree, &points, &settings(scale), &Bar::hidden()).accessibility();
+        let accel = Accel::new(KdTree::build(&world, &KdTreeParams::default()).unwrap());
+        let truth = ao_rays(&accel, &points, &settings(scale), &Bar::hidden()).accessibility();
         let casters = [FieldCaster {
             field: &unit_field,
             transform,
@@ -459,8 +460,8 @@ fn instances_share_one_field() {
     for t in &poses {
         world.append(&caster.map_positions(|p| t.apply_point(p)));
     }
-    let tree = KdTree::build(&world, &KdTreeParams::default()).unwrap();
-    let truth: VisibilityMasks = ao_rays(&tree, &points, &settings, &Bar::hidden());
+    let accel = Accel::new(KdTree::build(&world, &KdTreeParams::default()).unwrap());
+    let truth: VisibilityMasks = ao_rays(&accel, &points, &settings, &Bar::hidden());
     let casters: Vec<FieldCaster> = poses
         .iter()
         .enumerate()
@@ -512,12 +513,14 @@ fn bunny_in_the_corner_meets_the_error_target() {
         radius: f32::INFINITY,
         seed: 0,
     };
-    let tree = KdTree::build(
-        &bunny.map_positions(|p| transform.apply_point(p)),
-        &KdTreeParams::default(),
-    )
-    .unwrap();
-    let truth = ao_rays(&tree, &points, &settings, &Bar::hidden()).accessibility();
+    let accel = Accel::new(
+        KdTree::build(
+            &bunny.map_positions(|p| transform.apply_point(p)),
+            &KdTreeParams::default(),
+        )
+        .unwrap(),
+    );
+    let truth = ao_rays(&accel, &points, &settings, &Bar::hidden()).accessibility();
     let error = |side: u32, positional: Positional| {
         let field = build(&bunny, params(side, 32, Storage::U8, DirectionMapping::Concentric));
         let casters = [FieldCaster {

@@ -27,6 +27,7 @@ mod common;
 
 use common::{Rng, asset, data_model, gpu};
 use glam::Vec3;
+use penumbra::accel::Accel;
 use penumbra::accel::kdtree::gpu::{GpuKdTree, TraceMode, TraceRaysBatches, trace_rays};
 use penumbra::accel::kdtree::{KdTree, KdTreeParams};
 use penumbra::geom::ray::Ray;
@@ -159,15 +160,15 @@ fn ao_sample_kernel_equals_cpu_sequence() {
 }
 
 fn compare_ao(ctx: &GpuContext, name: &str, mesh: &Mesh, rays_per_point: u32) {
-    let tree = KdTree::build(mesh, &KdTreeParams::default()).unwrap();
-    let gpu_tree = GpuKdTree::upload(&ctx.device, &tree).unwrap();
+    let accel = Accel::new(KdTree::build(mesh, &KdTreeParams::default()).unwrap());
+    let gpu_tree = GpuKdTree::upload(&ctx.device, accel.kdtree()).unwrap();
     let points = vertex_points(mesh);
     let settings = AoSettings {
         rays_per_point,
         radius: f32::INFINITY,
         seed: 1,
     };
-    let cpu = ao_rays(&tree, &points, &settings, &Bar::hidden());
+    let cpu = ao_rays(&accel, &points, &settings, &Bar::hidden());
     let (gpu, _) = AoRaysBatches::new(ctx)
         .visibility(ctx, &gpu_tree, &points, &settings, &Bar::hidden(), RAYS_PER_BATCH)
         .unwrap();

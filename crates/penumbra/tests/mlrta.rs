@@ -9,6 +9,7 @@ mod common;
 
 use common::{Rng, asset, data_model};
 use glam::Vec3;
+use penumbra::accel::Accel;
 use penumbra::accel::kdtree::{KdTree, KdTreeParams};
 use penumbra::geom::ray::Hit;
 use penumbra::mlrta::ao::visibility_mlrta;
@@ -417,15 +418,15 @@ fn ao_groups_equal_the_cpu_reference() {
         meshes.push(("stanford-bunny.obj".into(), load_obj(&path).unwrap()));
     }
     for (name, mesh) in meshes {
-        let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
-        let (prepared, _) = Prepared::new(&tree, &mesh);
+        let accel = Accel::new(KdTree::build(&mesh, &KdTreeParams::default()).unwrap());
+        let (prepared, _) = Prepared::new(accel.kdtree(), &mesh);
         let points = vertex_points(&mesh);
         let settings = AoSettings {
             rays_per_point: 32,
             radius: f32::INFINITY,
             seed: 3,
         };
-        let cpu = ao_rays(&tree, &points, &settings, &Bar::hidden());
+        let cpu = ao_rays(&accel, &points, &settings, &Bar::hidden());
         let (packets, counts) = visibility_mlrta(&prepared, &points, &settings, &Bar::hidden());
         let differ = cpu.differing_rays(&packets);
         let total = points.len() as u64 * 32;

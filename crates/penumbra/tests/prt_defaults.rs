@@ -20,6 +20,7 @@ use std::path::Path;
 
 use common::data_model;
 use glam::Vec3;
+use penumbra::accel::Accel;
 use penumbra::accel::kdtree::{KdTree, KdTreeParams};
 use penumbra::gpu::device::Device;
 use penumbra::prt::pipeline::{FrameOutput, Prt, PrtSettings};
@@ -82,11 +83,11 @@ fn measured_error(prt: &Prt, case: &Case, pose: &[Vec3]) -> f64 {
     let step = pose.len().div_ceil(4000);
     let at: Vec<usize> = (0..pose.len()).step_by(step).collect();
     let soup: Vec<[Vec3; 3]> = case.triangles.iter().map(|t| t.map(|i| pose[i as usize])).collect();
-    let tree = KdTree::from_triangles(soup, &KdTreeParams::default()).unwrap();
+    let accel = Accel::new(KdTree::from_triangles(soup, &KdTreeParams::default()).unwrap());
     let p: Vec<Vec3> = at.iter().map(|&v| pose[v]).collect();
     let n: Vec<Vec3> = at.iter().map(|&v| out.normals[v]).collect();
     let s = &prt.settings;
-    let reference = reference_transfer(&tree, &p, &n, prt.scale, s.bands, &s.brdf, Some(case.eye), 2048, 1);
+    let reference = reference_transfer(&accel, &p, &n, prt.scale, s.bands, &s.brdf, Some(case.eye), 2048, 1);
     let c = prt.coeffs();
     let mine: Vec<f32> = at
         .iter()

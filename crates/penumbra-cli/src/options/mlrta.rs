@@ -3,12 +3,12 @@
 use clap::Args;
 
 use crate::options::{Applies, OnOff, applies};
+use penumbra::accel::Structure;
 use penumbra::error::Result;
 use penumbra::mlrta::MlrtaParams;
 use penumbra::mlrta::aa::AaMode;
 use penumbra::mlrta::runner::{AaRequest, ShadowLight, TraceRequest};
 use penumbra::mlrta::tiles::{DEFAULT_EP_BUDGET, DEFAULT_MIN_TILE};
-use penumbra::raycast::tracer::Accel;
 use penumbra::scene::View;
 
 #[derive(Args, Clone, Debug)]
@@ -26,7 +26,7 @@ pub struct TraceOptions {
     /// from its root instead (faster on the CPU; no tiles, entry points or
     /// anti-aliasing). The hits are the same.
     #[arg(long, value_enum)]
-    pub accel: Option<Accel>,
+    pub accel: Option<Structure>,
     /// Initial tile side in pixels (the paper's ITS).
     #[arg(long, default_value_t = 128, allow_negative_numbers = true)]
     pub tile: u32,
@@ -68,16 +68,19 @@ impl TraceOptions {
         let aa = &["aa_samples", "reference"];
         let needs = "MLRTA packets (without --single-ray or --accel bvh)";
         vec![
-            applies(!self.single_ray && self.accel() == Accel::Kdtree, mlrta, needs),
+            applies(!self.single_ray && self.accel() == Structure::Kdtree, mlrta, needs),
             applies(self.aa != AaMode::None, aa, "--aa adaptive or uniform"),
         ]
     }
 
     /// `--accel`, or its default: the BVH for single rays, the kd-tree
     /// (MLRTA) for packets.
-    fn accel(&self) -> Accel {
-        self.accel
-            .unwrap_or(if self.single_ray { Accel::Bvh } else { Accel::Kdtree })
+    fn accel(&self) -> Structure {
+        self.accel.unwrap_or(if self.single_ray {
+            Structure::Bvh
+        } else {
+            Structure::Kdtree
+        })
     }
 
     /// The checked request for `view`.

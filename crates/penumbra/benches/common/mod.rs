@@ -9,6 +9,7 @@ pub mod raytrace;
 
 use std::path::{Path, PathBuf};
 
+use penumbra::accel::Accel;
 use penumbra::accel::kdtree::{KdTree, KdTreeParams};
 use penumbra::geom::ray::Ray;
 use penumbra::gpu::{GpuContext, enumerate_adapters};
@@ -24,7 +25,15 @@ const GPU_IMAGE_SOFTWARE: u32 = 512;
 pub struct Model {
     pub name: String,
     pub mesh: Mesh,
-    pub tree: KdTree,
+    /// The mesh's kd-tree (default parameters) and, once asked for, its BVH.
+    pub accel: Accel,
+}
+
+impl Model {
+    /// The kd-tree.
+    pub fn tree(&self) -> &KdTree {
+        self.accel.kdtree()
+    }
 }
 
 /// The repository's root: `PENUMBRA_DATA`, outputs and assets are named
@@ -92,7 +101,11 @@ pub fn load_models_named(names: &[&str]) -> Vec<Model> {
                 tree.stats.depth,
                 tree.stats.build_ms
             );
-            Model { name, mesh, tree }
+            Model {
+                name,
+                mesh,
+                accel: Accel::new(tree),
+            }
         })
         .collect()
 }

@@ -474,7 +474,7 @@ fn compare_with_raycast(
     };
     Ok(FieldReference {
         raycast_ms: truth.ms,
-        kdtree_ms: tracer.tree().stats.build_ms,
+        kdtree_ms: tracer.accel().kdtree().stats.build_ms,
         errors: errors(lookups.combined, &truth.value, lookups.classes),
         fields_only,
     })

@@ -17,12 +17,13 @@ use super::tiles::{ImageBuffers, ImageTrace, MlrtaParams, SHADOW_EPSILON, TileRe
 use crate::accel::bvh::packet::PacketCounts;
 use crate::accel::kdtree::gpu::GpuKdTree;
 use crate::accel::kdtree::{BuildStats, KdTree};
+use crate::accel::{Accel, BvhStats, Structure};
 use crate::error::Result;
 use crate::geom::aabb::Aabb;
 use crate::geom::ray::{Hit, Ray};
 use crate::gpu::device::{Device, GpuOutput, Timing, elapsed_ms};
 use crate::progress::Reporter;
-use crate::raycast::tracer::{Accel, BvhStats, Tracer, build_tree, tree_params};
+use crate::raycast::tracer::{Tracer, build_tree, tree_params};
 use crate::scene::{Camera, CameraRays, Mesh, View};
 
 /// Rays per side of a packet in the statistics.
@@ -69,10 +70,10 @@ pub struct TraceRequest {
     /// One ray at a time instead of packets.
     pub single_ray: bool,
     /// What rays walk on the CPU: single rays the BVH or the kd-tree;
-    /// packets the kd-tree with MLRTA (`params`) or, with `Accel::Bvh`,
-    /// the BVH from its root (`bvh::packet`; no tiles or anti-aliasing).
-    /// The GPU walks the kd-tree.
-    pub accel: Accel,
+    /// packets the kd-tree with MLRTA (`params`) or, with
+    /// `Structure::Bvh`, the BVH from its root (`bvh::packet`; no tiles or
+    /// anti-aliasing). The GPU walks the kd-tree.
+    pub accel: Structure,
     /// Packets: entry points on or off, tile sizes.
     pub params: MlrtaParams,
     pub light: ShadowLight,
@@ -82,7 +83,7 @@ pub struct TraceRequest {
 impl TraceRequest {
     pub fn validate(&self) -> Result<()> {
         crate::scene::check_image_size(self.view.width, self.view.height)?;
-        if !self.single_ray && self.accel == Accel::Bvh && self.aa.mode != AaMode::None {
+        if !self.single_ray && self.accel == Structure::Bvh && self.aa.mode != AaMode::None {
             return Err(crate::error::Error::param(
                 "aa",
                 "anti-aliasing follows MLRTA's tiles: it needs packets through the kd-tree, not the BVH",
@@ -124,7 +125,8 @@ pub struct TraceStats {
     /// was that (single rays' traversal counts are the kd-tree's walk of
     /// the same rays either way).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub accel: Option<Accel>,
+    pub accel: Option<Structure>,
+    /// The BVH's cost, when rays walked it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bvh: Option<BvhStats>,
     /// BVH packets: what the walk did (rays that went one by one included).
@@ -210,7 +212,7 @@ struct Traced {
     tiles: Vec<TileReport>,
     aa: Option<aa::AaResult>,
     mlrta: &'static str,
-    accel: Option<Accel>,
+    accel: Option<Structure>,
     bvh: Option<BvhStats>,
     bvh_packets: Option<PacketCounts>,
     timing: Timing,
@@ -245,8 +247,8 @@ pub fn trace_view(
     let kdtree = tree.stats.clone();
     let mut t = if request.single_ray {
         single_ray(device, tree, rays, light, request.accel)?
-    } else if request.accel == Accel::Bvh && !device.is_gpu() {
-        bvh_packets(&tree, rays, (width, height), light)
+    } else if request.accel == Structure::Bvh && !device.is_gpu() {
+        bvh_packets(Accel::new(tree), rays, (width, height), light)
     } else {
         packet_image(device, &tree, mesh, &camera, &camera_rays, request, light, packets)?
     };
@@ -295,8 +297,14 @@ pub fn trace_view(
 /// The foundation's single-ray path (statistics summed over all rays: the
 /// kd-tree's walk of the rays, whichever structure traced them); shadow
 /// rays on the CPU, timed into the trace.
-fn single_ray(device: &Device, tree: KdTree, rays: &[Ray], light: Option<Vec3>, accel: Accel) -> Result<Traced> {
-    let mut tracer = Tracer::from_tree(device, tree)?.with_accel(accel);
+fn single_ray(
+    device: &Device,
+    tree: KdTree,
+    rays: &[Ray],
+    light: Option<Vec3>,
+    structure: Structure,
+) -> Result<Traced> {
+    let mut tracer = Tracer::from_tree(device, tree)?.with_structure(structure);
     let traced = tracer.closest(rays)?;
     let counts = tracer.traversal_counts(rays)?;
     let hits = traced.value;
@@ -319,7 +327,7 @@ fn single_ray(device: &Device, tree: KdTree, rays: &[Ray], light: Option<Vec3>, 
         tiles: Vec::new(),
         aa: None,
         mlrta: "single-ray",
-        accel: (!device.is_gpu()).then_some(accel),
+        accel: (!device.is_gpu()).then_some(structure),
         bvh: tracer.bvh_stats().cloned(),
         bvh_packets: None,
         timing: traced.timing,
@@ -344,13 +352,14 @@ fn isects(c: &MlrtaCounts) -> f64 {
 /// or entry points, each block of the image from the root; shadow rays as
 /// any-hit packets from the light to each block's hits. Statistics: BVH
 /// nodes and leaves visited, and triangle tests, per packet.
-fn bvh_packets(tree: &KdTree, rays: &[Ray], (width, height): (u32, u32), light: Option<Vec3>) -> Traced {
+fn bvh_packets(accel: Accel, rays: &[Ray], (width, height): (u32, u32), light: Option<Vec3>) -> Traced {
     use crate::accel::bvh::packet;
-    let bvh = BvhStats::build(tree);
+    let bvh = accel.bvh_stats();
+    let (wide, tree) = (accel.bvh(), accel.kdtree());
     let isa = crate::geom::simd::Isa::best();
     let start = std::time::Instant::now();
-    let (hits, c) = packet::trace_image(tree, rays, width, height, isa);
-    let shadowed = light.map(|l| packet::shadows(tree, rays, &hits, width, l, SHADOW_EPSILON, isa));
+    let (hits, c) = packet::trace_image(wide, tree, rays, width, height, isa);
+    let shadowed = light.map(|l| packet::shadows(wide, tree, rays, &hits, width, l, SHADOW_EPSILON, isa));
     let trace_ms = elapsed_ms(start);
     Traced {
         hits,
@@ -358,7 +367,7 @@ fn bvh_packets(tree: &KdTree, rays: &[Ray], (width, height): (u32, u32), light: 
         tiles: Vec::new(),
         aa: None,
         mlrta: "bvh-packets",
-        accel: Some(Accel::Bvh),
+        accel: Some(Structure::Bvh),
         bvh: Some(bvh),
         bvh_packets: Some(c),
         timing: Timing::Wall,

@@ -13,7 +13,7 @@ use crate::error::Result;
 use crate::geom::ray::Hit;
 use crate::gpu::device::Device;
 use crate::progress::Reporter;
-use crate::raycast::tracer::Accel;
+use crate::accel::Structure;
 use crate::scene::{Mesh, View};
 use crate::tune::{Knob, Run, Setting, Sweep, Tunable};
 
@@ -61,7 +61,7 @@ impl TraceSweep {
             view: self.view,
             single_ray,
             // `trace`'s defaults: the BVH for single rays, MLRTA for packets.
-            accel: if single_ray { Accel::Bvh } else { Accel::Kdtree },
+            accel: if single_ray { Structure::Bvh } else { Structure::Kdtree },
             params: MlrtaParams {
                 entry_points: s.get("mlrta").unwrap_or(true),
                 initial_tile: tile,

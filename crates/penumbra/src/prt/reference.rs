@@ -1,8 +1,8 @@
 //! Monte Carlo ray-traced transfer: the ground truth of Table 1's error
 //! column. Per vertex, `rays` cosine-distributed directions (Malley's method
 //! on the seeded Owen-scrambled Sobol sequence of `sampling`) are traced
-//! against a kd-tree of the full-resolution mesh (in packets of 16 through
-//! its wide BVH, `KdTree::bvh`: the kd-tree's answers) from the vertex lifted by
+//! against the full-resolution mesh (in packets of 16 through its wide
+//! BVH, `Accel::occluded`: the kd-tree's answers) from the vertex lifted by
 //! the contract's offset along its normal; with the cosine density
 //! `cos θ / π`, equation 3 is estimated by
 //! `V*_i ≈ (1/N) Σ_j V(s_j) ρ(s_j) Y_i(s_j)` where `ρ = π f_r`.
@@ -11,18 +11,19 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::transfer::Brdf;
-use crate::accel::kdtree::KdTree;
-use crate::accel::kdtree::occlusion::{LANES, Walk, occluded_by};
+use crate::accel::kdtree::occlusion::LANES;
+use crate::accel::{Accel, Structure};
 use crate::geom::sampling::{Frame, SampleSequence, cosine_hemisphere};
 use crate::geom::simd::Isa;
 use crate::scene::ORIGIN_OFFSET;
 use crate::sh::{ShBasis, coefficient_count};
 
 /// Reference transfer vectors (world space, `bands²` per vertex) for the
-/// given shading normals (zero normal: zero transfer).
+/// given shading normals (zero normal: zero transfer), the rays traced
+/// against `accel`.
 #[allow(clippy::too_many_arguments)]
 pub fn reference_transfer(
-    tree: &KdTree,
+    accel: &Accel,
     positions: &[Vec3],
     normals: &[Vec3],
     scale: f32,
@@ -63,9 +64,9 @@ pub fn reference_transfer(
                 let [u, w] = stream.sample(first + k as u32);
                 *d = frame.to_world(cosine_hemisphere(u, w)).normalize();
             }
-            // Through the tree's wide BVH: the kd-tree's answers, and the
-            // cow's `prt --reference` took 2.97 s instead of 3.36.
-            let hit = occluded_by(tree, Walk::Bvh, origin, &dirs[..n], f32::INFINITY, Isa::best());
+            // Through the wide BVH: the kd-tree's answers, and the cow's
+            // `prt --reference` took 2.97 s instead of 3.36.
+            let hit = accel.occluded(Structure::Bvh, origin, &dirs[..n], f32::INFINITY, Isa::best());
             for (_, &d) in dirs[..n].iter().enumerate().filter(|&(k, _)| hit & (1 << k) == 0) {
                 let rho = brdf.rho(d, reflected);
                 basis.eval(d, &mut y);

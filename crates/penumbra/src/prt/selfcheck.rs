@@ -31,6 +31,7 @@ use serde::Serialize;
 
 use super::pipeline::{FrameOutput, Prt};
 use super::reference::{reference_transfer, relative_l2_errors};
+use crate::accel::Accel;
 use crate::accel::kdtree::{KdTree, KdTreeParams};
 use crate::error::{Error, Result};
 use crate::geom::sampling::hash_u32;
@@ -146,7 +147,7 @@ pub fn estimate(
             .flat_map(|&(v, _)| frame.transfer[v * coeffs..(v + 1) * coeffs].iter().copied())
             .collect();
         let soup: Vec<[Vec3; 3]> = triangles.iter().map(|t| t.map(|i| positions[i as usize])).collect();
-        let tree = KdTree::from_triangles(soup, &KdTreeParams::default())?;
+        let tree = Accel::new(KdTree::from_triangles(soup, &KdTreeParams::default())?);
         let reference = reference_transfer(&tree, &at, &nrm, prt.scale, s.bands, &s.brdf, eye, check.rays, seed);
         for (e, &(_, w)) in relative_l2_errors(&mine, &reference, coeffs, floor)
             .into_iter()

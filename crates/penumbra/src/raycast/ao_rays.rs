@@ -5,8 +5,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::{AoPoint, AoSettings, PointDirections, VisibilityMasks, packets, ray_direction};
-use crate::accel::kdtree::KdTree;
-use crate::accel::kdtree::occlusion::Walk;
+use crate::accel::{Accel, Structure};
 use crate::geom::sampling::SampleSequence;
 use crate::geom::simd::Isa;
 use crate::progress::Bar;
@@ -16,26 +15,24 @@ use crate::progress::Bar;
 pub enum Casting {
     /// One ray at a time (`KdTree::any_hit`).
     Single,
-    /// Packets of 16 sharing the origin (`ao::packets`) through the
-    /// kd-tree, in an instruction set.
-    Packets(Isa),
-    /// The same packets through the tree's wide BVH (`bvh::occlusion`;
-    /// rays that start in a triangle's plane get the kd-tree's answer).
-    BvhPackets(Isa),
+    /// Packets of 16 sharing the origin (`raycast::packets`) through a
+    /// structure (`Accel::occluded_in`), in an instruction set.
+    Packets(Structure, Isa),
 }
 
 /// Casts `rays_per_point` AO rays from every point (rayon, all threads of the
 /// current pool) and returns which escaped: packets of 16 in the widest
 /// instruction set the CPU has, through the kd-tree (the twin of the
-/// `ao_rays` kernel; `tracer::Tracer` casts them through the tree's wide
-/// BVH on the CPU, `Casting::BvhPackets`).
-pub fn ao_rays(tree: &KdTree, points: &[AoPoint], settings: &AoSettings, progress: &Bar) -> VisibilityMasks {
-    ao_rays_by(tree, points, settings, progress, Casting::Packets(Isa::best()))
+/// `ao_rays` kernel; `tracer::Tracer` casts them through the wide BVH on
+/// the CPU, `Structure::Bvh`).
+pub fn ao_rays(accel: &Accel, points: &[AoPoint], settings: &AoSettings, progress: &Bar) -> VisibilityMasks {
+    let casting = Casting::Packets(Structure::Kdtree, Isa::best());
+    ao_rays_by(accel, points, settings, progress, casting)
 }
 
 /// `ao_rays`, casting the rays as `casting` says.
 pub fn ao_rays_by(
-    tree: &KdTree,
+    accel: &Accel,
     points: &[AoPoint],
     settings: &AoSettings,
     progress: &Bar,
@@ -48,7 +45,7 @@ pub fn ao_rays_by(
         .zip(points.par_iter())
         .with_min_len(16)
         .for_each(|(mask, point)| {
-            point_visibility(tree, &seq, point, settings, casting, mask);
+            point_visibility(accel, &seq, point, settings, casting, mask);
             progress.inc(1);
         });
     VisibilityMasks {
@@ -59,7 +56,7 @@ pub fn ao_rays_by(
 }
 
 fn point_visibility(
-    tree: &KdTree,
+    accel: &Accel,
     seq: &SampleSequence,
     point: &AoPoint,
     settings: &AoSettings,
@@ -76,15 +73,11 @@ fn point_visibility(
     let origin = Vec3::from_array(point.origin);
     let dirs = PointDirections::new(seq, point.stream, Vec3::from_array(point.normal));
     match casting {
-        Casting::Packets(isa) | Casting::BvhPackets(isa) => {
-            let walk = if matches!(casting, Casting::Packets(_)) {
-                Walk::KdTree
-            } else {
-                Walk::Bvh
-            };
-            packets::point_visibility((tree, walk), origin, &dirs, n, settings.radius, isa, mask)
+        Casting::Packets(structure, isa) => {
+            packets::point_visibility((accel, structure), origin, &dirs, n, settings.radius, isa, mask)
         }
         Casting::Single => {
+            let tree = accel.kdtree();
             for j in 0..n {
                 if !tree.any_hit(origin, dirs.direction(j), settings.radius) {
                     mask[(j / 32) as usize] |= 1 << (j % 32);

@@ -1,7 +1,8 @@
 //! One point's AO rays in packets of 16: they share the origin, so they go
-//! through `kdtree::occlusion` together. Rays are grouped by where their
-//! sample lies in the square (a 4x4 grid in Morton order, which the concentric
-//! map turns into neighbouring patches of the hemisphere), so a packet's
+//! through `Accel::occluded_in` (the kd-tree's or the BVH's packets)
+//! together. Rays are grouped by where their sample lies in the square (a
+//! 4x4 grid in Morton order, which the concentric map turns into
+//! neighbouring patches of the hemisphere), so a packet's
 //! rays leave in similar directions; with 256 rays the (0,2)-net property
 //! of the scrambled Sobol points puts exactly 16 in each cell. The grouping
 //! only changes which rays travel together: each ray's answer is its single
@@ -10,17 +11,18 @@
 use glam::Vec3;
 
 use super::PointDirections;
-use crate::accel::kdtree::KdTree;
-use crate::accel::kdtree::occlusion::{LANES, Walk, packet_in};
+use crate::accel::kdtree::occlusion::LANES;
+use crate::accel::{Accel, Structure};
 use crate::geom::simd::{Isa, Kernel, Lanes, dispatch};
 
 /// Cells of the grid the rays are grouped by.
 const CELLS: usize = 16;
 
 /// Sets bit j of `mask` for each of the `n` rays of `dirs` that escapes
-/// (hits nothing with `0 < t < t_max` from `origin`), in lanes of `isa`.
+/// (hits nothing with `0 < t < t_max` from `origin`), walking `structure`
+/// in lanes of `isa`.
 pub fn point_visibility(
-    (tree, walk): (&KdTree, Walk),
+    (accel, structure): (&Accel, Structure),
     origin: Vec3,
     dirs: &PointDirections,
     n: u32,
@@ -28,12 +30,12 @@ pub fn point_visibility(
     isa: Isa,
     mask: &mut [u32],
 ) {
-    // One kernel per structure (see `kdtree::occlusion::occluded_by`).
-    match walk {
-        Walk::KdTree => dispatch(
+    // One kernel per structure (see `Accel::occluded`).
+    match structure {
+        Structure::Kdtree => dispatch(
             isa,
             Point::<false> {
-                tree,
+                accel,
                 origin,
                 dirs,
                 n,
@@ -41,10 +43,10 @@ pub fn point_visibility(
                 mask,
             },
         ),
-        Walk::Bvh => dispatch(
+        Structure::Bvh => dispatch(
             isa,
             Point::<true> {
-                tree,
+                accel,
                 origin,
                 dirs,
                 n,
@@ -58,7 +60,7 @@ pub fn point_visibility(
 /// One point's rays as a kernel: directions, grouping and packets all in
 /// the dispatched instruction set.
 struct Point<'a, const BVH: bool> {
-    tree: &'a KdTree,
+    accel: &'a Accel,
     origin: Vec3,
     dirs: &'a PointDirections,
     n: u32,
@@ -91,7 +93,7 @@ impl<const BVH: bool> Kernel for Point<'_, BVH> {
             start[c as usize] += 1;
         }
         for (chunk, dirs) in order.chunks(LANES).zip(sorted.chunks(LANES)) {
-            let hit = packet_in::<V, BVH>(self.tree, self.origin, dirs, self.t_max);
+            let hit = self.accel.occluded_in::<V, BVH>(self.origin, dirs, self.t_max);
             for (k, &j) in chunk.iter().enumerate() {
                 if hit & (1 << k) == 0 {
                     self.mask[(j / 32) as usize] |= 1 << (j % 32);

@@ -9,10 +9,10 @@ use serde::Serialize;
 
 use super::AoSettings;
 use super::runner::{PixelAo, RaycastAo, VertexAo, mean, near_zero_warning, write_vertex_ao};
+use crate::accel::BvhStats;
 use crate::error::Result;
 use crate::io::image::{GreyStyle, write_grey};
 use crate::io::output::{frame_output, frame_path};
-use crate::raycast::tracer::BvhStats;
 use crate::report::repeats::RunTimes;
 use crate::scene::{Camera, Scene};
 

@@ -7,11 +7,12 @@
 use super::entry::AmbientOcclusion;
 use super::points::hit_points;
 use super::{AoPoint, AoSettings};
+use crate::accel::BvhStats;
 use crate::error::{Error, Result};
 use crate::geom::ray::Ray;
 use crate::gpu::device::{Device, Timed};
 use crate::progress::Reporter;
-use crate::raycast::tracer::{BvhStats, Tracer};
+use crate::raycast::tracer::Tracer;
 use crate::scene::{Camera, Mesh, Role, Scene, View};
 
 /// What AO is asked for: the receivers' vertices and/or an image.
@@ -59,7 +60,7 @@ pub struct RaycastAo {
     pub caster_triangles: usize,
     /// The casters' kd-tree build.
     pub build_ms: f64,
-    /// On the CPU, the wide BVH the AO packets walked (`tracer::Accel`).
+    /// On the CPU, the wide BVH the AO packets walked (`accel::Structure`).
     pub bvh: Option<BvhStats>,
     pub vertices: Option<VertexAo>,
     pub image: Option<PixelAo>,

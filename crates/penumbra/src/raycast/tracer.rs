@@ -3,20 +3,20 @@
 //! rays (reference AO, and the ground truth of fields, SSAO and PRT) run in
 //! the WGSL kernels on a GPU or in their CPU twins, with identical results;
 //! on a GPU the tree is uploaded once and the passes keep their buffers
-//! between calls. On the CPU, single rays go through the wide BVH
-//! (`bvh`) by default, built the first time they are traced; `Accel`
-//! chooses.
+//! between calls. On the CPU, single rays and AO packets go through the
+//! wide BVH by default, built the first time they are traced; a
+//! `Structure` chooses (`accel`).
 
 use serde::Serialize;
 
-use crate::accel::bvh::Bvh8;
 use crate::accel::kdtree::gpu::{GpuKdTree, TraceMode, TraceRaysBatches};
 use crate::accel::kdtree::{BuildStats, KdTree, KdTreeParams, TraversalCounts};
+use crate::accel::{Accel, BvhStats, Structure};
 use crate::error::Result;
 use crate::geom::ray::{Hit, Ray};
 use crate::geom::simd::Isa;
 use crate::gpu::GpuContext;
-use crate::gpu::device::{Device, GpuOutput, OnDevice, Timed, Timing, elapsed_ms};
+use crate::gpu::device::{Device, GpuOutput, OnDevice, Timed, Timing};
 use crate::progress::{Bar, Reporter};
 use crate::raycast::ao_rays::{Casting, ao_rays_by};
 use crate::raycast::gpu::AoRaysBatches;
@@ -50,34 +50,42 @@ pub fn build_tree(mesh: &Mesh, params: &KdTreeParams, bars: &Reporter, what: &st
 /// CPU the BVH's) build, and the runs.
 #[derive(Debug, Clone, Serialize)]
 pub struct TraceRaysReport {
+    /// Rays traced.
     pub rays: usize,
+    /// Rays that hit a triangle.
     pub hits: usize,
     /// The kd-tree's build (the BVH's is `bvh.build_ms`).
     pub build_ms: f64,
+    /// The trace's time (the kernel's on a GPU with timestamps).
     pub trace_ms: f64,
+    /// Millions of rays per second of `trace_ms`.
     pub mrays_per_s: f64,
+    /// What `trace_ms` measured.
     pub timing: Timing,
+    /// The kd-tree's build statistics.
     pub kdtree: BuildStats,
+    /// The BVH's, when single rays walked it.
     pub bvh: Option<BvhStats>,
+    /// Every run's time.
     pub runs: RunTimes,
 }
 
 /// Closest hits of `rays` (a ray file's, in no particular order) against
-/// `mesh` on `device`, single rays walking `accel` on the CPU, timed as
+/// `mesh` on `device`, single rays walking `structure` on the CPU, timed as
 /// `runs` says: the runner of `trace-rays`.
 pub fn trace_ray_file(
     device: &Device,
     mesh: &Mesh,
     rays: &[Ray],
-    accel: Accel,
+    structure: Structure,
     runs: &Repeats,
     bars: &Reporter,
 ) -> Result<(Vec<Hit>, TraceRaysReport)> {
-    let mut tracer = Tracer::build(device, mesh, bars, "trace-rays")?.with_accel(accel);
+    let mut tracer = Tracer::build(device, mesh, bars, "trace-rays")?.with_structure(structure);
     let progress = bars.spinner(&format!("tracing {} rays", rays.len()));
     let (traced, times) = runs.run("trace_ms", || tracer.closest_incoherent(rays), |t| t.ms)?;
     progress.finish();
-    let kdtree = tracer.tree().stats.clone();
+    let kdtree = tracer.accel().kdtree().stats.clone();
     let report = TraceRaysReport {
         rays: rays.len(),
         hits: traced.value.iter().filter(|h| h.is_hit()).count(),
@@ -94,60 +102,19 @@ pub fn trace_ray_file(
 
 /// What a tracer keeps on a GPU.
 pub struct GpuTracer {
+    /// The kd-tree, uploaded.
     pub tree: GpuKdTree,
     rays: Option<TraceRaysBatches>,
     ao: Option<AoRaysBatches>,
 }
 
-/// The structure single rays walk on the CPU (the GPU kernels walk the
-/// kd-tree). The hits are the same; where two triangles are hit at exactly
-/// the same t, the BVH reports the one of smaller index.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
-pub enum Accel {
-    /// The wide BVH (`bvh`): 1.1 to 2.2 times the kd-tree's speed on
-    /// single rays (least on long thin triangles), built in about a fifth
-    /// of the kd-tree's time.
-    #[default]
-    Bvh,
-    /// The kd-tree's single-ray walk (the MLRTA paper's foundation).
-    Kdtree,
-}
-
-/// What the BVH cost and holds (JSON `bvh`).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct BvhStats {
-    pub build_ms: f64,
-    pub nodes: usize,
-    pub leaf_blocks: usize,
-    /// Triangles in the leaves, counting the copies spatial splits made.
-    pub references: usize,
-    pub bytes: usize,
-}
-
-impl BvhStats {
-    /// Builds `tree`'s BVH if it has none yet (the time is then its build's)
-    /// and describes it.
-    pub fn build(tree: &KdTree) -> BvhStats {
-        let start = std::time::Instant::now();
-        let bvh = tree.bvh();
-        BvhStats {
-            build_ms: elapsed_ms(start),
-            nodes: bvh.nodes.len(),
-            leaf_blocks: bvh.blocks.len(),
-            references: bvh.references(),
-            bytes: bvh.memory_bytes(),
-        }
-    }
-}
-
-/// A kd-tree and, on a GPU, its upload and passes; on the CPU, the BVH of
-/// its triangles once single rays need it.
+/// A scene's `Accel` and, on a GPU, its kd-tree's upload and passes; on
+/// the CPU, the BVH of its triangles once single rays or AO packets walk
+/// it (`Structure::Bvh`).
 pub struct Tracer {
-    tree: KdTree,
-    gpu: OnDevice<GpuTracer>,
     accel: Accel,
+    gpu: OnDevice<GpuTracer>,
+    structure: Structure,
     bvh_stats: Option<BvhStats>,
 }
 
@@ -168,54 +135,50 @@ impl Tracer {
             })
         })?;
         Ok(Tracer {
-            tree,
+            accel: Accel::new(tree),
             gpu,
-            accel: Accel::default(),
+            structure: Structure::default(),
             bvh_stats: None,
         })
     }
 
-    /// The structure of single rays on the CPU.
+    /// The structure of single rays and AO packets on the CPU.
     #[must_use]
-    pub fn with_accel(mut self, accel: Accel) -> Tracer {
-        self.accel = accel;
+    pub fn with_structure(mut self, structure: Structure) -> Tracer {
+        self.structure = structure;
         self
     }
 
-    /// The BVH's cost, once it has been built.
+    /// The BVH's cost, once this tracer has built it.
     pub fn bvh_stats(&self) -> Option<&BvhStats> {
         self.bvh_stats.as_ref()
     }
 
-    /// Builds the BVH if single rays on the CPU will walk it (before any
-    /// clock starts: its build is reported apart, as the kd-tree's).
-    fn ready_bvh(&mut self) -> Option<&Bvh8> {
-        if self.accel != Accel::Bvh || self.gpu.state().is_some() {
+    /// The structure rays walk on the CPU, the BVH built first if that is
+    /// it (before any clock starts: its build is reported apart, as the
+    /// kd-tree's); `None` on a GPU.
+    fn ready_structure(&mut self) -> Option<Structure> {
+        if self.gpu.state().is_some() {
             return None;
         }
-        if !self.tree.has_bvh() {
-            self.bvh_stats = Some(BvhStats::build(&self.tree));
+        if self.structure == Structure::Bvh && !self.accel.has_bvh() {
+            self.bvh_stats = Some(self.accel.bvh_stats());
         }
-        Some(self.tree.bvh())
+        Some(self.structure)
     }
 
     /// Whether a segment from `origin` along `dir` hits anything at `0 < t
     /// < t_max`, on the CPU (shadow rays of single-ray images), as a
     /// function threads can share.
     pub fn any_hit_fn(&mut self) -> impl Fn(glam::Vec3, glam::Vec3, f32) -> bool + Sync + '_ {
-        let bvh = self.ready_bvh().is_some();
-        let tree = &self.tree;
-        move |o, d, t_max| {
-            if bvh {
-                tree.bvh_any_hit(o, d, t_max)
-            } else {
-                tree.any_hit(o, d, t_max)
-            }
-        }
+        let structure = self.ready_structure().unwrap_or(Structure::Kdtree);
+        let accel = &self.accel;
+        move |o, d, t_max| accel.any_hit(structure, o, d, t_max)
     }
 
-    pub fn tree(&self) -> &KdTree {
-        &self.tree
+    /// The scene's kd-tree and BVH.
+    pub fn accel(&self) -> &Accel {
+        &self.accel
     }
 
     /// The tree on the GPU, if the device is one.
@@ -225,23 +188,20 @@ impl Tracer {
 
     /// Closest hits of `rays` (directions need not be normalised; t in their units).
     pub fn closest(&mut self, rays: &[Ray]) -> Result<Timed<Vec<Hit>>> {
-        self.closest_by(rays, KdTree::trace_closest)
+        self.closest_by(rays, Accel::trace_closest)
     }
 
     /// `closest` for rays in no particular order (a ray file): on the CPU
-    /// the kd-tree traces them in an order sorted by where they enter it
-    /// (`KdTree::trace_closest_incoherent`); the BVH, whose nodes stay in
-    /// cache, gains nothing from the sort (measured: 2.93 sorted against
-    /// 3.01 Mrays/s on 1M random bunny rays) and takes them as they come.
+    /// `Accel::trace_closest_incoherent`.
     pub fn closest_incoherent(&mut self, rays: &[Ray]) -> Result<Timed<Vec<Hit>>> {
-        self.closest_by(rays, KdTree::trace_closest_incoherent)
+        self.closest_by(rays, Accel::trace_closest_incoherent)
     }
 
-    /// Closest hits on the GPU, on the CPU through the BVH, or else by
-    /// the kd-tree's `cpu`.
-    fn closest_by(&mut self, rays: &[Ray], cpu: fn(&KdTree, &[Ray]) -> Vec<Hit>) -> Result<Timed<Vec<Hit>>> {
-        let bvh = self.ready_bvh().is_some();
-        let tree = &self.tree;
+    /// Closest hits on the GPU, or on the CPU by `cpu` walking the
+    /// tracer's structure.
+    fn closest_by(&mut self, rays: &[Ray], cpu: fn(&Accel, Structure, &[Ray]) -> Vec<Hit>) -> Result<Timed<Vec<Hit>>> {
+        let structure = self.ready_structure().unwrap_or(Structure::Kdtree);
+        let accel = &self.accel;
         self.gpu.run(
             |ctx, g| {
                 let traced = g.trace(ctx, rays, TraceMode::Closest)?;
@@ -250,20 +210,14 @@ impl Tracer {
                     gpu_ms: traced.gpu_ms,
                 })
             },
-            || {
-                Ok(if bvh {
-                    tree.bvh_trace_closest(rays)
-                } else {
-                    cpu(tree, rays)
-                })
-            },
+            || Ok(cpu(accel, structure, rays)),
         )
     }
 
     /// Traversal steps and intersection tests of the closest hits of
     /// `rays`, summed (the kernel's counters on a GPU; not timed).
     pub fn traversal_counts(&mut self, rays: &[Ray]) -> Result<TraversalCounts> {
-        let tree = &self.tree;
+        let tree = self.accel.kdtree();
         let counted = self.gpu.run(
             |ctx, g| {
                 let traced = g.trace(ctx, rays, TraceMode::ClosestCounted)?;
@@ -290,8 +244,8 @@ impl Tracer {
         progress: &Bar,
     ) -> Result<Timed<VisibilityMasks>> {
         settings.validate()?;
-        let bvh = self.ready_bvh().is_some();
-        let tree = &self.tree;
+        let structure = self.ready_structure().unwrap_or(Structure::Kdtree);
+        let accel = &self.accel;
         self.gpu.run(
             |ctx, g| {
                 let batches = g.ao.get_or_insert_with(|| AoRaysBatches::new(ctx));
@@ -300,12 +254,8 @@ impl Tracer {
                 Ok(GpuOutput { value: masks, gpu_ms })
             },
             || {
-                let casting = if bvh {
-                    Casting::BvhPackets(Isa::best())
-                } else {
-                    Casting::Packets(Isa::best())
-                };
-                Ok(ao_rays_by(tree, points, settings, progress, casting))
+                let casting = Casting::Packets(structure, Isa::best());
+                Ok(ao_rays_by(accel, points, settings, progress, casting))
             },
         )
     }

@@ -10,6 +10,7 @@ use super::gbuffer::{GBuffer, ScreenView, gbuffer_with, scene_albedos, validate_
 use super::gpu::{GBufferSource, run_frame};
 use super::truth::{Estimate, raytraced, screen_reference};
 use super::{Estimator, Measure, ShadeSettings, SsaoFrame, SsaoSettings, Timings, rmse, run_cpu};
+use crate::accel::Accel;
 use crate::accel::kdtree::KdTreeParams;
 use crate::error::{Error, Result};
 use crate::gpu::device::{Device, GpuOutput, Timing, elapsed_ms};
@@ -132,9 +133,9 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: &Reporte
     // The whole scene's tree serves the CPU G-buffer and a truth whose
     // casters are the whole scene; built on first need.
     let tree = OnceCell::new();
-    let whole_tree = || -> Result<&crate::accel::kdtree::KdTree> {
+    let whole_tree = || -> Result<&Accel> {
         if tree.get().is_none() {
-            let _ = tree.set(build_tree(&mesh, &KdTreeParams::for_cpu(), bars, "ssao")?);
+            let _ = tree.set(Accel::new(build_tree(&mesh, &KdTreeParams::for_cpu(), bars, "ssao")?));
         }
         Ok(tree.get().expect("set above"))
     };
@@ -160,7 +161,7 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: &Reporte
             let tree = whole_tree()?;
             let once = || {
                 let start = std::time::Instant::now();
-                let gb = gbuffer_with(tree, &mesh, &albedos, &camera, &scene.lights, (w, h));
+                let gb = gbuffer_with(tree.kdtree(), &mesh, &albedos, &camera, &scene.lights, (w, h));
                 let gbuffer_ms = elapsed_ms(start);
                 let mut frame = run_cpu(&gb, &view, settings, shade)?;
                 frame.timings.gbuffer_ms = gbuffer_ms;
@@ -179,7 +180,7 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: &Reporte
         } else if occluders.triangles.is_empty() {
             return Err(Error::param("scene", "no instance is a caster: nothing occludes"));
         } else {
-            caster_tree = build_tree(&occluders, &KdTreeParams::for_cpu(), bars, "casters")?;
+            caster_tree = Accel::new(build_tree(&occluders, &KdTreeParams::for_cpu(), bars, "casters")?);
             &caster_tree
         };
         let (measure, radius) = (settings.measure, settings.radius);
@@ -196,7 +197,7 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: &Reporte
         screen_reference(&gb, &view, settings, request.reference_spp, &progress)
     });
     let mut report = SsaoReport::new(request, &camera, &gb, &frame, &truth, &reference);
-    report.build_ms = tree.get().map_or(0.0, |t| t.stats.build_ms);
+    report.build_ms = tree.get().map_or(0.0, |t| t.kdtree().stats.build_ms);
     report.runs = Some(RunTimes::of("frame_ms", request.runs.warmup, runs_ms));
     report.skipped = skipped(request, tree.get().is_none());
     Ok(SsaoRun {

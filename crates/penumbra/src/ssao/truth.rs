@@ -26,7 +26,7 @@ use rayon::prelude::*;
 use super::estimators::{occluded, shaded_point};
 use super::gbuffer::{GBuffer, ScreenView, world_point};
 use super::{Measure, SsaoSettings};
-use crate::accel::kdtree::KdTree;
+use crate::accel::{Accel, Structure};
 use crate::geom::sampling::{Frame, SampleSequence, cosine_hemisphere};
 use crate::gpu::device::elapsed_ms;
 use crate::scene::{Camera, ORIGIN_OFFSET};
@@ -92,11 +92,11 @@ fn halves(
 }
 
 /// World-space ray-traced AO at the G-buffer's points with `rays` rays per
-/// pixel. `tree` holds every occluder of the scene; origins are offset by
+/// pixel. `accel` holds every occluder of the scene; origins are offset by
 /// 1e-4 of the scene diagonal along the normal, as for `ao`.
 #[allow(clippy::too_many_arguments)]
 pub fn raytraced(
-    tree: &KdTree,
+    accel: &Accel,
     camera: &Camera,
     view: &ScreenView,
     gb: &GBuffer,
@@ -105,7 +105,7 @@ pub fn raytraced(
     (rays, seed): (u32, u32),
     progress: &Bar,
 ) -> Estimate {
-    let traced = Traced::new(tree, camera, view, gb, measure, radius);
+    let traced = Traced::new(accel, camera, view, gb, measure, radius);
     halves(gb, (rays, seed), progress, |x, y, seq, n| traced.at(x, y, seq, n))
 }
 
@@ -114,7 +114,7 @@ pub fn raytraced(
 /// sample `ssao --max-error` estimates the full error from).
 #[allow(clippy::too_many_arguments)]
 pub fn raytraced_at(
-    tree: &KdTree,
+    accel: &Accel,
     camera: &Camera,
     view: &ScreenView,
     gb: &GBuffer,
@@ -124,7 +124,7 @@ pub fn raytraced_at(
     seed: u32,
     pixels: &[u32],
 ) -> Vec<f32> {
-    let traced = Traced::new(tree, camera, view, gb, measure, radius);
+    let traced = Traced::new(accel, camera, view, gb, measure, radius);
     let (half, seqs) = halves_of(rays, seed);
     let w = gb.width;
     pixels
@@ -141,7 +141,7 @@ pub fn raytraced_at(
 
 /// Ray-traced AO at one G-buffer point.
 struct Traced<'a> {
-    tree: &'a KdTree,
+    accel: &'a Accel,
     camera: &'a Camera,
     sc: super::gbuffer::ScreenConstants,
     gb: &'a GBuffer,
@@ -152,7 +152,7 @@ struct Traced<'a> {
 
 impl<'a> Traced<'a> {
     fn new(
-        tree: &'a KdTree,
+        accel: &'a Accel,
         camera: &'a Camera,
         view: &ScreenView,
         gb: &'a GBuffer,
@@ -160,13 +160,13 @@ impl<'a> Traced<'a> {
         radius: f32,
     ) -> Self {
         Traced {
-            tree,
+            accel,
             camera,
             sc: view.constants(),
             gb,
             measure,
             radius,
-            offset: ORIGIN_OFFSET * tree.bounds.diagonal(),
+            offset: ORIGIN_OFFSET * accel.kdtree().bounds.diagonal(),
         }
     }
 
@@ -184,7 +184,7 @@ impl<'a> Traced<'a> {
             let [u, v] = stream.sample(j);
             let d = frame.to_world(cosine_hemisphere(u, v));
             // Through the wide BVH: the kd-tree's hit, twice as fast.
-            let hit = self.tree.bvh_closest_hit(origin, d, self.radius);
+            let hit = self.accel.closest_hit(Structure::Bvh, origin, d, self.radius);
             let dist = if hit.is_hit() { hit.t } else { f32::INFINITY };
             sum += self.measure.mu(dist, self.radius) as f64;
         }

@@ -21,6 +21,7 @@ use super::gpu::{GBufferSource, run_frame};
 use super::runner::{SsaoRequest, run};
 use super::truth::{Estimate, raytraced_at};
 use super::{Estimator, Measure, MeasureKind, Resolution, SsaoSettings, rmse, run_cpu};
+use crate::accel::Accel;
 use crate::accel::kdtree::KdTreeParams;
 use crate::error::{Error, Result};
 use crate::geom::sampling::hash_u32;
@@ -351,14 +352,14 @@ impl Budgeted for SsaoBudget<'_> {
         let camera = scene.camera_in(&self.request.view.camera, &mesh.bounds())?;
         let (w, h) = (self.request.view.width, self.request.view.height);
         let view = ScreenView::new(&camera, w, h);
-        let tree = build_tree(&mesh, &KdTreeParams::for_cpu(), bars, "ssao")?;
-        let gb = gbuffer(&tree, &mesh, &camera, &scene.lights, w, h);
+        let tree = Accel::new(build_tree(&mesh, &KdTreeParams::for_cpu(), bars, "ssao")?);
+        let gb = gbuffer(tree.kdtree(), &mesh, &camera, &scene.lights, w, h);
         // The truth: only casters occlude, as in the full run.
         let occluders = scene.occluders();
         let caster_tree = if occluders.triangles.len() == mesh.triangles.len() {
             None
         } else {
-            Some(build_tree(&occluders, &KdTreeParams::for_cpu(), bars, "casters")?)
+            Some(Accel::new(build_tree(&occluders, &KdTreeParams::for_cpu(), bars, "casters")?))
         };
         let pixels = sample_pixels(&gb, SAMPLE_PIXELS, base.seed);
         if pixels.is_empty() {

@@ -24,11 +24,11 @@
 //! at a contact (`Bvh8::contact`) is the kd-tree's answer. Any-hit packets
 //! of rays sharing an origin (AO) are `occlusion`, closest-hit packets
 //! `packet`. The BVH is built on first
-//! use and kept in the tree (`KdTree::bvh`); `KdTree::bvh_closest_hit`,
-//! `bvh_any_hit` and `bvh_trace_closest` walk it.
+//! use and kept beside the kd-tree in `Accel` (`Accel::bvh`), whose
+//! single-ray queries walk it with `Structure::Bvh`.
 
 mod build;
-pub mod occlusion;
+pub(crate) mod occlusion;
 pub mod packet;
 mod spatial;
 #[cfg(test)]
@@ -77,7 +77,7 @@ impl Node8 {
     };
 }
 
-/// Knobs of the BVH's build (`Bvh8::build`, `KdTree::bvh_with`). `Default`
+/// Knobs of the BVH's build (`Bvh8::build`, `Accel::bvh_with`). `Default`
 /// gives the settings docs/results' numbers were measured with.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BvhParams {
@@ -195,39 +195,36 @@ impl Bvh8 {
     pub(crate) fn trace_into<const ANY: bool>(&self, tree: &KdTree, rays: &[Ray], t_max: f32, hits: &mut [Hit]) {
         traverse::dispatch::<ANY>(self, tree, rays, t_max, hits);
     }
-}
 
-impl KdTree {
-    /// `closest_hit` through the wide BVH (`bvh`): the same hit, ties to
-    /// the smaller triangle index.
-    pub fn bvh_closest_hit(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Hit {
+    /// The closest hit of one ray with `0 < t < t_max` (ties to the
+    /// smaller triangle index); `tree` as in `trace_into`.
+    pub(crate) fn closest_hit(&self, tree: &KdTree, origin: Vec3, dir: Vec3, t_max: f32) -> Hit {
         let mut hit = [Hit::MISS];
-        self.bvh()
-            .trace_into::<false>(self, &[Ray::new(origin, dir)], t_max, &mut hit);
+        self.trace_into::<false>(tree, &[Ray::new(origin, dir)], t_max, &mut hit);
         hit[0]
     }
 
-    /// `any_hit` through the wide BVH.
-    pub fn bvh_any_hit(&self, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
+    /// Whether one ray hits anything with `0 < t < t_max`; `tree` as in
+    /// `trace_into`.
+    pub(crate) fn any_hit(&self, tree: &KdTree, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
         let mut hit = [Hit::MISS];
-        self.bvh()
-            .trace_into::<true>(self, &[Ray::new(origin, dir)], t_max, &mut hit);
+        self.trace_into::<true>(tree, &[Ray::new(origin, dir)], t_max, &mut hit);
         hit[0].is_hit()
     }
 
-    /// Closest hits of a batch of rays into `hits` (same length) through the
-    /// wide BVH, on the calling thread.
-    pub fn bvh_closest_hits(&self, rays: &[Ray], hits: &mut [Hit]) {
-        self.bvh().trace_into::<false>(self, rays, f32::INFINITY, hits);
+    /// Closest hits of a batch of rays into `hits` (same length), on the
+    /// calling thread; `tree` as in `trace_into`.
+    pub(crate) fn closest_hits(&self, tree: &KdTree, rays: &[Ray], hits: &mut [Hit]) {
+        self.trace_into::<false>(tree, rays, f32::INFINITY, hits);
     }
 
-    /// `trace_closest` through the wide BVH, in parallel, the rays in their
-    /// order (the BVH's nodes stay in cache: sorting them gains nothing).
-    pub fn bvh_trace_closest(&self, rays: &[Ray]) -> Vec<Hit> {
+    /// `closest_hits` in parallel, the rays in their order (the BVH's
+    /// nodes stay in cache: sorting them gains nothing).
+    pub(crate) fn trace_closest(&self, tree: &KdTree, rays: &[Ray]) -> Vec<Hit> {
         let mut hits = vec![Hit::MISS; rays.len()];
         hits.par_chunks_mut(1024)
             .zip(rays.par_chunks(1024))
-            .for_each(|(h, r)| self.bvh_closest_hits(r, h));
+            .for_each(|(h, r)| self.closest_hits(tree, r, h));
         hits
     }
 }

@@ -13,6 +13,8 @@
 //! depend on the order its candidates are tested in, and no box is missed
 //! that holds a hit (the single-ray walk's slack and padding), so each
 //! lane's answer is its single ray's (`KdTree::any_hit`), bit for bit.
+//! `Accel::occluded` and `Accel::occluded_in` with `Structure::Bvh` walk
+//! these packets.
 
 use std::mem::MaybeUninit;
 
@@ -23,31 +25,58 @@ use super::{Bvh8, EMPTY_CHILD, LEAF_BIT, SLACK, WIDTH};
 use crate::accel::kdtree::KdTree;
 use crate::accel::kdtree::leaf_blocks::LeafBlock;
 use crate::accel::kdtree::occlusion::{LANES, Rays, common_axes};
-use crate::geom::simd::{Lanes, Mask};
+use crate::geom::simd::{Isa, Kernel, Lanes, Mask, dispatch};
 
 /// Stack entries: as the single-ray walk's, at most seven per level.
 const STACK_SIZE: usize = 1024;
 const STACK_MASK: usize = STACK_SIZE - 1;
 
+/// `occluded_in` dispatched to `isa` (one this CPU lacks is replaced by
+/// the best it has), as one kernel of its own (see `Accel::occluded`).
+pub(crate) fn occluded(bvh: &Bvh8, tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32, isa: Isa) -> u16 {
+    struct One<'a> {
+        bvh: &'a Bvh8,
+        tree: &'a KdTree,
+        origin: Vec3,
+        dirs: &'a [Vec3],
+        t_max: f32,
+    }
+    impl Kernel for One<'_> {
+        type Out = u16;
+        #[inline(always)]
+        fn run<V: Lanes>(self) -> u16 {
+            occluded_in::<V>(self.bvh, self.tree, self.origin, self.dirs, self.t_max)
+        }
+    }
+    dispatch(
+        isa,
+        One {
+            bvh,
+            tree,
+            origin,
+            dirs,
+            t_max,
+        },
+    )
+}
+
 /// Which of the rays `dirs` (at most 16) from `origin` hit a triangle with
 /// `0 < t < t_max` (bit r for `dirs[r]`, equal to `KdTree::any_hit` ray for
-/// ray), in lanes `V`: `kdtree::occlusion::occluded_by` with `Walk::Bvh`
-/// dispatches it. A lane whose hit is a contact (`Bvh8::contact`) gets the
-/// kd-tree's answer.
+/// ray), in lanes `V`. `tree` is the kd-tree `bvh` was built from: a lane
+/// whose hit is a contact (`Bvh8::contact`) gets its answer.
 #[inline(always)]
-pub fn occluded_in<V: Lanes>(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32) -> u16 {
+pub(crate) fn occluded_in<V: Lanes>(bvh: &Bvh8, tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32) -> u16 {
     assert!(dirs.len() <= LANES, "at most {LANES} rays per packet");
     if dirs.is_empty() {
         return 0;
     }
-    let bvh = tree.bvh();
     match Rays::<V>::new(&bvh.bounds, bvh.frame_scale, origin, dirs, t_max) {
         Some(rays) if rays.live == 0 => 0,
         Some(rays) => traverse(bvh, tree, &rays, dirs),
         // A zero direction component: its slabs need the NaN rules of the
         // single-ray walk, which takes such packets ray by ray.
         None => dirs.iter().enumerate().fold(0, |bits, (r, &d)| {
-            bits | (tree.bvh_any_hit(origin, d, t_max) as u16) << r
+            bits | (bvh.any_hit(tree, origin, d, t_max) as u16) << r
         }),
     }
 }

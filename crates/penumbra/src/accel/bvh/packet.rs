@@ -13,7 +13,8 @@
 //! (`kdtree::occlusion::Shear`), and a lane keeps a triangle under the
 //! single ray's rule: a smaller t, or the same t and a smaller index.
 //!
-//! Each lane's answer is its single ray's (`KdTree::bvh_closest_hit`), bit
+//! Each lane's answer is its single ray's (`Accel::closest_hit` with
+//! `Structure::Bvh`), bit
 //! for bit: the box test is the single ray's arithmetic with the same
 //! slack, a lane enters every box its single ray enters (its best is never
 //! below the single ray's final hit, which lies in all of them), and the
@@ -65,10 +66,13 @@ impl std::ops::AddAssign for PacketCounts {
 }
 
 /// The closest hits with `0 < t < t_max` of the rays `dirs` (at most 16)
-/// from `origin`, in lanes `V`: `hits[r]` for `dirs[r]`, equal to
-/// `tree.bvh_closest_hit(origin, dirs[r], t_max)`.
+/// from `origin`, in lanes `V`: `hits[r]` for `dirs[r]`, equal to the
+/// single ray's closest hit through `bvh` (`Accel::closest_hit` with
+/// `Structure::Bvh`). `tree` is the kd-tree `bvh` was built from: a hit
+/// at a contact (`Bvh8::contact`) is its answer.
 #[inline(always)]
 pub fn closest_in<V: Lanes>(
+    bvh: &Bvh8,
     tree: &KdTree,
     origin: Vec3,
     dirs: &[Vec3],
@@ -84,7 +88,7 @@ pub fn closest_in<V: Lanes>(
         columns.push(d.to_array());
     }
     columns.repeat_last();
-    closest_columns::<V>(tree, origin, &columns, t_max, counts)
+    closest_columns::<V>(bvh, tree, origin, &columns, t_max, counts)
 }
 
 /// Up to 16 directions as three columns (component a of ray r at
@@ -140,6 +144,7 @@ impl Columns {
 /// `closest_in` for directions already in columns (`n >= 1`).
 #[inline(always)]
 fn closest_columns<V: Lanes>(
+    bvh: &Bvh8,
     tree: &KdTree,
     origin: Vec3,
     columns: &Columns,
@@ -149,7 +154,6 @@ fn closest_columns<V: Lanes>(
     let mut hits = [Hit::MISS; LANES];
     let n = columns.n;
     counts.packets += 1;
-    let bvh = tree.bvh();
     let d = columns.lanes::<V>();
     let zero = V::splat(0.0);
     // Written out, not a closure (see `kdtree::occlusion`'s helpers).
@@ -161,7 +165,7 @@ fn closest_columns<V: Lanes>(
         // single-ray walk, which takes such packets ray by ray (as it takes
         // NaN directions).
         for (r, h) in hits[..n].iter_mut().enumerate() {
-            *h = tree.bvh_closest_hit(origin, columns.dir(r), t_max);
+            *h = bvh.closest_hit(tree, origin, columns.dir(r), t_max);
         }
         counts.single_rays += n as u64;
         return hits;
@@ -494,8 +498,9 @@ impl Frustum {
 
 /// `closest_in` dispatched to `isa` (one this CPU lacks is replaced by the
 /// best it has).
-pub fn closest(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32, isa: Isa) -> [Hit; LANES] {
+pub fn closest(bvh: &Bvh8, tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32, isa: Isa) -> [Hit; LANES] {
     struct One<'a> {
+        bvh: &'a Bvh8,
         tree: &'a KdTree,
         origin: Vec3,
         dirs: &'a [Vec3],
@@ -506,6 +511,7 @@ pub fn closest(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32, isa: Isa)
         #[inline(always)]
         fn run<V: Lanes>(self) -> [Hit; LANES] {
             closest_in::<V>(
+                self.bvh,
                 self.tree,
                 self.origin,
                 self.dirs,
@@ -517,6 +523,7 @@ pub fn closest(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32, isa: Isa)
     dispatch(
         isa,
         One {
+            bvh,
             tree,
             origin,
             dirs,
@@ -528,11 +535,18 @@ pub fn closest(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32, isa: Isa)
 /// Closest hits of a `width x height` image of rays (row-major) as 4x4
 /// packets, rows of packets in parallel on the current rayon pool. A
 /// block whose rays do not share one origin is traced ray by ray, so any
-/// image of rays is valid; a camera's blocks all go as packets.
-pub fn trace_image(tree: &KdTree, rays: &[Ray], width: u32, height: u32, isa: Isa) -> (Vec<Hit>, PacketCounts) {
+/// image of rays is valid; a camera's blocks all go as packets. `tree` is
+/// the kd-tree `bvh` was built from (`closest_in`).
+pub fn trace_image(
+    bvh: &Bvh8,
+    tree: &KdTree,
+    rays: &[Ray],
+    width: u32,
+    height: u32,
+    isa: Isa,
+) -> (Vec<Hit>, PacketCounts) {
     let (w, h) = (width as usize, height as usize);
     assert_eq!(rays.len(), w * h, "a width x height image of rays");
-    tree.bvh();
     let mut hits = vec![Hit::MISS; rays.len()];
     if w == 0 {
         return (hits, PacketCounts::default());
@@ -544,6 +558,7 @@ pub fn trace_image(tree: &KdTree, rays: &[Ray], width: u32, height: u32, isa: Is
             dispatch(
                 isa,
                 Band {
+                    bvh,
                     tree,
                     band,
                     out,
@@ -560,6 +575,7 @@ pub fn trace_image(tree: &KdTree, rays: &[Ray], width: u32, height: u32, isa: Is
 
 /// Up to four rows of the image: its 4x4 blocks, left to right.
 struct Band<'a> {
+    bvh: &'a Bvh8,
     tree: &'a KdTree,
     band: &'a [Ray],
     out: &'a mut [Hit],
@@ -570,7 +586,13 @@ impl Kernel for Band<'_> {
     type Out = PacketCounts;
     #[inline(always)]
     fn run<V: Lanes>(self) -> PacketCounts {
-        let Band { tree, band, out, width } = self;
+        let Band {
+            bvh,
+            tree,
+            band,
+            out,
+            width,
+        } = self;
         let rows = band.len() / width;
         let mut counts = PacketCounts::default();
         for x0 in (0..width).step_by(4) {
@@ -595,14 +617,14 @@ impl Kernel for Band<'_> {
             if differ == 0 && !origin.iter().any(|x| x.is_nan()) {
                 columns.repeat_last();
                 let origin = Vec3::from_array(origin);
-                let hits = closest_columns::<V>(tree, origin, &columns, f32::INFINITY, &mut counts);
+                let hits = closest_columns::<V>(bvh, tree, origin, &columns, f32::INFINITY, &mut counts);
                 for (y, hits) in (0..rows).zip(hits.chunks(x1 - x0)) {
                     out[row(y)].copy_from_slice(hits);
                 }
             } else {
                 for y in 0..rows {
                     for (h, ray) in out[row(y)].iter_mut().zip(&band[row(y)]) {
-                        *h = tree.bvh_closest_hit(ray.o(), ray.d(), f32::INFINITY);
+                        *h = bvh.closest_hit(tree, ray.o(), ray.d(), f32::INFINITY);
                     }
                 }
                 counts.single_rays += columns.n as u64;
@@ -623,7 +645,10 @@ fn block_pixels(x0: usize, rows: usize, width: usize) -> impl Iterator<Item = us
 /// `light`: per 4x4 block, the segments from the light to its hits (ending
 /// `1 - shadow_epsilon` along them) as one any-hit packet through the BVH
 /// (`occlusion`), which answers as `tree.any_hit` would ray by ray.
+/// `tree` is the kd-tree `bvh` was built from (`closest_in`).
+#[allow(clippy::too_many_arguments)]
 pub fn shadows(
+    bvh: &Bvh8,
     tree: &KdTree,
     rays: &[Ray],
     hits: &[Hit],
@@ -632,7 +657,6 @@ pub fn shadows(
     shadow_epsilon: f32,
     isa: Isa,
 ) -> Vec<bool> {
-    use crate::accel::kdtree::occlusion::{Walk, occluded_by};
     let w = width as usize;
     let mut shadowed = vec![false; hits.len()];
     shadowed
@@ -645,7 +669,7 @@ pub fn shadows(
                     (to[m], at[m]) = (rays[i].o() + hits[i].t * rays[i].d() - light, i);
                     m += 1;
                 }
-                let blocked = occluded_by(tree, Walk::Bvh, light, &to[..m], 1.0 - shadow_epsilon, isa);
+                let blocked = super::occlusion::occluded(bvh, tree, light, &to[..m], 1.0 - shadow_epsilon, isa);
                 for (j, &i) in at[..m].iter().enumerate() {
                     out[i] = blocked & (1 << j) != 0;
                 }

@@ -10,6 +10,7 @@ use super::*;
 use crate::accel::kdtree::test_rng::{Rng, brute_force, random_soup};
 use crate::accel::kdtree::watertight::ShearedRay;
 use crate::accel::kdtree::{KdTree, KdTreeParams};
+use crate::accel::{Accel, Structure};
 
 /// Rays from outside and inside, aimed at vertices, edge midpoints and
 /// anywhere, some axis-parallel (zero direction components).
@@ -39,19 +40,23 @@ fn rays_for(rng: &mut Rng, tris: &[[Vec3; 3]], n: usize, reach: f32) -> Vec<(Vec
 /// included; any-hit agrees. Returns (hits, rays whose closest t two
 /// triangles share).
 fn assert_brute_force(tris: &[[Vec3; 3]], rays: &[(Vec3, Vec3, f32)]) -> (usize, usize) {
-    let tree = KdTree::from_triangles(tris.to_vec(), &KdTreeParams::default()).unwrap();
-    let bvh = tree.bvh();
+    let accel = Accel::new(KdTree::from_triangles(tris.to_vec(), &KdTreeParams::default()).unwrap());
+    let bvh = accel.bvh();
     assert!(bvh.depth() <= 81, "depth {}", bvh.depth());
     let (mut hits, mut ties) = (0, 0);
     for (k, &(o, d, t_max)) in rays.iter().enumerate() {
         let expect = brute_force(tris, bvh.frame_scale, o, d, t_max);
-        let got = tree.bvh_closest_hit(o, d, t_max);
+        let got = accel.closest_hit(Structure::Bvh, o, d, t_max);
         assert_eq!(
             (got.t.to_bits(), got.triangle),
             (expect.t.to_bits(), expect.triangle),
             "ray {k}: {o} {d} t_max {t_max}"
         );
-        assert_eq!(tree.bvh_any_hit(o, d, t_max), expect.is_hit(), "any-hit, ray {k}");
+        assert_eq!(
+            accel.any_hit(Structure::Bvh, o, d, t_max),
+            expect.is_hit(),
+            "any-hit, ray {k}"
+        );
         if expect.is_hit() {
             hits += 1;
             let ray = ShearedRay::in_frame(o, d, bvh.frame_scale);
@@ -224,14 +229,14 @@ fn structure() {
         ("soup", random_soup(&mut rng, 5000, 0.05)),
         ("slivers", slivers(&mut rng, 3000)),
     ] {
-        let tree = KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap();
+        let accel = Accel::new(KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap());
         for budget in [0.0, 0.3, 2.0] {
             let params = BvhParams {
                 spatial_split_budget: budget,
                 spatial_alpha: 0.0,
                 spatial_min_span: 0.0,
             };
-            let bvh = Bvh8::build(&tree, &params);
+            let bvh = Bvh8::build(accel.kdtree(), &params);
             let mut held: Vec<Vec<(Vec3, Vec3)>> = vec![Vec::new(); tris.len()];
             for (lo, hi, ids) in leaves(&bvh) {
                 for t in ids {
@@ -284,21 +289,21 @@ fn assert_lanes_equal(got: &[Hit], expect: &[Hit], what: &str) {
     }
 }
 
-/// `KdTree::bvh_with` builds with its knobs once; `bvh` then returns that
+/// `Accel::bvh_with` builds with its knobs once; `bvh` then returns that
 /// BVH, and a later `bvh_with` does not rebuild.
 #[test]
 fn bvh_with_builds_once() {
     let mut rng = Rng(5);
     let tris = slivers(&mut rng, 600);
-    let tree = KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap();
+    let accel = Accel::new(KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap());
     let off = BvhParams {
         spatial_split_budget: 0.0,
         ..BvhParams::default()
     };
-    assert_eq!(tree.bvh_with(&off).references(), tris.len());
-    assert_eq!(tree.bvh().references(), tris.len());
-    assert_eq!(tree.bvh_with(&BvhParams::default()).references(), tris.len());
-    let fresh = KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap();
+    assert_eq!(accel.bvh_with(&off).references(), tris.len());
+    assert_eq!(accel.bvh().references(), tris.len());
+    assert_eq!(accel.bvh_with(&BvhParams::default()).references(), tris.len());
+    let fresh = Accel::new(KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap());
     assert!(fresh.bvh().references() > tris.len(), "the default splits slivers");
 }
 
@@ -310,16 +315,15 @@ fn bvh_with_builds_once() {
 fn spatial_splits_keep_every_hit() {
     let mut rng = Rng(77);
     let tris = slivers(&mut rng, 2000);
-    let tree = KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap();
+    let accel = Accel::new(KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap());
     assert!(
-        tree.bvh().references() > tris.len(),
+        accel.bvh().references() > tris.len(),
         "the default build splits these slivers"
     );
     let rays = rays_for(&mut rng, &tris, 6000, 2.0);
     let (hits, _) = assert_brute_force(&tris, &rays);
     assert!(hits > 1000, "{hits} hits");
     // Packets of 16 rays from one origin, aimed at the slivers.
-    use crate::accel::kdtree::occlusion::{Walk, occluded_by};
     let mut counts = [0usize; 2];
     for k in 0..400 {
         let origin = rng.vec(-1.5, 1.5);
@@ -336,17 +340,17 @@ fn spatial_splits_keep_every_hit() {
         };
         let expect: Vec<_> = dirs
             .iter()
-            .map(|&d| brute_force(&tris, tree.frame_scale, origin, d, t_max))
+            .map(|&d| brute_force(&tris, accel.kdtree().frame_scale, origin, d, t_max))
             .collect();
         let mask = expect
             .iter()
             .enumerate()
             .fold(0u16, |m, (r, h)| m | (h.is_hit() as u16) << r);
         for isa in crate::geom::simd::Isa::available() {
-            let got = packet::closest(&tree, origin, &dirs, t_max, isa);
+            let got = packet::closest(accel.bvh(), accel.kdtree(), origin, &dirs, t_max, isa);
             assert_lanes_equal(&got, &expect, &format!("packet {k}, {isa:?}"));
             assert_eq!(
-                occluded_by(&tree, Walk::Bvh, origin, &dirs, t_max, isa),
+                accel.occluded(Structure::Bvh, origin, &dirs, t_max, isa),
                 mask,
                 "packet {k}, {isa:?}"
             );
@@ -492,11 +496,10 @@ fn frustum_box_tests_agree() {
 /// partly filled packets.
 #[test]
 fn packets_equal_single_rays() {
-    use crate::accel::kdtree::occlusion::{Walk, occluded_by};
     use crate::geom::simd::Isa;
     let mut rng = Rng(0x0cc1_0de5);
     let tris = random_soup(&mut rng, 3000, 0.15);
-    let tree = KdTree::from_triangles(tris, &KdTreeParams::default()).unwrap();
+    let accel = Accel::new(KdTree::from_triangles(tris, &KdTreeParams::default()).unwrap());
     let mut counts = [0usize; 2];
     for k in 0..1500 {
         let origin = rng.vec(-1.5, 1.5);
@@ -511,12 +514,11 @@ fn packets_equal_single_rays() {
             })
             .collect();
         let t_max = if k % 3 == 0 { rng.next_f32() } else { f32::INFINITY };
-        let expect = dirs
-            .iter()
-            .enumerate()
-            .fold(0u16, |m, (r, &d)| m | (tree.any_hit(origin, d, t_max) as u16) << r);
+        let expect = dirs.iter().enumerate().fold(0u16, |m, (r, &d)| {
+            m | (accel.kdtree().any_hit(origin, d, t_max) as u16) << r
+        });
         for isa in Isa::available() {
-            let got = occluded_by(&tree, Walk::Bvh, origin, &dirs, t_max, isa);
+            let got = accel.occluded(Structure::Bvh, origin, &dirs, t_max, isa);
             assert_eq!(got, expect, "packet {k}, {isa:?}");
         }
         counts[0] += expect.count_ones() as usize;
@@ -537,7 +539,7 @@ fn closest_packets_equal_single_rays() {
     let mut tris = random_soup(&mut rng, 2000, 0.15);
     // Copies of the first 300 triangles: every hit on them is a tie.
     tris.extend_from_within(..300);
-    let tree = KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap();
+    let accel = Accel::new(KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap());
     let (mut hits, mut ties, mut rays) = (0usize, 0usize, 0usize);
     for k in 0..1500 {
         let origin = rng.vec(-1.5, 1.5);
@@ -561,9 +563,12 @@ fn closest_packets_equal_single_rays() {
         } else {
             f32::INFINITY
         };
-        let expect: Vec<_> = dirs.iter().map(|&d| tree.bvh_closest_hit(origin, d, t_max)).collect();
+        let expect: Vec<_> = dirs
+            .iter()
+            .map(|&d| accel.closest_hit(Structure::Bvh, origin, d, t_max))
+            .collect();
         for isa in Isa::available() {
-            let got = packet::closest(&tree, origin, &dirs, t_max, isa);
+            let got = packet::closest(accel.bvh(), accel.kdtree(), origin, &dirs, t_max, isa);
             assert_lanes_equal(&got, &expect, &format!("packet {k}, {isa:?}"));
             assert!(got[n..].iter().all(|h| !h.is_hit()), "unused lanes stay misses");
         }
@@ -588,7 +593,7 @@ fn packet_images_equal_single_rays() {
     use crate::geom::simd::Isa;
     let mut rng = Rng(41);
     let tris = random_soup(&mut rng, 1500, 0.2);
-    let tree = KdTree::from_triangles(tris, &KdTreeParams::default()).unwrap();
+    let accel = Accel::new(KdTree::from_triangles(tris, &KdTreeParams::default()).unwrap());
     let (w, h) = (37u32, 22u32);
     let eye = Vec3::new(0.3, -0.2, 4.0);
     let mut rays: Vec<Ray> = (0..w * h)
@@ -602,10 +607,10 @@ fn packet_images_equal_single_rays() {
     rays[w as usize + 1] = Ray::new(Vec3::new(0.0, 0.0, -3.0), Vec3::Z);
     let expect: Vec<_> = rays
         .iter()
-        .map(|r| tree.bvh_closest_hit(r.o(), r.d(), f32::INFINITY))
+        .map(|r| accel.closest_hit(Structure::Bvh, r.o(), r.d(), f32::INFINITY))
         .collect();
     for isa in Isa::available() {
-        let (got, counts) = packet::trace_image(&tree, &rays, w, h, isa);
+        let (got, counts) = packet::trace_image(accel.bvh(), accel.kdtree(), &rays, w, h, isa);
         assert_eq!(got, expect, "{isa:?}");
         assert_eq!(counts.single_rays, 16, "{isa:?}: one block ray by ray");
         assert_eq!(counts.packets, 10 * 6 - 1, "{isa:?}");

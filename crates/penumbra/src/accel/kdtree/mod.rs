@@ -13,7 +13,6 @@ pub mod pass;
 mod traverse;
 pub mod watertight;
 
-use std::sync::OnceLock;
 use std::time::Instant;
 
 use glam::Vec3;
@@ -24,7 +23,6 @@ pub use leaf_blocks::LeafBlocks;
 pub use node::{KdNode, MAX_TREE_DEPTH};
 pub use traverse::{Counters, NoCounts, TRAVERSAL_SLACK, TraversalCounts};
 
-use crate::accel::bvh::{Bvh8, BvhParams};
 use crate::error::{Error, Result};
 use crate::geom::aabb::Aabb;
 use crate::geom::ray::{Hit, Ray};
@@ -32,7 +30,8 @@ use crate::gpu::device::elapsed_ms;
 use crate::progress::Bar;
 use crate::scene::Mesh;
 
-/// A kd-tree over a triangle soup.
+/// A kd-tree over a triangle soup. Its walks are the kd-tree's alone;
+/// `accel::Accel` pairs it with the wide BVH of the same triangles.
 ///
 /// `nodes` (8 bytes each, see `node`), `leaf_triangles` (u32 triangle
 /// indices, a leaf's range of them) and `triangles` (three f32x3 vertices,
@@ -47,9 +46,13 @@ use crate::scene::Mesh;
 /// storage-binding limits; both read identical vertex values.
 #[derive(Debug, Clone)]
 pub struct KdTree {
+    /// The nodes, root first (`node`).
     pub nodes: Vec<KdNode>,
+    /// Each leaf's triangle indices, leaf after leaf.
     pub leaf_triangles: Vec<u32>,
+    /// The triangles, in the mesh's order: a hit's index is into this.
     pub triangles: Vec<[Vec3; 3]>,
+    /// `triangles` per leaf reference, times `frame_scale`.
     pub leaf_vertices: Vec<[Vec3; 3]>,
     /// The single-ray traversal's nodes and leaves: `leaf_vertices` in
     /// blocks of four triangles, tested together (`leaf_blocks`).
@@ -59,10 +62,8 @@ pub struct KdTree {
     /// The power of two `leaf_vertices` are multiplied by (the
     /// intersection test's frame, see `watertight::ShearedRay`).
     pub frame_scale: f32,
+    /// What the build made and cost.
     pub stats: BuildStats,
-    /// The wide BVH of the same triangles, built the first time the CPU's
-    /// single rays or AO packets ask for it (`bvh`).
-    bvh: OnceLock<Bvh8>,
 }
 
 impl KdTree {
@@ -143,27 +144,7 @@ impl KdTree {
             bounds,
             frame_scale,
             stats,
-            bvh: OnceLock::new(),
         })
-    }
-
-    /// The wide BVH of the tree's triangles (in its frame: the same hits),
-    /// built on first use: what the CPU's single rays and AO packets walk
-    /// (`bvh`); the GPU never asks for it.
-    pub fn bvh(&self) -> &Bvh8 {
-        self.bvh.get_or_init(|| Bvh8::from_tree(self))
-    }
-
-    /// `bvh`, built with `params` if it is not built yet; a BVH already
-    /// built (by `bvh` or an earlier call) is returned as it is, so a host
-    /// with its own knobs calls this before the first trace.
-    pub fn bvh_with(&self, params: &BvhParams) -> &Bvh8 {
-        self.bvh.get_or_init(|| Bvh8::build(self, params))
-    }
-
-    /// Whether `bvh` has been built.
-    pub fn has_bvh(&self) -> bool {
-        self.bvh.get().is_some()
     }
 
     /// Closest hits of many rays, in parallel on the current rayon pool:

@@ -37,70 +37,32 @@ pub const LANES: usize = 16;
 /// `isa` picks the instruction set (`Isa::best()` normally; one this CPU
 /// lacks is replaced by the best it has).
 pub fn occluded(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32, isa: Isa) -> u16 {
-    occluded_by(tree, Walk::KdTree, origin, dirs, t_max, isa)
-}
-
-/// The structure a packet walks: the kd-tree, or its wide BVH
-/// (`bvh::occlusion`); the answers are the same.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Walk {
-    KdTree,
-    Bvh,
-}
-
-/// `occluded` through `walk`. Each structure's walk is dispatched as a
-/// kernel of its own (`BVH` a const parameter, not a run-time branch): with
-/// both walks in one `#[target_feature]` function it outgrew LLVM's
-/// inlining budget, its intrinsics stayed calls, and the PRT reference's
-/// packets took 4.6 s instead of 3.3.
-pub fn occluded_by(tree: &KdTree, walk: Walk, origin: Vec3, dirs: &[Vec3], t_max: f32, isa: Isa) -> u16 {
-    struct One<'a, const BVH: bool> {
+    struct One<'a> {
         tree: &'a KdTree,
         origin: Vec3,
         dirs: &'a [Vec3],
         t_max: f32,
     }
-    impl<const BVH: bool> Kernel for One<'_, BVH> {
+    impl Kernel for One<'_> {
         type Out = u16;
         #[inline(always)]
         fn run<V: Lanes>(self) -> u16 {
-            packet_in::<V, BVH>(self.tree, self.origin, self.dirs, self.t_max)
+            occluded_in::<V>(self.tree, self.origin, self.dirs, self.t_max)
         }
     }
-    match walk {
-        Walk::KdTree => dispatch(
-            isa,
-            One::<false> {
-                tree,
-                origin,
-                dirs,
-                t_max,
-            },
-        ),
-        Walk::Bvh => dispatch(
-            isa,
-            One::<true> {
-                tree,
-                origin,
-                dirs,
-                t_max,
-            },
-        ),
-    }
-}
-
-/// `occluded_by` in lanes `V`, through the BVH if `BVH`.
-#[inline(always)]
-pub fn packet_in<V: Lanes, const BVH: bool>(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32) -> u16 {
-    if BVH {
-        crate::accel::bvh::occlusion::occluded_in::<V>(tree, origin, dirs, t_max)
-    } else {
-        occluded_in::<V>(tree, origin, dirs, t_max)
-    }
+    dispatch(
+        isa,
+        One {
+            tree,
+            origin,
+            dirs,
+            t_max,
+        },
+    )
 }
 
 /// `occluded` in lanes `V`, for kernels that run many packets in one
-/// instruction set (`ao::packets`).
+/// instruction set (`raycast::packets`, through `Accel::occluded_in`).
 #[inline(always)]
 pub fn occluded_in<V: Lanes>(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: f32) -> u16 {
     assert!(dirs.len() <= LANES, "at most {LANES} rays per packet");

@@ -474,8 +474,10 @@ fn triangles_without_area_are_never_hit() {
     assert!(t.is_some_and(|t| t > 0.3), "{t:?}");
     let tree = KdTree::from_triangles(vec![segment, small], &KdTreeParams::default()).unwrap();
     assert!(!tree.closest_hit(origin, d, f32::INFINITY).is_hit(), "kd-tree");
-    assert!(!tree.bvh_closest_hit(origin, d, f32::INFINITY).is_hit(), "BVH");
     assert!(!tree.any_hit(origin, d, f32::INFINITY), "kd-tree, any hit");
-    assert!(!tree.bvh_any_hit(origin, d, f32::INFINITY), "BVH, any hit");
-    assert_eq!(tree.bvh().references(), 1, "only the triangle with area is in a leaf");
+    let accel = crate::accel::Accel::new(tree);
+    let bvh = crate::accel::Structure::Bvh;
+    assert!(!accel.closest_hit(bvh, origin, d, f32::INFINITY).is_hit(), "BVH");
+    assert!(!accel.any_hit(bvh, origin, d, f32::INFINITY), "BVH, any hit");
+    assert_eq!(accel.bvh().references(), 1, "only the triangle with area is in a leaf");
 }
