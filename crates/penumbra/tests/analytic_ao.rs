@@ -20,7 +20,7 @@ const SEEDS: [u32; 3] = [1, 2, 3];
 fn check(name: &str, mesh: &Mesh, points: &[AoPoint], exact: f64) {
     let mut tracers: Vec<Tracer> = common::devices()
         .iter()
-        .map(|d| Tracer::build(d, mesh, &Reporter::silent(), name).unwrap())
+        .map(|d| Tracer::new(d, mesh).unwrap())
         .collect();
     let mut worst_z = 0.0f64;
     for seed in SEEDS {

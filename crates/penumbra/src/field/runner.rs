@@ -354,7 +354,7 @@ impl<'s> FieldAo<'s> {
     fn image(&mut self, frame: u32, view: &crate::scene::View, settings: &AoSettings) -> Result<PixelAo> {
         let scene = self.scene;
         let everything = scene.world_mesh_at(frame, |_| true);
-        let mut tracer = Tracer::build(&Device::cpu(), &everything, &&self.bars, "all instances")?;
+        let mut tracer = Tracer::build_labelled(&Device::cpu(), &everything, &self.bars, "all instances")?;
         let seen = visible_points(&mut tracer, &everything, scene.camera, view)?;
         // Objects of `everything` are the instances, in order.
         let owners: Vec<u32> = seen
@@ -455,7 +455,7 @@ fn compare_with_raycast(
     lookups: &ErrorInputs,
     bars: &Reporter,
 ) -> Result<FieldReference> {
-    let mut tracer = Tracer::build(device, &casters(scene, frame)?, bars, "casters")?;
+    let mut tracer = Tracer::build_labelled(device, &casters(scene, frame)?, bars, "casters")?;
     let progress = bars.bar(points.len() as u64, "ray-cast reference");
     let truth = tracer.ao_visibility(points, settings, &progress)?;
     progress.finish();
@@ -641,7 +641,7 @@ fn cast_subset(
     if chosen.is_empty() {
         return Ok(());
     }
-    let mut tracer = Tracer::build(&Device::cpu(), mesh, &Reporter::silent(), what)?;
+    let mut tracer = Tracer::build_labelled(&Device::cpu(), mesh, &Reporter::silent(), what)?;
     let subset: Vec<AoPoint> = chosen.iter().map(|&i| points[i]).collect();
     let cast = tracer.ao_visibility(&subset, settings, &Bar::hidden())?.value;
     let words = masks.words_per_point as usize;

@@ -301,7 +301,7 @@ impl Budgeted for FieldBudget<'_> {
         sample.sort_by_key(|&i| hash_u32(i as u32 ^ settings.seed.rotate_left(16)));
         sample.truncate(SAMPLE_VERTICES);
         let sampled: Vec<_> = sample.iter().map(|&i| points[i]).collect();
-        let mut tracer = Tracer::build(&self.device, &casters(self.scene, 0)?, bars, "casters")?;
+        let mut tracer = Tracer::build_labelled(&self.device, &casters(self.scene, 0)?, bars, "casters")?;
         self.truth = tracer
             .ao_visibility(&sampled, settings, &Bar::hidden())?
             .value

@@ -9,10 +9,10 @@ use super::MlrtaParams;
 use super::aa::AaMode;
 use super::runner::{AaRequest, ShadowLight, TraceRequest, TracedImage, trace_view};
 use super::tiles::DEFAULT_MIN_TILE;
+use crate::accel::Structure;
 use crate::error::Result;
 use crate::gpu::device::Device;
 use crate::progress::Reporter;
-use crate::raycast::tracer::Accel;
 use crate::scene::{Camera, Mesh, Scene, View};
 
 /// How a camera's primary rays are traced: the command line's `trace`
@@ -25,9 +25,9 @@ pub struct TraceSettings {
     /// One ray at a time instead of packets.
     pub single_ray: bool,
     /// What rays walk on the CPU: single rays the BVH or the kd-tree;
-    /// packets the kd-tree with MLRTA or, with `Accel::Bvh`, the BVH from
+    /// packets the kd-tree with MLRTA or, with `Structure::Bvh`, the BVH from
     /// its root. The GPU walks the kd-tree.
-    pub accel: Accel,
+    pub accel: Structure,
     /// The packets' entry points and tiles.
     pub mlrta: MlrtaParams,
     /// A point light for one shadow ray per hit.
@@ -40,7 +40,7 @@ impl Default for TraceSettings {
     fn default() -> Self {
         TraceSettings {
             single_ray: false,
-            accel: Accel::Kdtree,
+            accel: Structure::Kdtree,
             mlrta: MlrtaParams {
                 min_tile: DEFAULT_MIN_TILE,
                 corner_frusta: true,

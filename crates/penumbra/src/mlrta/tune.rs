@@ -9,11 +9,11 @@ use super::MlrtaParams;
 use super::aa::AaMode;
 use super::runner::{AaRequest, ShadowLight, TraceRequest, trace_view};
 use super::tiles::{DEFAULT_EP_BUDGET, DEFAULT_MIN_TILE};
+use crate::accel::Structure;
 use crate::error::Result;
 use crate::geom::ray::Hit;
 use crate::gpu::device::Device;
 use crate::progress::Reporter;
-use crate::accel::Structure;
 use crate::scene::{Mesh, View};
 use crate::tune::{Knob, Run, Setting, Sweep, Tunable};
 

@@ -6,7 +6,8 @@ use std::borrow::Cow;
 use super::AoSettings;
 use super::points::{points_without_hemisphere, vertex_points};
 use super::runner::{PixelAo, VertexAo, casters, receivers, visible_points};
-use super::tracer::{BvhStats, Tracer};
+use super::tracer::Tracer;
+use crate::accel::BvhStats;
 use crate::error::Result;
 use crate::gpu::device::Device;
 use crate::progress::Reporter;
@@ -86,7 +87,7 @@ impl<'s> AmbientOcclusion<'s> {
 
     fn casters(&mut self) -> Result<&mut Tracer> {
         if self.casters.is_none() {
-            let tracer = Tracer::build(&self.device, &self.occluders, &self.progress, "casters")?;
+            let tracer = Tracer::build_labelled(&self.device, &self.occluders, &self.progress, "casters")?;
             self.casters = Some(tracer);
         }
         Ok(self.casters.as_mut().expect("built above"))
@@ -116,7 +117,7 @@ impl<'s> AmbientOcclusion<'s> {
         self.prepare()?;
         let everything = self.scene.world_mesh(|_| true);
         if everything.triangles.len() != self.occluders.triangles.len() && self.everything.is_none() {
-            let all = Tracer::build(&self.device, &everything, &self.progress, "all instances")?;
+            let all = Tracer::build_labelled(&self.device, &everything, &self.progress, "all instances")?;
             self.everything = Some(all);
         }
         let primary = match self.everything.as_mut() {
@@ -137,7 +138,7 @@ impl<'s> AmbientOcclusion<'s> {
     /// What building the casters' kd-tree cost, in milliseconds (0 before
     /// it is built).
     pub fn build_ms(&self) -> f64 {
-        self.casters.as_ref().map_or(0.0, |t| t.tree().stats.build_ms)
+        self.casters.as_ref().map_or(0.0, |t| t.accel().kdtree().stats.build_ms)
     }
 
     /// On the CPU, the wide BVH the AO packets walked.

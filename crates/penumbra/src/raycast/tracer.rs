@@ -36,8 +36,9 @@ pub fn tree_params(device: &Device) -> KdTreeParams {
 }
 
 /// Builds the kd-tree of `mesh` with `params` (`tree_params` of the device
-/// that walks it); a spinner names `what` while a large mesh builds.
-pub fn build_tree(mesh: &Mesh, params: &KdTreeParams, bars: &Reporter, what: &str) -> Result<KdTree> {
+/// that walks it); the phase named for `what` (which of a run's meshes)
+/// while a large mesh builds.
+pub(crate) fn build_tree(mesh: &Mesh, params: &KdTreeParams, bars: &Reporter, what: &str) -> Result<KdTree> {
     // A bar of one step per triangle, shown once the build has taken a
     // second (`progress`), advancing leaf by leaf.
     let progress = bars.bar(mesh.triangles.len() as u64, &format!("building kd-tree ({what})"));
@@ -81,7 +82,7 @@ pub fn trace_ray_file(
     runs: &Repeats,
     bars: &Reporter,
 ) -> Result<(Vec<Hit>, TraceRaysReport)> {
-    let mut tracer = Tracer::build(device, mesh, bars, "trace-rays")?.with_structure(structure);
+    let mut tracer = Tracer::build_labelled(device, mesh, bars, "trace-rays")?.with_structure(structure);
     let progress = bars.spinner(&format!("tracing {} rays", rays.len()));
     let (traced, times) = runs.run("trace_ms", || tracer.closest_incoherent(rays), |t| t.ms)?;
     progress.finish();
@@ -119,9 +120,32 @@ pub struct Tracer {
 }
 
 impl Tracer {
-    /// Builds the tree over `mesh` for `device` (`tree_params`) and
-    /// uploads it; `what` names the mesh on a spinner for large meshes.
-    pub fn build(device: &Device, mesh: &Mesh, bars: &Reporter, what: &str) -> Result<Tracer> {
+    /// Closest hits and AO rays of `mesh` on `device`: builds its kd-tree
+    /// (`tree_params` of the device) and, on a GPU, uploads it.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use penumbra::{Device, Tracer};
+    /// use penumbra::geom::ray::Ray;
+    /// use penumbra::scene::procedural::sphere_on_plane;
+    ///
+    /// let mut tracer = Tracer::new(&Device::cpu(), &sphere_on_plane())?;
+    /// let down = Ray::new(Vec3::new(0.0, 10.0, 0.0), Vec3::new(0.0, -1.0, 0.0));
+    /// let hits = tracer.closest(&[down])?;
+    /// assert!(hits.value[0].is_hit());
+    /// # Ok::<(), penumbra::Error>(())
+    /// ```
+    pub fn new(device: &Device, mesh: &Mesh) -> Result<Tracer> {
+        Self::build(device, mesh, &Reporter::silent())
+    }
+
+    /// `new`, following the kd-tree's build with `bars`.
+    pub fn build(device: &Device, mesh: &Mesh, bars: &Reporter) -> Result<Tracer> {
+        Self::build_labelled(device, mesh, bars, "mesh")
+    }
+
+    /// `build` with the phase named for `what` (which of a run's meshes).
+    pub(crate) fn build_labelled(device: &Device, mesh: &Mesh, bars: &Reporter, what: &str) -> Result<Tracer> {
         Self::from_tree(device, build_tree(mesh, &tree_params(device), bars, what)?)
     }
 

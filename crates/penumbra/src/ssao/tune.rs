@@ -359,7 +359,12 @@ impl Budgeted for SsaoBudget<'_> {
         let caster_tree = if occluders.triangles.len() == mesh.triangles.len() {
             None
         } else {
-            Some(Accel::new(build_tree(&occluders, &KdTreeParams::for_cpu(), bars, "casters")?))
+            Some(Accel::new(build_tree(
+                &occluders,
+                &KdTreeParams::for_cpu(),
+                bars,
+                "casters",
+            )?))
         };
         let pixels = sample_pixels(&gb, SAMPLE_PIXELS, base.seed);
         if pixels.is_empty() {
