@@ -6,7 +6,7 @@
 mod common;
 
 use glam::Vec3;
-use penumbra::progress::{Bar, Reporter};
+use penumbra::progress::Bar;
 use penumbra::raycast::tracer::Tracer;
 use penumbra::raycast::{AoPoint, AoSettings};
 use penumbra::scene::Mesh;
