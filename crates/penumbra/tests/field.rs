@@ -4,17 +4,16 @@
 //! tiny and huge objects, a single triangle).
 
 mod common;
+mod twins;
 
-use common::{Rng, data_model, gpu};
+use common::{data_model, gpu};
 use glam::{Quat, Vec3};
 use penumbra::accel::Accel;
 use penumbra::accel::kdtree::{KdTree, KdTreeParams};
-use penumbra::field::gpu::{FieldAoBatches, FieldGroup, GpuField, GpuInstance, probe_gpu};
 use penumbra::field::reach::Reach;
 use penumbra::field::runner::{FieldAo, FieldAoRun};
 use penumbra::field::{
-    DirectionMapping, DisplacementField, FieldCaster, FieldParams, FieldTrace, NO_OWNER, OctahedralGrid, Positional,
-    Storage, field_ao, field_probe, file,
+    DirectionMapping, FieldCaster, FieldParams, FieldTrace, NO_OWNER, Positional, Storage, field_ao, file,
 };
 use penumbra::gpu::device::Device;
 use penumbra::progress::Bar;
@@ -25,37 +24,10 @@ use penumbra::raycast::runner::AoRequest;
 use penumbra::raycast::{AoSettings, VisibilityMasks};
 use penumbra::scene::procedural::{corner, uv_sphere};
 use penumbra::scene::{Instance, Mesh, Role, Scene, SceneMesh, Transform, load_obj};
-
-fn params(side: u32, res: u32, storage: Storage, directions: DirectionMapping) -> FieldParams {
-    FieldParams {
-        grid: OctahedralGrid { side },
-        res,
-        storage,
-        directions,
-    }
-}
-
-fn build(mesh: &Mesh, p: FieldParams) -> DisplacementField {
-    DisplacementField::build(mesh, &p, "test mesh", &Bar::hidden())
-        .unwrap()
-        .0
-}
+use twins::{build_field as build, field_params as params, field_rays as random_rays};
 
 fn rms(a: &[f32], b: &[f32]) -> f64 {
     (a.iter().zip(b).map(|(x, y)| ((x - y) as f64).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
-}
-
-/// Rays from a box `spread` sphere radii wide around the field's centre,
-/// aimed at points inside the sphere.
-fn random_rays(field: &DisplacementField, n: usize, spread: f32, seed: u64) -> Vec<(Vec3, Vec3)> {
-    let mut rng = Rng(seed);
-    (0..n)
-        .map(|_| {
-            let o = field.center + rng.vec3(-0.5, 0.5) * spread * field.radius;
-            let target = field.center + rng.vec3(-0.5, 0.5) * field.radius;
-            (o, (target - o).normalize())
-        })
-        .collect()
 }
 
 /// The field of a sphere of radius r answers the analytic ray-sphere
@@ -193,108 +165,20 @@ fn corrupt_files_are_refused_naming_the_field() {
 
 /// The GPU lookup against the CPU's on the same rays, compared on what the
 /// lookup reads (coverage and weighted distance, both in [0, 1]): 32- and
-/// 1-bit maps within 1e-4; 8-bit maps, read through the texture unit, within
-/// 1/255 but for the few lookups where lavapipe's fixed-point filter weights
-/// add up to more (never beyond 2/255).
+/// The GPU lookup against the CPU's (`twins::compare_field_lookup`), 17x17
+/// maps of 16x16 texels.
 #[test]
 fn gpu_lookup_equals_the_cpu_lookup() {
     let Some(ctx) = gpu() else { return };
-    let mesh = load_obj(&common::asset("cube-with-hole.obj")).unwrap();
-    let cases = [
-        (Storage::U8, 1.0 / 255.0, 2.0 / 255.0, 1e-3),
-        (Storage::F32, 1e-4, 1e-4, 0.0),
-        (Storage::Bit1, 1e-4, 1e-4, 0.0),
-    ];
-    for (storage, tolerance, bound, allowed) in cases {
-        for m in [DirectionMapping::Concentric, DirectionMapping::Rejection] {
-            let field = build(&mesh, params(17, 16, storage, m));
-            let rays = random_rays(&field, 20_000, 4.0, 3);
-            let g = GpuField::upload(&ctx.device, &ctx.queue, &field, Positional::Bilinear).unwrap();
-            let out = probe_gpu(&ctx, &g, &rays).unwrap();
-            let cpu_out = field_probe(&field, &rays, Positional::Bilinear);
-            let (mut worst, mut over, mut n, mut flips) = (0.0f32, 0, 0, 0);
-            for (cpu, r) in cpu_out.iter().zip(&out) {
-                assert!(r.iter().all(|x| x.is_finite()), "NaN from the GPU: {r:?}");
-                let Some(cpu) = cpu else {
-                    assert_eq!(r[0] as u32 % 4, 0, "the CPU says the ray misses the sphere");
-                    continue;
-                };
-                let diff = (cpu.coverage - r[2]).abs().max((cpu.weighted_distance - r[3]).abs());
-                worst = worst.max(diff);
-                over += (diff > tolerance) as usize;
-                flips += ((cpu.coverage >= 0.5) != (r[2] >= 0.5)) as usize;
-                n += 1;
-            }
-            println!(
-                "{storage:?} {m:?}: {n} lookups, worst |GPU - CPU| = {worst:.2e}, {over} over {tolerance:.1e}, {flips} hit/miss votes flipped"
-            );
-            assert!(worst <= bound, "{storage:?} {m:?}: worst {worst}");
-            assert!(
-                over as f64 <= allowed * n as f64,
-                "{storage:?} {m:?}: {over} of {n} over {tolerance}"
-            );
-        }
-    }
+    twins::compare_field_lookup(&ctx, 17, 16, 20_000);
 }
 
 /// A corner with a caster: AO through the field on the GPU against the CPU
-/// twin, ray for ray.
+/// twin, ray for ray (`twins::compare_field_ao`).
 #[test]
 fn gpu_field_ao_equals_the_cpu_twin() {
     let Some(ctx) = gpu() else { return };
-    let caster = load_obj(&common::asset("cube-with-hole.obj")).unwrap();
-    let receiver = corner();
-    let transform = Transform {
-        translation: Vec3::new(0.4, 0.2, 0.4),
-        rotation: Quat::from_axis_angle(Vec3::new(1.0, 2.0, 0.5).normalize(), 0.6),
-        scale: 0.15,
-    };
-    let settings = AoSettings {
-        rays_per_point: 64,
-        radius: f32::INFINITY,
-        seed: 9,
-    };
-    let points = vertex_points(&receiver);
-    let owners = vec![NO_OWNER; points.len()];
-    for storage in [Storage::U8, Storage::F32, Storage::Bit1] {
-        let field = build(&caster, params(17, 16, storage, DirectionMapping::Concentric));
-        let casters = [FieldCaster {
-            field: &field,
-            transform,
-            instance: 1,
-        }];
-        let (cpu, cpu_classes) = field_ao(
-            &casters,
-            &points,
-            &owners,
-            &settings,
-            Positional::Bilinear,
-            &Bar::hidden(),
-        );
-        let g = GpuField::upload(&ctx.device, &ctx.queue, &field, Positional::Bilinear).unwrap();
-        let groups = [FieldGroup {
-            field: &g,
-            instances: vec![GpuInstance::new(&transform, 1)],
-        }];
-        let gpu_ao = FieldAoBatches::new(&ctx)
-            .visibility(&ctx, &groups, &points, &owners, &settings, &Bar::hidden())
-            .unwrap();
-        let differ = cpu.differing_rays(&gpu_ao.masks);
-        let total = (points.len() * 64) as u64;
-        let worst = cpu
-            .accessibility()
-            .iter()
-            .zip(gpu_ao.masks.accessibility())
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0f32, f32::max);
-        println!("{storage:?}: {differ} of {total} rays differ, worst accessibility difference {worst:.4}");
-        assert!(differ as f64 <= 2e-3 * total as f64, "{storage:?}");
-        assert!(worst <= 3.0 / 64.0, "{storage:?}");
-        assert_eq!(
-            cpu_classes.inside, gpu_ao.classes.inside,
-            "{storage:?}: inside-sphere classes"
-        );
-    }
+    twins::compare_field_ao(&ctx, 17, 16);
 }
 
 /// Tangent rays, rays starting exactly on the sphere (inward and outward),

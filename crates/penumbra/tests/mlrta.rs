@@ -6,6 +6,7 @@
 //! exactly; the triangle may differ only where two triangles tie.)
 
 mod common;
+mod twins;
 
 use common::{Rng, asset, data_model};
 use glam::Vec3;
@@ -15,7 +16,7 @@ use penumbra::geom::ray::Hit;
 use penumbra::mlrta::ao::visibility_mlrta;
 use penumbra::mlrta::entry_point::{EntryPoint, entry_point};
 use penumbra::mlrta::frustum::Frustum;
-use penumbra::mlrta::tiles::{DEFAULT_MIN_TILE, Group, trace_group};
+use penumbra::mlrta::tiles::{Group, trace_group};
 use penumbra::mlrta::{ImageBuffers, MlrtaParams, Prepared, trace_camera_into, trace_image, trace_image_into};
 use penumbra::progress::Bar;
 use penumbra::raycast::AoSettings;
@@ -23,43 +24,7 @@ use penumbra::raycast::ao_rays::ao_rays;
 use penumbra::raycast::points::vertex_points;
 use penumbra::scene::procedural::all_scenes;
 use penumbra::scene::{Camera, CameraRays, Mesh, load_obj};
-
-struct Agreement {
-    rays: usize,
-    disagree: usize,
-    worst_t: f32,
-    triangle_ties: usize,
-}
-
-fn agreement(a: &[Hit], b: &[Hit]) -> Agreement {
-    let mut r = Agreement {
-        rays: a.len(),
-        disagree: 0,
-        worst_t: 0.0,
-        triangle_ties: 0,
-    };
-    for (x, y) in a.iter().zip(b) {
-        if x.is_hit() != y.is_hit() {
-            r.disagree += 1;
-        } else if x.is_hit() {
-            r.worst_t = r.worst_t.max((x.t - y.t).abs() / y.t);
-            r.triangle_ties += (x.triangle != y.triangle) as usize;
-        }
-    }
-    r
-}
-
-fn check(name: &str, a: &Agreement) {
-    println!(
-        "{name}: {} rays, {} hit/miss disagreements, worst relative t difference {:.2e}, {} triangle ties",
-        a.rays, a.disagree, a.worst_t, a.triangle_ties
-    );
-    assert!(
-        a.disagree as f64 <= 1e-4 * a.rays as f64,
-        "{name}: hit/miss disagreement"
-    );
-    assert!(a.worst_t <= 1e-5, "{name}: t differs");
-}
+use twins::{agreement, check, compare_packets};
 
 /// Primary rays with and without entry points, and shadow rays to a light,
 /// against single rays, on a tree built with `tree` (the CPU's,
@@ -503,57 +468,12 @@ fn rays_from_another_origin_are_rejected() {
     assert!(trace_image(&prepared, &fine, size, size, &params, None).is_ok());
 }
 
-/// The GPU packet kernel against the CPU: hits and shadows ray for ray.
-fn compare_gpu(ctx: &penumbra::gpu::GpuContext, name: &str, mesh: &Mesh, camera: &Camera, size: u32) {
-    use penumbra::accel::kdtree::gpu::GpuKdTree;
-    use penumbra::mlrta::gpu::PacketBatches;
-    let tree = KdTree::build(mesh, &KdTreeParams::default()).unwrap();
-    let (prepared, _) = Prepared::new(&tree, mesh);
-    let gpu_tree = GpuKdTree::upload(&ctx.device, &tree).unwrap();
-    let rays = camera.primary_rays(size, size);
-    let b = mesh.bounds();
-    let light = b.center() + Vec3::new(-0.4, 1.0, 0.3).normalize() * b.diagonal();
-    let single: Vec<Hit> = rays
-        .iter()
-        .map(|r| tree.closest_hit(r.o(), r.d(), f32::INFINITY))
-        .collect();
-    // Without entry points, and with them at the default and the smallest
-    // practical minimum tile (deeper splits, more stopping rules).
-    for (entry_points, min_tile) in [(false, DEFAULT_MIN_TILE), (true, DEFAULT_MIN_TILE), (true, 8)] {
-        let params = MlrtaParams {
-            entry_points,
-            min_tile,
-            corner_frusta: true,
-            ..Default::default()
-        };
-        let cpu = trace_image(&prepared, &rays, size, size, &params, Some(light)).unwrap();
-        let gpu = PacketBatches::new(ctx)
-            .trace_image(ctx, &gpu_tree, &prepared, &rays, size, size, &params, Some(light))
-            .unwrap();
-        check(
-            &format!("{name} GPU packets, entry points {entry_points}, min tile {min_tile}"),
-            &agreement(&gpu.image.hits, &single),
-        );
-        let shadows_differ = cpu
-            .shadowed
-            .unwrap()
-            .iter()
-            .zip(gpu.image.shadowed.unwrap())
-            .filter(|(a, b)| **a != *b)
-            .count();
-        println!(
-            "{name} GPU shadows, entry points {entry_points}, min tile {min_tile}: {shadows_differ} differ from the CPU"
-        );
-        assert!(shadows_differ as f64 <= 1e-4 * rays.len() as f64);
-    }
-}
-
 #[test]
 fn gpu_packets_equal_cpu_on_procedural_scenes() {
     let Some(ctx) = common::gpu() else { return };
     for name in ["cube-with-hole.obj", "sphere-on-plane.obj", "closed-box.obj"] {
         let mesh = load_obj(&asset(name)).unwrap();
-        compare_gpu(&ctx, name, &mesh, &Camera::default_for(&mesh.bounds()), 96);
+        compare_packets(&ctx, name, &mesh, &Camera::default_for(&mesh.bounds()), 96);
     }
 }
 
@@ -563,7 +483,7 @@ fn gpu_packets_equal_cpu_on_shared_models() {
     for model in ["stanford-bunny.obj", "dragon100k.obj", "kitchen.obj"] {
         let Some(path) = data_model(model) else { return };
         let mesh = load_obj(&path).unwrap();
-        compare_gpu(&ctx, model, &mesh, &Camera::default_for(&mesh.bounds()), 256);
+        compare_packets(&ctx, model, &mesh, &Camera::default_for(&mesh.bounds()), 256);
     }
 }
 

@@ -11,31 +11,20 @@
 //!   error <= 3% on the cloth (the target; the paper reports 2.47%).
 
 mod common;
+mod twins;
 
 use common::{Rng, gpu};
 use glam::Vec3;
 use penumbra::accel::Accel;
 use penumbra::accel::kdtree::{KdTree, KdTreeParams};
-use penumbra::prt::gpu::{FrameInputs, GpuTransfer, ShTransferPass};
+use penumbra::prt::gpu::ShTransferPass;
 use penumbra::prt::lut::PlaneLut;
 use penumbra::prt::mask::MaskGrid;
 use penumbra::prt::pipeline::{FrameOutput, Prt, PrtSettings};
 use penumbra::prt::raster::{Fate, raster_triangle, raster_triangle_exact};
 use penumbra::prt::reference::{reference_transfer, relative_l2_error};
 use penumbra::prt::transfer::{Brdf, Integration};
-use penumbra::scene::animated::{AnimatedScene, Animation};
-use penumbra::sh::coefficient_count;
-
-fn animation(name: &str) -> Animation {
-    AnimatedScene::parse(name).unwrap().build()
-}
-
-fn lighting(bands: usize, seed: u64) -> Vec<f32> {
-    let mut rng = Rng(seed);
-    (0..3 * coefficient_count(bands))
-        .map(|_| rng.f32() * 2.0 - 0.5)
-        .collect()
-}
+use twins::{animation, compare_transfer, lighting};
 
 #[test]
 fn gpu_transfer_matches_cpu() {
@@ -45,7 +34,7 @@ fn gpu_transfer_matches_cpu() {
         specular: 0.4,
     };
     // (scene, time, brdf, integration, bands, mask side, batch limit)
-    let cases = [
+    let cases: [twins::TransferCase; 8] = [
         ("cloth", 0.0, Brdf::Diffuse, Integration::CellsLinear, 5, 32, u64::MAX),
         ("cloth", 1.3, phong, Integration::CellsLinear, 5, 32, u64::MAX),
         ("cloth", 0.7, Brdf::Diffuse, Integration::Cells, 5, 32, 64),
@@ -55,64 +44,8 @@ fn gpu_transfer_matches_cpu() {
         ("cloth", 0.2, Brdf::Diffuse, Integration::CellsLinear, 1, 64, u64::MAX),
         ("cloth", 0.2, phong, Integration::CellsLinear, 8, 64, u64::MAX),
     ];
-    for (scene, time, brdf, integration, bands, side, batch) in cases {
-        let anim = animation(scene);
-        let mut pos = Vec::new();
-        anim.positions_at(time, &mut pos);
-        let settings = PrtSettings {
-            brdf,
-            integration,
-            bands,
-            mask_side: side,
-            ..PrtSettings::default()
-        };
-        let prt = Prt::new(&pos, &anim.triangles, &settings).unwrap();
-        let eye = Some(anim.camera.expect("built-in animations have a camera").0);
-        let light = lighting(bands, 7 + bands as u64);
-        let mut cpu = FrameOutput::default();
-        prt.frame(&pos, eye, &light, false, true, &mut cpu).unwrap();
-        let mut masks = FrameOutput::default();
-        prt.frame_masks(&pos, eye, false, &mut masks).unwrap();
-        assert_eq!(masks.masks, cpu.masks, "frame_masks rasterises what frame does");
-        let mut gpu_transfer = GpuTransfer::with_batch_limit(&ctx, &prt, batch).unwrap();
-        let inputs = FrameInputs {
-            masks: &masks.masks,
-            positions: &pos,
-            normals: &masks.normals,
-            eye,
-            lighting: &light,
-        };
-        let g = gpu_transfer.run_frame(&ctx, &inputs).unwrap();
-        let n = prt.coeffs();
-        let scale = prt.tables.unoccluded.iter().map(|v| v * v).sum::<f32>().sqrt();
-        let worst_t = cpu
-            .transfer
-            .iter()
-            .zip(&g.transfer)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0f32, f32::max)
-            / scale;
-        let worst_r = cpu
-            .radiance
-            .iter()
-            .flatten()
-            .zip(g.radiance.iter().flatten())
-            .map(|(a, b)| (a - b).abs() / (a.abs() + 1e-2))
-            .fold(0.0f32, f32::max);
-        let zero = cpu.normals.iter().filter(|n| **n == Vec3::ZERO).count();
-        println!(
-            "{scene} t={time} {} {} bands {bands} mask {side}: {} vertices x {n} coefficients in {} batches, worst |dT|/|T0| = {worst_t:.2e}, worst radiance rel = {worst_r:.2e} ({zero} without normal), kernel {:?} ms",
-            brdf.name(),
-            integration.name(),
-            prt.vertex_count,
-            gpu_transfer.batch_count(),
-            g.kernel_ms
-        );
-        assert!(worst_t <= 1e-4, "{scene}: transfer differs by {worst_t:e}");
-        assert!(worst_r <= 1e-4, "{scene}: radiance differs by {worst_r:e}");
-        if batch != u64::MAX {
-            assert!(gpu_transfer.batch_count() > 1, "the batch limit splits the mesh");
-        }
+    for case in cases {
+        compare_transfer(&ctx, case);
     }
 }
 

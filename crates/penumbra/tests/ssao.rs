@@ -13,12 +13,12 @@
 //!   same G-buffer and sample table.
 
 mod common;
+mod twins;
 
 use common::{asset, data_model, gpu};
 use glam::Vec3;
 use penumbra::accel::Accel;
 use penumbra::accel::kdtree::{KdTree, KdTreeParams};
-use penumbra::gpu::GpuContext;
 use penumbra::progress::Bar;
 use penumbra::scene::procedural::all_scenes;
 use penumbra::scene::{Camera, Mesh, load_obj};
@@ -26,6 +26,7 @@ use penumbra::ssao::gbuffer::{GBuffer, ScreenView, gbuffer};
 use penumbra::ssao::gpu::{GBufferSource, run_frame};
 use penumbra::ssao::truth::{raytraced, screen_reference};
 use penumbra::ssao::{Estimator, Measure, Resolution, ShadeSettings, SsaoSettings, rmse, run_cpu};
+use twins::{compare_gbuffers, compare_ssao_kernels, cpu_gbuffer};
 
 const W: u32 = 160;
 const H: u32 = 120;
@@ -38,159 +39,18 @@ fn kitchen_inside() -> Camera {
     }
 }
 
-fn cpu_gbuffer(mesh: &Mesh, camera: &Camera, w: u32, h: u32) -> GBuffer {
-    let tree = KdTree::build(mesh, &KdTreeParams::default()).unwrap();
-    gbuffer(&tree, mesh, camera, &[], w, h)
-}
-
-/// Whether CPU texels a and b agree as the issue asks.
-fn texels_agree(a: [f32; 4], b: [f32; 4]) -> bool {
-    if (a[3] > 0.0) != (b[3] > 0.0) {
-        return false;
-    }
-    if a[3] <= 0.0 {
-        return true;
-    }
-    let dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    let zero = |t: [f32; 4]| t[0] == 0.0 && t[1] == 0.0 && t[2] == 0.0;
-    (b[3] - a[3]).abs() <= 1e-3 * a[3] && (dot >= 0.999 || (zero(a) && zero(b)))
-}
-
-fn compare_gbuffers(ctx: &GpuContext, name: &str, mesh: &Mesh, camera: &Camera) {
-    let view = ScreenView::new(camera, W, H);
-    let cpu = cpu_gbuffer(mesh, camera, W, H);
-    let settings = SsaoSettings::new(Estimator::Importance, 4, 0.1);
-    let source = GBufferSource::Render {
-        mesh,
-        camera,
-        lights: &[],
-        albedos: None,
-    };
-    let gpu = run_frame(ctx, source, &view, &settings, None, 1).unwrap().gbuffer;
-    let (mut agree, mut not_silhouette, mut worst_z, mut worst_dot) = (0usize, 0usize, 0f32, 1f32);
-    let (mut radiance_worst, mut albedo_differs) = (0f32, 0usize);
-    for y in 0..H as i32 {
-        for x in 0..W as i32 {
-            let i = (y * W as i32 + x) as usize;
-            let (c, g) = (cpu.geometry[i], gpu.geometry[i]);
-            if texels_agree(c, g) {
-                agree += 1;
-                if c[3] > 0.0 {
-                    worst_z = worst_z.max((g[3] - c[3]).abs() / c[3]);
-                    worst_dot = worst_dot.min(c[0] * g[0] + c[1] * g[1] + c[2] * g[2]);
-                    // Same facet (neighbouring facets of a tessellated
-                    // surface also agree within 0.999): same radiance.
-                    if c[0] * g[0] + c[1] * g[1] + c[2] * g[2] > 0.999999 && cpu.shade[i][3] == gpu.shade[i][3] {
-                        for k in 0..3 {
-                            radiance_worst = radiance_worst.max((cpu.shade[i][k] - gpu.shade[i][k]).abs());
-                        }
-                    }
-                    // Coplanar overlapping objects (kitchen) may show either albedo.
-                    albedo_differs += (cpu.shade[i][3] != gpu.shade[i][3]) as usize;
-                }
-                continue;
-            }
-            let silhouette = (-1..=1).any(|dy| {
-                (-1..=1).any(|dx| {
-                    let (qx, qy) = (x + dx, y + dy);
-                    (0..W as i32).contains(&qx)
-                        && (0..H as i32).contains(&qy)
-                        && !texels_agree(c, cpu.geometry[(qy * W as i32 + qx) as usize])
-                })
-            });
-            if !silhouette {
-                not_silhouette += 1;
-                println!("{name}: pixel {x},{y} differs inside a surface: cpu {c:?} gpu {g:?}");
-            }
-        }
-    }
-    let n = (W * H) as f64;
-    println!(
-        "{name}: {:.3}% of pixels agree, worst relative depth {worst_z:.2e}, worst normal dot {worst_dot:.6}, \
-         worst radiance difference {radiance_worst:.2e}, {not_silhouette} non-silhouette disagreements, \
-         {albedo_differs} agreeing pixels of another object (coplanar overlap)",
-        100.0 * agree as f64 / n
-    );
-    assert!(
-        albedo_differs as f64 <= 0.005 * n,
-        "{name}: {albedo_differs} pixels show another object"
-    );
-    assert!(agree as f64 >= 0.99 * n, "{name}: only {agree} of {n} pixels agree");
-    assert_eq!(not_silhouette, 0, "{name}: disagreements away from silhouettes");
-    assert!(radiance_worst < 1e-4, "{name}: radiance differs by {radiance_worst}");
-}
-
 #[test]
 fn gbuffer_pass_agrees_with_kd_tree_primary_rays() {
     let Some(ctx) = gpu() else { return };
     for (name, mesh) in all_scenes() {
-        compare_gbuffers(&ctx, name, &mesh, &Camera::default_for(&mesh.bounds()));
+        compare_gbuffers(&ctx, name, &mesh, &Camera::default_for(&mesh.bounds()), (W, H));
     }
     for model in ["stanford-bunny.obj", "kitchen.obj"] {
         let Some(path) = data_model(model) else { return };
         let mesh = load_obj(&path).unwrap();
-        compare_gbuffers(&ctx, model, &mesh, &Camera::default_for(&mesh.bounds()));
+        compare_gbuffers(&ctx, model, &mesh, &Camera::default_for(&mesh.bounds()), (W, H));
         if model == "kitchen.obj" {
-            compare_gbuffers(&ctx, "kitchen.obj inside", &mesh, &kitchen_inside());
-        }
-    }
-}
-
-fn max_diff(a: &[f32], b: &[f32]) -> (f32, usize) {
-    a.iter()
-        .zip(b)
-        .enumerate()
-        .map(|(i, (x, y))| ((x - y).abs(), i))
-        .fold((0.0, 0), |m, v| if v.0 > m.0 { v } else { m })
-}
-
-fn flat(v: &[[f32; 4]]) -> Vec<f32> {
-    v.iter().flatten().copied().collect()
-}
-
-/// Every kernel on the GPU against its CPU twin, same G-buffer and samples.
-fn compare_kernels(ctx: &GpuContext, name: &str, gb: &GBuffer, view: &ScreenView, radius: f32) {
-    let shade = ShadeSettings::default();
-    for estimator in Estimator::ALL {
-        let (full, half) = (Resolution::Full, Resolution::Half);
-        for (interleave, filter, resolution) in [
-            (true, true, full),
-            (false, false, full),
-            (true, true, half),
-            (true, false, half),
-        ] {
-            let mut s = SsaoSettings::new(estimator, 16, radius);
-            s.interleave = interleave;
-            s.filter = filter;
-            s.resolution = resolution;
-            let cpu = run_cpu(gb, view, &s, Some(&shade)).unwrap();
-            let g = run_frame(ctx, GBufferSource::Upload(gb), view, &s, Some(&shade), 1).unwrap();
-            assert_eq!(&g.gbuffer, gb, "the uploaded G-buffer reads back unchanged");
-            let gpu = g.frame;
-            let checks = [
-                ("ao (raw)", max_diff(&cpu.ao_raw, &gpu.ao_raw)),
-                ("ao (final)", max_diff(&cpu.ao, &gpu.ao)),
-                (
-                    "indirect",
-                    max_diff(
-                        &flat(cpu.indirect.as_ref().unwrap()),
-                        &flat(gpu.indirect.as_ref().unwrap()),
-                    ),
-                ),
-                (
-                    "image",
-                    max_diff(&flat(cpu.image.as_ref().unwrap()), &flat(gpu.image.as_ref().unwrap())),
-                ),
-            ];
-            let label = format!(
-                "{name} {} interleave={interleave} filter={filter} resolution={}",
-                estimator.name(),
-                resolution.name()
-            );
-            println!("{label}: worst |gpu - cpu| {checks:?}");
-            for (what, (d, at)) in checks {
-                assert!(d <= 1e-4, "{label}: {what} differs by {d} at element {at}");
-            }
+            compare_gbuffers(&ctx, "kitchen.obj inside", &mesh, &kitchen_inside(), (W, H));
         }
     }
 }
@@ -201,18 +61,18 @@ fn ssao_kernels_equal_their_cpu_twins() {
     let mesh = load_obj(&asset("sphere-on-plane.obj")).unwrap();
     let camera = Camera::default_for(&mesh.bounds());
     let view = ScreenView::new(&camera, W, H);
-    compare_kernels(&ctx, "sphere-on-plane", &cpu_gbuffer(&mesh, &camera, W, H), &view, 0.5);
+    compare_ssao_kernels(&ctx, "sphere-on-plane", &cpu_gbuffer(&mesh, &camera, W, H), &view, 0.5);
     if let Some(path) = data_model("kitchen.obj") {
         let mesh = load_obj(&path).unwrap();
         let camera = kitchen_inside();
         let view = ScreenView::new(&camera, W, H);
-        compare_kernels(&ctx, "kitchen inside", &cpu_gbuffer(&mesh, &camera, W, H), &view, 0.3);
+        compare_ssao_kernels(&ctx, "kitchen inside", &cpu_gbuffer(&mesh, &camera, W, H), &view, 0.3);
     }
     // Odd sizes: the half-resolution grid's last column and row have no
     // right or lower neighbour.
     let (w, h) = (W + 1, H - 1);
     let view = ScreenView::new(&camera, w, h);
-    compare_kernels(
+    compare_ssao_kernels(
         &ctx,
         "sphere-on-plane odd",
         &cpu_gbuffer(&mesh, &camera, w, h),

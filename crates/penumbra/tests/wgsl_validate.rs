@@ -2,7 +2,7 @@
 //! kernels; every file in `wgsl/` is compiled into the library. Errors name
 //! the file and line.
 
-use penumbra::gpu::wgsl::{FILES, MODULES};
+use penumbra::gpu::wgsl::{FILES, MODULES, VARIANTS};
 
 #[test]
 fn every_wgsl_file_is_compiled_in() {
@@ -31,8 +31,8 @@ fn every_library_file_validates_alone() {
         let prefix = MODULES.iter().find_map(|m| {
             let at = m.parts.iter().position(|p| p == file)?;
             Some(penumbra::gpu::wgsl::Composition {
-                name: m.name,
                 parts: &m.parts[..=at],
+                ..*m
             })
         });
         let result = file.validate().or_else(|alone| match prefix {
@@ -67,7 +67,7 @@ fn every_file_is_validated_somewhere() {
 #[test]
 fn every_kernel_module_validates() {
     let mut failures = Vec::new();
-    for module in MODULES {
+    for module in MODULES.iter().chain(VARIANTS) {
         match module.validate() {
             Ok(m) => {
                 let entries: Vec<&str> = m.entry_points.iter().map(|e| e.name.as_str()).collect();
@@ -80,6 +80,44 @@ fn every_kernel_module_validates() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// What each entry point asks of a device (read with naga), the demands
+/// each module writes out equal to it, and every module of `MODULES` within
+/// WebGPU's portable limits (`wgpu::Limits::default()`; wgpu itself does not
+/// check workgroup memory), a variant only within the adapter's own.
+/// Prints the table.
+#[test]
+fn every_kernel_module_fits_the_portable_limits() {
+    let portable = wgpu::Limits::default();
+    println!(
+        "{:<40} {:>7} {:>7} {:>7} {:>9} {:>11}",
+        "entry point", "storage", "layout", "sampled", "wg bytes", "size"
+    );
+    let mut over = Vec::new();
+    for module in MODULES.iter().chain(VARIANTS) {
+        let r = module.resources().unwrap();
+        for e in &r.entries {
+            println!(
+                "{:<40} {:>7} {:>7} {:>7} {:>9} {:>11}",
+                e.name,
+                e.storage_buffers,
+                r.storage_buffers,
+                e.sampled_textures,
+                e.workgroup_bytes,
+                format!("{:?}", e.workgroup_size)
+            );
+            assert_eq!(e.storage_textures, 0, "{}", e.name);
+        }
+        assert_eq!(module.demands, r.demands(), "{}: the written-out demands", module.name);
+        let exceeded = module.exceeded(&portable);
+        if VARIANTS.iter().any(|v| v.name == module.name) {
+            println!("  {} (a variant) exceeds: {exceeded:?}", module.name);
+        } else {
+            over.extend(exceeded.iter().map(ToString::to_string));
+        }
+    }
+    assert!(over.is_empty(), "over WebGPU's portable limits: {over:?}");
+}
+
 #[test]
 fn errors_point_at_the_original_file_and_line() {
     // A broken copy of a kernel: the error must name the kernel file, not the
@@ -89,7 +127,11 @@ fn errors_point_at_the_original_file_and_line() {
         text: "fn ok() {}\nfn bad() -> u32 { return 1.5; }\n",
     };
     let parts: &'static [penumbra::gpu::wgsl::WgslFile] = Box::leak(Box::new([penumbra::gpu::wgsl::SAMPLING, broken]));
-    let composed = penumbra::gpu::wgsl::Composition { name: "broken", parts };
+    let composed = penumbra::gpu::wgsl::Composition {
+        name: "broken",
+        parts,
+        ..penumbra::gpu::wgsl::TRACE_RAYS_MODULE
+    };
     let err = composed.validate().unwrap_err();
     assert!(err.starts_with("wgsl/broken.wgsl:2:"), "{err}");
 }

@@ -11,8 +11,14 @@
 // fetches per cell) are computed once per cell and kept there too; then each
 // invocation owns (vertex, coefficient) pairs for the integration, the four
 // rotation steps (x90, z(beta), x90^T, z(alpha)) and the write-back.
+//
+// The workgroup arrays are sized by the file composed before this one:
+// MAX_VERTS vertices a workgroup at most, STAGED entries of staged masks
+// (VERTS x words) and cells (VERTS x cells). `sh_transfer_portable.wgsl`
+// fits WebGPU's portable 16 KiB of workgroup memory, `sh_transfer_wide.wgsl`
+// takes twice the vertices where a device has 32 KiB. A vertex's arithmetic
+// is the same in either: only how many share a workgroup differs.
 
-const MAX_VERTS: u32 = 16u;
 const MAX_COEFFS: u32 = 64u;   // 8 bands
 
 struct Params {
@@ -22,7 +28,7 @@ struct Params {
     // 1 cells-linear, 2 pixels), brdf (0 diffuse, 1 phong)
     shape: vec4<u32>,
     // workgroups per grid row, vertices per workgroup (<= MAX_VERTS, with
-    // VERTS x words <= 1024 and VERTS x cells <= 1024), 0, 0
+    // VERTS x words <= STAGED and VERTS x cells <= STAGED), 0, 0
     grid: vec4<u32>,
     // Phong exponent, lobe weight k_s, 0, 0
     phong: vec4<f32>,
@@ -49,14 +55,14 @@ struct Params {
 // Exitant radiance, 3 per vertex.
 @group(1) @binding(4) var<storage, read_write> radiance: array<f32>;
 
-var<workgroup> wg_masks: array<u32, 1024>;        // VERTS x words
-var<workgroup> wg_cells: array<vec4<f32>, 1024>;  // VERTS x cells: o, mu_x, mu_y, rho
-var<workgroup> wg_coeffs: array<f32, 1024>;       // MAX_VERTS x MAX_COEFFS
-var<workgroup> wg_swap: array<f32, 1024>;
+var<workgroup> wg_masks: array<u32, STAGED>;        // VERTS x words
+var<workgroup> wg_cells: array<vec4<f32>, STAGED>;  // VERTS x cells: o, mu_x, mu_y, rho
+var<workgroup> wg_coeffs: array<f32, MAX_VERTS * MAX_COEFFS>;
+var<workgroup> wg_swap: array<f32, MAX_VERTS * MAX_COEFFS>;
 // Per vertex, a bit per cell with any occluded pixel (256 cells at most).
-var<workgroup> wg_occluded: array<atomic<u32>, 128>;
-var<workgroup> wg_frame: array<vec4<f32>, 16>;    // cos a, sin a, cos b, sin b
-var<workgroup> wg_reflected: array<vec4<f32>, 16>; // local reflected view; w = 1 with a normal
+var<workgroup> wg_occluded: array<atomic<u32>, MAX_VERTS * 8u>;
+var<workgroup> wg_frame: array<vec4<f32>, MAX_VERTS>;    // cos a, sin a, cos b, sin b
+var<workgroup> wg_reflected: array<vec4<f32>, MAX_VERTS>; // local reflected view; w = 1 with a normal
 
 // cos/sin of the normal's azimuth alpha and polar angle beta; the tangent
 // frame is Rz(alpha) Ry(beta) (`frame_angles` in src/sh/rotation.rs).

@@ -26,14 +26,14 @@ use super::build::DisplacementField;
 use super::lookup::Positional;
 use super::storage::{FieldData, Storage};
 use crate::error::{Error, Result};
-use crate::gpu::batch::{BatchPass, BatchPlan, Batched, Pass, run_batches};
+use crate::gpu::batch::{BatchPass, BatchPlan, Batched, Pass, fit_items, run_batches};
 use crate::gpu::buffers::{GrowingBuffer, read_buffer, storage_buffer, uniform_buffer};
 use crate::gpu::kernels::{Kernels, PipelineLog, Pipelines, compute_pipelines, record_dispatch};
 use crate::gpu::layout::{Io, bind_group, io_layout, layout, storage_entry, texture_entry, uniform_entry};
 use crate::gpu::timer::PassTimer;
 use crate::gpu::{GpuContext, dispatch_grid};
 use crate::progress::Bar;
-use crate::raycast::gpu::AoRays;
+use crate::raycast::gpu::{AO_POINT_BYTES, AoRays};
 use crate::raycast::{AoPoint, AoSettings, VisibilityMasks};
 use crate::scene::Transform;
 
@@ -623,7 +623,11 @@ impl Batched<FieldAoPass> {
         let mut bits = Vec::with_capacity(points.len() * words);
         let mut inside = Vec::with_capacity(points.len() * words);
         let mut hidden = Vec::with_capacity(points.len() * words);
-        let per_batch = (RAYS_PER_BATCH / settings.rays_per_point as u64).max(1) as usize;
+        // Per point: the point, its owner, and three masks (in one binding,
+        // read back).
+        let classes_bytes = 3 * 4 * words as u64;
+        let fit = fit_items(&ctx.device, &[AO_POINT_BYTES, 4, classes_bytes], classes_bytes);
+        let per_batch = ((RAYS_PER_BATCH / settings.rays_per_point as u64).max(1) as usize).min(fit);
         let plan = BatchPlan::new(points.len(), per_batch, groups.len().max(1) as u32);
         let mut batch = FieldBatch {
             pass: &mut self.pass,

@@ -51,6 +51,19 @@ impl BatchPlan {
     }
 }
 
+/// The most items one batch may hold on `device`: for each storage
+/// binding of a batch, `per_item` bytes an item, within one binding; and
+/// `read_back` bytes an item (its results, read back together) within one
+/// buffer. At least one.
+pub fn fit_items(device: &wgpu::Device, per_item: &[u64], read_back: u64) -> usize {
+    let limits = device.limits();
+    let binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+    let largest = per_item.iter().copied().max().unwrap_or(1).max(1);
+    (binding / largest)
+        .min(limits.max_buffer_size / read_back.max(1))
+        .max(1) as usize
+}
+
 /// A kept read-back buffer for `run_batches`.
 pub fn readback_buffer() -> GrowingBuffer {
     GrowingBuffer::new("readback", wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST)

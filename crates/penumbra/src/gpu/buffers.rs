@@ -16,6 +16,21 @@ pub fn check_storage_size(device: &wgpu::Device, what: &str, bytes: u64) -> Resu
     )
 }
 
+/// Checks that `bytes` fits one buffer of `device` (a read-back, a vertex
+/// buffer); `what` names the data in the error.
+pub fn check_buffer_size(device: &wgpu::Device, what: &str, bytes: u64) -> Result<()> {
+    let max = device.limits().max_buffer_size;
+    if bytes > max {
+        return Err(Error::Device(format!(
+            "{what} needs {:.1} MiB in one buffer; this device allows {:.1} MiB per buffer \
+             (use `device` cpu, or a smaller input)",
+            bytes as f64 / 1048576.0,
+            max as f64 / 1048576.0
+        )));
+    }
+    Ok(())
+}
+
 /// `bytes` against a per-binding limit `max`.
 pub fn check_size(max: u64, what: &str, bytes: u64) -> Result<()> {
     if bytes > max {
@@ -117,8 +132,9 @@ impl GrowingBuffer {
         if self.buffer.as_ref().is_some_and(|b| b.size() >= bytes) {
             return Ok(false);
         }
-        if self.usage.contains(wgpu::BufferUsages::STORAGE) {
-            check_storage_size(device, self.label, bytes)?;
+        match self.usage.contains(wgpu::BufferUsages::STORAGE) {
+            true => check_storage_size(device, self.label, bytes)?,
+            false => check_buffer_size(device, self.label, bytes)?,
         }
         self.buffer = Some(zeroed_buffer(device, self.label, bytes, self.usage));
         Ok(true)

@@ -311,7 +311,7 @@ impl GpuContext {
     fn adopt(device: wgpu::Device, queue: wgpu::Queue, name: String, backend: String) -> GpuContext {
         let timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         GpuContext {
-            capabilities: Capabilities::of_device(&device),
+            capabilities: Capabilities::webgpu(),
             device,
             queue,
             name,
@@ -335,7 +335,7 @@ impl GpuContext {
     /// `Ok` if this device can run a method with `needs`, else a device
     /// error naming what it lacks (before any work is requested).
     pub fn check(&self, needs: &crate::gpu::device::Needs) -> Result<()> {
-        self.capabilities.check(needs, &self.label())
+        self.capabilities.check(needs, &self.device.limits(), &self.label())
     }
 
     pub fn limits(&self) -> wgpu::Limits {

@@ -41,10 +41,12 @@ pub struct Device {
     fallback: Option<Error>,
 }
 
-/// What a method's GPU path needs of a device beyond compute shaders: the
-/// storage buffers its kernels bind (counted from their WGSL) and the
-/// texture formats it renders to. Checked when the device is opened
-/// (`Device::require`), before any work.
+/// What a method's GPU path needs of a device beyond compute shaders: what
+/// its kernels' pipeline layouts bind and their entry points use (storage
+/// buffers and textures per stage, workgroup memory and size, read from
+/// their WGSL against `wgpu::Limits`) and the texture formats it renders
+/// to. Checked when the device is opened (`Device::require`), before any
+/// work.
 pub struct Needs {
     /// The method, for messages.
     pub what: &'static str,
@@ -72,11 +74,19 @@ impl Needs {
         ],
     };
 
-    /// The most storage buffers one module declares (an upper bound on what
-    /// one of its kernels binds in a stage).
-    pub fn storage_buffers(&self) -> u32 {
-        let count = |m: &crate::gpu::wgsl::Composition| m.source().matches("var<storage").count() as u32;
-        self.modules.iter().map(count).max().unwrap_or(0)
+    /// The limits of `limits` the modules exceed: per limit the largest
+    /// need (the first module with it), in the order `Demands::exceeded`
+    /// checks them.
+    pub fn exceeded(&self, limits: &wgpu::Limits) -> Vec<crate::gpu::wgsl::Exceeded> {
+        let mut worst: Vec<crate::gpu::wgsl::Exceeded> = Vec::new();
+        for e in self.modules.iter().flat_map(|m| m.exceeded(limits)) {
+            match worst.iter_mut().find(|w| w.limit == e.limit) {
+                Some(w) if w.needs < e.needs => *w = e,
+                Some(_) => {}
+                None => worst.push(e),
+            }
+        }
+        worst
     }
 }
 

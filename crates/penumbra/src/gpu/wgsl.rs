@@ -42,6 +42,8 @@ pub const SSAO_ESTIMATE: WgslFile = wgsl_file!("ssao_estimate.wgsl");
 pub const SSAO_FILTER: WgslFile = wgsl_file!("ssao_filter.wgsl");
 pub const SSAO_INDIRECT: WgslFile = wgsl_file!("ssao_indirect.wgsl");
 pub const SH_TRANSFER: WgslFile = wgsl_file!("sh_transfer.wgsl");
+pub const SH_TRANSFER_PORTABLE: WgslFile = wgsl_file!("sh_transfer_portable.wgsl");
+pub const SH_TRANSFER_WIDE: WgslFile = wgsl_file!("sh_transfer_wide.wgsl");
 pub const WHITTED_PIXELS: WgslFile = wgsl_file!("whitted_pixels.wgsl");
 pub const WHITTED_TREES: WgslFile = wgsl_file!("whitted_trees.wgsl");
 pub const WHITTED: WgslFile = wgsl_file!("whitted.wgsl");
@@ -69,32 +71,139 @@ pub const FILES: &[WgslFile] = &[
     SSAO_FILTER,
     SSAO_INDIRECT,
     SH_TRANSFER,
+    SH_TRANSFER_PORTABLE,
+    SH_TRANSFER_WIDE,
     WHITTED_PIXELS,
     WHITTED_TREES,
     WHITTED,
     INTERPOLATE,
 ];
 
-/// A shader module made of several files, in order.
+/// A shader module made of several files, in order, and what it asks of a
+/// device.
 #[derive(Debug, Clone, Copy)]
 pub struct Composition {
     pub name: &'static str,
     pub parts: &'static [WgslFile],
+    /// Written out, not read from the WGSL when a device is checked:
+    /// parsing every module costs about 50 ms, more than a small command's
+    /// GPU work. The validation test proves each equal to what naga reads
+    /// (`resources`).
+    pub demands: Demands,
+}
+
+/// What a module's entry points ask of a device at most, in the terms of
+/// `wgpu::Limits`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Demands {
+    /// Storage buffers its declarations bind: the pipeline layout its entry
+    /// points share, which wgpu counts per shader stage.
+    pub storage_buffers: u32,
+    pub storage_textures: u32,
+    /// The most workgroup memory one entry point uses (each variable
+    /// rounded up to 16 bytes, as WebGPU counts it).
+    pub workgroup_bytes: u32,
+    /// The largest workgroup along each axis (zero: no compute entry point).
+    pub workgroup_size: [u32; 3],
+}
+
+impl Demands {
+    /// A compute module over `storage_buffers` storage buffers with 1D
+    /// workgroups of `WORKGROUP_SIZE` and no workgroup memory.
+    const fn compute(storage_buffers: u32) -> Demands {
+        Demands {
+            storage_buffers,
+            storage_textures: 0,
+            workgroup_bytes: 0,
+            workgroup_size: [crate::gpu::WORKGROUP_SIZE, 1, 1],
+        }
+    }
+
+    /// As `compute`, with 8 x 8 workgroups (the per-pixel kernels).
+    const fn per_pixel(storage_buffers: u32) -> Demands {
+        Demands {
+            workgroup_size: [8, 8, 1],
+            ..Demands::compute(storage_buffers)
+        }
+    }
+
+    /// Each limit of `limits` these demands exceed, for module `module`.
+    pub fn exceeded(&self, module: &str, limits: &wgpu::Limits) -> Vec<Exceeded> {
+        let size = self.workgroup_size;
+        let checks = [
+            (
+                "max_storage_buffers_per_shader_stage",
+                "storage buffers per shader stage",
+                self.storage_buffers,
+                limits.max_storage_buffers_per_shader_stage,
+            ),
+            (
+                "max_storage_textures_per_shader_stage",
+                "storage textures per shader stage",
+                self.storage_textures,
+                limits.max_storage_textures_per_shader_stage,
+            ),
+            (
+                "max_compute_workgroup_storage_size",
+                "bytes of workgroup memory",
+                self.workgroup_bytes,
+                limits.max_compute_workgroup_storage_size,
+            ),
+            (
+                "max_compute_invocations_per_workgroup",
+                "invocations per workgroup",
+                size.iter().product(),
+                limits.max_compute_invocations_per_workgroup,
+            ),
+            (
+                "max_compute_workgroup_size_x",
+                "invocations along x",
+                size[0],
+                limits.max_compute_workgroup_size_x,
+            ),
+            (
+                "max_compute_workgroup_size_y",
+                "invocations along y",
+                size[1],
+                limits.max_compute_workgroup_size_y,
+            ),
+            (
+                "max_compute_workgroup_size_z",
+                "invocations along z",
+                size[2],
+                limits.max_compute_workgroup_size_z,
+            ),
+        ];
+        checks
+            .into_iter()
+            .filter(|&(_, _, needs, allows)| needs > allows)
+            .map(|(limit, counts, needs, allows)| Exceeded {
+                limit,
+                counts,
+                needs,
+                module: module.to_string(),
+                allows,
+            })
+            .collect()
+    }
 }
 
 pub const TRACE_RAYS_MODULE: Composition = Composition {
     name: "trace_rays",
     parts: &[KDTREE_TRAVERSE, TRACE_RAYS],
+    demands: Demands::compute(6),
 };
 
 pub const AO_RAYS_MODULE: Composition = Composition {
     name: "ao_rays",
     parts: &[SAMPLING, FRAME, KDTREE_TRAVERSE, AO_RAYS],
+    demands: Demands::compute(6),
 };
 
 pub const WHITTED_MODULE: Composition = Composition {
     name: "whitted",
     parts: &[SAMPLING, KDTREE_TRAVERSE, WHITTED_PIXELS, WHITTED],
+    demands: Demands::compute(8),
 };
 
 /// `whitted.wgsl` with its ray-tree recording compiled in, for its
@@ -102,64 +211,95 @@ pub const WHITTED_MODULE: Composition = Composition {
 pub const WHITTED_TREES_MODULE: Composition = Composition {
     name: "whitted_trees",
     parts: &[SAMPLING, KDTREE_TRAVERSE, WHITTED_TREES, WHITTED],
+    demands: Demands::compute(8),
 };
 
 pub const INTERPOLATE_MODULE: Composition = Composition {
     name: "interpolate",
     parts: &[INTERPOLATE],
+    demands: Demands::compute(3),
 };
 
 pub const PACKET_TRAVERSE_MODULE: Composition = Composition {
     name: "packet_traverse",
     parts: &[KDTREE_TRAVERSE, PACKET_TRAVERSE],
+    demands: Demands::compute(7),
 };
 
 /// Displacement-field kernels: one module per kernel and map storage (8-bit
 /// texture sampled with filtering, 32-bit texture loaded, 1-bit buffer).
 macro_rules! field_module {
-    ($name:literal, $maps:ident, $kernel:ident) => {
+    ($name:literal, $maps:ident, $kernel:ident, $storage_buffers:literal) => {
         Composition {
             name: $name,
             parts: &[SAMPLING, FRAME, FIELD_LOOKUP, $maps, FIELD_TRACE, $kernel],
+            demands: Demands::compute($storage_buffers),
         }
     };
 }
 
-pub const FIELD_AO_FILTERED_MODULE: Composition = field_module!("field_ao_filtered", FIELD_MAPS_FILTERED, FIELD_AO);
-pub const FIELD_AO_LOADED_MODULE: Composition = field_module!("field_ao_loaded", FIELD_MAPS_LOADED, FIELD_AO);
-pub const FIELD_AO_BITS_MODULE: Composition = field_module!("field_ao_bits", FIELD_MAPS_BITS, FIELD_AO);
+pub const FIELD_AO_FILTERED_MODULE: Composition = field_module!("field_ao_filtered", FIELD_MAPS_FILTERED, FIELD_AO, 4);
+pub const FIELD_AO_LOADED_MODULE: Composition = field_module!("field_ao_loaded", FIELD_MAPS_LOADED, FIELD_AO, 4);
+pub const FIELD_AO_BITS_MODULE: Composition = field_module!("field_ao_bits", FIELD_MAPS_BITS, FIELD_AO, 6);
 pub const FIELD_PROBE_FILTERED_MODULE: Composition =
-    field_module!("field_probe_filtered", FIELD_MAPS_FILTERED, FIELD_PROBE);
-pub const FIELD_PROBE_LOADED_MODULE: Composition = field_module!("field_probe_loaded", FIELD_MAPS_LOADED, FIELD_PROBE);
-pub const FIELD_PROBE_BITS_MODULE: Composition = field_module!("field_probe_bits", FIELD_MAPS_BITS, FIELD_PROBE);
+    field_module!("field_probe_filtered", FIELD_MAPS_FILTERED, FIELD_PROBE, 2);
+pub const FIELD_PROBE_LOADED_MODULE: Composition =
+    field_module!("field_probe_loaded", FIELD_MAPS_LOADED, FIELD_PROBE, 2);
+pub const FIELD_PROBE_BITS_MODULE: Composition = field_module!("field_probe_bits", FIELD_MAPS_BITS, FIELD_PROBE, 4);
 
 /// The G-buffer render pipeline (vertex and fragment stages).
 pub const GBUFFER_MODULE: Composition = Composition {
     name: "gbuffer",
     parts: &[ALBEDO, GBUFFER],
+    demands: Demands {
+        workgroup_size: [0; 3],
+        ..Demands::compute(0)
+    },
 };
 
 pub const SSAO_ESTIMATE_MODULE: Composition = Composition {
     name: "ssao_estimate",
     parts: &[FRAME, SSAO_COMMON, SSAO_ESTIMATE],
+    demands: Demands::per_pixel(8),
 };
 
 pub const SSAO_FILTER_MODULE: Composition = Composition {
     name: "ssao_filter",
     parts: &[FRAME, SSAO_COMMON, SSAO_FILTER],
+    demands: Demands::per_pixel(8),
 };
 
 pub const SSAO_INDIRECT_MODULE: Composition = Composition {
     name: "ssao_indirect",
     parts: &[FRAME, ALBEDO, SSAO_COMMON, SSAO_INDIRECT],
+    demands: Demands::per_pixel(8),
 };
 
+/// SH transfer with 16 vertices a workgroup, for devices with 32 KiB of
+/// workgroup memory (`prt::gpu` picks the form per device).
 pub const SH_TRANSFER_MODULE: Composition = Composition {
     name: "sh_transfer",
-    parts: &[SH_TRANSFER],
+    parts: &[SH_TRANSFER_WIDE, SH_TRANSFER],
+    demands: Demands {
+        workgroup_bytes: 29_696,
+        ..Demands::compute(7)
+    },
 };
 
-/// Every kernel module the library builds pipelines from.
+/// SH transfer with 8 vertices a workgroup, within WebGPU's portable
+/// limits.
+pub const SH_TRANSFER_PORTABLE_MODULE: Composition = Composition {
+    name: "sh_transfer_portable",
+    parts: &[SH_TRANSFER_PORTABLE, SH_TRANSFER],
+    demands: Demands {
+        workgroup_bytes: 14_848,
+        ..Demands::compute(7)
+    },
+};
+
+/// Every kernel module the library builds pipelines from, in the form that
+/// fits WebGPU's portable limits (what a device must allow for penumbra's
+/// compute kernels: `device::Needs`).
 pub const MODULES: &[Composition] = &[
     TRACE_RAYS_MODULE,
     AO_RAYS_MODULE,
@@ -174,13 +314,99 @@ pub const MODULES: &[Composition] = &[
     SSAO_ESTIMATE_MODULE,
     SSAO_FILTER_MODULE,
     SSAO_INDIRECT_MODULE,
-    SH_TRANSFER_MODULE,
+    SH_TRANSFER_PORTABLE_MODULE,
     WHITTED_MODULE,
     WHITTED_TREES_MODULE,
     INTERPOLATE_MODULE,
 ];
 
+/// Modules compiled instead of one of `MODULES` on devices with larger
+/// limits than WebGPU's portable ones.
+pub const VARIANTS: &[Composition] = &[SH_TRANSFER_MODULE];
+
+/// What one entry point of a composed module asks of a device, in the terms
+/// of `wgpu::Limits`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EntryNeeds {
+    /// `module.entry_point`.
+    pub name: String,
+    pub stage: naga::ShaderStage,
+    /// Storage buffers the entry point itself uses (its pipeline layout,
+    /// shared by the module's entry points, binds `Resources::storage_buffers`).
+    pub storage_buffers: u32,
+    pub storage_textures: u32,
+    pub sampled_textures: u32,
+    /// Bytes of the `var<workgroup>` variables it uses, each rounded up to
+    /// 16 as WebGPU counts them against `max_compute_workgroup_storage_size`.
+    pub workgroup_bytes: u32,
+    pub workgroup_size: [u32; 3],
+}
+
+/// What a composed module asks of a device, as naga reads it: what its
+/// declarations bind (the pipeline layout every entry point shares, which
+/// wgpu counts per shader stage) and what each entry point uses.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Resources {
+    pub module: &'static str,
+    pub storage_buffers: u32,
+    pub storage_textures: u32,
+    pub entries: Vec<EntryNeeds>,
+}
+
+impl Resources {
+    /// The module's demands as `Composition::demands` writes them out.
+    pub fn demands(&self) -> Demands {
+        let compute = self.entries.iter().filter(|e| e.stage == naga::ShaderStage::Compute);
+        let mut size = [0; 3];
+        for entry in compute.clone() {
+            for (s, &e) in size.iter_mut().zip(&entry.workgroup_size) {
+                *s = (*s).max(e);
+            }
+        }
+        Demands {
+            storage_buffers: self.storage_buffers,
+            storage_textures: self.storage_textures,
+            workgroup_bytes: compute.map(|e| e.workgroup_bytes).max().unwrap_or(0),
+            workgroup_size: size,
+        }
+    }
+}
+
+/// A limit a module exceeds (`Demands::exceeded`); displayed as a device
+/// error lists it: what it needs, for which module, and what the device
+/// allows.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Exceeded {
+    /// The limit's name in `wgpu::Limits`.
+    pub limit: &'static str,
+    /// What it counts ("bytes of workgroup memory").
+    pub counts: &'static str,
+    pub needs: u32,
+    pub module: String,
+    pub allows: u32,
+}
+
+impl std::fmt::Display for Exceeded {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} {} for {} (`{}` is {})",
+            self.needs, self.counts, self.module, self.limit, self.allows
+        )
+    }
+}
+
 impl Composition {
+    /// Each limit of `limits` the module exceeds.
+    pub fn exceeded(&self, limits: &wgpu::Limits) -> Vec<Exceeded> {
+        self.demands.exceeded(self.name, limits)
+    }
+
+    /// Whether the module fits `limits`.
+    pub fn fits(&self, limits: &wgpu::Limits) -> bool {
+        self.exceeded(limits).is_empty()
+    }
+
     pub fn source(&self) -> String {
         let mut s = String::new();
         for part in self.parts {
@@ -209,14 +435,77 @@ impl Composition {
     /// original file and line.
     pub fn validate(&self) -> Result<naga::Module, String> {
         let source = self.source();
-        validate_source(&source, |line| self.locate(line))
+        validate_source(&source, |line| self.locate(line)).map(|(module, _)| module)
+    }
+
+    /// What the module asks of a device, read from its validated IR (for
+    /// an invalid module, `validate`'s error).
+    pub fn resources(&self) -> Result<Resources, String> {
+        let source = self.source();
+        let (module, info) = validate_source(&source, |line| self.locate(line))?;
+        let mut layouter = naga::proc::Layouter::default();
+        layouter
+            .update(module.to_ctx())
+            .map_err(|e| format!("{}: {e}", self.name))?;
+        let storage_texture = |ty: naga::Handle<naga::Type>| {
+            matches!(
+                module.types[ty].inner,
+                naga::TypeInner::Image {
+                    class: naga::ImageClass::Storage { .. },
+                    ..
+                }
+            )
+        };
+        let sampled_texture = |ty: naga::Handle<naga::Type>| {
+            matches!(module.types[ty].inner, naga::TypeInner::Image { .. }) && !storage_texture(ty)
+        };
+        let count = |used: &dyn Fn(naga::Handle<naga::GlobalVariable>) -> bool,
+                     kind: &dyn Fn(&naga::GlobalVariable) -> bool| {
+            module
+                .global_variables
+                .iter()
+                .filter(|&(h, g)| used(h) && kind(g))
+                .count() as u32
+        };
+        let storage_buffer = |g: &naga::GlobalVariable| matches!(g.space, naga::AddressSpace::Storage { .. });
+        let declared = |_| true;
+        let entries = module
+            .entry_points
+            .iter()
+            .enumerate()
+            .map(|(i, ep)| {
+                let function = info.get_entry_point(i);
+                let used = |h: naga::Handle<naga::GlobalVariable>| !function[h].is_empty();
+                let workgroup_bytes = module
+                    .global_variables
+                    .iter()
+                    .filter(|&(h, g)| used(h) && g.space == naga::AddressSpace::WorkGroup)
+                    .map(|(_, g)| layouter[g.ty].size.next_multiple_of(16))
+                    .sum();
+                EntryNeeds {
+                    name: format!("{}.{}", self.name, ep.name),
+                    stage: ep.stage,
+                    storage_buffers: count(&used, &storage_buffer),
+                    storage_textures: count(&used, &|g| storage_texture(g.ty)),
+                    sampled_textures: count(&used, &|g| sampled_texture(g.ty)),
+                    workgroup_bytes,
+                    workgroup_size: ep.workgroup_size,
+                }
+            })
+            .collect();
+        Ok(Resources {
+            module: self.name,
+            storage_buffers: count(&declared, &storage_buffer),
+            storage_textures: count(&declared, &|g| storage_texture(g.ty)),
+            entries,
+        })
     }
 }
 
 impl WgslFile {
     /// Parses and validates the file on its own.
     pub fn validate(&self) -> Result<naga::Module, String> {
-        validate_source(self.text, |line| (self.path, line))
+        validate_source(self.text, |line| (self.path, line)).map(|(module, _)| module)
     }
 }
 
@@ -232,7 +521,10 @@ fn rendered_line(rendered: &str) -> Option<u32> {
     rendered[at..].split(':').next()?.parse().ok()
 }
 
-fn validate_source(source: &str, locate: impl Fn(u32) -> (&'static str, u32)) -> Result<naga::Module, String> {
+fn validate_source(
+    source: &str,
+    locate: impl Fn(u32) -> (&'static str, u32),
+) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
     let describe = |rendered: String, kind: &str, message: String| {
         let at = rendered_line(&rendered)
             .map(&locate)
@@ -246,7 +538,7 @@ fn validate_source(source: &str, locate: impl Fn(u32) -> (&'static str, u32)) ->
             e.message().to_string(),
         )
     })?;
-    naga::valid::Validator::new(
+    let info = naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
         naga::valid::Capabilities::default(),
     )
@@ -258,5 +550,5 @@ fn validate_source(source: &str, locate: impl Fn(u32) -> (&'static str, u32)) ->
             e.as_inner().to_string(),
         )
     })?;
-    Ok(module)
+    Ok((module, info))
 }

@@ -25,16 +25,59 @@ use super::pipeline::Prt;
 use super::transfer::{Brdf, Integration};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
-use crate::gpu::batch::{BatchPass, BatchPlan, readback_buffer, run_batches};
+use crate::gpu::batch::{BatchPass, BatchPlan, fit_items, readback_buffer, run_batches};
 use crate::gpu::buffers::{GrowingBuffer, KeptGroup, storage_buffer};
 use crate::gpu::kernels::{Kernels, PipelineLog, Pipelines, compute_pipelines, record_dispatch};
 use crate::gpu::layout::{Io, bind_group, io_layout, layout, storage_entry};
 use crate::gpu::timer::PassTimer;
+use crate::gpu::wgsl::Composition;
 use crate::progress::Bar;
 
-/// Most vertices per workgroup (`MAX_VERTS` in the kernel); fewer for 64x64
-/// masks, whose words and cells must fit the 1024-entry workgroup arrays.
-pub const MAX_VERTICES_PER_WORKGROUP: u32 = 16;
+/// A form of `sh_transfer.wgsl`: its module and the sizes of its workgroup
+/// arrays (the constants its first file sets). Each vertex's arithmetic is
+/// the same in every form; only how many vertices share a workgroup differs.
+#[derive(Debug, Clone, Copy)]
+pub struct ShTransferForm {
+    pub module: Composition,
+    /// Most vertices per workgroup (`MAX_VERTS`); fewer for 64x64 masks,
+    /// whose words and cells must fit the staged arrays.
+    pub max_vertices: u32,
+    /// Entries of the staged masks and cells (`STAGED`).
+    pub staged: u32,
+}
+
+impl ShTransferForm {
+    /// Within WebGPU's portable limits (16 KiB of workgroup memory).
+    pub const PORTABLE: ShTransferForm = ShTransferForm {
+        module: crate::gpu::wgsl::SH_TRANSFER_PORTABLE_MODULE,
+        max_vertices: 8,
+        staged: 512,
+    };
+
+    /// Twice the vertices a workgroup (32 KiB of workgroup memory).
+    pub const WIDE: ShTransferForm = ShTransferForm {
+        module: crate::gpu::wgsl::SH_TRANSFER_MODULE,
+        max_vertices: 16,
+        staged: 1024,
+    };
+
+    /// The widest form `limits` allow.
+    pub fn for_limits(limits: &wgpu::Limits) -> ShTransferForm {
+        match Self::WIDE.module.fits(limits) {
+            true => Self::WIDE,
+            false => Self::PORTABLE,
+        }
+    }
+
+    /// Vertices per workgroup for masks of `words32` u32 words and `cells`
+    /// 4x4 cells.
+    fn vertices_per_group(&self, words32: usize, cells: usize) -> u32 {
+        self.max_vertices
+            .min(self.staged / words32 as u32)
+            .min(self.staged / cells as u32)
+    }
+}
+
 /// Largest SH order the kernel's workgroup arrays hold (`MAX_COEFFS` = 64).
 pub const MAX_GPU_BANDS: usize = 8;
 /// Vertex batches are multiples of this (whole workgroups).
@@ -63,10 +106,12 @@ const FRAME_IO: &[Io] = &[
     Io::Out(4, "sh_transfer radiance"),
 ];
 
-/// The layouts and pipeline of `sh_transfer.wgsl` for one device.
+/// The layouts and pipeline of `sh_transfer.wgsl` for one device, in the
+/// widest form its limits allow.
 pub struct ShTransferKernels {
     pub tables_layout: wgpu::BindGroupLayout,
     pub frame_layout: wgpu::BindGroupLayout,
+    pub form: ShTransferForm,
     pipeline: Pipelines,
 }
 
@@ -78,9 +123,10 @@ impl Kernels for ShTransferKernels {
             &[storage_entry(0, true), storage_entry(1, true), storage_entry(2, true)],
         );
         let frame_layout = io_layout(device, "sh_transfer frame", FRAME_IO);
+        let form = ShTransferForm::for_limits(&device.limits());
         let pipeline = compute_pipelines(
             device,
-            &crate::gpu::wgsl::SH_TRANSFER_MODULE,
+            &form.module,
             &[&tables_layout, &frame_layout],
             &["sh_transfer"],
             log,
@@ -88,6 +134,7 @@ impl Kernels for ShTransferKernels {
         ShTransferKernels {
             tables_layout,
             frame_layout,
+            form,
             pipeline,
         }
     }
@@ -182,9 +229,7 @@ impl ShTransferPass {
             Integration::Pixels => 2,
         };
         let cells = (t.side / 4) * (t.side / 4);
-        let verts_per_group = MAX_VERTICES_PER_WORKGROUP
-            .min(1024 / words32 as u32)
-            .min(1024 / cells as u32);
+        let verts_per_group = kernels.form.vertices_per_group(words32, cells);
         let base = Params {
             counts: [0, n as u32, settings.bands as u32, prt.grid.side as u32],
             shape: [t.side as u32 / 4, words32 as u32, integration, brdf],
@@ -273,6 +318,12 @@ impl ShTransferPass {
         );
     }
 
+    /// The kernel's form on this device, and how many vertices share a
+    /// workgroup for this mesh's masks.
+    pub fn workgroups(&self) -> (ShTransferForm, u32) {
+        (self.kernels.form, self.verts_per_group)
+    }
+
     /// World-space transfer vectors of the prepared batch, `coeffs` per vertex.
     pub fn transfer(&self) -> &wgpu::Buffer {
         self.frame.buffer(3)
@@ -336,9 +387,8 @@ impl GpuTransfer {
     /// 64); larger meshes are always split to fit the device's binding size.
     pub fn with_batch_limit(ctx: &GpuContext, prt: &Prt, max_batch: u64) -> Result<GpuTransfer> {
         let pass = ShTransferPass::with_kernels(&ctx.device, ShTransferKernels::cached(ctx), prt)?;
-        let limits = ctx.device.limits();
-        let max_binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
-        let fit = max_binding / pass.per_vertex().iter().max().copied().unwrap_or(1);
+        let per_vertex = pass.per_vertex();
+        let fit = fit_items(&ctx.device, &per_vertex, per_vertex[2] + per_vertex[3]) as u64;
         let batch = (fit.min(max_batch) / BATCH_QUANTUM * BATCH_QUANTUM).max(BATCH_QUANTUM);
         Ok(GpuTransfer {
             pass,
@@ -418,5 +468,36 @@ impl BatchPass for VertexBatch<'_> {
         let [_, _, t, r] = self.pass.per_vertex();
         let nv = self.pass.batch_vertices;
         vec![(self.pass.transfer(), t * nv), (self.pass.radiance(), r * nv)]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ShTransferForm;
+
+    /// The constant `name` as the form's first WGSL file sets it.
+    fn constant(form: &ShTransferForm, name: &str) -> u32 {
+        let prefix = format!("const {name}: u32 = ");
+        let line = form.module.parts[0].text.lines().find_map(|l| l.strip_prefix(&prefix));
+        line.and_then(|v| v.strip_suffix("u;")).unwrap().parse().unwrap()
+    }
+
+    #[test]
+    fn forms_match_their_wgsl_and_fit_their_limits() {
+        let portable = wgpu::Limits::default();
+        let wide = wgpu::Limits {
+            max_compute_workgroup_storage_size: 32 << 10,
+            ..portable.clone()
+        };
+        for form in [ShTransferForm::PORTABLE, ShTransferForm::WIDE] {
+            assert_eq!(constant(&form, "MAX_VERTS"), form.max_vertices, "{}", form.module.name);
+            assert_eq!(constant(&form, "STAGED"), form.staged, "{}", form.module.name);
+            // 64x64 masks: 128 words and 256 cells a vertex.
+            assert!(form.vertices_per_group(128, 256) >= 1);
+        }
+        assert_eq!(ShTransferForm::for_limits(&portable).max_vertices, 8);
+        assert_eq!(ShTransferForm::for_limits(&wide).max_vertices, 16);
+        let bytes = ShTransferForm::WIDE.module.resources().unwrap().entries[0].workgroup_bytes;
+        assert_eq!(bytes, 29_696);
     }
 }

@@ -9,7 +9,7 @@ use bytemuck::{Pod, Zeroable};
 
 use super::{AoPoint, AoSettings, VisibilityMasks};
 use crate::error::Result;
-use crate::gpu::batch::{BatchPlan, Batched, Pass, run_batches};
+use crate::gpu::batch::{BatchPlan, Batched, Pass, fit_items, run_batches};
 use crate::gpu::buffers::read_buffer;
 use std::sync::Arc;
 
@@ -150,13 +150,17 @@ impl TreePass<AoRaysKernels> {
 /// Rays per dispatch: keeps one dispatch short on a software rasteriser.
 pub const RAYS_PER_BATCH: u64 = 1 << 22;
 
+/// Bytes of one point in the points binding.
+pub(crate) const AO_POINT_BYTES: u64 = std::mem::size_of::<AoPoint>() as u64;
+
 /// The pass with its read-back buffer, as a runner keeps it on a device.
 pub type AoRaysBatches = Batched<AoRaysPass>;
 
 impl Batched<AoRaysPass> {
     /// Casts the AO rays of `points` (blocking), about `rays_per_batch` rays
-    /// per dispatch (whole points, at least one per batch); returns the
-    /// masks and the kernels' time where timestamps exist.
+    /// per dispatch (whole points, at least one per batch, no more than the
+    /// device's bindings hold); returns the masks and the kernels' time
+    /// where timestamps exist.
     pub fn visibility(
         &mut self,
         ctx: &GpuContext,
@@ -168,7 +172,9 @@ impl Batched<AoRaysPass> {
     ) -> Result<(VisibilityMasks, Option<f64>)> {
         settings.validate()?;
         let words = settings.words_per_point() as usize;
-        let per_batch = (rays_per_batch / settings.rays_per_point as u64).max(1) as usize;
+        let mask_bytes = 4 * words as u64;
+        let fit = fit_items(&ctx.device, &[AO_POINT_BYTES, mask_bytes], mask_bytes);
+        let per_batch = ((rays_per_batch / settings.rays_per_point as u64).max(1) as usize).min(fit);
         let mut bits = Vec::with_capacity(points.len() * words);
         let mut batch = TreeBatch {
             pass: &mut self.pass,

@@ -19,7 +19,9 @@ use super::{ShadeSettings, SsaoFrame, SsaoSettings, Timings, final_ao};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::gpu::batch::Pass;
-use crate::gpu::buffers::{KeptGroup, check_storage_size, read_back, read_buffer, uniform_buffer, zeroed_buffer};
+use crate::gpu::buffers::{
+    KeptGroup, check_buffer_size, check_storage_size, read_back, read_buffer, uniform_buffer, zeroed_buffer,
+};
 use crate::gpu::device::Timing;
 use crate::gpu::device::elapsed_ms;
 use crate::gpu::kernels::{Kernels, PipelineLog, Pipelines, compute_pipelines, record_dispatch};
@@ -121,6 +123,9 @@ impl GBufferTargets {
                 view_formats: &[],
             })
         };
+        // A texture's rows, padded, are read back through one buffer.
+        let padded_row = (16 * width).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) as u64;
+        check_buffer_size(device, "the G-buffer's read-back", padded_row * height as u64)?;
         let color = wgpu::TextureUsages::RENDER_ATTACHMENT
             | wgpu::TextureUsages::TEXTURE_BINDING
             | wgpu::TextureUsages::COPY_SRC
@@ -168,18 +173,20 @@ impl GBufferTargets {
         (16 * self.width).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
     }
 
-    /// Reads both textures back (blocking).
+    /// Reads both textures back (blocking), each through its own buffer
+    /// (`new` checked that one fits: both together need not).
     pub fn read(&self, ctx: &GpuContext) -> Result<GBuffer> {
         let row = self.padded_row() as u64;
         let bytes = row * self.height as u64;
-        let readback = zeroed_buffer(
-            &ctx.device,
-            "g-buffer readback",
-            2 * bytes,
-            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        );
-        let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        for (k, texture) in [&self.geometry, &self.shade].into_iter().enumerate() {
+        let per_row = (row / 16) as usize;
+        let read = |texture: &wgpu::Texture| -> Result<Vec<[f32; 4]>> {
+            let readback = zeroed_buffer(
+                &ctx.device,
+                "g-buffer readback",
+                bytes,
+                wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            );
+            let mut encoder = ctx.device.create_command_encoder(&Default::default());
             encoder.copy_texture_to_buffer(
                 wgpu::TexelCopyTextureInfo {
                     texture,
@@ -190,30 +197,24 @@ impl GBufferTargets {
                 wgpu::TexelCopyBufferInfo {
                     buffer: &readback,
                     layout: wgpu::TexelCopyBufferLayout {
-                        offset: k as u64 * bytes,
+                        offset: 0,
                         bytes_per_row: Some(row as u32),
                         rows_per_image: Some(self.height),
                     },
                 },
                 self.extent(),
             );
-        }
-        ctx.queue.submit([encoder.finish()]);
-        let raw: Vec<[f32; 4]> = read_back(&ctx.device, &readback, (2 * bytes / 16) as usize)?;
-        let per_row = (row / 16) as usize;
-        let unpad = |start: usize| -> Vec<[f32; 4]> {
-            (0..self.height as usize)
-                .flat_map(|y| {
-                    let s = start + y * per_row;
-                    raw[s..s + self.width as usize].iter().copied()
-                })
-                .collect()
+            ctx.queue.submit([encoder.finish()]);
+            let raw: Vec<[f32; 4]> = read_back(&ctx.device, &readback, (bytes / 16) as usize)?;
+            Ok((0..self.height as usize)
+                .flat_map(|y| raw[y * per_row..y * per_row + self.width as usize].iter().copied())
+                .collect())
         };
         Ok(GBuffer {
             width: self.width,
             height: self.height,
-            geometry: unpad(0),
-            shade: unpad((bytes / 16) as usize),
+            geometry: read(&self.geometry)?,
+            shade: read(&self.shade)?,
         })
     }
 }

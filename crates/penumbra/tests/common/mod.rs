@@ -21,6 +21,27 @@ pub fn gpu() -> Option<GpuContext> {
     }
 }
 
+/// The GPU if there is one, as a device created with WebGPU's portable
+/// limits (`wgpu::Limits::default()`): what a host that asks for no more
+/// gives penumbra.
+pub fn portable_gpu() -> Option<GpuContext> {
+    use penumbra::gpu::{AdapterKinds, AdapterOptions, LimitsChoice};
+    let options = AdapterOptions {
+        limits: LimitsChoice::Portable,
+        ..Default::default()
+    };
+    match GpuContext::headless_on(AdapterKinds::Any, &options) {
+        Ok(ctx) => {
+            println!("GPU adapter: {} (portable limits)", ctx.label());
+            Some(ctx)
+        }
+        Err(e) => {
+            println!("no GPU adapter ({e}): portable-limits test skipped");
+            None
+        }
+    }
+}
+
 /// The CPU, then the GPU if there is one: every runner should give the
 /// same answers on both.
 pub fn devices() -> Vec<Device> {

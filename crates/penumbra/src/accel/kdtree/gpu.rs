@@ -14,7 +14,7 @@ use bytemuck::{Pod, Zeroable};
 use super::KdTree;
 use super::pass::{Dispatch, TreeBatch, TreeKernelSet, TreeKernels, TreePass};
 use crate::error::{Error, Result};
-use crate::gpu::batch::{BatchPlan, Batched, run_batches};
+use crate::gpu::batch::{BatchPlan, Batched, fit_items, run_batches};
 use crate::gpu::buffers::{storage_buffer, uniform_buffer};
 use std::sync::Arc;
 
@@ -213,12 +213,11 @@ pub struct GpuTrace {
     pub gpu_ms: Option<f64>,
 }
 
-/// Largest batch of rays per dispatch: the device's storage-binding limit for
-/// the rays, and a cap that keeps a single dispatch short.
+/// Largest batch of rays per dispatch: what the device's bindings hold (a
+/// ray's 24 bytes, its hit and counts, 8 bytes each, read back together),
+/// and a cap that keeps a single dispatch short.
 fn batch_size(device: &wgpu::Device) -> usize {
-    let limits = device.limits();
-    let max_binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
-    ((max_binding / 24) as usize).clamp(1, 1 << 22)
+    fit_items(device, &[24, 8, 8], 16).clamp(1, 1 << 22)
 }
 
 /// The pass with its read-back buffer, as a runner keeps it on a device.
