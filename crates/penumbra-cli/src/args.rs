@@ -4,7 +4,7 @@
 use clap::Args;
 use serde_json::{Value, json};
 
-use penumbra::gpu::device::{AdapterOptions, Device, DeviceChoice, Needs};
+use penumbra::gpu::device::{AdapterSettings, Device, DeviceChoice, Needs};
 use std::path::Path;
 
 use penumbra::error::Result;
@@ -106,11 +106,11 @@ pub fn error_budget(max_error: f64) -> ErrorBudget {
 
 /// The adapter wgpu's variables ask for: `WGPU_BACKEND` (backends by
 /// name) and `WGPU_ADAPTER_NAME` (a part of the adapter's name).
-pub fn adapter_options() -> AdapterOptions {
-    AdapterOptions {
+pub fn adapter_options() -> AdapterSettings {
+    AdapterSettings {
         backends: std::env::var("WGPU_BACKEND").ok(),
         adapter_name: std::env::var("WGPU_ADAPTER_NAME").ok(),
-        ..AdapterOptions::default()
+        ..AdapterSettings::default()
     }
 }
 

@@ -1034,7 +1034,7 @@ fn gpu_ao_matches_cpu() {
     // fraction of rays that differ. The kernel itself is held to >= 99.9% of
     // rays identical on the same tree (tests/gpu_twins.rs, `compare_ao`,
     // corner included); here each device builds its own tree
-    // (`KdTreeParams::for_cpu` on the CPU, `default` on the GPU), and the
+    // (`KdTreeSettings::for_cpu` on the CPU, `default` on the GPU), and the
     // rays of the corner's seam vertices start in a wall's plane, where a
     // hit at t ~ 1e-11 is found or not by the tree's cells
     // (docs/results/tracing.md, `Bvh8::contact`): measured 0.11% of rays

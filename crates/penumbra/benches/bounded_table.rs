@@ -35,7 +35,7 @@ use penumbra::bounded::{BoundedRenderer, BoundedSettings, FrameStats};
 use penumbra::gpu::device::Device;
 use penumbra::progress::{Bar, Reporter};
 use penumbra::scene::CameraPath;
-use penumbra::whitted::{LightingOptions, Packets, RenderScene, WhittedRenderer, WhittedSettings};
+use penumbra::whitted::{LightingSettings, Packets, RenderScene, WhittedRenderer, WhittedSettings};
 use rayon::ThreadPool;
 
 /// The scenes, in table order (those not loaded are left out).
@@ -218,7 +218,7 @@ fn ratio(a: f64, b: f64) -> f64 {
 
 /// A fresh renderer of the scene on the CPU (the CLI's default lighting).
 fn whitted(device: &Device, s: &BenchScene) -> penumbra::Result<WhittedRenderer> {
-    let scene = RenderScene::new(&s.scene, 0, &LightingOptions::default())?;
+    let scene = RenderScene::new(&s.scene, 0, &LightingSettings::default())?;
     WhittedRenderer::new(device, scene, &Reporter::silent())
 }
 

@@ -22,10 +22,10 @@ use common::{Model, load_models_named};
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use glam::{Quat, Vec3};
 use penumbra::accel::Accel;
-use penumbra::accel::kdtree::{KdTree, KdTreeParams};
+use penumbra::accel::kdtree::{KdTree, KdTreeSettings};
 use penumbra::field::gpu::{FieldAoBatches, FieldGroup, GpuField, GpuInstance};
 use penumbra::field::{
-    DirectionMapping, DisplacementField, FieldCaster, FieldParams, NO_OWNER, OctahedralGrid, Positional, Storage,
+    DirectionMapping, DisplacementField, FieldCaster, FieldSampling, NO_OWNER, OctahedralGrid, Positional, Storage,
     field_ao,
 };
 use penumbra::gpu::GpuContext;
@@ -42,8 +42,8 @@ const SETTINGS: AoSettings = AoSettings {
     seed: 0,
 };
 
-fn params(side: u32) -> FieldParams {
-    FieldParams {
+fn params(side: u32) -> FieldSampling {
+    FieldSampling {
         grid: OctahedralGrid { side },
         res: 32,
         storage: Storage::U8,
@@ -125,7 +125,7 @@ fn all(c: &mut Criterion) {
     for m in &models {
         let t = placement(m);
         let tree =
-            Accel::new(KdTree::build(&m.mesh.map_positions(|p| t.apply_point(p)), &KdTreeParams::default()).unwrap());
+            Accel::new(KdTree::build(&m.mesh.map_positions(|p| t.apply_point(p)), &KdTreeSettings::default()).unwrap());
         raycast.bench_function(m.name.as_str(), |b| {
             b.iter(|| ao_rays(&tree, black_box(&points), &SETTINGS, &Bar::hidden()))
         });

@@ -36,7 +36,7 @@ use penumbra::geom::ray::{Hit, Ray};
 use penumbra::gpu::GpuContext;
 use penumbra::mlrta::gpu::PacketBatches;
 use penumbra::mlrta::tiles::DEFAULT_MIN_TILE;
-use penumbra::mlrta::{ImageBuffers, MlrtaParams, Prepared, trace_camera_into, trace_image};
+use penumbra::mlrta::{ImageBuffers, MlrtaSettings, Prepared, trace_camera_into, trace_image};
 use penumbra::scene::{Camera, CameraRays};
 use rayon::prelude::*;
 
@@ -46,12 +46,12 @@ fn default_light(m: &Model) -> Vec3 {
     b.center() + Vec3::new(-0.4, 1.0, 0.3).normalize() * b.diagonal()
 }
 
-fn params(entry_points: bool, min_tile: u32) -> MlrtaParams {
-    MlrtaParams {
+fn params(entry_points: bool, min_tile: u32) -> MlrtaSettings {
+    MlrtaSettings {
         entry_points,
         min_tile,
         corner_frusta: true,
-        ..MlrtaParams::default()
+        ..MlrtaSettings::default()
     }
 }
 

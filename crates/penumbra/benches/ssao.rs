@@ -7,7 +7,7 @@
 use std::path::PathBuf;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use penumbra::accel::kdtree::{KdTree, KdTreeParams};
+use penumbra::accel::kdtree::{KdTree, KdTreeSettings};
 use penumbra::gpu::GpuContext;
 use penumbra::scene::{Camera, load_obj};
 use penumbra::ssao::gbuffer::{ScreenView, gbuffer};
@@ -33,7 +33,7 @@ fn model() -> (PathBuf, f32) {
 fn bench(c: &mut Criterion) {
     let (path, radius) = model();
     let mesh = load_obj(&path).unwrap();
-    let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+    let tree = KdTree::build(&mesh, &KdTreeSettings::default()).unwrap();
     let camera = Camera::default_for(&mesh.bounds());
     let view = ScreenView::new(&camera, 800, 600);
     let gb = gbuffer(&tree, &mesh, &camera, &[], 800, 600);

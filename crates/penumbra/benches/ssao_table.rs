@@ -23,7 +23,7 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use penumbra::accel::Accel;
-use penumbra::accel::kdtree::{KdTree, KdTreeParams};
+use penumbra::accel::kdtree::{KdTree, KdTreeSettings};
 use penumbra::gpu::GpuContext;
 use penumbra::progress::Bar;
 use penumbra::scene::{Camera, load_obj};
@@ -103,7 +103,7 @@ fn main() {
     for config in &CONFIGS {
         let path = Path::new(&data).join("models").join(format!("{}.obj", config.model));
         let mesh = load_obj(&path).expect("shared model loads");
-        let accel = Accel::new(KdTree::build(&mesh, &KdTreeParams::default()).unwrap());
+        let accel = Accel::new(KdTree::build(&mesh, &KdTreeSettings::default()).unwrap());
         let camera = (config.camera)(&mesh.bounds());
         let view = ScreenView::new(&camera, w, h);
         let source = || GBufferSource::Render {

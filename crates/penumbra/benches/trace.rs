@@ -13,7 +13,7 @@
 //!   global rayon pool (all cores; the build recurses with `rayon::join`).
 //! - `bvh_build_1thread/<model>/{spatial,objects}`: the wide BVH over the
 //!   kd-tree's triangles on a one-thread pool, with the default
-//!   `BvhParams` (spatial splits where they pay) and with object splits
+//!   `BvhSettings` (spatial splits where they pay) and with object splits
 //!   alone (`spatial_split_budget` 0): what the splits cost.
 //! - `packets_cpu_1thread/<view>/{spatial,objects}`: 1024x1024 primary rays
 //!   as 4x4 packets through each of those two BVHs (`bvh::packet::
@@ -43,8 +43,8 @@ use std::hint::black_box;
 use common::{CPU_IMAGE, Model, gpu_image_size, is_software, load_models, primary_rays};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
-use penumbra::accel::bvh::{Bvh8, BvhParams, packet};
-use penumbra::accel::kdtree::{KdTree, KdTreeParams};
+use penumbra::accel::bvh::{Bvh8, BvhSettings, packet};
+use penumbra::accel::kdtree::{KdTree, KdTreeSettings};
 use penumbra::accel::{Accel, Structure};
 use penumbra::geom::ray::{Hit, Ray};
 use penumbra::geom::simd::Isa;
@@ -65,7 +65,7 @@ fn bench_build(c: &mut Criterion, models: &[Model]) {
     for m in models {
         group.throughput(Throughput::Elements(m.mesh.triangles.len() as u64));
         group.bench_function(m.name.as_str(), |b| {
-            b.iter(|| KdTree::build(black_box(&m.mesh), &KdTreeParams::default()).unwrap())
+            b.iter(|| KdTree::build(black_box(&m.mesh), &KdTreeSettings::default()).unwrap())
         });
     }
     group.finish();
@@ -99,10 +99,10 @@ fn random_rays(tree: &KdTree, n: usize) -> Vec<Ray> {
 }
 
 /// The BVH's knobs without spatial splits.
-fn objects_only() -> BvhParams {
-    BvhParams {
+fn objects_only() -> BvhSettings {
+    BvhSettings {
         spatial_split_budget: 0.0,
-        ..BvhParams::default()
+        ..BvhSettings::default()
     }
 }
 
@@ -111,7 +111,7 @@ fn bench_bvh(c: &mut Criterion, models: &[Model]) {
     let mut group = common::flat_group(c, "bvh_build_1thread", 3);
     for m in models {
         group.throughput(Throughput::Elements(m.mesh.triangles.len() as u64));
-        for (id, params) in [("spatial", BvhParams::default()), ("objects", objects_only())] {
+        for (id, params) in [("spatial", BvhSettings::default()), ("objects", objects_only())] {
             group.bench_function(BenchmarkId::new(m.name.as_str(), id), |b| {
                 b.iter(|| pool.install(|| Bvh8::build(black_box(m.tree()), &params)))
             });
@@ -138,7 +138,7 @@ fn bench_packets(c: &mut Criterion, models: &[Model]) {
     let pool = common::thread_pool(1);
     let mut group = common::flat_group(c, "packets_cpu_1thread", 5);
     for m in models {
-        let objects = KdTree::build(&m.mesh, &KdTreeParams::default()).expect("the model built once already");
+        let objects = KdTree::build(&m.mesh, &KdTreeSettings::default()).expect("the model built once already");
         let objects = Accel::new(objects);
         objects.bvh_with(&objects_only());
         m.accel.bvh();

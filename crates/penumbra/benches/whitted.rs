@@ -34,13 +34,13 @@ use criterion::{BenchmarkId, Criterion, SamplingMode, Throughput, criterion_grou
 use penumbra::gpu::GpuContext;
 use penumbra::gpu::device::Device;
 use penumbra::progress::{Bar, Reporter};
-use penumbra::whitted::{LightingOptions, Packets, RenderScene, WhittedRenderer, WhittedSettings};
+use penumbra::whitted::{LightingSettings, Packets, RenderScene, WhittedRenderer, WhittedSettings};
 
 /// Side of the images.
 const SIZE: u32 = 512;
 
 fn renderer(device: &Device, s: &BenchScene) -> WhittedRenderer {
-    let scene = RenderScene::new(&s.scene, 0, &LightingOptions::default())
+    let scene = RenderScene::new(&s.scene, 0, &LightingSettings::default())
         .unwrap_or_else(|e| panic!("preparing {}: {e}", s.name));
     WhittedRenderer::new(device, scene, &Reporter::silent()).unwrap_or_else(|e| panic!("building {}: {e}", s.name))
 }

@@ -27,7 +27,7 @@ use penumbra::gpu::GpuContext;
 use penumbra::gpu::device::{Device, Timing};
 use penumbra::progress::{Bar, Reporter};
 use penumbra::scene::Camera;
-use penumbra::whitted::{LightingOptions, Packets, RayCounts, RenderScene, WhittedRenderer, WhittedSettings};
+use penumbra::whitted::{LightingSettings, Packets, RayCounts, RenderScene, WhittedRenderer, WhittedSettings};
 use rayon::ThreadPool;
 
 /// Renders per measurement (the fastest is kept).
@@ -39,7 +39,7 @@ const FULL_DEPTH: u32 = 5;
 
 /// The scene's renderer on `device`, with its lights or without any.
 fn renderer(device: &Device, s: &BenchScene, lights: bool) -> penumbra::Result<WhittedRenderer> {
-    let mut scene = RenderScene::new(&s.scene, 0, &LightingOptions::default())?;
+    let mut scene = RenderScene::new(&s.scene, 0, &LightingSettings::default())?;
     if !lights {
         scene.lights.clear();
     }

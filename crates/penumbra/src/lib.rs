@@ -68,7 +68,7 @@ pub use error::{Error, Result};
 pub use field::FieldSettings;
 pub use field::runner::FieldAo;
 pub use geom::sampling::DEFAULT_SEED;
-pub use gpu::device::{AdapterOptions, Device, DeviceChoice, LimitsChoice};
+pub use gpu::device::{AdapterSettings, Device, DeviceChoice, LimitsChoice};
 pub use mlrta::{PrimaryRays, TraceSettings};
 pub use progress::{Progress, Reporter, Silent, Task};
 pub use prt::pipeline::PrtSettings;

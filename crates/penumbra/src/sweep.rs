@@ -19,7 +19,7 @@ use crate::raycast::AoSettings;
 use crate::scene::{Scene, View, file_stem, load_input_in, load_mesh, load_shaded_input_in};
 use crate::ssao::tune::SsaoSweep;
 use crate::tune::Sweep;
-use crate::whitted::{LightingOptions, RenderScene, WhittedRenderer, WhittedSettings};
+use crate::whitted::{LightingSettings, RenderScene, WhittedRenderer, WhittedSettings};
 
 /// The methods a sweep drives.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -125,7 +125,7 @@ pub fn with_method<R>(
         }
         SweepKind::Bounded => {
             let scene = load_shaded_input_in(inputs.mesh, inputs.scene, inputs.data_dir)?;
-            let render_scene = RenderScene::new(&scene, 0, &LightingOptions::default())?;
+            let render_scene = RenderScene::new(&scene, 0, &LightingSettings::default())?;
             let whitted = WhittedRenderer::new(device, render_scene, bars)?;
             let camera = view.camera.resolve(scene.camera, &whitted.bounds(), scene.origin)?;
             let settings = WhittedSettings {

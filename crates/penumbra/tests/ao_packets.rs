@@ -8,7 +8,7 @@
 mod common;
 
 use common::data_model;
-use penumbra::accel::kdtree::{KdTree, KdTreeParams};
+use penumbra::accel::kdtree::{KdTree, KdTreeSettings};
 use penumbra::accel::{Accel, Structure};
 use penumbra::geom::simd::Isa;
 use penumbra::progress::Bar;
@@ -19,7 +19,7 @@ use penumbra::scene::procedural::all_scenes;
 use penumbra::scene::{Mesh, load_obj};
 
 fn compare(name: &str, mesh: &Mesh, rays_per_point: u32) {
-    let accel = Accel::new(KdTree::build(mesh, &KdTreeParams::default()).unwrap());
+    let accel = Accel::new(KdTree::build(mesh, &KdTreeSettings::default()).unwrap());
     let points = vertex_points(mesh);
     let diagonal = mesh.bounds().diagonal();
     for radius in [f32::INFINITY, 0.05 * diagonal] {

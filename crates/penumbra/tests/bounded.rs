@@ -14,7 +14,7 @@ use penumbra::gpu::device::Device;
 use penumbra::progress::{Bar, Reporter};
 use penumbra::scene::CameraPath;
 use penumbra::scene::{Camera, Scene, load_scene_shaded};
-use penumbra::whitted::{LightingOptions, RenderScene, WhittedRenderer, WhittedSettings};
+use penumbra::whitted::{LightingSettings, RenderScene, WhittedRenderer, WhittedSettings};
 
 /// The shipped scenes with their cameras, and the Cornell box of the shared
 /// data where it is present.
@@ -41,7 +41,7 @@ fn scenes() -> Vec<(String, Scene, Camera)> {
 }
 
 fn whitted(scene: &Scene) -> WhittedRenderer {
-    let rs = RenderScene::new(scene, 0, &LightingOptions::default()).unwrap();
+    let rs = RenderScene::new(scene, 0, &LightingSettings::default()).unwrap();
     WhittedRenderer::new(&Device::cpu(), rs, &Reporter::silent()).unwrap()
 }
 

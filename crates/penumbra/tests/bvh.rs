@@ -6,7 +6,7 @@ mod common;
 use common::{Rng, data_model};
 use glam::Vec3;
 use penumbra::accel::kdtree::watertight::ShearedRay;
-use penumbra::accel::kdtree::{KdTree, KdTreeParams};
+use penumbra::accel::kdtree::{KdTree, KdTreeSettings};
 use penumbra::accel::{Accel, Structure};
 use penumbra::geom::ray::Ray;
 use penumbra::scene::load_mesh;
@@ -38,7 +38,7 @@ fn rays_at(rng: &mut Rng, lo: Vec3, hi: Vec3, n: usize) -> Vec<Ray> {
 /// the BVH breaks towards the smaller index).
 fn compare(path: &std::path::Path, n: usize) {
     let mesh = load_mesh(path).unwrap();
-    let accel = Accel::new(KdTree::build(&mesh, &KdTreeParams::default()).unwrap());
+    let accel = Accel::new(KdTree::build(&mesh, &KdTreeSettings::default()).unwrap());
     let (tree, bvh) = (accel.kdtree(), accel.bvh());
     let rays = rays_at(&mut Rng(0x5eed), tree.bounds.min, tree.bounds.max, n);
     let (kd, wide) = (
@@ -97,7 +97,7 @@ fn packets_give_the_single_rays_hits_on_camera_images() {
     for name in ["stanford-bunny.obj", "dragon100k.obj", "kitchen.obj", "cow.obj"] {
         let Some(path) = data_model(name) else { continue };
         let mesh = load_mesh(&path).unwrap();
-        let accel = Accel::new(KdTree::build(&mesh, &KdTreeParams::default()).unwrap());
+        let accel = Accel::new(KdTree::build(&mesh, &KdTreeSettings::default()).unwrap());
         // The kitchen from inside, as `benches/embree_table.py` views it
         // (world coordinates into the mesh's frame).
         let local = |x: f64, y: f64, z: f64| (glam::DVec3::new(x, y, z) - mesh.origin).as_vec3();

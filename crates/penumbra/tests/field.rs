@@ -9,11 +9,11 @@ mod twins;
 use common::{data_model, gpu};
 use glam::{Quat, Vec3};
 use penumbra::accel::Accel;
-use penumbra::accel::kdtree::{KdTree, KdTreeParams};
+use penumbra::accel::kdtree::{KdTree, KdTreeSettings};
 use penumbra::field::reach::Reach;
 use penumbra::field::runner::{FieldAo, FieldAoRun};
 use penumbra::field::{
-    DirectionMapping, FieldCaster, FieldParams, FieldTrace, NO_OWNER, Positional, Storage, field_ao, file,
+    DirectionMapping, FieldCaster, FieldSampling, FieldTrace, NO_OWNER, Positional, Storage, field_ao, file,
 };
 use penumbra::gpu::device::Device;
 use penumbra::progress::Bar;
@@ -74,7 +74,7 @@ fn a_single_triangle_field() {
     )
     .unwrap();
     let field = build(&tri, params(33, 32, Storage::U8, DirectionMapping::Concentric));
-    let tree = KdTree::build(&tri, &KdTreeParams::default()).unwrap();
+    let tree = KdTree::build(&tri, &KdTreeSettings::default()).unwrap();
     let (mut agree, mut total, mut hits, mut close) = (0, 0, 0, 0);
     for (o, d) in random_rays(&field, 5000, 3.0, 11) {
         let truth = tree.closest_hit(o, d, f32::INFINITY);
@@ -188,7 +188,7 @@ fn gpu_field_ao_equals_the_cpu_twin() {
 fn tangent_rays_origins_on_the_sphere_and_seams() {
     let mesh = load_obj(&common::asset("cube-with-hole.obj")).unwrap();
     let field = build(&mesh, params(33, 32, Storage::F32, DirectionMapping::Concentric));
-    let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+    let tree = KdTree::build(&mesh, &KdTreeSettings::default()).unwrap();
     let (c, r) = (field.center, field.radius);
     // Tangent: the line touches the sphere at one point; nothing inside it is hit.
     for d in [Vec3::X, Vec3::Z, Vec3::new(1.0, 0.0, 1.0).normalize()] {
@@ -276,7 +276,7 @@ fn tiny_and_huge_objects() {
         let points = vertex_points(&receiver);
         let owners = vec![NO_OWNER; points.len()];
         let world = unit.map_positions(|p| transform.apply_point(p));
-        let accel = Accel::new(KdTree::build(&world, &KdTreeParams::default()).unwrap());
+        let accel = Accel::new(KdTree::build(&world, &KdTreeSettings::default()).unwrap());
         let truth = ao_rays(&accel, &points, &settings(scale), &Bar::hidden()).accessibility();
         let casters = [FieldCaster {
             field: &unit_field,
@@ -344,7 +344,7 @@ fn instances_share_one_field() {
     for t in &poses {
         world.append(&caster.map_positions(|p| t.apply_point(p)));
     }
-    let accel = Accel::new(KdTree::build(&world, &KdTreeParams::default()).unwrap());
+    let accel = Accel::new(KdTree::build(&world, &KdTreeSettings::default()).unwrap());
     let truth: VisibilityMasks = ao_rays(&accel, &points, &settings, &Bar::hidden());
     let casters: Vec<FieldCaster> = poses
         .iter()
@@ -400,7 +400,7 @@ fn bunny_in_the_corner_meets_the_error_target() {
     let accel = Accel::new(
         KdTree::build(
             &bunny.map_positions(|p| transform.apply_point(p)),
-            &KdTreeParams::default(),
+            &KdTreeSettings::default(),
         )
         .unwrap(),
     );
@@ -446,7 +446,7 @@ fn rays_from_inside_the_sphere_by_depth() {
     };
     let field = build(&bunny, params(65, 32, Storage::U8, DirectionMapping::Concentric));
     let world = bunny.map_positions(|p| transform.apply_point(p));
-    let tree = KdTree::build(&world, &KdTreeParams::default()).unwrap();
+    let tree = KdTree::build(&world, &KdTreeSettings::default()).unwrap();
     let caster = FieldCaster {
         field: &field,
         transform,
@@ -525,7 +525,7 @@ fn corner_scene(casters: &[(&str, Vec3, f32, Role)]) -> Scene {
 
 /// AO of `scene`'s receiver vertices through fields covering `reach`.
 fn field_run(scene: &Scene, reach: Reach, radius: f32, device: &Device) -> (FieldAoRun, usize, Vec<String>) {
-    let p = FieldParams::new(258, 16, 8, DirectionMapping::Concentric).unwrap();
+    let p = FieldSampling::new(258, 16, 8, DirectionMapping::Concentric).unwrap();
     let mut fields = FieldAo::new(scene, &p, Positional::Bilinear, reach, &Reporter::silent()).unwrap();
     fields.upload(device).unwrap();
     let request = AoRequest {
@@ -588,7 +588,7 @@ fn fields_out_of_reach_are_not_built_and_change_nothing() {
 fn a_caster_that_only_shades_itself_gets_no_field() {
     let mut scene = corner_scene(&[("alone", Vec3::new(0.3, 0.15, 0.3), 0.12, Role::Both)]);
     scene.instances[0].role = Role::Caster;
-    let p = FieldParams::new(258, 16, 8, DirectionMapping::Concentric).unwrap();
+    let p = FieldSampling::new(258, 16, 8, DirectionMapping::Concentric).unwrap();
     let fields = FieldAo::new(&scene, &p, Positional::Bilinear, Reach::EVERYTHING, &Reporter::silent()).unwrap();
     let meshes: Vec<&str> = fields.reports().iter().map(|r| r.mesh.as_str()).collect();
     let skipped: Vec<_> = fields

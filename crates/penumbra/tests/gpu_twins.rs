@@ -30,7 +30,7 @@ mod twins;
 use common::{asset, data_model, gpu};
 use glam::Vec3;
 use penumbra::accel::kdtree::gpu::{GpuKdTree, TraceMode, TraceRaysBatches, trace_rays};
-use penumbra::accel::kdtree::{KdTree, KdTreeParams};
+use penumbra::accel::kdtree::{KdTree, KdTreeSettings};
 use penumbra::gpu::GpuContext;
 use penumbra::progress::Bar;
 use penumbra::raycast::AoSettings;
@@ -95,7 +95,7 @@ fn ao_kernel_equals_cpu_on_the_bunny() {
 fn large_requests_are_split_into_batches_with_the_same_results() {
     let Some(ctx) = gpu() else { return };
     let mesh = load_obj(&asset("sphere-on-plane.obj")).unwrap();
-    let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+    let tree = KdTree::build(&mesh, &KdTreeSettings::default()).unwrap();
     let gpu_tree = GpuKdTree::upload(&ctx.device, &tree).unwrap();
     let rays = random_rays(&mesh, 10_007, 5);
     let whole = trace_rays(&ctx, &gpu_tree, &rays, TraceMode::Closest, f32::INFINITY).unwrap();
@@ -147,7 +147,7 @@ fn passes_record_into_a_host_engines_encoder() {
     let (device, queue) = pollster::block_on(adapter.request_device(&Default::default())).unwrap();
 
     let mesh = load_obj(&asset("cube-with-hole.obj")).unwrap();
-    let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+    let tree = KdTree::build(&mesh, &KdTreeSettings::default()).unwrap();
     let rays = random_rays(&mesh, 3000, 11);
     // Built once for the host's device; buffers kept between prepares.
     let mut pass = TraceRaysPass::new(&device);

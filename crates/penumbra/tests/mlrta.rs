@@ -11,13 +11,13 @@ mod twins;
 use common::{Rng, asset, data_model};
 use glam::Vec3;
 use penumbra::accel::Accel;
-use penumbra::accel::kdtree::{KdTree, KdTreeParams};
+use penumbra::accel::kdtree::{KdTree, KdTreeSettings};
 use penumbra::geom::ray::Hit;
 use penumbra::mlrta::ao::visibility_mlrta;
 use penumbra::mlrta::entry_point::{EntryPoint, entry_point};
 use penumbra::mlrta::frustum::Frustum;
 use penumbra::mlrta::tiles::{Group, trace_group};
-use penumbra::mlrta::{ImageBuffers, MlrtaParams, Prepared, trace_camera_into, trace_image, trace_image_into};
+use penumbra::mlrta::{ImageBuffers, MlrtaSettings, Prepared, trace_camera_into, trace_image, trace_image_into};
 use penumbra::progress::Bar;
 use penumbra::raycast::AoSettings;
 use penumbra::raycast::ao_rays::ao_rays;
@@ -28,9 +28,9 @@ use twins::{agreement, check, compare_packets};
 
 /// Primary rays with and without entry points, and shadow rays to a light,
 /// against single rays, on a tree built with `tree` (the CPU's,
-/// `KdTreeParams::for_cpu`, is what the command line traces packets on;
+/// `KdTreeSettings::for_cpu`, is what the command line traces packets on;
 /// `default`, the GPU's, is the library's default).
-fn compare_image(name: &str, mesh: &Mesh, camera: &Camera, size: u32, params: MlrtaParams, tree: &KdTreeParams) {
+fn compare_image(name: &str, mesh: &Mesh, camera: &Camera, size: u32, params: MlrtaSettings, tree: &KdTreeSettings) {
     let tree = KdTree::build(mesh, tree).unwrap();
     let (prepared, _) = Prepared::new(&tree, mesh);
     let rays = camera.primary_rays(size, size);
@@ -50,7 +50,7 @@ fn compare_image(name: &str, mesh: &Mesh, camera: &Camera, size: u32, params: Ml
         (true, true, 1),
         (true, true, budget),
     ] {
-        let p = MlrtaParams {
+        let p = MlrtaSettings {
             entry_points,
             corner_frusta,
             ep_budget,
@@ -105,18 +105,18 @@ fn primary_and_shadow_rays_equal_single_rays_on_procedural_scenes() {
     for (name, mesh) in all_scenes() {
         let camera = Camera::default_for(&mesh.bounds());
         // Small tiles so that the splitting and the stopping rules run.
-        let params = MlrtaParams {
+        let params = MlrtaSettings {
             initial_tile: 32,
             min_tile: 4,
             split_factor: 4,
             ..Default::default()
         };
-        for tree in [KdTreeParams::default(), KdTreeParams::for_cpu()] {
+        for tree in [KdTreeSettings::default(), KdTreeSettings::for_cpu()] {
             let label = format!("{name}, traversal cost {}", tree.traversal_cost);
             compare_image(&label, &mesh, &camera, 128, params.clone(), &tree);
         }
         // Tiles of whole 8x8 squares: blocks walked four at a time.
-        let squares = MlrtaParams {
+        let squares = MlrtaSettings {
             min_tile: 8,
             ..params.clone()
         };
@@ -126,7 +126,7 @@ fn primary_and_shadow_rays_equal_single_rays_on_procedural_scenes() {
             &camera,
             136,
             squares,
-            &KdTreeParams::for_cpu(),
+            &KdTreeSettings::for_cpu(),
         );
     }
 }
@@ -138,7 +138,7 @@ fn primary_and_shadow_rays_equal_single_rays_on_procedural_scenes() {
 #[test]
 fn frames_traced_into_kept_buffers_equal_fresh_ones() {
     let (name, mesh) = all_scenes().swap_remove(0);
-    let tree = KdTree::build(&mesh, &KdTreeParams::for_cpu()).unwrap();
+    let tree = KdTree::build(&mesh, &KdTreeSettings::for_cpu()).unwrap();
     let (prepared, _) = Prepared::new(&tree, &mesh);
     let b = mesh.bounds();
     let light = b.center() + Vec3::new(-0.4, 1.0, 0.3).normalize() * b.diagonal();
@@ -149,9 +149,9 @@ fn frames_traced_into_kept_buffers_equal_fresh_ones() {
         eye: near.target + (near.eye - near.target) * 3.0,
         ..near
     };
-    let p = MlrtaParams {
+    let p = MlrtaSettings {
         corner_frusta: true,
-        ..MlrtaParams::default()
+        ..MlrtaSettings::default()
     };
     let first = trace_image(&prepared, &near.primary_rays(160, 160), 160, 160, &p, Some(light)).unwrap();
     let first_hits = first.hits.iter().filter(|h| h.is_hit()).count();
@@ -199,7 +199,7 @@ fn camera_images_equal_the_images_of_their_rays() {
     }
     let mut compared = 0usize;
     for (name, mesh) in &scenes {
-        let tree = KdTree::build(mesh, &KdTreeParams::for_cpu()).unwrap();
+        let tree = KdTree::build(mesh, &KdTreeSettings::for_cpu()).unwrap();
         let (prepared, _) = Prepared::new(&tree, mesh);
         let b = mesh.bounds();
         let light = b.center() + Vec3::new(-0.4, 1.0, 0.3).normalize() * b.diagonal();
@@ -211,9 +211,9 @@ fn camera_images_equal_the_images_of_their_rays() {
         for (camera, (w, h)) in [(near, (160, 96)), (far, (100, 76)), (near, (37, 53))] {
             let image = CameraRays::new(&camera, w, h);
             for corner_frusta in [true, false] {
-                let p = MlrtaParams {
+                let p = MlrtaSettings {
                     corner_frusta,
-                    ..MlrtaParams::default()
+                    ..MlrtaSettings::default()
                 };
                 for light in [None, Some(light)] {
                     let want = trace_image(&prepared, image.rays(), w, h, &p, light).unwrap();
@@ -245,7 +245,7 @@ fn a_search_budget_moves_entry_points_up_only() {
         scenes.push(("stanford-bunny".into(), load_obj(&path).unwrap()));
     }
     for (name, mesh) in scenes {
-        let tree = KdTree::build(&mesh, &KdTreeParams::for_cpu()).unwrap();
+        let tree = KdTree::build(&mesh, &KdTreeSettings::for_cpu()).unwrap();
         let (p, _) = Prepared::new(&tree, &mesh);
         let camera = Camera::default_for(&mesh.bounds());
         let inside = p.inside_object(camera.eye);
@@ -294,13 +294,13 @@ fn a_camera_inside_a_closed_object() {
         target: Vec3::new(0.9, 0.2, 0.1),
         fov_degrees: 100.0,
     };
-    for tree in [KdTreeParams::default(), KdTreeParams::for_cpu()] {
+    for tree in [KdTreeSettings::default(), KdTreeSettings::for_cpu()] {
         compare_image(
             "inside the closed box",
             &mesh,
             &camera,
             96,
-            MlrtaParams::default(),
+            MlrtaSettings::default(),
             &tree,
         );
     }
@@ -319,15 +319,15 @@ fn primary_and_shadow_rays_equal_single_rays_on_shared_models() {
             &mesh,
             &camera,
             512,
-            MlrtaParams::default(),
-            &KdTreeParams::for_cpu(),
+            MlrtaSettings::default(),
+            &KdTreeSettings::for_cpu(),
         );
-        let deep = MlrtaParams {
+        let deep = MlrtaSettings {
             min_tile: 8,
-            ..MlrtaParams::default()
+            ..MlrtaSettings::default()
         };
         let name = format!("{model}, min tile 8, the GPU's tree");
-        compare_image(&name, &mesh, &camera, 512, deep, &KdTreeParams::default());
+        compare_image(&name, &mesh, &camera, 512, deep, &KdTreeSettings::default());
     }
     if let Some(path) = data_model("kitchen.obj") {
         let mesh = load_obj(&path).unwrap();
@@ -336,15 +336,22 @@ fn primary_and_shadow_rays_equal_single_rays_on_shared_models() {
             target: Vec3::new(-1.0, 0.9, -1.5),
             fov_degrees: 60.0,
         };
-        let cpu = KdTreeParams::for_cpu();
-        compare_image("kitchen interior", &mesh, &interior, 512, MlrtaParams::default(), &cpu);
+        let cpu = KdTreeSettings::for_cpu();
+        compare_image(
+            "kitchen interior",
+            &mesh,
+            &interior,
+            512,
+            MlrtaSettings::default(),
+            &cpu,
+        );
     }
 }
 
 #[test]
 fn groups_with_zero_components_and_mixed_signs() {
     let mesh = load_obj(&asset("cube-with-hole.obj")).unwrap();
-    let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+    let tree = KdTree::build(&mesh, &KdTreeSettings::default()).unwrap();
     let (prepared, _) = Prepared::new(&tree, &mesh);
     let origin = Vec3::new(0.1, 0.2, 3.0);
     let mut rng = Rng(4);
@@ -383,7 +390,7 @@ fn ao_groups_equal_the_cpu_reference() {
         meshes.push(("stanford-bunny.obj".into(), load_obj(&path).unwrap()));
     }
     for (name, mesh) in meshes {
-        let accel = Accel::new(KdTree::build(&mesh, &KdTreeParams::default()).unwrap());
+        let accel = Accel::new(KdTree::build(&mesh, &KdTreeSettings::default()).unwrap());
         let (prepared, _) = Prepared::new(accel.kdtree(), &mesh);
         let points = vertex_points(&mesh);
         let settings = AoSettings {
@@ -406,15 +413,15 @@ fn ao_groups_equal_the_cpu_reference() {
 #[test]
 fn parameters_are_validated() {
     let bad = [
-        MlrtaParams {
+        MlrtaSettings {
             split_factor: 8,
             ..Default::default()
         },
-        MlrtaParams {
+        MlrtaSettings {
             min_tile: 2,
             ..Default::default()
         },
-        MlrtaParams {
+        MlrtaSettings {
             initial_tile: 4,
             min_tile: 8,
             ..Default::default()
@@ -424,7 +431,7 @@ fn parameters_are_validated() {
         let e = p.validate().unwrap_err();
         assert_eq!(e.exit_code(), 2, "{e}");
     }
-    assert!(MlrtaParams::default().validate().is_ok());
+    assert!(MlrtaSettings::default().validate().is_ok());
 }
 
 /// Rays that do not share one origin are an error, found by the pass over
@@ -433,7 +440,7 @@ fn parameters_are_validated() {
 #[test]
 fn rays_from_another_origin_are_rejected() {
     let mesh = load_obj(&asset("sphere-on-plane.obj")).unwrap();
-    let tree = KdTree::build(&mesh, &KdTreeParams::for_cpu()).unwrap();
+    let tree = KdTree::build(&mesh, &KdTreeSettings::for_cpu()).unwrap();
     let (prepared, _) = Prepared::new(&tree, &mesh);
     let camera = Camera::default_for(&mesh.bounds());
     let size = 64;
@@ -442,9 +449,9 @@ fn rays_from_another_origin_are_rejected() {
     let moved = rays[centre].o() + Vec3::splat(1e-3);
     rays[centre] = penumbra::geom::ray::Ray::new(moved, rays[centre].d());
     for corner_frusta in [false, true] {
-        let params = MlrtaParams {
+        let params = MlrtaSettings {
             corner_frusta,
-            ..MlrtaParams::default()
+            ..MlrtaSettings::default()
         };
         let e = trace_image(&prepared, &rays, size, size, &params, None).err();
         let e = e.unwrap_or_else(|| panic!("corner frusta {corner_frusta}: a moved origin was accepted"));
@@ -461,9 +468,9 @@ fn rays_from_another_origin_are_rejected() {
         }
     }
     let fine = camera.primary_rays(size, size);
-    let params = MlrtaParams {
+    let params = MlrtaSettings {
         corner_frusta: true,
-        ..MlrtaParams::default()
+        ..MlrtaSettings::default()
     };
     assert!(trace_image(&prepared, &fine, size, size, &params, None).is_ok());
 }
@@ -496,13 +503,13 @@ fn adaptive_aa_keeps_uniform_edge_quality_on_shared_models() {
     for model in ["stanford-bunny.obj", "kitchen.obj"] {
         let Some(path) = data_model(model) else { return };
         let mesh = load_obj(&path).unwrap();
-        let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+        let tree = KdTree::build(&mesh, &KdTreeSettings::default()).unwrap();
         let (prepared, _) = Prepared::new(&tree, &mesh);
         let camera = Camera::default_for(&mesh.bounds());
         let size = 384;
-        let params = MlrtaParams {
+        let params = MlrtaSettings {
             corner_frusta: true,
-            ..MlrtaParams::default()
+            ..MlrtaSettings::default()
         };
         let rays = camera.primary_rays(size, size);
         let tiles = trace_image(&prepared, &rays, size, size, &params, None).unwrap().tiles;

@@ -16,7 +16,7 @@ mod twins;
 use common::{Rng, gpu};
 use glam::Vec3;
 use penumbra::accel::Accel;
-use penumbra::accel::kdtree::{KdTree, KdTreeParams};
+use penumbra::accel::kdtree::{KdTree, KdTreeSettings};
 use penumbra::prt::gpu::ShTransferPass;
 use penumbra::prt::lut::PlaneLut;
 use penumbra::prt::mask::MaskGrid;
@@ -81,7 +81,7 @@ fn cloth_transfer_is_within_three_percent_of_ray_tracing() {
         let mut out = FrameOutput::default();
         prt.frame(&pos, eye, &light, false, false, &mut out).unwrap();
         let soup: Vec<[Vec3; 3]> = anim.triangles.iter().map(|t| t.map(|i| pos[i as usize])).collect();
-        let accel = Accel::new(KdTree::from_triangles(soup, &KdTreeParams::default()).unwrap());
+        let accel = Accel::new(KdTree::from_triangles(soup, &KdTreeSettings::default()).unwrap());
         let reference = reference_transfer(&accel, &pos, &out.normals, prt.scale, 5, &Brdf::Diffuse, eye, 4096, 1);
         let (err, counted, skipped) = relative_l2_error(&out.transfer, &reference, 25, floor);
         println!(
@@ -116,7 +116,7 @@ fn shadows_change_the_transfer() {
     with.frame(&pos, eye, &light, false, false, &mut a).unwrap();
     without.frame(&pos, eye, &light, false, false, &mut b).unwrap();
     let soup: Vec<[Vec3; 3]> = anim.triangles.iter().map(|t| t.map(|i| pos[i as usize])).collect();
-    let accel = Accel::new(KdTree::from_triangles(soup, &KdTreeParams::default()).unwrap());
+    let accel = Accel::new(KdTree::from_triangles(soup, &KdTreeSettings::default()).unwrap());
     let reference = reference_transfer(&accel, &pos, &a.normals, with.scale, 5, &Brdf::Diffuse, eye, 1024, 1);
     let floor = 0.01 * with.tables.unoccluded.iter().map(|v| v * v).sum::<f32>().sqrt();
     let (e_with, ..) = relative_l2_error(&a.transfer, &reference, 25, floor);

@@ -21,7 +21,7 @@ use std::path::Path;
 use common::data_model;
 use glam::Vec3;
 use penumbra::accel::Accel;
-use penumbra::accel::kdtree::{KdTree, KdTreeParams};
+use penumbra::accel::kdtree::{KdTree, KdTreeSettings};
 use penumbra::gpu::device::Device;
 use penumbra::prt::pipeline::{FrameOutput, Prt, PrtSettings};
 use penumbra::prt::reference::{reference_transfer, relative_l2_error};
@@ -83,7 +83,7 @@ fn measured_error(prt: &Prt, case: &Case, pose: &[Vec3]) -> f64 {
     let step = pose.len().div_ceil(4000);
     let at: Vec<usize> = (0..pose.len()).step_by(step).collect();
     let soup: Vec<[Vec3; 3]> = case.triangles.iter().map(|t| t.map(|i| pose[i as usize])).collect();
-    let accel = Accel::new(KdTree::from_triangles(soup, &KdTreeParams::default()).unwrap());
+    let accel = Accel::new(KdTree::from_triangles(soup, &KdTreeSettings::default()).unwrap());
     let p: Vec<Vec3> = at.iter().map(|&v| pose[v]).collect();
     let n: Vec<Vec3> = at.iter().map(|&v| out.normals[v]).collect();
     let s = &prt.settings;

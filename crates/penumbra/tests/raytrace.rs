@@ -13,7 +13,7 @@ use penumbra::progress::{Bar, Reporter};
 use penumbra::scene::{Camera, Light, Scene, load_obj_file, load_scene_shaded};
 use penumbra::whitted::ray_tree::RayKind;
 use penumbra::whitted::scenes::shipped_scenes;
-use penumbra::whitted::{LightingOptions, Packets, RenderScene, Rendered, WhittedRenderer, WhittedSettings};
+use penumbra::whitted::{LightingSettings, Packets, RenderScene, Rendered, WhittedRenderer, WhittedSettings};
 
 fn assets() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/raytrace")
@@ -36,7 +36,7 @@ fn obj_scene(name: &str, obj: &str, mtl: &str) -> Scene {
 }
 
 fn renderer(scene: &Scene) -> WhittedRenderer {
-    let rs = RenderScene::new(scene, 0, &LightingOptions::default()).unwrap();
+    let rs = RenderScene::new(scene, 0, &LightingSettings::default()).unwrap();
     WhittedRenderer::new(&Device::cpu(), rs, &Reporter::silent()).unwrap()
 }
 
@@ -360,9 +360,9 @@ fn emissive_faces_light_the_shared_cornell_box() {
     assert_eq!(obj.warnings.len(), 1, "the MTL's stray `v` line: {:?}", obj.warnings);
     let scene = Scene::from_obj_file("cornell", &path, obj);
     for samples in [1, 16] {
-        let options = LightingOptions {
+        let options = LightingSettings {
             light_samples: samples,
-            ..LightingOptions::default()
+            ..LightingSettings::default()
         };
         let rs = RenderScene::new(&scene, 0, &options).unwrap();
         assert_eq!(rs.lights.len(), samples as usize, "one emissive quad");

@@ -18,7 +18,7 @@ mod twins;
 use common::{asset, data_model, gpu};
 use glam::Vec3;
 use penumbra::accel::Accel;
-use penumbra::accel::kdtree::{KdTree, KdTreeParams};
+use penumbra::accel::kdtree::{KdTree, KdTreeSettings};
 use penumbra::progress::Bar;
 use penumbra::scene::procedural::all_scenes;
 use penumbra::scene::{Camera, Mesh, load_obj};
@@ -232,7 +232,7 @@ fn open_plane_is_fully_accessible_for_truth_reference_and_estimators() {
         target: b.center(),
         fov_degrees: 30.0,
     };
-    let accel = Accel::new(KdTree::build(&mesh, &KdTreeParams::default()).unwrap());
+    let accel = Accel::new(KdTree::build(&mesh, &KdTreeSettings::default()).unwrap());
     let gb = gbuffer(accel.kdtree(), &mesh, &camera, &[], 64, 48);
     let view = ScreenView::new(&camera, 64, 48);
     let radius = 0.05 * b.diagonal();
@@ -291,7 +291,7 @@ fn estimators_converge_to_the_screen_reference() {
 fn ground_truth_noise_is_reported_and_shrinks() {
     let (gb, view) = sphere_scene();
     let mesh = load_obj(&asset("sphere-on-plane.obj")).unwrap();
-    let accel = Accel::new(KdTree::build(&mesh, &KdTreeParams::default()).unwrap());
+    let accel = Accel::new(KdTree::build(&mesh, &KdTreeSettings::default()).unwrap());
     let camera = Camera::default_for(&mesh.bounds());
     let truth = |rays| {
         raytraced(

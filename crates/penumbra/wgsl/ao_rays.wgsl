@@ -1,4 +1,4 @@
-// Kernel: ambient-occlusion rays, the GPU twin of src/ao/raycast.rs
+// Kernel: ambient-occlusion rays, the GPU twin of src/raycast/ao_rays.rs
 // (`ao_rays`, and `ao_samples` for the check below). One invocation per
 // ray: ray j of point p goes in the cosine-weighted direction of sample j of
 // the point's stream of the seeded sequence, and sets bit j of the point's
@@ -11,7 +11,7 @@
 // samples: written by `ao_samples` only (the CPU twin's check): per ray, the
 //          sample point and the direction, as two vec4s (u, v, 0, 0), (dir, 0).
 
-struct AoParams {
+struct AoRaysUniforms {
     point_count: u32,
     rays_per_point: u32,
     words_per_point: u32,
@@ -24,7 +24,7 @@ struct AoParams {
 
 @group(1) @binding(0) var<storage, read> points: array<f32>;
 @group(1) @binding(1) var<storage, read_write> visible: array<atomic<u32>>;
-@group(1) @binding(2) var<uniform> params: AoParams;
+@group(1) @binding(2) var<uniform> params: AoRaysUniforms;
 @group(1) @binding(3) var<storage, read_write> samples: array<vec4<f32>>;
 
 struct AoRay {

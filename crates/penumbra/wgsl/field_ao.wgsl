@@ -12,8 +12,8 @@
 // inside a sphere it entered), hidden (a field put its surface behind the
 // origin). Visibility is the complement of `occluded`.
 
-// `FieldAoParams` in src/field/gpu.rs.
-struct FieldAoParams {
+// `FieldAoUniforms` in src/field/gpu.rs.
+struct FieldAoUniforms {
     point_count: u32,
     rays_per_point: u32,
     words_per_point: u32,
@@ -35,7 +35,7 @@ struct FieldInstance {
     _pad2: u32,
 }
 
-@group(1) @binding(0) var<uniform> ao: FieldAoParams;
+@group(1) @binding(0) var<uniform> ao: FieldAoUniforms;
 @group(1) @binding(1) var<storage, read> points: array<f32>;
 @group(1) @binding(2) var<storage, read> owners: array<u32>;
 @group(1) @binding(3) var<storage, read> instances: array<FieldInstance>;

@@ -22,8 +22,8 @@ const FIELD_OUTSIDE: u32 = 0u;
 const FIELD_MISS: u32 = 1u;
 const FIELD_HIT: u32 = 2u;
 
-// `FieldGpuParams` in src/field/gpu.rs.
-struct FieldParams {
+// `FieldLookupUniforms` in crates/penumbra/src/field/gpu.rs.
+struct FieldLookupUniforms {
     center: vec3<f32>,
     radius: f32,
     side: u32,
@@ -36,7 +36,7 @@ struct FieldParams {
     words_per_map: u32,
 }
 
-@group(0) @binding(0) var<uniform> field: FieldParams;
+@group(0) @binding(0) var<uniform> field: FieldLookupUniforms;
 
 fn field_copysign(x: f32, s: f32) -> f32 {
     return select(abs(x), -abs(x), (bitcast<u32>(s) & 0x80000000u) != 0u);

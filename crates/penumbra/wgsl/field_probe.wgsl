@@ -8,14 +8,14 @@
 // results: per ray (kind + 4 flags, t, coverage, weighted distance), kind 0
 // outside, 1 miss, 2 hit; flags = inside + 2 hidden.
 
-struct ProbeParams {
+struct FieldProbeUniforms {
     ray_count: u32,
     row_pitch: u32,
     _pad0: u32,
     _pad1: u32,
 }
 
-@group(1) @binding(0) var<uniform> probe: ProbeParams;
+@group(1) @binding(0) var<uniform> probe: FieldProbeUniforms;
 @group(1) @binding(1) var<storage, read> rays: array<vec4<f32>>;
 @group(1) @binding(2) var<storage, read_write> results: array<vec4<f32>>;
 

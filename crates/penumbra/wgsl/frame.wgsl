@@ -1,5 +1,5 @@
 // The orthonormal basis about a unit normal of Duff et al. 2017, the twin
-// of `Frame::from_normal` (src/sampling/): every tangent frame of the
+// of `Frame::from_normal` (src/geom/sampling/): every tangent frame of the
 // kernels (AO rays, field maps, SSAO samples). Self-contained: kernels
 // prepend it.
 

@@ -10,7 +10,7 @@
 // set at the high end of coordinate i; a textured cell's diffuse terms in
 // the slot after its own).
 
-struct InterpolateParams {
+struct InterpolateUniforms {
     job_count: u32,
     row_pitch: u32,
     _pad0: u32,
@@ -29,7 +29,7 @@ struct PixelJob {
     texture: vec4<f32>,
 }
 
-@group(0) @binding(0) var<uniform> params: InterpolateParams;
+@group(0) @binding(0) var<uniform> params: InterpolateUniforms;
 @group(0) @binding(1) var<storage, read> corners: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> jobs: array<PixelJob>;
 @group(0) @binding(3) var<storage, read_write> radiance: array<vec4<f32>>;

@@ -1,9 +1,9 @@
-// Twin of src/kdtree/traverse.rs and src/kdtree/watertight.rs: single-ray
+// Twin of src/accel/kdtree/traverse.rs and src/accel/kdtree/watertight.rs: single-ray
 // kd-tree traversal (closest hit / any hit) with watertight intersection over
-// the buffers of src/kdtree/mod.rs, uploaded as they are.
+// the buffers of src/accel/kdtree/mod.rs, uploaded as they are.
 // Self-contained (group 0 = the tree); kernels prepend it.
 //
-// Node words (src/kdtree/node.rs): interior = (split bits, axis | above << 2),
+// Node words (src/accel/kdtree/node.rs): interior = (split bits, axis | above << 2),
 // leaf = (first leaf entry, 3 | count << 2). Below child = node + 1.
 //
 // WGSL may assume no infinities or NaNs, so where the CPU code lets IEEE
@@ -30,7 +30,7 @@ struct KdScene {
 
 const MAX_TREE_DEPTH: u32 = 40u;
 const MISS_INDEX: u32 = 0xffffffffu;
-// TRAVERSAL_SLACK of src/kdtree/traverse.rs: cells are entered when the ray
+// TRAVERSAL_SLACK of src/accel/kdtree/traverse.rs: cells are entered when the ray
 // comes within this relative distance of them, so rounding cannot skip a
 // cell the ray touches at a single point.
 const TRAVERSAL_SLACK: f32 = 1e-6;

@@ -37,7 +37,7 @@ struct PacketRecord {
     _pad2: f32,
 }
 
-struct PacketParams {
+struct PacketUniforms {
     packet_count: u32,
     // Workgroups per row of the 2D dispatch grid.
     row_pitch: u32,
@@ -48,7 +48,7 @@ struct PacketParams {
 @group(1) @binding(0) var<storage, read> packets: array<PacketRecord>;
 @group(1) @binding(1) var<storage, read> packet_dirs: array<f32>;
 @group(1) @binding(2) var<storage, read_write> packet_hits: array<vec2<u32>>;
-@group(1) @binding(3) var<uniform> packet_params: PacketParams;
+@group(1) @binding(3) var<uniform> packet_params: PacketUniforms;
 @group(1) @binding(4) var<storage, read_write> packet_counts: array<vec2<u32>>;
 
 const FLAG_SPECULATIVE: u32 = 8u;

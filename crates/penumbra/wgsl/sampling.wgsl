@@ -1,4 +1,4 @@
-// Twin of src/sampling/: Owen-scrambled Sobol points (integer arithmetic,
+// Twin of src/geom/sampling/: Owen-scrambled Sobol points (integer arithmetic,
 // bit-identical to the CPU), the concentric disk map and Malley's cosine
 // hemisphere (the orthonormal basis is frame.wgsl). Self-contained:
 // kernels prepend it.

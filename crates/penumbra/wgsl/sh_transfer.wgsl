@@ -21,7 +21,7 @@
 
 const MAX_COEFFS: u32 = 64u;   // 8 bands
 
-struct Params {
+struct ShTransferUniforms {
     // vertex count (this batch), coefficients, bands, mask side
     counts: vec4<u32>,
     // cells per side, u32 words per mask, integration (0 cells,
@@ -47,7 +47,7 @@ struct Params {
 // basis and gradient tables interleaved so that a cell costs one load.
 @group(0) @binding(2) var<storage, read> cell_basis: array<vec4<f32>>;
 
-@group(1) @binding(0) var<uniform> params: Params;
+@group(1) @binding(0) var<uniform> params: ShTransferUniforms;
 @group(1) @binding(1) var<storage, read> masks: array<u32>;
 // Per vertex: position, then shading normal (zero: no normal).
 @group(1) @binding(2) var<storage, read> vertices: array<vec4<f32>>;

@@ -20,7 +20,7 @@
 // pixel, 2 = half resolution, upsampled by `ssao_upsample`). Cell (X, Y)
 // shades pixel (scale X, scale Y) and takes sample set pattern_index(X, Y).
 
-struct SsaoParams {
+struct SsaoUniforms {
     width: u32,
     height: u32,
     samples: u32,
@@ -50,7 +50,7 @@ struct SsaoParams {
 @group(0) @binding(0) var geometry: texture_2d<f32>;
 @group(0) @binding(1) var shade: texture_2d<f32>;
 
-@group(1) @binding(0) var<uniform> params: SsaoParams;
+@group(1) @binding(0) var<uniform> params: SsaoUniforms;
 @group(1) @binding(1) var<storage, read> table: array<vec4<f32>>;
 @group(1) @binding(2) var<storage, read_write> ao: array<f32>;
 @group(1) @binding(3) var<storage, read_write> ao_out: array<f32>;
@@ -134,7 +134,7 @@ fn shaded_point(x: u32, y: u32) -> Shaded {
     return r;
 }
 
-// Params::pattern_index times the set size: the pixel's first table entry.
+// SsaoUniforms::pattern_index times the set size: the pixel's first table entry.
 fn set_base(x: u32, y: u32) -> u32 {
     let k = (x % params.pattern) + params.pattern * (y % params.pattern);
     return k * params.samples;

@@ -1,6 +1,6 @@
 // Kernel: closest hit (or any hit) of a batch of rays, the GPU twin of
-// KdTree::trace_closest / trace_any / trace_closest_counted (src/kdtree/;
-// src/kdtree/gpu.rs drives it).
+// KdTree::trace_closest / trace_any / trace_closest_counted (src/accel/kdtree/;
+// src/accel/kdtree/gpu.rs drives it).
 // Composed after kdtree_traverse.wgsl.
 //
 // rays: 6 f32 per ray (origin, direction), as in a RAYS.f32 file.
@@ -9,7 +9,7 @@
 // counts: (traversal steps, intersection tests) per ray, written by the
 //         `_counted` entry point only.
 
-struct TraceParams {
+struct TraceRaysUniforms {
     ray_count: u32,
     // Rays per row of the 2D dispatch grid (workgroups in x * 64).
     row_pitch: u32,
@@ -19,7 +19,7 @@ struct TraceParams {
 
 @group(1) @binding(0) var<storage, read> rays: array<f32>;
 @group(1) @binding(1) var<storage, read_write> hits: array<vec2<u32>>;
-@group(1) @binding(2) var<uniform> params: TraceParams;
+@group(1) @binding(2) var<uniform> params: TraceRaysUniforms;
 @group(1) @binding(3) var<storage, read_write> counts: array<vec2<u32>>;
 
 const POSITIVE_INFINITY_BITS: u32 = 0x7f800000u;

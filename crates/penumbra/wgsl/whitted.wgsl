@@ -1,7 +1,7 @@
 // Kernel: Whitted ray tracing, one invocation per pixel; the GPU twin of
-// Whitted::whitted in src/raytrace/whitted.rs (with src/raytrace/optics.rs,
+// Whitted::whitted in src/whitted/whitted.rs (with src/whitted/optics.rs,
 // offset.rs, sphere.rs and ray_tree.rs's signature), written in the same
-// order of operations over the same data. src/raytrace/gpu.rs drives it.
+// order of operations over the same data. src/whitted/gpu.rs drives it.
 // Composed after sampling.wgsl, kdtree_traverse.wgsl and whitted_pixels.wgsl
 // or whitted_trees.wgsl (RECORD_TREES: whether shade can record trees).
 //
@@ -21,14 +21,14 @@
 //             direction, the root's primitive (the bounded renderer's
 //             extremal rays, whose first hit is given).
 //
-// Ray-tree records (src/raytrace/tree_records.rs writes the CPU twin's and
+// Ray-tree records (src/whitted/tree_records.rs writes the CPU twin's and
 // reads both), per ray `params.tree_stride * params.tree_capacity + 2`
 // words4: (radiance, node count or TREE_OVERFLOW), (diffuse, 0), then
 // per node, in the order the stack pops them: (flags, parent, object,
 // face), (surface, primitive, t, 0), origin, direction, weight, point, and
 // the light words, each light's code then each light's occluder.
 
-struct WhittedParams {
+struct WhittedUniforms {
     eye: vec3<f32>,
     width: u32,
     forward: vec3<f32>,
@@ -62,7 +62,7 @@ struct PixelOut {
     rays: vec4<u32>,
 }
 
-@group(1) @binding(0) var<uniform> params: WhittedParams;
+@group(1) @binding(0) var<uniform> params: WhittedUniforms;
 @group(1) @binding(1) var<storage, read> triangle_shading: array<vec4<u32>>;
 @group(1) @binding(2) var<storage, read> shading_normals: array<vec4<f32>>;
 @group(1) @binding(3) var<storage, read> records: array<vec4<u32>>;

@@ -3,7 +3,7 @@
 
 use crate::options::{Applies, applies};
 use penumbra::error::Result;
-use penumbra::field::{DirectionMapping, FieldParams};
+use penumbra::field::{DirectionMapping, FieldSampling};
 
 /// The field's sampling and storage (`ao --method field` builds fields
 /// with them on the fly, without `--field`).
@@ -30,7 +30,7 @@ impl FieldOptions {
         applies(used, &["positions", "res", "bits", "directions"], needs)
     }
 
-    pub fn params(&self) -> Result<FieldParams> {
-        FieldParams::new(self.positions, self.res, self.bits, self.directions)
+    pub fn params(&self) -> Result<FieldSampling> {
+        FieldSampling::new(self.positions, self.res, self.bits, self.directions)
     }
 }

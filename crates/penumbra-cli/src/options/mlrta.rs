@@ -5,7 +5,7 @@ use clap::Args;
 use crate::options::{Applies, OnOff, applies};
 use penumbra::accel::Structure;
 use penumbra::error::Result;
-use penumbra::mlrta::MlrtaParams;
+use penumbra::mlrta::MlrtaSettings;
 use penumbra::mlrta::aa::AaMode;
 use penumbra::mlrta::runner::{AaRequest, ShadowLight, TraceRequest};
 use penumbra::mlrta::tiles::{DEFAULT_EP_BUDGET, DEFAULT_MIN_TILE};
@@ -89,7 +89,7 @@ impl TraceOptions {
             view,
             single_ray: self.single_ray,
             accel: self.accel(),
-            params: MlrtaParams {
+            params: MlrtaSettings {
                 entry_points: self.mlrta.on(),
                 initial_tile: self.tile,
                 min_tile: self.min_tile.unwrap_or(DEFAULT_MIN_TILE.min(self.tile)),

@@ -8,7 +8,7 @@ use penumbra::whitted::report::RaytraceMethod;
 use crate::options::OnOff;
 use penumbra::error::{Error, Result};
 use penumbra::scene::parse_vec3;
-use penumbra::whitted::{LightingOptions, Packets, WhittedSettings};
+use penumbra::whitted::{LightingSettings, Packets, WhittedSettings};
 
 #[derive(Args, Clone, Debug)]
 pub struct WhittedOptions {
@@ -51,8 +51,8 @@ impl WhittedOptions {
         Ok(settings)
     }
 
-    pub fn lighting(&self) -> LightingOptions {
-        LightingOptions {
+    pub fn lighting(&self) -> LightingSettings {
+        LightingSettings {
             light_samples: self.light_samples,
             ambient: self.ambient,
             background: self.background,

@@ -10,7 +10,7 @@ pub mod raytrace;
 use std::path::{Path, PathBuf};
 
 use penumbra::accel::Accel;
-use penumbra::accel::kdtree::{KdTree, KdTreeParams};
+use penumbra::accel::kdtree::{KdTree, KdTreeSettings};
 use penumbra::geom::ray::Ray;
 use penumbra::gpu::{GpuContext, enumerate_adapters};
 use penumbra::scene::{Camera, Mesh, load_obj};
@@ -92,7 +92,7 @@ pub fn load_models_named(names: &[&str]) -> Vec<Model> {
         .into_iter()
         .map(|(name, path)| {
             let mesh = load_obj(&path).unwrap_or_else(|e| panic!("loading {}: {e}", path.display()));
-            let tree = KdTree::build(&mesh, &KdTreeParams::default())
+            let tree = KdTree::build(&mesh, &KdTreeSettings::default())
                 .unwrap_or_else(|e| panic!("building the kd-tree of {}: {e}", path.display()));
             eprintln!(
                 "{name}: {} triangles, kd-tree {} nodes, depth {}, built in {:.1} ms",

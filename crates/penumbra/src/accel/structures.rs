@@ -7,7 +7,7 @@ use std::time::Instant;
 use glam::Vec3;
 use serde::Serialize;
 
-use crate::accel::bvh::{self, Bvh8, BvhParams};
+use crate::accel::bvh::{self, Bvh8, BvhSettings};
 use crate::accel::kdtree::{self, KdTree};
 use crate::geom::ray::{Hit, Ray};
 use crate::geom::simd::{Isa, Lanes};
@@ -84,7 +84,7 @@ impl Accel {
     }
 
     /// The wide BVH of the kd-tree's triangles (in its frame: the same
-    /// hits), built on first use with `BvhParams::default()`.
+    /// hits), built on first use with `BvhSettings::default()`.
     #[inline]
     pub fn bvh(&self) -> &Bvh8 {
         self.bvh.get_or_init(|| Bvh8::from_tree(&self.tree))
@@ -93,7 +93,7 @@ impl Accel {
     /// `bvh`, built with `params` if it is not built yet; a BVH already
     /// built (by `bvh` or an earlier call) is returned as it is, so a host
     /// with its own knobs calls this before the first trace.
-    pub fn bvh_with(&self, params: &BvhParams) -> &Bvh8 {
+    pub fn bvh_with(&self, params: &BvhSettings) -> &Bvh8 {
         self.bvh.get_or_init(|| Bvh8::build(&self.tree, params))
     }
 

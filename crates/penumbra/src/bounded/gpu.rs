@@ -24,14 +24,18 @@ use crate::progress::Bar;
 /// The kernel's uniform (`InterpolateParams`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Params {
+struct InterpolateUniforms {
     job_count: u32,
     row_pitch: u32,
     _pad: [u32; 2],
 }
 
 const INTERPOLATE_IO: &[Io] = &[
-    Io::Uniform(0, "interpolate params", std::mem::size_of::<Params>() as u64),
+    Io::Uniform(
+        0,
+        "interpolate params",
+        std::mem::size_of::<InterpolateUniforms>() as u64,
+    ),
     Io::In(1, "interpolate corners"),
     Io::In(2, "interpolate jobs"),
     Io::Out(3, "interpolate radiance"),
@@ -90,7 +94,7 @@ impl InterpolatePass {
     pub fn prepare(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, jobs: &[PixelJob]) -> Result<()> {
         let n = jobs.len() as u32;
         let (gx, gy, pitch) = dispatch_grid(n, device.limits().max_compute_workgroups_per_dimension);
-        let params = Params {
+        let params = InterpolateUniforms {
             job_count: n,
             row_pitch: pitch,
             _pad: [0; 2],

@@ -13,7 +13,7 @@ use crate::bounded::linetree::CellState;
 use crate::bounded::predicate::{Failure, RootFace};
 use crate::bounded::runner::BoundedRenderer;
 use crate::geom::sampling::hash_u32;
-use crate::whitted::whitted::WhittedParams;
+use crate::whitted::whitted::WhittedUniforms;
 
 /// The error of a frame against the exact image.
 #[derive(Debug, Clone, Default, Serialize)]
@@ -72,7 +72,7 @@ pub struct CheckStats {
 impl BoundedRenderer {
     /// Traces `k` random lines (seeded) in every accepted cell the last
     /// frame used and compares each with the cell's interpolation.
-    pub fn check(&self, params: &WhittedParams, k: u32, seed: u32) -> CheckStats {
+    pub fn check(&self, params: &WhittedUniforms, k: u32, seed: u32) -> CheckStats {
         let eps = self.settings.epsilon;
         let floor = self.settings.floor;
         let per_cell: Vec<CheckStats> = self

@@ -25,7 +25,7 @@ use std::sync::OnceLock;
 
 use glam::{DVec3, Vec3};
 
-use crate::accel::kdtree::{KdTree, KdTreeParams};
+use crate::accel::kdtree::{KdTree, KdTreeSettings};
 use crate::bounded::affine::AVec3;
 use crate::bounded::geometry::Polygon;
 use crate::geom::aabb::Aabb;
@@ -141,7 +141,7 @@ impl Patch {
     pub fn first_hit(&self, o: DVec3, d: DVec3) -> Option<(f64, u32)> {
         let tree = self
             .tree
-            .get_or_init(|| KdTree::from_triangles(self.vertices.clone(), &KdTreeParams::for_cpu()).ok())
+            .get_or_init(|| KdTree::from_triangles(self.vertices.clone(), &KdTreeSettings::for_cpu()).ok())
             .as_ref()?;
         let hit = tree.closest_hit(o.as_vec3(), d.as_vec3(), f32::INFINITY);
         hit.is_hit()
@@ -283,14 +283,14 @@ mod tests {
     use super::*;
     use crate::gpu::device::Device;
     use crate::progress::Reporter;
-    use crate::whitted::{LightingOptions, WhittedRenderer};
+    use crate::whitted::{LightingSettings, WhittedRenderer};
 
     fn renderer(file: &str) -> WhittedRenderer {
         let scene = crate::scene::load_scene_shaded(
             &std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/raytrace")).join(file),
         )
         .expect("scene");
-        let rs = RenderScene::new(&scene, 0, &LightingOptions::default()).expect("render scene");
+        let rs = RenderScene::new(&scene, 0, &LightingSettings::default()).expect("render scene");
         WhittedRenderer::new(&Device::cpu(), rs, &Reporter::silent()).expect("renderer")
     }
 

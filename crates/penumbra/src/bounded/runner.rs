@@ -45,7 +45,7 @@ use crate::whitted::WhittedRenderer;
 use crate::whitted::offset::max_abs;
 use crate::whitted::pixel_rays::PixelRays;
 use crate::whitted::tree_records::TreeRay;
-use crate::whitted::whitted::{FirstHit, Media, WhittedParams};
+use crate::whitted::whitted::{FirstHit, Media, WhittedUniforms};
 
 /// A pixel's interpolation: its cell and coordinates in it.
 #[derive(Debug, Clone, Copy)]
@@ -372,7 +372,7 @@ impl BoundedRenderer {
 
     /// Which leaf each pixel of `todo` has its line in (or why it has
     /// none), into `found`.
-    fn assign(&mut self, params: &WhittedParams, rays: &PixelRays, todo: &[u32], found: &mut Vec<Found>) {
+    fn assign(&mut self, params: &WhittedUniforms, rays: &PixelRays, todo: &[u32], found: &mut Vec<Found>) {
         let twin = self.whitted.twin(params);
         let eye = Vec3::from_array(params.eye).as_dvec3();
         let scene = self.whitted.scene();
@@ -451,7 +451,7 @@ impl BoundedRenderer {
     }
 
     /// Traces the missing extremal rays of `cells` and judges them.
-    fn build(&mut self, params: &WhittedParams, cells: &[u32], stats: &mut FrameStats) -> Result<()> {
+    fn build(&mut self, params: &WhittedUniforms, cells: &[u32], stats: &mut FrameStats) -> Result<()> {
         if cells.is_empty() {
             return Ok(());
         }
@@ -563,7 +563,7 @@ impl BoundedRenderer {
     /// eye are clear; `claimed[pixel]` becomes the cell, or `CONFLICT`.
     fn reproject(
         &self,
-        params: &WhittedParams,
+        params: &WhittedUniforms,
         rays: &PixelRays,
         eye: Vec3,
         claimed: &mut [u32],
@@ -662,7 +662,7 @@ impl BoundedRenderer {
     /// from the pixel's primary hit where assignment traced it.
     fn trace_slow(
         &mut self,
-        params: &WhittedParams,
+        params: &WhittedUniforms,
         rays: &PixelRays,
         slow: &[PixelToTrace],
     ) -> Result<Vec<(u32, Vec3, u32)>> {
@@ -704,7 +704,7 @@ impl BoundedRenderer {
     /// back (with their hit) to be traced. Returns each pixel's cell.
     fn interpolate_all(
         &mut self,
-        params: &WhittedParams,
+        params: &WhittedUniforms,
         rays: &PixelRays,
         claimed: &[u32],
         assigned: &[(u32, Assigned)],
@@ -822,7 +822,7 @@ impl BoundedRenderer {
     /// The exact radiance leaving tree `tree`'s surface along its line `c`,
     /// the primitive it was shaded on (`None`: the line misses the
     /// surface) and the texture factor there, for `--check`.
-    pub fn trace_line(&self, params: &WhittedParams, tree: u32, c: &LineCoords) -> (Vec3, Option<u32>, Vec3) {
+    pub fn trace_line(&self, params: &WhittedUniforms, tree: u32, c: &LineCoords) -> (Vec3, Option<u32>, Vec3) {
         let tree = &self.trees.trees[tree as usize];
         let (o, d) = tree.pair.ray(*c);
         let s = trace_sample(

@@ -6,7 +6,7 @@ use glam::{DVec3, Vec3};
 use crate::bounded::frame::PixelPath;
 use crate::bounded::linespace::FacePair;
 use crate::whitted::pixel_rays::PixelRays;
-use crate::whitted::whitted::WhittedParams;
+use crate::whitted::whitted::WhittedUniforms;
 
 /// `claimed` of a pixel two reprojected cells claim.
 pub(crate) const CONFLICT: u32 = u32::MAX - 1;
@@ -15,7 +15,7 @@ pub(crate) const CONFLICT: u32 = u32::MAX - 1;
 /// box of its faces' corners projected (or, with the eye between the faces,
 /// of its hits, where every such pixel's ray lands), each pixel then tested.
 pub(crate) fn pixels_in_cell(
-    params: &WhittedParams,
+    params: &WhittedUniforms,
     rays: &PixelRays,
     pair: &FacePair,
     cell: &crate::bounded::linespace::CellBox,

@@ -12,8 +12,8 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::directions::DirectionMapping;
-use super::storage::{FieldData, FieldParams};
-use crate::accel::kdtree::{KdTree, KdTreeParams};
+use super::storage::{FieldData, FieldSampling};
+use crate::accel::kdtree::{KdTree, KdTreeSettings};
 use crate::error::{Error, Result};
 use crate::geom::aabb::Aabb;
 use crate::geom::sampling::Frame;
@@ -25,7 +25,7 @@ use crate::scene::Mesh;
 /// the sampling and storage, and the maps.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DisplacementField {
-    pub params: FieldParams,
+    pub params: FieldSampling,
     pub center: Vec3,
     pub radius: f32,
     /// The object's bounding box (informative; checked against meshes).
@@ -86,12 +86,12 @@ pub fn bounding_sphere(mesh: &Mesh) -> (Vec3, f32) {
 }
 
 /// Map m's frame: +z the inward normal -p_m.
-pub fn map_frame(params: &FieldParams, m: u32) -> Frame {
+pub fn map_frame(params: &FieldSampling, m: u32) -> Frame {
     Frame::from_normal(-params.grid.position(m))
 }
 
 /// Local direction of texel (a, b): the texel centre's direction.
-pub fn texel_direction(params: &FieldParams, a: u32, b: u32) -> Vec3 {
+pub fn texel_direction(params: &FieldSampling, a: u32, b: u32) -> Vec3 {
     let res = params.res as f32;
     params
         .directions
@@ -104,7 +104,7 @@ impl DisplacementField {
     /// degenerate mesh is an error naming `what`).
     pub fn build(
         mesh: &Mesh,
-        params: &FieldParams,
+        params: &FieldSampling,
         what: &str,
         progress: &Bar,
     ) -> Result<(DisplacementField, BuildStats)> {
@@ -113,7 +113,7 @@ impl DisplacementField {
             return Err(Error::input(what, "has no triangles: nothing to build a field of"));
         }
         let start = Instant::now();
-        let tree = KdTree::build(mesh, &KdTreeParams::for_cpu())?;
+        let tree = KdTree::build(mesh, &KdTreeSettings::for_cpu())?;
         let kdtree_ms = elapsed_ms(start);
         let (center, radius) = bounding_sphere(mesh);
         let texels = params.texels_per_map();

@@ -5,7 +5,7 @@ use super::directions::DirectionMapping;
 use super::lookup::Positional;
 use super::reach::Reach;
 use super::runner::FieldAo;
-use super::storage::FieldParams;
+use super::storage::FieldSampling;
 use crate::error::Result;
 use crate::gpu::device::Device;
 use crate::progress::Reporter;
@@ -19,7 +19,7 @@ use crate::scene::Scene;
 pub struct FieldSettings {
     /// How fields are sampled and stored (built for casters the scene
     /// names no `.dfield` file for).
-    pub sampling: FieldParams,
+    pub sampling: FieldSampling,
     /// How a lookup combines the positional samples around a ray's entry
     /// point.
     pub positional: Positional,
@@ -28,7 +28,7 @@ pub struct FieldSettings {
 impl Default for FieldSettings {
     fn default() -> Self {
         FieldSettings {
-            sampling: FieldParams::new(4226, 32, 8, DirectionMapping::Concentric)
+            sampling: FieldSampling::new(4226, 32, 8, DirectionMapping::Concentric)
                 .expect("the default parameters are valid"),
             positional: Positional::Bilinear,
         }
@@ -44,7 +44,7 @@ impl<'s> FieldAo<'s> {
     ///
     /// ```
     /// use penumbra::{AoRequest, AoSettings, Device, FieldAo, FieldSettings, Scene};
-    /// use penumbra::field::{DirectionMapping, FieldParams};
+    /// use penumbra::field::{DirectionMapping, FieldSampling};
     /// use penumbra::scene::SceneMesh;
     /// use penumbra::scene::procedural::{corner, uv_sphere};
     ///
@@ -53,7 +53,7 @@ impl<'s> FieldAo<'s> {
     /// let scene = Scene::from_mesh("ball", "ball.obj".as_ref(), ball)
     ///     .with_receiver(SceneMesh::new("corner", "corner.obj".as_ref(), corner()));
     /// let settings = FieldSettings {
-    ///     sampling: FieldParams::new(66, 8, 8, DirectionMapping::Concentric)?,
+    ///     sampling: FieldSampling::new(66, 8, 8, DirectionMapping::Concentric)?,
     ///     ..Default::default()
     /// };
     /// let mut fields = FieldAo::build(&Device::cpu(), &scene, &settings)?;

@@ -28,7 +28,7 @@ use glam::Vec3;
 use super::build::DisplacementField;
 use super::directions::DirectionMapping;
 use super::positions::OctahedralGrid;
-use super::storage::{FieldData, FieldParams, MAX_GRID_SIDE, MAX_RES, Storage};
+use super::storage::{FieldData, FieldSampling, MAX_GRID_SIDE, MAX_RES, Storage};
 use crate::error::{Error, Result};
 use crate::geom::aabb::Aabb;
 
@@ -172,7 +172,7 @@ pub fn from_bytes(bytes: &[u8]) -> Result<DisplacementField> {
             format!("is {}, but a {side} x {side} grid has {}", u32_at(76), side * side),
         ));
     }
-    let params = FieldParams {
+    let params = FieldSampling {
         grid: OctahedralGrid { side },
         res,
         storage,

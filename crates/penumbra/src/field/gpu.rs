@@ -39,10 +39,10 @@ use crate::scene::Transform;
 
 use super::ao::RayClasses;
 
-/// `FieldParams` in `wgsl/field_lookup.wgsl`.
+/// `FieldLookupUniforms` in `wgsl/field_lookup.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct FieldGpuParams {
+pub struct FieldLookupUniforms {
     pub center: [f32; 3],
     pub radius: f32,
     pub side: u32,
@@ -55,10 +55,10 @@ pub struct FieldGpuParams {
     pub words_per_map: u32,
 }
 
-/// `FieldAoParams` in `wgsl/field_ao.wgsl`.
+/// `FieldAoUniforms` in `wgsl/field_ao.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct FieldAoParams {
+pub struct FieldAoUniforms {
     pub rays: AoRays,
     pub instance_count: u32,
     pub _pad: u32,
@@ -87,16 +87,16 @@ impl GpuInstance {
     }
 }
 
-/// `ProbeParams` in `wgsl/field_probe.wgsl`.
+/// `FieldProbeUniforms` in `wgsl/field_probe.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-struct ProbeParams {
+struct FieldProbeUniforms {
     ray_count: u32,
     row_pitch: u32,
     _pad: [u32; 2],
 }
 
-const _: () = assert!(std::mem::size_of::<FieldGpuParams>() == 48 && std::mem::size_of::<GpuInstance>() == 48);
+const _: () = assert!(std::mem::size_of::<FieldLookupUniforms>() == 48 && std::mem::size_of::<GpuInstance>() == 48);
 
 /// How the maps are read, from the storage.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -203,7 +203,7 @@ pub struct GpuField {
     /// Bytes of map data on the device.
     pub bytes: u64,
     params: wgpu::Buffer,
-    gpu_params: FieldGpuParams,
+    gpu_params: FieldLookupUniforms,
     _resources: Vec<wgpu::Buffer>,
     _texture: Option<wgpu::Texture>,
 }
@@ -223,7 +223,7 @@ impl GpuField {
             MapAccess::Bits => None,
             _ => Some(TextureLayout::for_maps(p.grid.count(), p.res, max_side)?),
         };
-        let gpu_params = FieldGpuParams {
+        let gpu_params = FieldLookupUniforms {
             center: field.center.to_array(),
             radius: field.radius,
             side: p.grid.side,
@@ -374,7 +374,7 @@ fn stack_maps(field: &DisplacementField, layout: &TextureLayout, texel_bytes: u3
 
 /// `field_ao`'s io: params, points, owners, instances, ray classes.
 const FIELD_AO_IO: &[Io] = &[
-    Io::Uniform(0, "field ao params", std::mem::size_of::<FieldAoParams>() as u64),
+    Io::Uniform(0, "field ao params", std::mem::size_of::<FieldAoUniforms>() as u64),
     Io::In(1, "field ao points"),
     Io::In(2, "field ao owners"),
     Io::In(3, "field instances"),
@@ -383,7 +383,7 @@ const FIELD_AO_IO: &[Io] = &[
 
 /// `field_probe`'s io: params, rays, results.
 const PROBE_IO: &[Io] = &[
-    Io::Uniform(0, "probe params", std::mem::size_of::<ProbeParams>() as u64),
+    Io::Uniform(0, "probe params", std::mem::size_of::<FieldProbeUniforms>() as u64),
     Io::In(1, "probe rays"),
     Io::Out(2, "probe results"),
 ];
@@ -513,7 +513,7 @@ impl FieldAoPass {
         while self.groups.len() < groups.len() {
             self.groups.push(GroupIo {
                 instances: GrowingBuffer::new("field instances", STORAGE_IN),
-                params: uniform_buffer(device, "field ao params", &FieldAoParams::zeroed()),
+                params: uniform_buffer(device, "field ao params", &FieldAoUniforms::zeroed()),
                 io: None,
             });
         }
@@ -533,7 +533,7 @@ impl FieldAoPass {
                     ],
                 ));
             }
-            let params = FieldAoParams {
+            let params = FieldAoUniforms {
                 rays: AoRays::new(points.len(), settings, pitch),
                 instance_count: g.instances.len() as u32,
                 _pad: 0,
@@ -712,7 +712,7 @@ pub fn probe_gpu(ctx: &GpuContext, field: &GpuField, rays: &[(Vec3, Vec3)]) -> R
     let params = uniform_buffer(
         device,
         "probe params",
-        &ProbeParams {
+        &FieldProbeUniforms {
             ray_count: rays.len() as u32,
             row_pitch: pitch,
             _pad: [0; 2],

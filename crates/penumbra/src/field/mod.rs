@@ -45,4 +45,4 @@ pub use entry::FieldSettings;
 pub use lookup::{FieldTrace, Positional, Sample, field_probe};
 pub use positions::OctahedralGrid;
 pub use query::FieldQuery;
-pub use storage::{FieldData, FieldParams, Storage};
+pub use storage::{FieldData, FieldSampling, Storage};

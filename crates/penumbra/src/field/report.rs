@@ -10,7 +10,7 @@ use serde::Serialize;
 use super::build::{DisplacementField, FieldSummary};
 use super::lookup::Positional;
 use super::runner::{FieldAo, FieldAoRun, FieldReference, FieldReport};
-use super::storage::FieldParams;
+use super::storage::FieldSampling;
 use crate::error::{Error, Result};
 use crate::progress::Reporter;
 use crate::raycast::AoSettings;
@@ -95,7 +95,7 @@ pub struct BuildReport {
 /// is written.
 pub fn build_file(
     mesh: &Path,
-    (params, positions_requested): (&FieldParams, i64),
+    (params, positions_requested): (&FieldSampling, i64),
     out: &Path,
     (runs, bars): (Repeats, &Reporter),
 ) -> Result<BuildReport> {

@@ -18,7 +18,7 @@ use super::build::{DisplacementField, FieldSummary};
 use super::gpu::{FieldAoBatches, FieldGroup, GpuField, GpuInstance};
 use super::lookup::Positional;
 use super::reach::{Reach, reaching, skipped_fields};
-use super::storage::FieldParams;
+use super::storage::FieldSampling;
 use crate::error::{Error, Result};
 use crate::gpu::device::{Device, GpuOutput, OnDevice, Timed, elapsed_ms};
 use crate::progress::{Bar, Reporter};
@@ -77,7 +77,7 @@ impl<'s> FieldAo<'s> {
     /// others are `skipped`); the fields answer on the CPU until `upload`ed.
     pub fn new(
         scene: &'s Scene,
-        params: &FieldParams,
+        params: &FieldSampling,
         positional: Positional,
         reach: Reach,
         bars: &Reporter,

@@ -42,7 +42,7 @@ impl Storage {
 
 /// The sampling and storage choices of a field.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct FieldParams {
+pub struct FieldSampling {
     pub grid: OctahedralGrid,
     /// Each map is `res x res` texels.
     pub res: u32,
@@ -55,11 +55,11 @@ pub const MAX_RES: u32 = 512;
 /// Largest positional grid side accepted (16,384 maps).
 pub const MAX_GRID_SIDE: u32 = 128;
 
-impl FieldParams {
+impl FieldSampling {
     /// The parameters as users give them: a number of positional samples
     /// (the octahedral grid takes the nearest square), the map side, bits
     /// per direction (32, 8 or 1) and the direction mapping; checked.
-    pub fn new(positions: i64, res: i64, bits: i64, directions: DirectionMapping) -> Result<FieldParams> {
+    pub fn new(positions: i64, res: i64, bits: i64, directions: DirectionMapping) -> Result<FieldSampling> {
         if positions < 1 {
             return Err(Error::param(
                 "positions",
@@ -72,7 +72,7 @@ impl FieldParams {
             .ok_or_else(|| Error::param("bits", format!("must be 32, 8 or 1, got {bits}")))?;
         let res = u32::try_from(res)
             .map_err(|_| Error::param("res", format!("must be between 2 and {MAX_RES}, got {res}")))?;
-        let params = FieldParams {
+        let params = FieldSampling {
             grid: OctahedralGrid::with_count(positions.min(u32::MAX as i64) as u32),
             res,
             storage,
@@ -132,7 +132,7 @@ pub enum FieldData {
 
 impl FieldData {
     /// Quantises the float maps `d` (each entry in [0, 1]).
-    pub fn from_distances(params: &FieldParams, d: &[f32]) -> FieldData {
+    pub fn from_distances(params: &FieldSampling, d: &[f32]) -> FieldData {
         match params.storage {
             Storage::F32 => FieldData::F32(d.to_vec()),
             Storage::U8 => FieldData::U8(d.iter().map(|&x| quantise_u8(x)).collect()),
@@ -159,7 +159,7 @@ impl FieldData {
 
     /// Texel `i` of map `m` as a normalised distance.
     #[inline]
-    pub fn value(&self, params: &FieldParams, m: usize, i: usize) -> f32 {
+    pub fn value(&self, params: &FieldSampling, m: usize, i: usize) -> f32 {
         match self {
             FieldData::F32(v) => v[m * params.texels_per_map() + i],
             FieldData::U8(v) => v[m * params.texels_per_map() + i] as f32 / 255.0,

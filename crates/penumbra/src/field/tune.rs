@@ -24,7 +24,7 @@ use serde_json::{Value, json};
 
 use super::reach::Reach;
 use super::runner::FieldAo;
-use super::{DirectionMapping, FieldParams, Positional};
+use super::{DirectionMapping, FieldSampling, Positional};
 use crate::error::{Error, Result};
 use crate::geom::sampling::hash_u32;
 use crate::gpu::device::{Device, elapsed_ms};
@@ -51,8 +51,8 @@ pub const KNOBS: &[Knob] = &[
 
 /// The field parameters of `s` with `directions`; knobs it leaves keep
 /// `ao --method field`'s defaults.
-fn params_of(s: &Setting, directions: DirectionMapping) -> Result<FieldParams> {
-    FieldParams::new(
+fn params_of(s: &Setting, directions: DirectionMapping) -> Result<FieldSampling> {
+    FieldSampling::new(
         s.get("positions").unwrap_or(4226),
         s.get("res").unwrap_or(32),
         s.get("bits").unwrap_or(8),
@@ -68,7 +68,7 @@ pub struct FieldSweep<'s> {
     truth: Vec<f32>,
     /// The fields of the last parameters, reused by repeats and by settings
     /// that change only the lookup.
-    built: Option<(FieldParams, Positional, FieldAo<'s>, f64)>,
+    built: Option<(FieldSampling, Positional, FieldAo<'s>, f64)>,
 }
 
 impl<'s> FieldSweep<'s> {
@@ -88,7 +88,7 @@ impl<'s> FieldSweep<'s> {
         })
     }
 
-    fn params(s: &Setting) -> Result<(FieldParams, Positional)> {
+    fn params(s: &Setting) -> Result<(FieldSampling, Positional)> {
         let directions = s.get("directions").unwrap_or(DirectionMapping::Concentric);
         let params = params_of(s, directions)?;
         Ok((params, s.get("positional").unwrap_or(Positional::Bilinear)))
@@ -371,7 +371,7 @@ pub fn fields_for<'s>(
     device: &Device,
     inputs: (&'s Scene, &[&Path]),
     request: &AoRequest,
-    (fixed, params): (Fixed, &FieldParams),
+    (fixed, params): (Fixed, &FieldSampling),
     budget: Option<&ErrorBudget>,
     bars: &Reporter,
 ) -> Result<(FieldAo<'s>, Option<Pick>)> {
@@ -421,7 +421,7 @@ mod tests {
     fn every_candidate_is_valid_and_costs_at_least_the_last() {
         let mut last = 0.0;
         for (positions, res, bits) in CANDIDATES {
-            let p = FieldParams::new(positions, res, bits, DirectionMapping::Concentric).unwrap();
+            let p = FieldSampling::new(positions, res, bits, DirectionMapping::Concentric).unwrap();
             let rays = p.maps() as f64 * p.texels_per_map() as f64 * if bits == 32 { 1.01 } else { 1.0 };
             assert!(rays >= last, "{positions} {res} {bits}");
             last = rays;

@@ -64,7 +64,7 @@ impl std::fmt::Debug for GpuContext {
 /// `Default`: any backend (native ones first, GL only without one), any
 /// adapter name, everything the adapter allows.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct AdapterOptions {
+pub struct AdapterSettings {
     /// The backends to look at, as wgpu names them, comma-separated
     /// (`vulkan`, `gl`, `metal`, `dx12`; the spelling of wgpu's
     /// `WGPU_BACKEND`). `None`: the native APIs first, GL only if they have
@@ -91,7 +91,7 @@ pub enum LimitsChoice {
     Portable,
 }
 
-impl AdapterOptions {
+impl AdapterSettings {
     /// Backend sets to look at, in order: `backends` if given; otherwise
     /// the native APIs first and GL only if they have no adapter (probing
     /// GL on a headless machine costs time and prints EGL warnings, and
@@ -121,7 +121,7 @@ impl AdapterOptions {
     }
 }
 
-/// The names `AdapterOptions::backends` may list.
+/// The names `AdapterSettings::backends` may list.
 const BACKEND_NAMES: [&str; 10] = [
     "vulkan", "vk", "dx12", "d3d12", "metal", "mtl", "opengl", "gles", "gl", "webgpu",
 ];
@@ -134,7 +134,7 @@ fn instance(backends: wgpu::Backends) -> wgpu::Instance {
 
 /// Lists the adapters wgpu finds on the backends `options` name (all
 /// backends, GL included, when it names none).
-pub fn enumerate_adapters(options: &AdapterOptions) -> Vec<AdapterSummary> {
+pub fn enumerate_adapters(options: &AdapterSettings) -> Vec<AdapterSummary> {
     let backends = match &options.backends {
         Some(names) => wgpu::Backends::from_comma_list(&names.to_lowercase()),
         None => wgpu::Backends::all(),
@@ -185,7 +185,7 @@ fn label(info: &wgpu::AdapterInfo) -> String {
     format!("{} ({})", info.name, format!("{:?}", info.backend).to_lowercase())
 }
 
-fn pick_adapter(kinds: AdapterKinds, options: &AdapterOptions) -> Result<wgpu::Adapter> {
+fn pick_adapter(kinds: AdapterKinds, options: &AdapterSettings) -> Result<wgpu::Adapter> {
     let mut adapters = Vec::new();
     for backends in options.backend_sets()? {
         adapters = pollster::block_on(instance(backends).enumerate_adapters(backends));
@@ -268,12 +268,12 @@ impl GpuContext {
     /// Creates a headless device on the preferred adapter, software ones
     /// included.
     pub fn headless() -> Result<GpuContext> {
-        Self::headless_on(AdapterKinds::Any, &AdapterOptions::default())
+        Self::headless_on(AdapterKinds::Any, &AdapterSettings::default())
     }
 
     /// Creates a headless device on the preferred adapter of `kinds` that
     /// `options` allow, with the limits they ask for.
-    pub fn headless_on(kinds: AdapterKinds, options: &AdapterOptions) -> Result<GpuContext> {
+    pub fn headless_on(kinds: AdapterKinds, options: &AdapterSettings) -> Result<GpuContext> {
         let adapter = pick_adapter(kinds, options)?;
         let info = adapter.get_info();
         let features = adapter.features() & wgpu::Features::TIMESTAMP_QUERY;

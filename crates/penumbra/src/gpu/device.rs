@@ -13,7 +13,7 @@ use crate::error::{Error, Result};
 use crate::gpu::AdapterKinds;
 use crate::gpu::GpuContext;
 
-pub use crate::gpu::{AdapterOptions, AdapterSummary, LimitsChoice, enumerate_adapters};
+pub use crate::gpu::{AdapterSettings, AdapterSummary, LimitsChoice, enumerate_adapters};
 
 /// Which device a user asks for.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
@@ -135,12 +135,12 @@ impl Device {
     /// falls back to the CPU (see `fallback_reason`), `Cpu` never touches
     /// the GPU.
     pub fn open(choice: DeviceChoice) -> Result<Device> {
-        Device::open_with(choice, &AdapterOptions::default())
+        Device::open_with(choice, &AdapterSettings::default())
     }
 
     /// Opens what `choice` names on an adapter `options` allow, with the
     /// limits they ask for.
-    pub fn open_with(choice: DeviceChoice, options: &AdapterOptions) -> Result<Device> {
+    pub fn open_with(choice: DeviceChoice, options: &AdapterSettings) -> Result<Device> {
         match choice {
             DeviceChoice::Cpu => Ok(Device::cpu()),
             DeviceChoice::Gpu => GpuContext::headless_on(AdapterKinds::Any, options).map(Device::gpu),

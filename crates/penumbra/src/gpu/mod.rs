@@ -20,7 +20,7 @@ pub mod layout;
 pub mod timer;
 pub mod wgsl;
 
-pub use context::{AdapterKinds, AdapterOptions, AdapterSummary, GpuContext, LimitsChoice, enumerate_adapters};
+pub use context::{AdapterKinds, AdapterSettings, AdapterSummary, GpuContext, LimitsChoice, enumerate_adapters};
 
 /// Workgroup size of every 1D kernel in `wgsl/`.
 pub const WORKGROUP_SIZE: u32 = 64;

@@ -35,7 +35,7 @@ use crate::geom::ray::{Hit, Ray};
 use crate::mlrta::entry_point::entry_point;
 use crate::mlrta::frustum::Frustum;
 use crate::mlrta::tiles::{Rect, TileReport, block_rects, trace_image, trace_rects};
-use crate::mlrta::{MlrtaParams, Prepared};
+use crate::mlrta::{MlrtaSettings, Prepared};
 use crate::scene::Camera;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -204,7 +204,7 @@ pub fn render(
     camera: &Camera,
     width: u32,
     height: u32,
-    params: &MlrtaParams,
+    params: &MlrtaSettings,
     mode: AaMode,
     samples: u32,
     tiles: &[TileReport],
@@ -282,7 +282,7 @@ pub fn render(
 /// The 16-ray reference (4x4 grid in every pixel).
 pub fn reference(p: &Prepared, camera: &Camera, width: u32, height: u32) -> Reference {
     let n = width as usize * height as usize;
-    let params = MlrtaParams::default();
+    let params = MlrtaSettings::default();
     let mut sum = vec![0.0f32; n];
     let mut first = vec![u32::MAX - 1; n];
     let mut edges = vec![false; n];

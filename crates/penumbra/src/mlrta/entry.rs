@@ -5,7 +5,7 @@
 
 use std::borrow::Cow;
 
-use super::MlrtaParams;
+use super::MlrtaSettings;
 use super::aa::AaMode;
 use super::runner::{AaRequest, ShadowLight, TraceRequest, TracedImage, trace_view};
 use super::tiles::DEFAULT_MIN_TILE;
@@ -29,7 +29,7 @@ pub struct TraceSettings {
     /// its root. The GPU walks the kd-tree.
     pub accel: Structure,
     /// The packets' entry points and tiles.
-    pub mlrta: MlrtaParams,
+    pub mlrta: MlrtaSettings,
     /// A point light for one shadow ray per hit.
     pub light: ShadowLight,
     /// Anti-aliasing.
@@ -41,10 +41,10 @@ impl Default for TraceSettings {
         TraceSettings {
             single_ray: false,
             accel: Structure::Kdtree,
-            mlrta: MlrtaParams {
+            mlrta: MlrtaSettings {
                 min_tile: DEFAULT_MIN_TILE,
                 corner_frusta: true,
-                ..MlrtaParams::default()
+                ..MlrtaSettings::default()
             },
             light: ShadowLight::None,
             aa: AaRequest {

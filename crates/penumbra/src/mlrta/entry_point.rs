@@ -12,7 +12,7 @@
 //!    one, that node becomes the candidate and the rest of its subtree is
 //!    abandoned (it cannot move the entry point lower). A search that has
 //!    visited `far_budget` nodes of a far subtree without an answer counts
-//!    it as having one (`MlrtaParams::ep_budget`): the entry point can
+//!    it as having one (`MlrtaSettings::ep_budget`): the entry point can
 //!    only move up, to a node whose subtree holds every leaf the exhaustive
 //!    search would allow for;
 //! 3. the search ends, returning the candidate, when the stack is empty or

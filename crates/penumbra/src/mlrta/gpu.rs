@@ -26,7 +26,7 @@ use crate::mlrta::frustum::sign_class;
 use crate::mlrta::packet::{MlrtaCounts, PACKET, Packet};
 use crate::mlrta::prepared::Prepared;
 use crate::mlrta::tiles::{
-    Ctx, DEFAULT_EP_BUDGET, ImageTrace, MlrtaParams, Rect, SHADOW_EPSILON, ShadowRays, TileOut, TileSummary,
+    Ctx, DEFAULT_EP_BUDGET, ImageTrace, MlrtaSettings, Rect, SHADOW_EPSILON, ShadowRays, TileOut, TileSummary,
     block_rects, pixels, search_below, shadow_tile_entry, split_tiles, stray_origin,
 };
 use crate::progress::Bar;
@@ -56,10 +56,10 @@ const FLAG_SPECULATIVE: u32 = 8;
 const FLAG_ANY_HIT: u32 = 16;
 const FLAG_SINGLE: u32 = 32;
 
-/// `PacketParams` in the kernel.
+/// `PacketUniforms` in the kernel.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-struct PacketParams {
+struct PacketUniforms {
     packet_count: u32,
     row_pitch: u32,
     _pad: [u32; 2],
@@ -71,7 +71,7 @@ const PACKET_IO: &[Io] = &[
     Io::In(0, "packet records"),
     Io::In(1, "packet directions"),
     Io::Out(2, "packet hits"),
-    Io::Uniform(3, "packet params", std::mem::size_of::<PacketParams>() as u64),
+    Io::Uniform(3, "packet params", std::mem::size_of::<PacketUniforms>() as u64),
     Io::Out(4, "packet counts"),
 ];
 
@@ -111,7 +111,7 @@ impl TreePass<PacketKernels> {
         let n = records.len() as u32;
         let groups = n.div_ceil(PACKETS_PER_WORKGROUP).max(1);
         let x = groups.min(device.limits().max_compute_workgroups_per_dimension);
-        let params = PacketParams {
+        let params = PacketUniforms {
             packet_count: n,
             row_pitch: x,
             _pad: [0; 2],
@@ -248,7 +248,7 @@ impl Batched<PacketPass> {
         rays: &[Ray],
         width: u32,
         height: u32,
-        params: &MlrtaParams,
+        params: &MlrtaSettings,
         light: Option<Vec3>,
     ) -> Result<GpuImageTrace> {
         let start = Instant::now();

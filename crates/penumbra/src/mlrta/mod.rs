@@ -34,4 +34,4 @@ pub mod tune;
 pub use entry::{PrimaryRays, TraceSettings};
 pub use packet::MlrtaCounts;
 pub use prepared::Prepared;
-pub use tiles::{ImageBuffers, ImageTrace, MlrtaParams, trace_camera_into, trace_image, trace_image_into};
+pub use tiles::{ImageBuffers, ImageTrace, MlrtaSettings, trace_camera_into, trace_image, trace_image_into};

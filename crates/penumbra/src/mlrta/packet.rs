@@ -1004,7 +1004,7 @@ impl LanePool {
 mod tests {
     use super::*;
     use crate::accel::kdtree::test_rng::{Rng, random_soup};
-    use crate::accel::kdtree::{KdTree, KdTreeParams};
+    use crate::accel::kdtree::{KdTree, KdTreeSettings};
     use crate::scene::Mesh;
 
     /// Four and sixteen packets walked together find, lane for lane, the
@@ -1017,7 +1017,7 @@ mod tests {
         let positions: Vec<Vec3> = soup.iter().flatten().copied().collect();
         let triangles = (0..soup.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
         let mesh = Mesh::new(positions, triangles).unwrap();
-        let tree = KdTree::build(&mesh, &KdTreeParams::for_cpu()).unwrap();
+        let tree = KdTree::build(&mesh, &KdTreeSettings::for_cpu()).unwrap();
         let (prepared, _) = Prepared::new(&tree, &mesh);
         walk_together::<4>(&prepared, &mut rng);
         walk_together::<16>(&prepared, &mut rng);

@@ -403,13 +403,13 @@ fn sorted_edges(mesh: &Mesh, weld: &[u32], vertices: usize) -> Vec<(u32, u32, bo
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::accel::kdtree::KdTreeParams;
+    use crate::accel::kdtree::KdTreeSettings;
     use crate::scene::procedural::{closed_box, cube_with_hole, open_plane};
 
     #[test]
     fn subtree_ends_cover_the_tree() {
         let mesh = cube_with_hole();
-        let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+        let tree = KdTree::build(&mesh, &KdTreeSettings::default()).unwrap();
         let (p, _) = Prepared::new(&tree, &mesh);
         assert_eq!(p.subtree_size(0) as usize, tree.nodes.len());
         for (i, n) in tree.nodes.iter().enumerate() {
@@ -443,7 +443,7 @@ mod tests {
         // The cube with a hole is closed with outward faces; its solid part is
         // inside, the hole and the surroundings are not.
         let mesh = cube_with_hole();
-        let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+        let tree = KdTree::build(&mesh, &KdTreeSettings::default()).unwrap();
         let (p, stats) = Prepared::new(&tree, &mesh);
         assert_eq!(stats.closed_objects, 1);
         assert_eq!(p.inside_object(Vec3::new(0.7, 0.1, 0.2)), Some(0));
@@ -452,20 +452,20 @@ mod tests {
         // The closed box has inward faces (negative volume): its inside is
         // still its inside.
         let boxed = closed_box(1.0);
-        let tree = KdTree::build(&boxed, &KdTreeParams::default()).unwrap();
+        let tree = KdTree::build(&boxed, &KdTreeSettings::default()).unwrap();
         let (p, _) = Prepared::new(&tree, &boxed);
         assert_eq!(p.inside_object(Vec3::splat(0.5)), Some(0));
         assert_eq!(p.inside_object(Vec3::splat(1.5)), None);
         // An open plane is no closed object.
         let plane = open_plane(10.0);
-        let tree = KdTree::build(&plane, &KdTreeParams::default()).unwrap();
+        let tree = KdTree::build(&plane, &KdTreeSettings::default()).unwrap();
         assert_eq!(Prepared::new(&tree, &plane).1.closed_objects, 0);
     }
 
     #[test]
     fn occluder_leaves_are_found() {
         let mesh = cube_with_hole();
-        let tree = KdTree::build(&mesh, &KdTreeParams::default()).unwrap();
+        let tree = KdTree::build(&mesh, &KdTreeSettings::default()).unwrap();
         let (p, stats) = Prepared::new(&tree, &mesh);
         println!("{stats:?}");
         assert!(stats.empty_occluder_leaves > 0, "the solid part has empty inner leaves");

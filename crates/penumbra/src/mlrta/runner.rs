@@ -13,7 +13,7 @@ use super::aa::{self, AaMode};
 use super::gpu::PacketBatches;
 use super::packet::MlrtaCounts;
 use super::prepared::{Prepared, PreparedStats};
-use super::tiles::{ImageBuffers, ImageTrace, MlrtaParams, SHADOW_EPSILON, TileReport, trace_camera_into};
+use super::tiles::{ImageBuffers, ImageTrace, MlrtaSettings, SHADOW_EPSILON, TileReport, trace_camera_into};
 use crate::accel::bvh::packet::PacketCounts;
 use crate::accel::kdtree::gpu::GpuKdTree;
 use crate::accel::kdtree::{BuildStats, KdTree};
@@ -75,7 +75,7 @@ pub struct TraceRequest {
     /// anti-aliasing). The GPU walks the kd-tree.
     pub accel: Structure,
     /// Packets: entry points on or off, tile sizes.
-    pub params: MlrtaParams,
+    pub params: MlrtaSettings,
     pub light: ShadowLight,
     pub aa: AaRequest,
 }

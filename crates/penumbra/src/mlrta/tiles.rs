@@ -26,12 +26,12 @@ use crate::mlrta::squares::{trace_shadow_tile, trace_tile};
 use crate::mlrta::tile_rows::tile_rows;
 use crate::scene::{CameraRays, PixelDirections};
 
-/// `MlrtaParams::min_tile` unless chosen.
+/// `MlrtaSettings::min_tile` unless chosen.
 pub const DEFAULT_MIN_TILE: u32 = 32;
 
 /// The knobs of section 4.2.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct MlrtaParams {
+pub struct MlrtaSettings {
     /// Entry-point search on (MLRTA) or off (every packet from the root: the
     /// paper's "no MLRT" rows).
     pub entry_points: bool,
@@ -75,12 +75,12 @@ pub struct MlrtaParams {
     pub ep_budget: u32,
 }
 
-/// `MlrtaParams::ep_budget` unless chosen.
+/// `MlrtaSettings::ep_budget` unless chosen.
 pub const DEFAULT_EP_BUDGET: u32 = 2;
 
-impl Default for MlrtaParams {
+impl Default for MlrtaSettings {
     fn default() -> Self {
-        MlrtaParams {
+        MlrtaSettings {
             entry_points: true,
             initial_tile: 128,
             min_tile: DEFAULT_MIN_TILE,
@@ -91,7 +91,7 @@ impl Default for MlrtaParams {
     }
 }
 
-impl MlrtaParams {
+impl MlrtaSettings {
     pub fn validate(&self) -> Result<()> {
         let side = (self.split_factor as f64).sqrt() as u32;
         if self.split_factor < 4 || side * side != self.split_factor {
@@ -203,7 +203,7 @@ pub const SHADOW_EPSILON: f32 = 1e-4;
 
 pub(crate) struct Ctx<'p, 'a> {
     pub p: &'p Prepared<'a>,
-    pub params: &'p MlrtaParams,
+    pub params: &'p MlrtaSettings,
     pub origin: Vec3,
     pub rays: &'p [Ray],
     /// The directions `rays` were made from, when they are a camera's
@@ -266,7 +266,7 @@ pub fn trace_image(
     rays: &[Ray],
     width: u32,
     height: u32,
-    params: &MlrtaParams,
+    params: &MlrtaSettings,
     light: Option<Vec3>,
 ) -> Result<ImageTrace> {
     trace_image_into(p, rays, width, height, params, light, ImageBuffers::default())
@@ -280,7 +280,7 @@ pub fn trace_image_into(
     rays: &[Ray],
     width: u32,
     height: u32,
-    params: &MlrtaParams,
+    params: &MlrtaSettings,
     light: Option<Vec3>,
     buffers: ImageBuffers,
 ) -> Result<ImageTrace> {
@@ -296,7 +296,7 @@ pub fn trace_image_into(
 pub fn trace_camera_into(
     p: &Prepared,
     camera: &CameraRays,
-    params: &MlrtaParams,
+    params: &MlrtaSettings,
     light: Option<Vec3>,
     buffers: ImageBuffers,
 ) -> Result<ImageTrace> {
@@ -357,7 +357,7 @@ pub fn trace_rects(
     rays: &[Ray],
     width: u32,
     height: u32,
-    params: &MlrtaParams,
+    params: &MlrtaSettings,
     rects: &[Rect],
 ) -> Result<ImageTrace> {
     let ctx = Ctx::new(p, rays, width, height, params, None, None)?;
@@ -370,7 +370,7 @@ impl<'p, 'a> Ctx<'p, 'a> {
         rays: &'p [Ray],
         width: u32,
         height: u32,
-        params: &'p MlrtaParams,
+        params: &'p MlrtaSettings,
         light: Option<Vec3>,
         pinhole: Option<&'p PixelDirections>,
     ) -> Result<Ctx<'p, 'a>> {
@@ -380,7 +380,7 @@ impl<'p, 'a> Ctx<'p, 'a> {
         }
         let origin = rays[0].o();
         // With corner frusta the caller vouches for a pinhole camera's image
-        // (`MlrtaParams::corner_frusta`); each ray is then checked when its
+        // (`MlrtaSettings::corner_frusta`); each ray is then checked when its
         // block is gathered (`trace_block`: the same cache line as its
         // direction), not in a pass of its own over the image's rays (2.6
         // ms of a 1024^2 frame on one thread, memory-bound). Rays of tiles

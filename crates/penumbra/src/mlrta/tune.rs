@@ -5,7 +5,7 @@
 
 use serde_json::{Value, json};
 
-use super::MlrtaParams;
+use super::MlrtaSettings;
 use super::aa::AaMode;
 use super::runner::{AaRequest, ShadowLight, TraceRequest, trace_view};
 use super::tiles::{DEFAULT_EP_BUDGET, DEFAULT_MIN_TILE};
@@ -62,7 +62,7 @@ impl TraceSweep {
             single_ray,
             // `trace`'s defaults: the BVH for single rays, MLRTA for packets.
             accel: if single_ray { Structure::Bvh } else { Structure::Kdtree },
-            params: MlrtaParams {
+            params: MlrtaSettings {
                 entry_points: s.get("mlrta").unwrap_or(true),
                 initial_tile: tile,
                 min_tile: s.get("min-tile").unwrap_or(DEFAULT_MIN_TILE.min(tile)),

@@ -83,10 +83,10 @@ pub const MAX_GPU_BANDS: usize = 8;
 /// Vertex batches are multiples of this (whole workgroups).
 const BATCH_QUANTUM: u64 = 64;
 
-/// The kernel's uniform (`Params` in the WGSL).
+/// The kernel's uniform (`ShTransferUniforms` in the WGSL).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-struct Params {
+struct ShTransferUniforms {
     counts: [u32; 4],
     shape: [u32; 4],
     grid: [u32; 4],
@@ -99,7 +99,11 @@ struct Params {
 /// A batch's io: params, masks (u32 words), vertices (position, normal),
 /// transfer (`coeffs` per vertex), radiance (3 per vertex).
 const FRAME_IO: &[Io] = &[
-    Io::Uniform(0, "sh_transfer params", std::mem::size_of::<Params>() as u64),
+    Io::Uniform(
+        0,
+        "sh_transfer params",
+        std::mem::size_of::<ShTransferUniforms>() as u64,
+    ),
     Io::In(1, "sh_transfer masks"),
     Io::In(2, "sh_transfer vertices"),
     Io::Out(3, "sh_transfer transfer"),
@@ -149,7 +153,7 @@ pub struct ShTransferPass {
     /// The batch's buffers (`FRAME_IO`).
     frame: KeptGroup,
     /// The uniform without the batch's vertex count, grid and eye.
-    base: Params,
+    base: ShTransferUniforms,
     verts_per_group: u32,
     coeffs: usize,
     words32: usize,
@@ -230,7 +234,7 @@ impl ShTransferPass {
         };
         let cells = (t.side / 4) * (t.side / 4);
         let verts_per_group = kernels.form.vertices_per_group(words32, cells);
-        let base = Params {
+        let base = ShTransferUniforms {
             counts: [0, n as u32, settings.bands as u32, prt.grid.side as u32],
             shape: [t.side as u32 / 4, words32 as u32, integration, brdf],
             grid: [0, verts_per_group, 0, 0],

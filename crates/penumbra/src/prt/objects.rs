@@ -17,7 +17,7 @@ use super::pipeline::{FrameOutput, PrtSettings};
 use super::reference::{reference_transfer, relative_l2_error};
 use super::runner::{PrtRunner, RayTraced, Shadows};
 use crate::accel::Accel;
-use crate::accel::kdtree::{KdTree, KdTreeParams};
+use crate::accel::kdtree::{KdTree, KdTreeSettings};
 use crate::error::{Error, Result};
 use crate::gpu::device::Device;
 use crate::scene::{Role, Scene};
@@ -316,7 +316,7 @@ impl ObjectsRunner {
             .filter(|(_, o)| o.role.casts())
             .flat_map(|(k, o)| o.triangles.iter().map(move |t| t.map(|i| positions[k][i as usize])))
             .collect();
-        let tree = Accel::new(KdTree::from_triangles(soup, &KdTreeParams::default())?);
+        let tree = Accel::new(KdTree::from_triangles(soup, &KdTreeSettings::default())?);
         let RayTraced { rays, seed } = self.reference;
         Ok(self
             .objects

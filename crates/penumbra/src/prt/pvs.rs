@@ -18,7 +18,7 @@ use rayon::prelude::*;
 
 use super::Csr;
 use super::pipeline::Prt;
-use crate::accel::kdtree::{KdTree, KdTreeParams};
+use crate::accel::kdtree::{KdTree, KdTreeSettings};
 use crate::error::Result;
 use crate::scene::{ORIGIN_OFFSET, vertex_normals};
 use crate::sh::tangent_frame;
@@ -40,7 +40,7 @@ pub fn build_pvs(prt: &Prt, frames: &[Vec<Vec3>]) -> Result<Csr> {
     let mut normals = Vec::new();
     for positions in frames {
         let soup: Vec<[Vec3; 3]> = h.fine.iter().map(|t| t.map(|i| positions[i as usize])).collect();
-        let tree = KdTree::from_triangles(soup, &KdTreeParams::default())?;
+        let tree = KdTree::from_triangles(soup, &KdTreeSettings::default())?;
         vertex_normals(positions, &h.fine, &mut normals);
         let sides: &[f32] = if prt.two_sided { &[1.0, -1.0] } else { &[1.0] };
         sets.par_iter_mut().enumerate().with_min_len(8).for_each(|(v, set)| {

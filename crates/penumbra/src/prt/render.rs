@@ -6,7 +6,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::accel::kdtree::{KdTree, KdTreeParams};
+use crate::accel::kdtree::{KdTree, KdTreeSettings};
 use crate::error::Result;
 use crate::geom::color::srgb8;
 use crate::scene::{Camera, EnvironmentMap};
@@ -42,7 +42,7 @@ pub fn render_radiance(
     height: u32,
 ) -> Result<Vec<Vec3>> {
     let soup: Vec<[Vec3; 3]> = triangles.iter().map(|t| t.map(|i| positions[i as usize])).collect();
-    let tree = KdTree::from_triangles(soup, &KdTreeParams::default())?;
+    let tree = KdTree::from_triangles(soup, &KdTreeSettings::default())?;
     let rays = camera.primary_rays(width, height);
     Ok(rays
         .par_iter()

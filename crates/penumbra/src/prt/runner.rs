@@ -19,7 +19,7 @@ use super::selfcheck::{SelfCheck, SelfCheckReport};
 use super::sides::Sides;
 use super::transfer::{Brdf, Integration, radiance};
 use crate::accel::Accel;
-use crate::accel::kdtree::{KdTree, KdTreeParams};
+use crate::accel::kdtree::{KdTree, KdTreeSettings};
 use crate::error::{Error, Result};
 use crate::gpu::device::{Device, OnDevice, elapsed_ms};
 use crate::progress::Reporter;
@@ -255,7 +255,7 @@ impl PrtRunner {
             .iter()
             .map(|t| t.map(|i| positions[i as usize]))
             .collect();
-        let tree = Accel::new(KdTree::from_triangles(soup, &KdTreeParams::default())?);
+        let tree = Accel::new(KdTree::from_triangles(soup, &KdTreeSettings::default())?);
         let s = &self.prt.settings;
         let RayTraced { rays, seed } = self.reference;
         Ok(reference_transfer(

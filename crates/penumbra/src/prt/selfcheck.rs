@@ -32,7 +32,7 @@ use serde::Serialize;
 use super::pipeline::{FrameOutput, Prt};
 use super::reference::{reference_transfer, relative_l2_errors};
 use crate::accel::Accel;
-use crate::accel::kdtree::{KdTree, KdTreeParams};
+use crate::accel::kdtree::{KdTree, KdTreeSettings};
 use crate::error::{Error, Result};
 use crate::geom::sampling::hash_u32;
 use crate::gpu::device::elapsed_ms;
@@ -147,7 +147,7 @@ pub fn estimate(
             .flat_map(|&(v, _)| frame.transfer[v * coeffs..(v + 1) * coeffs].iter().copied())
             .collect();
         let soup: Vec<[Vec3; 3]> = triangles.iter().map(|t| t.map(|i| positions[i as usize])).collect();
-        let tree = Accel::new(KdTree::from_triangles(soup, &KdTreeParams::default())?);
+        let tree = Accel::new(KdTree::from_triangles(soup, &KdTreeSettings::default())?);
         let reference = reference_transfer(&tree, &at, &nrm, prt.scale, s.bands, &s.brdf, eye, check.rays, seed);
         for (e, &(_, w)) in relative_l2_errors(&mine, &reference, coeffs, floor)
             .into_iter()

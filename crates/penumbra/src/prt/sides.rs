@@ -38,7 +38,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::geometry::weld;
-use crate::accel::kdtree::{KdTree, KdTreeParams};
+use crate::accel::kdtree::{KdTree, KdTreeSettings};
 use crate::error::Result;
 use crate::geom::sampling::{Frame, SampleSequence, cosine_hemisphere};
 use crate::scene::{ORIGIN_OFFSET, used_bounds, vertex_normals};
@@ -137,7 +137,7 @@ pub fn decide(rest: &[Vec3], triangles: &[[u32; 3]], backface: Option<bool>, two
     let needs_rays = !topology.closed() && (two_sided.is_none() || (backface.is_none() && two_sided != Some(true)));
     let tree = if needs_rays {
         let soup: Vec<[Vec3; 3]> = triangles.iter().map(|t| t.map(|i| rest[i as usize])).collect();
-        Some(KdTree::from_triangles(soup, &KdTreeParams::for_cpu())?)
+        Some(KdTree::from_triangles(soup, &KdTreeSettings::for_cpu())?)
     } else {
         None
     };

@@ -20,8 +20,8 @@ use crate::gpu::layout::Io;
 use crate::gpu::{GpuContext, dispatch_grid};
 use crate::progress::Bar;
 
-/// The AO rays of a batch of points, as `wgsl/ao_rays.wgsl`'s `AoParams`
-/// and `wgsl/field_ao.wgsl`'s `FieldAoParams` begin.
+/// The AO rays of a batch of points, as `wgsl/ao_rays.wgsl`'s `AoRaysUniforms`
+/// and `wgsl/field_ao.wgsl`'s `FieldAoUniforms` begin.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct AoRays {
@@ -52,10 +52,10 @@ impl AoRays {
     }
 }
 
-/// `AoParams` in `wgsl/ao_rays.wgsl`.
+/// `AoRaysUniforms` in `wgsl/ao_rays.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct AoParams {
+pub struct AoRaysUniforms {
     pub rays: AoRays,
     pub _pad: [u32; 2],
 }
@@ -65,7 +65,7 @@ pub struct AoParams {
 const AO_IO: &[Io] = &[
     Io::In(0, "ao points"),
     Io::Out(1, "ao visible"),
-    Io::Uniform(2, "ao params", std::mem::size_of::<AoParams>() as u64),
+    Io::Uniform(2, "ao params", std::mem::size_of::<AoRaysUniforms>() as u64),
     Io::Out(3, "ao samples"),
 ];
 
@@ -116,7 +116,7 @@ impl TreePass<AoRaysKernels> {
         if samples {
             ao.radius = f32::MAX;
         }
-        let params = AoParams { rays: ao, _pad: [0; 2] };
+        let params = AoRaysUniforms { rays: ao, _pad: [0; 2] };
         let io = self.io();
         io.write(device, queue, 0, bytemuck::cast_slice(points))?;
         io.reserve(device, 1, words * 4)?;

@@ -10,7 +10,7 @@
 use serde::Serialize;
 
 use crate::accel::kdtree::gpu::{GpuKdTree, TraceMode, TraceRaysBatches};
-use crate::accel::kdtree::{BuildStats, KdTree, KdTreeParams, TraversalCounts};
+use crate::accel::kdtree::{BuildStats, KdTree, KdTreeSettings, TraversalCounts};
 use crate::accel::{Accel, BvhStats, Structure};
 use crate::error::Result;
 use crate::geom::ray::{Hit, Ray};
@@ -25,20 +25,20 @@ use crate::report::repeats::{Repeats, RunTimes};
 use crate::scene::Mesh;
 
 /// The kd-tree builder's settings for a tree walked on `device`: the CPU's
-/// (`KdTreeParams::for_cpu`, larger leaves for its vector lanes) or the
+/// (`KdTreeSettings::for_cpu`, larger leaves for its vector lanes) or the
 /// GPU's (`Default`).
-pub fn tree_params(device: &Device) -> KdTreeParams {
+pub fn tree_params(device: &Device) -> KdTreeSettings {
     if device.is_gpu() {
-        KdTreeParams::default()
+        KdTreeSettings::default()
     } else {
-        KdTreeParams::for_cpu()
+        KdTreeSettings::for_cpu()
     }
 }
 
 /// Builds the kd-tree of `mesh` with `params` (`tree_params` of the device
 /// that walks it); the phase named for `what` (which of a run's meshes)
 /// while a large mesh builds.
-pub(crate) fn build_tree(mesh: &Mesh, params: &KdTreeParams, bars: &Reporter, what: &str) -> Result<KdTree> {
+pub(crate) fn build_tree(mesh: &Mesh, params: &KdTreeSettings, bars: &Reporter, what: &str) -> Result<KdTree> {
     // A bar of one step per triangle, shown once the build has taken a
     // second (`progress`), advancing leaf by leaf.
     let progress = bars.bar(mesh.triangles.len() as u64, &format!("building kd-tree ({what})"));

@@ -250,10 +250,10 @@ fn uniform_sphere(u1: f32, u2: f32) -> Vec3 {
     direction(1.0 - 2.0 * u1, u2)
 }
 
-/// `SsaoParams` in `wgsl/ssao_common.wgsl`: one uniform for every SSAO kernel.
+/// `SsaoUniforms` in `wgsl/ssao_common.wgsl`: one uniform for every SSAO kernel.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
-pub struct SsaoParams {
+pub struct SsaoUniforms {
     pub width: u32,
     pub height: u32,
     /// Table entries per set.
@@ -285,11 +285,11 @@ pub struct SsaoParams {
     pub scale: u32,
 }
 
-impl SsaoParams {
-    pub fn new(view: &ScreenView, s: &SsaoSettings, table: &SampleTable, shade: ShadeSettings) -> SsaoParams {
+impl SsaoUniforms {
+    pub fn new(view: &ScreenView, s: &SsaoSettings, table: &SampleTable, shade: ShadeSettings) -> SsaoUniforms {
         let c = view.constants();
         let scale = s.resolution.scale();
-        SsaoParams {
+        SsaoUniforms {
             width: view.width,
             height: view.height,
             samples: table.samples,
@@ -419,9 +419,9 @@ impl HomogeneousFrame {
 }
 
 /// Runs the estimator's kernel on the CPU: one value per cell of the
-/// estimation grid (`SsaoParams::lo_width` x `lo_height`; cell (X, Y)
+/// estimation grid (`SsaoUniforms::lo_width` x `lo_height`; cell (X, Y)
 /// shades pixel (scale X, scale Y) with sample set pattern_index(X, Y)).
-pub fn estimate_cpu(family: Family, gb: &GBuffer, params: &SsaoParams, table: &[[f32; 4]]) -> Vec<f32> {
+pub fn estimate_cpu(family: Family, gb: &GBuffer, params: &SsaoUniforms, table: &[[f32; 4]]) -> Vec<f32> {
     match family {
         Family::Points => ssao_points(gb, params, table),
         Family::March => ssao_march(gb, params, table),
@@ -430,7 +430,7 @@ pub fn estimate_cpu(family: Family, gb: &GBuffer, params: &SsaoParams, table: &[
 }
 
 /// `f(x, y, base)` per grid cell: its pixel and its set's first table entry.
-fn per_cell(params: &SsaoParams, f: impl Fn(u32, u32, usize) -> f32 + Sync) -> Vec<f32> {
+fn per_cell(params: &SsaoUniforms, f: impl Fn(u32, u32, usize) -> f32 + Sync) -> Vec<f32> {
     let (w, scale) = (params.lo_width, params.scale);
     (0..params.cells() as u32)
         .into_par_iter()
@@ -444,7 +444,7 @@ fn per_cell(params: &SsaoParams, f: impl Fn(u32, u32, usize) -> f32 + Sync) -> V
 }
 
 /// CPU twin of `ssao_points`: O = sum_j w_j v(s + R (T q.x + B q.y + N q.z)).
-pub fn ssao_points(gb: &GBuffer, params: &SsaoParams, table: &[[f32; 4]]) -> Vec<f32> {
+pub fn ssao_points(gb: &GBuffer, params: &SsaoUniforms, table: &[[f32; 4]]) -> Vec<f32> {
     let sc = params.screen();
     per_cell(params, |x, y, base| {
         let Some((s, n)) = shaded_point(gb, &sc, x, y) else {
@@ -463,7 +463,7 @@ pub fn ssao_points(gb: &GBuffer, params: &SsaoParams, table: &[[f32; 4]]) -> Vec
 
 /// CPU twin of `ssao_march`: each ray is worth m(rho_k) / N at its first
 /// occluded step, 1 / N if none.
-pub fn ssao_march(gb: &GBuffer, params: &SsaoParams, table: &[[f32; 4]]) -> Vec<f32> {
+pub fn ssao_march(gb: &GBuffer, params: &SsaoUniforms, table: &[[f32; 4]]) -> Vec<f32> {
     let sc = params.screen();
     per_cell(params, |x, y, base| {
         let Some((s, n)) = shaded_point(gb, &sc, x, y) else {
@@ -518,7 +518,7 @@ pub fn pipe_integral(a: f32, nz: f32, t0: f32, t1: f32) -> f32 {
 ///
 /// and contributes w h. Calibrated, the sum is divided by the same sum
 /// without the depth cut (the pixel's open value).
-pub fn ssao_disk(gb: &GBuffer, params: &SsaoParams, table: &[[f32; 4]]) -> Vec<f32> {
+pub fn ssao_disk(gb: &GBuffer, params: &SsaoUniforms, table: &[[f32; 4]]) -> Vec<f32> {
     let sc = params.screen();
     per_cell(params, |x, y, base| {
         let Some((s, n)) = shaded_point(gb, &sc, x, y) else {

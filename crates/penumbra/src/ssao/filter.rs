@@ -21,12 +21,12 @@
 //! depth edge or next to background slightly different (the RMSE against
 //! both references moves by less than 0.0001, `docs/results/ssao.md`). The
 //! AO filter works on the estimation grid (every pixel, or every other one
-//! at half resolution, `SsaoParams::scale`), with the depths of the cells'
+//! at half resolution, `SsaoUniforms::scale`), with the depths of the cells'
 //! pixels.
 
 use rayon::prelude::*;
 
-use super::estimators::SsaoParams;
+use super::estimators::SsaoUniforms;
 use super::gbuffer::{GBuffer, valid_depth};
 
 /// Window offsets of the 4x4 filter.
@@ -34,7 +34,7 @@ pub const FILTER_OFFSETS: std::ops::RangeInclusive<i32> = -2..=1;
 
 fn filter<T: Copy + Send + Sync>(
     gb: &GBuffer,
-    params: &SsaoParams,
+    params: &SsaoUniforms,
     input: &[T],
     zero: T,
     add: impl Fn(T, T) -> T + Sync,
@@ -74,7 +74,7 @@ fn filter<T: Copy + Send + Sync>(
 /// The AO after the filter (if `filter`) and the upsampling (at half
 /// resolution), per pixel, from the estimator's output per grid cell: the
 /// kernels as `gpu::SsaoPass::record` dispatches them.
-pub fn filter_ao(gb: &GBuffer, params: &SsaoParams, filter: bool, ao: &[f32]) -> Vec<f32> {
+pub fn filter_ao(gb: &GBuffer, params: &SsaoUniforms, filter: bool, ao: &[f32]) -> Vec<f32> {
     let grid = match filter {
         true => ssao_filter_ao_columns(gb, params, &ssao_filter_ao_rows(gb, params, ao)),
         false => ao.to_vec(),
@@ -87,13 +87,13 @@ pub fn filter_ao(gb: &GBuffer, params: &SsaoParams, filter: bool, ao: &[f32]) ->
 
 /// Whether depth d is a surface within `filter_depth` of depth c.
 #[inline]
-fn near(params: &SsaoParams, c: f32, d: f32) -> bool {
+fn near(params: &SsaoUniforms, c: f32, d: f32) -> bool {
     valid_depth(d) && (d - c).abs() <= params.filter_depth
 }
 
 /// CPU twin of `ssao_filter_ao_rows`: per grid cell, the sum and count of
 /// the row window's cells near it in depth (background: its own value, 1).
-pub fn ssao_filter_ao_rows(gb: &GBuffer, params: &SsaoParams, ao: &[f32]) -> Vec<[f32; 2]> {
+pub fn ssao_filter_ao_rows(gb: &GBuffer, params: &SsaoUniforms, ao: &[f32]) -> Vec<[f32; 2]> {
     let w = params.lo_width;
     (0..params.cells() as u32)
         .into_par_iter()
@@ -123,7 +123,7 @@ pub fn ssao_filter_ao_rows(gb: &GBuffer, params: &SsaoParams, ao: &[f32]) -> Vec
 /// CPU twin of `ssao_filter_ao_columns`: per grid cell, the filtered AO
 /// (the GPU writes it to `ao_out` at full resolution, to the scratch
 /// buffer's filtered grid at half).
-pub fn ssao_filter_ao_columns(gb: &GBuffer, params: &SsaoParams, rows: &[[f32; 2]]) -> Vec<f32> {
+pub fn ssao_filter_ao_columns(gb: &GBuffer, params: &SsaoUniforms, rows: &[[f32; 2]]) -> Vec<f32> {
     let (w, h) = (params.lo_width, params.lo_height);
     (0..params.cells() as u32)
         .into_par_iter()
@@ -160,7 +160,7 @@ pub fn ssao_filter_ao_columns(gb: &GBuffer, params: &SsaoParams, rows: &[[f32; 2
 /// first on a tie, rows first), 1 if none is a surface. Background: 1.
 /// (The GPU runs one invocation per cell for its 2x2 pixels, which share
 /// the four cells they read; the rule per pixel is this.)
-pub fn ssao_upsample(gb: &GBuffer, params: &SsaoParams, grid: &[f32]) -> Vec<f32> {
+pub fn ssao_upsample(gb: &GBuffer, params: &SsaoUniforms, grid: &[f32]) -> Vec<f32> {
     let (w, s) = (params.width, params.scale);
     let (lw, lh) = (params.lo_width, params.lo_height);
     (0..gb.pixels() as u32)
@@ -204,7 +204,7 @@ pub fn ssao_upsample(gb: &GBuffer, params: &SsaoParams, grid: &[f32]) -> Vec<f32
 }
 
 /// CPU twin of `ssao_filter_indirect` (all four channels).
-pub fn ssao_filter_indirect(gb: &GBuffer, params: &SsaoParams, l: &[[f32; 4]]) -> Vec<[f32; 4]> {
+pub fn ssao_filter_indirect(gb: &GBuffer, params: &SsaoUniforms, l: &[[f32; 4]]) -> Vec<[f32; 4]> {
     filter(
         gb,
         params,
@@ -233,7 +233,7 @@ mod tests {
         }
     }
 
-    fn params(w: u32, h: u32, resolution: Resolution) -> SsaoParams {
+    fn params(w: u32, h: u32, resolution: Resolution) -> SsaoUniforms {
         let mut s = SsaoSettings::new(Estimator::Importance, 4, 1.0);
         s.resolution = resolution;
         let camera = Camera {
@@ -242,7 +242,7 @@ mod tests {
             fov_degrees: 60.0,
         };
         let view = ScreenView::new(&camera, w, h);
-        SsaoParams::new(&view, &s, &SampleTable::build(&s).unwrap(), ShadeSettings::default())
+        SsaoUniforms::new(&view, &s, &SampleTable::build(&s).unwrap(), ShadeSettings::default())
     }
 
     /// Left of column 7 at depth 1, right of it at depth 5 (filter_depth

@@ -74,7 +74,7 @@ impl ScreenView {
     }
 }
 
-/// See `ScreenView::constants`; mirrored field by field in `SsaoParams`.
+/// See `ScreenView::constants`; mirrored field by field in `SsaoUniforms`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScreenConstants {
     pub width: u32,

@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use bytemuck::{Pod, Zeroable};
 
-use super::estimators::{Family, SampleTable, SsaoParams};
+use super::estimators::{Family, SampleTable, SsaoUniforms};
 use super::gbuffer::{GBuffer, ScreenView, ViewUniform, triangle_albedos};
 use super::{ShadeSettings, SsaoFrame, SsaoSettings, Timings, final_ao};
 use crate::error::{Error, Result};
@@ -373,7 +373,7 @@ impl SsaoKernel {
 /// and filtered indirect light, image, packed depth, the AO filter's
 /// scratch (see `wgsl/ssao_common.wgsl`).
 const SSAO_IO: &[Io] = &[
-    Io::Uniform(0, "ssao params", std::mem::size_of::<SsaoParams>() as u64),
+    Io::Uniform(0, "ssao params", std::mem::size_of::<SsaoUniforms>() as u64),
     Io::In(1, "ssao sample table"),
     Io::Out(2, "ssao ao"),
     Io::Out(3, "ssao ao filtered"),
@@ -468,7 +468,7 @@ pub struct SsaoPass {
     kernels: Arc<SsaoKernels>,
     io: KeptGroup,
     size: (u32, u32),
-    /// The estimation grid (`SsaoParams::lo_width`, `lo_height`) and its scale.
+    /// The estimation grid (`SsaoUniforms::lo_width`, `lo_height`) and its scale.
     grid: (u32, u32),
     scale: u32,
     family: Family,
@@ -515,7 +515,7 @@ impl SsaoPass {
         let pixels = w as u64 * h as u64;
         check_storage_size(device, "SSAO pixels", pixels * 16)?;
         let table = SampleTable::build(settings)?;
-        let params = SsaoParams::new(view, settings, &table, shade.copied().unwrap_or_default());
+        let params = SsaoUniforms::new(view, settings, &table, shade.copied().unwrap_or_default());
         let rgba = if shade.is_some() { pixels * 16 } else { 16 };
         let cells = params.cells() as u64;
         let io = &mut self.io;
@@ -628,7 +628,7 @@ impl SsaoPass {
     }
 
     /// The estimator's output per cell of the estimation grid, before
-    /// filtering (f32; `SsaoParams::cells` of them).
+    /// filtering (f32; `SsaoUniforms::cells` of them).
     pub fn raw_ao(&self) -> &wgpu::Buffer {
         self.io.buffer(2)
     }

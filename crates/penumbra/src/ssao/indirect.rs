@@ -19,12 +19,12 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::estimators::{Family, SsaoParams, shaded_point};
+use super::estimators::{Family, SsaoUniforms, shaded_point};
 use super::gbuffer::{GBuffer, unpack_albedo, valid_depth};
 use crate::geom::sampling::Frame;
 
 /// CPU twin of `ssao_indirect`: per pixel (L~.r, L~.g, L~.b, pixels averaged).
-pub fn ssao_indirect(gb: &GBuffer, params: &SsaoParams, table: &[[f32; 4]], family: Family) -> Vec<[f32; 4]> {
+pub fn ssao_indirect(gb: &GBuffer, params: &SsaoUniforms, table: &[[f32; 4]], family: Family) -> Vec<[f32; 4]> {
     let sc = params.screen();
     let w = params.width;
     let r2 = params.radius * params.radius;
@@ -73,7 +73,7 @@ pub fn ssao_indirect(gb: &GBuffer, params: &SsaoParams, table: &[[f32; 4]], fami
 
 /// CPU twin of `ssao_compose`: linear RGBA, direct + a (La O + L~ (1 - O)),
 /// O clamped to [0, 1]; background transparent black.
-pub fn ssao_compose(gb: &GBuffer, params: &SsaoParams, ao: &[f32], indirect: &[[f32; 4]]) -> Vec<[f32; 4]> {
+pub fn ssao_compose(gb: &GBuffer, params: &SsaoUniforms, ao: &[f32], indirect: &[[f32; 4]]) -> Vec<[f32; 4]> {
     (0..gb.pixels())
         .into_par_iter()
         .with_min_len(256)

@@ -299,7 +299,7 @@ pub fn run_cpu(
 ) -> Result<SsaoFrame> {
     settings.validate()?;
     let table = SampleTable::build(settings)?;
-    let params = estimators::SsaoParams::new(view, settings, &table, shade.copied().unwrap_or_default());
+    let params = estimators::SsaoUniforms::new(view, settings, &table, shade.copied().unwrap_or_default());
     let mut timings = Timings {
         timing: Timing::Wall,
         ..Default::default()

@@ -11,7 +11,7 @@ use super::gpu::{GBufferSource, run_frame};
 use super::truth::{Estimate, raytraced, screen_reference};
 use super::{Estimator, Measure, ShadeSettings, SsaoFrame, SsaoSettings, Timings, rmse, run_cpu};
 use crate::accel::Accel;
-use crate::accel::kdtree::KdTreeParams;
+use crate::accel::kdtree::KdTreeSettings;
 use crate::error::{Error, Result};
 use crate::gpu::device::{Device, GpuOutput, Timing, elapsed_ms};
 use crate::progress::Reporter;
@@ -135,7 +135,7 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: &Reporte
     let tree = OnceCell::new();
     let whole_tree = || -> Result<&Accel> {
         if tree.get().is_none() {
-            let _ = tree.set(Accel::new(build_tree(&mesh, &KdTreeParams::for_cpu(), bars, "ssao")?));
+            let _ = tree.set(Accel::new(build_tree(&mesh, &KdTreeSettings::for_cpu(), bars, "ssao")?));
         }
         Ok(tree.get().expect("set above"))
     };
@@ -180,7 +180,7 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: &Reporte
         } else if occluders.triangles.is_empty() {
             return Err(Error::param("scene", "no instance is a caster: nothing occludes"));
         } else {
-            caster_tree = Accel::new(build_tree(&occluders, &KdTreeParams::for_cpu(), bars, "casters")?);
+            caster_tree = Accel::new(build_tree(&occluders, &KdTreeSettings::for_cpu(), bars, "casters")?);
             &caster_tree
         };
         let (measure, radius) = (settings.measure, settings.radius);

@@ -22,7 +22,7 @@ use super::runner::{SsaoRequest, run};
 use super::truth::{Estimate, raytraced_at};
 use super::{Estimator, Measure, MeasureKind, Resolution, SsaoSettings, rmse, run_cpu};
 use crate::accel::Accel;
-use crate::accel::kdtree::KdTreeParams;
+use crate::accel::kdtree::KdTreeSettings;
 use crate::error::{Error, Result};
 use crate::geom::sampling::hash_u32;
 use crate::gpu::device::{Device, GpuOutput};
@@ -352,7 +352,7 @@ impl Budgeted for SsaoBudget<'_> {
         let camera = scene.camera_in(&self.request.view.camera, &mesh.bounds())?;
         let (w, h) = (self.request.view.width, self.request.view.height);
         let view = ScreenView::new(&camera, w, h);
-        let tree = Accel::new(build_tree(&mesh, &KdTreeParams::for_cpu(), bars, "ssao")?);
+        let tree = Accel::new(build_tree(&mesh, &KdTreeSettings::for_cpu(), bars, "ssao")?);
         let gb = gbuffer(tree.kdtree(), &mesh, &camera, &scene.lights, w, h);
         // The truth: only casters occlude, as in the full run.
         let occluders = scene.occluders();
@@ -361,7 +361,7 @@ impl Budgeted for SsaoBudget<'_> {
         } else {
             Some(Accel::new(build_tree(
                 &occluders,
-                &KdTreeParams::for_cpu(),
+                &KdTreeSettings::for_cpu(),
                 bars,
                 "casters",
             )?))

@@ -8,7 +8,7 @@ use std::ops::Range;
 
 use super::scene::RenderScene;
 use super::tree_records::{TreeLayout, TreeRay};
-use super::whitted::{PixelOut, WhittedParams};
+use super::whitted::{PixelOut, WhittedUniforms};
 use crate::error::{Error, Result};
 use crate::gpu::batch::{BatchPlan, Batched, run_batches};
 use std::sync::Arc;
@@ -26,7 +26,7 @@ use crate::progress::Bar;
 /// (or `whitted_trees`' rays). Eight storage bindings with the kd-tree's,
 /// WebGPU's default limit, so its outputs and inputs share two.
 const WHITTED_IO: &[Io] = &[
-    Io::Uniform(0, "whitted params", std::mem::size_of::<WhittedParams>() as u64),
+    Io::Uniform(0, "whitted params", std::mem::size_of::<WhittedUniforms>() as u64),
     Io::In(1, "triangle shading"),
     Io::In(2, "shading normals"),
     Io::In(3, "scene records"),
@@ -113,7 +113,7 @@ impl TreePass<WhittedKernels> {
 
     /// Prepares the pixels `params.first_pixel ..+ params.pixel_count`
     /// (`row_pitch` is set here).
-    pub fn prepare(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, params: &WhittedParams) -> Result<()> {
+    pub fn prepare(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, params: &WhittedUniforms) -> Result<()> {
         self.prepare_entry(device, queue, params, RANGE_ENTRY, PIXEL_BYTES)
     }
 
@@ -124,13 +124,13 @@ impl TreePass<WhittedKernels> {
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        params: &WhittedParams,
+        params: &WhittedUniforms,
         list: &[u32],
     ) -> Result<()> {
         super::whitted::check_pixels(params, list)?;
         self.io()
             .write(device, queue, 5, non_empty(bytemuck::cast_slice(list)))?;
-        let params = WhittedParams {
+        let params = WhittedUniforms {
             first_pixel: 0,
             pixel_count: list.len() as u32,
             ..*params
@@ -144,13 +144,13 @@ impl TreePass<WhittedKernels> {
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        params: &WhittedParams,
+        params: &WhittedUniforms,
         layout: &TreeLayout,
         rays: &[TreeRay],
     ) -> Result<()> {
         self.io()
             .write(device, queue, 5, non_empty(bytemuck::cast_slice(rays)))?;
-        let params = WhittedParams {
+        let params = WhittedUniforms {
             first_pixel: 0,
             pixel_count: rays.len() as u32,
             tree_capacity: layout.capacity,
@@ -166,13 +166,13 @@ impl TreePass<WhittedKernels> {
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        params: &WhittedParams,
+        params: &WhittedUniforms,
         entry: usize,
         item_bytes: u64,
     ) -> Result<()> {
         let n = params.pixel_count;
         let (gx, gy, pitch) = dispatch_grid(n, device.limits().max_compute_workgroups_per_dimension);
-        let params = WhittedParams {
+        let params = WhittedUniforms {
             row_pitch: pitch,
             ..*params
         };
@@ -209,12 +209,12 @@ impl Batched<WhittedPass> {
         &mut self,
         ctx: &GpuContext,
         tree: &GpuKdTree,
-        params: &WhittedParams,
+        params: &WhittedUniforms,
         progress: &Bar,
     ) -> Result<(Vec<PixelOut>, Option<f64>)> {
         let total = params.width as usize * params.height as usize;
         self.render_batches(ctx, tree, total, progress, |pass, ctx, items| {
-            let batch = WhittedParams {
+            let batch = WhittedUniforms {
                 first_pixel: items.start as u32,
                 pixel_count: items.len() as u32,
                 ..*params
@@ -231,7 +231,7 @@ impl Batched<WhittedPass> {
         &mut self,
         ctx: &GpuContext,
         tree: &GpuKdTree,
-        params: &WhittedParams,
+        params: &WhittedUniforms,
         list: &[u32],
         progress: &Bar,
     ) -> Result<(Vec<PixelOut>, Option<f64>)> {
@@ -249,7 +249,7 @@ impl Batched<WhittedPass> {
         &mut self,
         ctx: &GpuContext,
         tree: &GpuKdTree,
-        params: &WhittedParams,
+        params: &WhittedUniforms,
         layout: &TreeLayout,
         rays: &[TreeRay],
         progress: &Bar,

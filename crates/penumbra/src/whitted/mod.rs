@@ -24,5 +24,5 @@ pub mod whitted;
 
 pub use ray_tree::{LightCode, RayKind, RayNode, RayTree};
 pub use runner::{PACKETS_FROM_TRIANGLES, Packets, RayCounts, RenderStats, Rendered, WhittedRenderer, WhittedSettings};
-pub use scene::{LightingOptions, RenderScene};
-pub use whitted::{PixelOut, Whitted, WhittedParams};
+pub use scene::{LightingSettings, RenderScene};
+pub use whitted::{PixelOut, Whitted, WhittedUniforms};

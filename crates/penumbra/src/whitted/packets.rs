@@ -19,7 +19,7 @@ use crate::mlrta::entry_point::EntryPoint;
 use crate::mlrta::frustum::Frustum;
 use crate::mlrta::packet::PACKET;
 use crate::mlrta::tiles::{DEFAULT_EP_BUDGET, Group, Rect, block_rects, pixels, search_below, trace_group};
-use crate::mlrta::{MlrtaCounts, MlrtaParams, Prepared, trace_image};
+use crate::mlrta::{MlrtaCounts, MlrtaSettings, Prepared, trace_image};
 use crate::whitted::lights::DIRECTIONAL;
 use crate::whitted::whitted::{Facing, FirstHit, Media, PixelOut, Whitted, pixel_ray};
 
@@ -28,7 +28,7 @@ const SHADOW_TILE: u32 = 16;
 
 /// Renders every pixel of `w.params` with packets (see the module's
 /// description); MLRTA statistics of the primary and shadow packets.
-pub fn render_packets(w: &Whitted, prepared: &Prepared, mlrta: &MlrtaParams) -> Result<(Vec<PixelOut>, MlrtaCounts)> {
+pub fn render_packets(w: &Whitted, prepared: &Prepared, mlrta: &MlrtaSettings) -> Result<(Vec<PixelOut>, MlrtaCounts)> {
     let p = w.params;
     let n = p.width as usize * p.height as usize;
     let media = Media::from_ids(&p.media[..p.media_len as usize]);

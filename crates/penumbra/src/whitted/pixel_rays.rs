@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use super::whitted::{WhittedParams, pixel_ray};
+use super::whitted::{WhittedUniforms, pixel_ray};
 
 /// `pixel_ray(params, pixel, 0)` for many pixels of one image: with one
 /// sample per pixel a pixel's screen coordinates depend on its column or
@@ -12,14 +12,14 @@ use super::whitted::{WhittedParams, pixel_ray};
 /// `pixel_ray`'s sum and normalisation. (With several samples the first is
 /// jittered per pixel, and `ray` calls `pixel_ray`.)
 pub struct PixelRays {
-    params: WhittedParams,
+    params: WhittedUniforms,
     /// Per column and per row; empty when `spp > 1`.
     sx: Vec<f32>,
     sy: Vec<f32>,
 }
 
 impl PixelRays {
-    pub fn new(params: &WhittedParams) -> PixelRays {
+    pub fn new(params: &WhittedUniforms) -> PixelRays {
         let (sx, sy) = if params.spp == 1 {
             (
                 (0..params.width)
@@ -62,7 +62,7 @@ mod tests {
     #[test]
     fn rays_are_pixel_ray_bit_for_bit() {
         for (width, height, spp) in [(7, 5, 1), (64, 48, 1), (33, 17, 2)] {
-            let mut params: WhittedParams = bytemuck::Zeroable::zeroed();
+            let mut params: WhittedUniforms = bytemuck::Zeroable::zeroed();
             params.eye = [0.3, -1.7, 4.1];
             params.forward = [0.11, -0.23, -0.97];
             params.right = [0.713, 0.02, 0.081];

@@ -11,14 +11,14 @@ use super::packets::render_packets;
 use super::ray_tree::RayTree;
 use super::scene::RenderScene;
 use super::tree_records::{self, RecordedTree, TreeLayout, TreeRay};
-use super::whitted::{FRESNEL, MAX_DEPTH, Media, PixelOut, Whitted, WhittedParams, pixel_ray};
+use super::whitted::{FRESNEL, MAX_DEPTH, Media, PixelOut, Whitted, WhittedUniforms, pixel_ray};
 use crate::accel::kdtree::KdTree;
 use crate::accel::kdtree::gpu::GpuKdTree;
 use crate::error::{Error, Result};
 use crate::geom::aabb::Aabb;
 use crate::gpu::device::{Device, GpuOutput, OnDevice, Timing};
 use crate::mlrta::prepared::PreparedTables;
-use crate::mlrta::{MlrtaParams, Prepared};
+use crate::mlrta::{MlrtaSettings, Prepared};
 use crate::progress::{Bar, Reporter};
 use crate::raycast::tracer::{build_tree, tree_params};
 use crate::report::mrays_per_s;
@@ -210,7 +210,7 @@ impl WhittedRenderer {
     /// # Ok::<(), penumbra::Error>(())
     /// ```
     pub fn for_scene(device: &Device, scene: &crate::scene::Scene) -> Result<WhittedRenderer> {
-        let render_scene = RenderScene::new(scene, 0, &super::LightingOptions::default())?;
+        let render_scene = RenderScene::new(scene, 0, &super::LightingSettings::default())?;
         WhittedRenderer::new(device, render_scene, &Reporter::silent())
     }
 
@@ -281,7 +281,7 @@ impl WhittedRenderer {
         width: u32,
         height: u32,
         settings: &WhittedSettings,
-    ) -> Result<WhittedParams> {
+    ) -> Result<WhittedUniforms> {
         settings.validate()?;
         crate::scene::check_image_size(width, height)?;
         camera.validate()?;
@@ -294,7 +294,7 @@ impl WhittedRenderer {
             *slot = m;
         }
         let (_, lights_at, spheres_at) = super::gpu::scene_records(&self.scene);
-        Ok(WhittedParams {
+        Ok(WhittedUniforms {
             eye: camera.eye.to_array(),
             width,
             forward: forward.to_array(),
@@ -324,7 +324,7 @@ impl WhittedRenderer {
     }
 
     /// The CPU twin over this scene for `params`.
-    pub fn twin<'a>(&'a self, params: &'a WhittedParams) -> Whitted<'a> {
+    pub fn twin<'a>(&'a self, params: &'a WhittedUniforms) -> Whitted<'a> {
         Whitted {
             scene: &self.scene,
             tree: &self.tree,
@@ -372,9 +372,9 @@ impl WhittedRenderer {
                     };
                     // Corner rays bound a tile's rays only through pixel
                     // centres; jittered edge pixels may leave that frustum.
-                    let mlrta = MlrtaParams {
+                    let mlrta = MlrtaSettings {
                         corner_frusta: settings.spp == 1,
-                        ..MlrtaParams::default()
+                        ..MlrtaSettings::default()
                     };
                     let pixels = render_packets(&twin, &prepared, &mlrta);
                     *tables = Some(prepared.into_tables());
@@ -415,7 +415,7 @@ impl WhittedRenderer {
     /// slow path on a GPU.
     pub fn render_listed(
         &mut self,
-        params: &WhittedParams,
+        params: &WhittedUniforms,
         list: &[u32],
         progress: &Bar,
     ) -> Result<crate::gpu::device::Timed<Vec<PixelOut>>> {
@@ -445,7 +445,7 @@ impl WhittedRenderer {
     /// is an error (exit 2), on either device.
     pub fn trace_trees(
         &mut self,
-        params: &WhittedParams,
+        params: &WhittedUniforms,
         rays: &[TreeRay],
     ) -> Result<Option<Vec<Option<RecordedTree>>>> {
         let primitives = (self.scene.triangles.len() + self.scene.spheres.len()) as u32;

@@ -46,7 +46,7 @@ type EmissivePolygon = (u32, Vec<[Vec3; 3]>);
 
 /// Scene-level choices of the lighting.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LightingOptions {
+pub struct LightingSettings {
     /// Point lights per emissive polygon (1: at its centroid).
     pub light_samples: u32,
     /// Ambient light, over the scene's (else `DEFAULT_AMBIENT` grey).
@@ -55,9 +55,9 @@ pub struct LightingOptions {
     pub background: Option<Vec3>,
 }
 
-impl Default for LightingOptions {
+impl Default for LightingSettings {
     fn default() -> Self {
-        LightingOptions {
+        LightingSettings {
             light_samples: 1,
             ambient: None,
             background: None,
@@ -133,7 +133,7 @@ impl<'a> SurfaceTable<'a> {
 
 impl RenderScene {
     /// The scene at animation frame `frame` (instances' rigid motions).
-    pub fn new(scene: &Scene, frame: u32, options: &LightingOptions) -> Result<RenderScene> {
+    pub fn new(scene: &Scene, frame: u32, options: &LightingSettings) -> Result<RenderScene> {
         if options.light_samples == 0 {
             return Err(Error::param("light_samples", "must be at least 1"));
         }

@@ -1,6 +1,6 @@
 //! The Whitted ray tracer, one pixel at a time: the CPU twin of
 //! `wgsl/whitted.wgsl`, written in the same order of operations over the
-//! same data (`RenderScene`'s arrays, `WhittedParams`, `PixelOut`).
+//! same data (`RenderScene`'s arrays, `WhittedUniforms`, `PixelOut`).
 //!
 //! A pixel's samples are traced one after another; each sample's ray tree
 //! is walked depth first with an explicit stack (WGSL has no recursion):
@@ -44,16 +44,16 @@ pub const MAX_MEDIA: usize = 4;
 /// Transmitting surfaces a shadow ray passes before it counts as blocked.
 pub const MAX_SHADOW_CROSSINGS: u32 = 16;
 
-/// `WhittedParams::flags`: Fresnel-weighted reflection and transmission.
+/// `WhittedUniforms::flags`: Fresnel-weighted reflection and transmission.
 pub const FRESNEL: u32 = 1;
 
-/// What one render asks, as the GPU reads it (`WhittedParams` in WGSL).
+/// What one render asks, as the GPU reads it (`WhittedUniforms` in WGSL).
 /// The camera is a pinhole: the ray through image point (x, y) is
 /// `normalize(forward + (2x/w - 1) right + (1 - 2y/h) up)`, with `right`
 /// and `up` scaled by the field of view's half-width and half-height.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct WhittedParams {
+pub struct WhittedUniforms {
     pub eye: [f32; 3],
     pub width: u32,
     pub forward: [f32; 3],
@@ -156,7 +156,7 @@ impl Media {
 pub struct Whitted<'a> {
     pub scene: &'a RenderScene,
     pub tree: &'a KdTree,
-    pub params: &'a WhittedParams,
+    pub params: &'a WhittedUniforms,
 }
 
 /// The primary ray's hits found elsewhere (MLRTA packets): its closest hit
@@ -758,7 +758,7 @@ fn node_of(ray: &PathRay) -> RayNode {
 /// The ray of sample `sample` of pixel `pixel`: through the pixel's centre
 /// with one sample, else through an Owen-scrambled Sobol point of the
 /// pixel (seeded by `params.seed`, one stream per pixel).
-pub fn pixel_ray(params: &WhittedParams, pixel: u32, sample: u32) -> (Vec3, Vec3) {
+pub fn pixel_ray(params: &WhittedUniforms, pixel: u32, sample: u32) -> (Vec3, Vec3) {
     let (x, y) = (pixel % params.width, pixel / params.width);
     let [jx, jy] = if params.spp == 1 {
         [0.5, 0.5]
@@ -773,7 +773,7 @@ pub fn pixel_ray(params: &WhittedParams, pixel: u32, sample: u32) -> (Vec3, Vec3
 
 /// An error naming the first of `pixels` outside the image `params`
 /// describes (a list of pixels to render).
-pub fn check_pixels(params: &WhittedParams, pixels: &[u32]) -> crate::error::Result<()> {
+pub fn check_pixels(params: &WhittedUniforms, pixels: &[u32]) -> crate::error::Result<()> {
     let total = params.width as u64 * params.height as u64;
     match pixels.iter().find(|&&p| p as u64 >= total) {
         Some(&p) => Err(crate::error::Error::param(

@@ -25,8 +25,8 @@ pub fn gpu() -> Option<GpuContext> {
 /// limits (`wgpu::Limits::default()`): what a host that asks for no more
 /// gives penumbra.
 pub fn portable_gpu() -> Option<GpuContext> {
-    use penumbra::gpu::{AdapterKinds, AdapterOptions, LimitsChoice};
-    let options = AdapterOptions {
+    use penumbra::gpu::{AdapterKinds, AdapterSettings, LimitsChoice};
+    let options = AdapterSettings {
         limits: LimitsChoice::Portable,
         ..Default::default()
     };

@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use glam::Vec3;
-use penumbra::field::{DirectionMapping, DisplacementField, FieldData, FieldParams, OctahedralGrid, Storage, file};
+use penumbra::field::{DirectionMapping, DisplacementField, FieldData, FieldSampling, OctahedralGrid, Storage, file};
 use penumbra::progress::Bar;
 use penumbra::scene::Mesh;
 use proptest::collection::vec;
@@ -65,7 +65,7 @@ pub fn seeds() -> Vec<Vec<u8>> {
     let mut seeds = Vec::new();
     for (k, (storage, directions)) in storages.into_iter().zip(mappings).enumerate() {
         for (side, res) in [(1, 2), (2 + k as u32, 3), (3, 6), (8, 16)] {
-            let params = FieldParams {
+            let params = FieldSampling {
                 grid: OctahedralGrid { side },
                 res,
                 storage,

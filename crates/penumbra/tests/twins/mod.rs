@@ -10,17 +10,17 @@ use crate::common::{Rng, asset};
 use glam::{Quat, Vec3};
 use penumbra::accel::Accel;
 use penumbra::accel::kdtree::gpu::{GpuKdTree, TraceMode, trace_rays};
-use penumbra::accel::kdtree::{KdTree, KdTreeParams};
+use penumbra::accel::kdtree::{KdTree, KdTreeSettings};
 use penumbra::field::gpu::{FieldAoBatches, FieldGroup, GpuField, GpuInstance, probe_gpu};
 use penumbra::field::{
-    DirectionMapping, DisplacementField, FieldCaster, FieldParams, NO_OWNER, OctahedralGrid, Positional, Storage,
+    DirectionMapping, DisplacementField, FieldCaster, FieldSampling, NO_OWNER, OctahedralGrid, Positional, Storage,
     field_ao, field_probe,
 };
 use penumbra::geom::ray::{Hit, Ray};
 use penumbra::gpu::GpuContext;
 use penumbra::gpu::device::Device;
 use penumbra::mlrta::tiles::DEFAULT_MIN_TILE;
-use penumbra::mlrta::{MlrtaParams, Prepared, trace_image};
+use penumbra::mlrta::{MlrtaSettings, Prepared, trace_image};
 use penumbra::progress::Bar;
 use penumbra::prt::gpu::{FrameInputs, GpuFrame, GpuTransfer};
 use penumbra::prt::pipeline::{FrameOutput, Prt, PrtSettings};
@@ -45,7 +45,7 @@ use penumbra::ssao::{Estimator, Resolution, ShadeSettings, SsaoSettings, run_cpu
 /// (The kernel does the CPU's arithmetic; differences come only from a GPU
 /// compiler fusing multiply-adds, which moves results by an ulp.)
 pub fn compare_traces(ctx: &GpuContext, name: &str, mesh: &Mesh, rays: &[Ray]) {
-    let tree = KdTree::build(mesh, &KdTreeParams::default()).unwrap();
+    let tree = KdTree::build(mesh, &KdTreeSettings::default()).unwrap();
     let gpu_tree = GpuKdTree::upload(&ctx.device, &tree).unwrap();
     let gpu = trace_rays(ctx, &gpu_tree, rays, TraceMode::ClosestCounted, f32::INFINITY).unwrap();
     let any = trace_rays(ctx, &gpu_tree, rays, TraceMode::Any, f32::INFINITY).unwrap();
@@ -147,7 +147,7 @@ pub fn compare_ao_samples(ctx: &GpuContext, points: usize) {
 /// ao_rays against `ao_rays`, the mesh's vertices as points: >= 99.9% of
 /// individual ray results identical.
 pub fn compare_ao(ctx: &GpuContext, name: &str, mesh: &Mesh, rays_per_point: u32) {
-    let accel = Accel::new(KdTree::build(mesh, &KdTreeParams::default()).unwrap());
+    let accel = Accel::new(KdTree::build(mesh, &KdTreeSettings::default()).unwrap());
     let gpu_tree = GpuKdTree::upload(&ctx.device, accel.kdtree()).unwrap();
     let points = vertex_points(mesh);
     let settings = AoSettings {
@@ -190,9 +190,9 @@ pub fn compare_whitted(
     (w, h): (u32, u32),
 ) {
     use penumbra::progress::Reporter;
-    use penumbra::whitted::{LightingOptions, RenderScene, WhittedRenderer, WhittedSettings};
+    use penumbra::whitted::{LightingSettings, RenderScene, WhittedRenderer, WhittedSettings};
     let render = |device: &Device, settings: &WhittedSettings| {
-        let rs = RenderScene::new(scene, 0, &LightingOptions::default()).unwrap();
+        let rs = RenderScene::new(scene, 0, &LightingSettings::default()).unwrap();
         let mut r = WhittedRenderer::new(device, rs, &Reporter::silent()).unwrap();
         r.render(camera, w, h, settings, &Bar::hidden()).unwrap()
     };
@@ -292,7 +292,7 @@ pub fn compare_interpolate(ctx: &GpuContext, jobs: usize) {
 /// pixels were listed.
 pub fn compare_whitted_listed(device: &Device, (w, h): (u32, u32)) -> usize {
     use penumbra::progress::Reporter;
-    use penumbra::whitted::{LightingOptions, Packets, RenderScene, WhittedRenderer, WhittedSettings};
+    use penumbra::whitted::{LightingSettings, Packets, RenderScene, WhittedRenderer, WhittedSettings};
     let scene = penumbra::scene::load_scene_shaded(&asset("raytrace").join("cornell-mirror-glass.json")).unwrap();
     let camera = scene.camera.unwrap();
     // Every pixel once, scrambled, then some twice: more than one batch.
@@ -304,7 +304,7 @@ pub fn compare_whitted_listed(device: &Device, (w, h): (u32, u32)) -> usize {
         ..WhittedSettings::default()
     };
     let compare = |device: &Device| {
-        let rs = RenderScene::new(&scene, 0, &LightingOptions::default()).unwrap();
+        let rs = RenderScene::new(&scene, 0, &LightingSettings::default()).unwrap();
         let mut r = WhittedRenderer::new(device, rs, &Reporter::silent()).unwrap();
         let image = r.render(&camera, w, h, &settings, &Bar::hidden()).unwrap();
         let params = r.params(&camera, w, h, &settings).unwrap();
@@ -337,11 +337,11 @@ pub fn compare_whitted_listed(device: &Device, (w, h): (u32, u32)) -> usize {
 pub fn compare_bounded(ctx: &GpuContext, (width, height): (u32, u32)) {
     use penumbra::bounded::{BoundedRenderer, BoundedSettings, PixelPath, SlowPath};
     use penumbra::progress::Reporter;
-    use penumbra::whitted::{LightingOptions, RenderScene, WhittedRenderer};
+    use penumbra::whitted::{LightingSettings, RenderScene, WhittedRenderer};
     let scene = penumbra::scene::load_scene_shaded(&asset("raytrace").join("checker-spheres.json")).unwrap();
     let camera = scene.camera.unwrap();
     let render = |device: &Device| {
-        let rs = RenderScene::new(&scene, 0, &LightingOptions::default()).unwrap();
+        let rs = RenderScene::new(&scene, 0, &LightingSettings::default()).unwrap();
         let w = WhittedRenderer::new(device, rs, &Reporter::silent()).unwrap();
         // `auto` keeps the slow path on the CPU on a software adapter.
         let auto = BoundedRenderer::new(w, BoundedSettings::default()).unwrap();
@@ -428,12 +428,12 @@ pub fn compare_whitted_trees(ctx: &GpuContext, scenes: &[&str], rays: usize) {
     use penumbra::whitted::ray_tree::RayTree;
     use penumbra::whitted::scene::MISS;
     use penumbra::whitted::tree_records::TreeRay;
-    use penumbra::whitted::{LightingOptions, RenderScene, WhittedRenderer, WhittedSettings};
+    use penumbra::whitted::{LightingSettings, RenderScene, WhittedRenderer, WhittedSettings};
     let close = |a: Vec3, b: Vec3, tol: f32| ((a - b).abs() / a.abs().max(Vec3::ONE)).max_element() <= tol;
     for &name in scenes {
         let scene = penumbra::scene::load_scene_shaded(&asset("raytrace").join(format!("{name}.json"))).unwrap();
         let camera = scene.camera.unwrap();
-        let rs = RenderScene::new(&scene, 0, &LightingOptions::default()).unwrap();
+        let rs = RenderScene::new(&scene, 0, &LightingSettings::default()).unwrap();
         let mut r = WhittedRenderer::new(&Device::gpu(ctx.clone()), rs, &Reporter::silent()).unwrap();
         let params = r.params(&camera, 64, 64, &WhittedSettings::default()).unwrap();
         let (lo, hi) = (r.bounds().min, r.bounds().max);
@@ -508,8 +508,8 @@ pub fn compare_whitted_trees(ctx: &GpuContext, scenes: &[&str], rays: usize) {
 // Displacement fields.
 
 /// Field parameters.
-pub fn field_params(side: u32, res: u32, storage: Storage, directions: DirectionMapping) -> FieldParams {
-    FieldParams {
+pub fn field_params(side: u32, res: u32, storage: Storage, directions: DirectionMapping) -> FieldSampling {
+    FieldSampling {
         grid: OctahedralGrid { side },
         res,
         storage,
@@ -518,7 +518,7 @@ pub fn field_params(side: u32, res: u32, storage: Storage, directions: Direction
 }
 
 /// The field of `mesh`.
-pub fn build_field(mesh: &Mesh, p: FieldParams) -> DisplacementField {
+pub fn build_field(mesh: &Mesh, p: FieldSampling) -> DisplacementField {
     DisplacementField::build(mesh, &p, "test mesh", &Bar::hidden())
         .unwrap()
         .0
@@ -649,7 +649,7 @@ pub fn compare_field_ao(ctx: &GpuContext, side: u32, res: u32) {
 
 /// The G-buffer of kd-tree primary rays (the CPU twin of the G-buffer pass).
 pub fn cpu_gbuffer(mesh: &Mesh, camera: &Camera, w: u32, h: u32) -> GBuffer {
-    let tree = KdTree::build(mesh, &KdTreeParams::default()).unwrap();
+    let tree = KdTree::build(mesh, &KdTreeSettings::default()).unwrap();
     gbuffer(&tree, mesh, camera, &[], w, h)
 }
 
@@ -941,7 +941,7 @@ pub fn check(name: &str, a: &Agreement) {
 /// points and with them at two minimum tiles.
 pub fn compare_packets(ctx: &GpuContext, name: &str, mesh: &Mesh, camera: &Camera, size: u32) {
     use penumbra::mlrta::gpu::PacketBatches;
-    let tree = KdTree::build(mesh, &KdTreeParams::default()).unwrap();
+    let tree = KdTree::build(mesh, &KdTreeSettings::default()).unwrap();
     let (prepared, _) = Prepared::new(&tree, mesh);
     let gpu_tree = GpuKdTree::upload(&ctx.device, &tree).unwrap();
     let rays = camera.primary_rays(size, size);
@@ -954,7 +954,7 @@ pub fn compare_packets(ctx: &GpuContext, name: &str, mesh: &Mesh, camera: &Camer
     // Without entry points, and with them at the default and the smallest
     // practical minimum tile (deeper splits, more stopping rules).
     for (entry_points, min_tile) in [(false, DEFAULT_MIN_TILE), (true, DEFAULT_MIN_TILE), (true, 8)] {
-        let params = MlrtaParams {
+        let params = MlrtaSettings {
             entry_points,
             min_tile,
             corner_frusta: true,

@@ -7,7 +7,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::spatial;
-use super::{Bvh8, BvhParams, EMPTY_CHILD, LEAF_BIT, MAX_LEAF, Node8, WIDTH};
+use super::{Bvh8, BvhSettings, EMPTY_CHILD, LEAF_BIT, MAX_LEAF, Node8, WIDTH};
 use crate::accel::kdtree::leaf_blocks::{BLOCK, LeafBlock};
 use crate::accel::kdtree::watertight::has_area;
 use crate::geom::aabb::Aabb;
@@ -65,15 +65,15 @@ impl Bvh2 {
 struct Ctx<'a> {
     triangles: &'a [[Vec3; 3]],
     /// Spatial splits are tried where the object split's children overlap
-    /// by more than this area (`BvhParams::spatial_alpha` of the scene's);
+    /// by more than this area (`BvhSettings::spatial_alpha` of the scene's);
     /// infinite when spatial splits are off.
     overlap_min: f32,
-    /// `BvhParams::spatial_min_span`.
+    /// `BvhSettings::spatial_min_span`.
     min_span: f32,
 }
 
 /// The whole build: binary tree, widening, leaf blocks in the frame.
-pub(super) fn build(triangles: &[[Vec3; 3]], frame_scale: f32, params: &BvhParams) -> Bvh8 {
+pub(super) fn build(triangles: &[[Vec3; 3]], frame_scale: f32, params: &BvhSettings) -> Bvh8 {
     // Triangles without area are left out, as the kd-tree leaves them out.
     let prims: Vec<Prim> = triangles
         .par_iter()

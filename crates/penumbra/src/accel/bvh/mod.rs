@@ -14,7 +14,7 @@
 //!
 //! The build splits objects by the SAH and, where long thin triangles
 //! make the two sides' boxes overlap, space as well (`spatial`, knobs in
-//! `BvhParams`): a triangle may then sit in several leaves.
+//! `BvhSettings`): a triangle may then sit in several leaves.
 //!
 //! Hits are the kd-tree's: the same triangle test in the same frame gives
 //! bit-identical t, and the closest hit is the smallest t; where two
@@ -80,7 +80,7 @@ impl Node8 {
 /// Knobs of the BVH's build (`Bvh8::build`, `Accel::bvh_with`). `Default`
 /// gives the settings docs/results' numbers were measured with.
 #[derive(Debug, Clone, PartialEq)]
-pub struct BvhParams {
+pub struct BvhSettings {
     /// How many triangle references spatial splits (`spatial`) may add, as
     /// a share of the triangles; 0 builds by object splits alone. 0.3: the
     /// kitchen's primary-ray packets walk 7.5 nodes instead of 10.0 (0.1
@@ -106,9 +106,9 @@ pub struct BvhParams {
     pub spatial_alpha: f32,
 }
 
-impl Default for BvhParams {
+impl Default for BvhSettings {
     fn default() -> Self {
-        BvhParams {
+        BvhSettings {
             spatial_split_budget: 0.3,
             spatial_alpha: 1e-3,
             spatial_min_span: 0.25,
@@ -150,11 +150,11 @@ impl Bvh8 {
     /// compare bit for bit (the tree validated the triangles: non-empty,
     /// finite).
     pub fn from_tree(tree: &KdTree) -> Bvh8 {
-        Bvh8::build(tree, &BvhParams::default())
+        Bvh8::build(tree, &BvhSettings::default())
     }
 
     /// The hierarchy over a kd-tree's triangles with the builder's knobs.
-    pub fn build(tree: &KdTree, params: &BvhParams) -> Bvh8 {
+    pub fn build(tree: &KdTree, params: &BvhSettings) -> Bvh8 {
         build::build(&tree.triangles, tree.frame_scale, params)
     }
 

@@ -77,7 +77,7 @@ fn conservative(part: Aabb, tri: &[Vec3; 3], within: Aabb, axis: usize, lo: f32,
 /// The cheapest spatial split of `prims` (whose boxes' union is `bounds`)
 /// over the three axes, by the SAH over `BINS` slabs per axis, each axis
 /// only if some reference spans `min_span` of the box along it
-/// (`BvhParams::spatial_min_span`); `None` where no axis qualifies.
+/// (`BvhSettings::spatial_min_span`); `None` where no axis qualifies.
 pub(super) fn best(prims: &[Prim], bounds: Aabb, min_span: f32) -> Option<SpatialSplit> {
     let mut best: Option<SpatialSplit> = None;
     let extent = bounds.extent();

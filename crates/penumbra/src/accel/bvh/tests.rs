@@ -9,7 +9,7 @@ use super::traverse::{BoxRay, BoxTest, Lanes8};
 use super::*;
 use crate::accel::kdtree::test_rng::{Rng, brute_force, random_soup};
 use crate::accel::kdtree::watertight::ShearedRay;
-use crate::accel::kdtree::{KdTree, KdTreeParams};
+use crate::accel::kdtree::{KdTree, KdTreeSettings};
 use crate::accel::{Accel, Structure};
 
 /// Rays from outside and inside, aimed at vertices, edge midpoints and
@@ -40,7 +40,7 @@ fn rays_for(rng: &mut Rng, tris: &[[Vec3; 3]], n: usize, reach: f32) -> Vec<(Vec
 /// included; any-hit agrees. Returns (hits, rays whose closest t two
 /// triangles share).
 fn assert_brute_force(tris: &[[Vec3; 3]], rays: &[(Vec3, Vec3, f32)]) -> (usize, usize) {
-    let accel = Accel::new(KdTree::from_triangles(tris.to_vec(), &KdTreeParams::default()).unwrap());
+    let accel = Accel::new(KdTree::from_triangles(tris.to_vec(), &KdTreeSettings::default()).unwrap());
     let bvh = accel.bvh();
     assert!(bvh.depth() <= 81, "depth {}", bvh.depth());
     let (mut hits, mut ties) = (0, 0);
@@ -229,9 +229,9 @@ fn structure() {
         ("soup", random_soup(&mut rng, 5000, 0.05)),
         ("slivers", slivers(&mut rng, 3000)),
     ] {
-        let accel = Accel::new(KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap());
+        let accel = Accel::new(KdTree::from_triangles(tris.clone(), &KdTreeSettings::default()).unwrap());
         for budget in [0.0, 0.3, 2.0] {
-            let params = BvhParams {
+            let params = BvhSettings {
                 spatial_split_budget: budget,
                 spatial_alpha: 0.0,
                 spatial_min_span: 0.0,
@@ -295,15 +295,15 @@ fn assert_lanes_equal(got: &[Hit], expect: &[Hit], what: &str) {
 fn bvh_with_builds_once() {
     let mut rng = Rng(5);
     let tris = slivers(&mut rng, 600);
-    let accel = Accel::new(KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap());
-    let off = BvhParams {
+    let accel = Accel::new(KdTree::from_triangles(tris.clone(), &KdTreeSettings::default()).unwrap());
+    let off = BvhSettings {
         spatial_split_budget: 0.0,
-        ..BvhParams::default()
+        ..BvhSettings::default()
     };
     assert_eq!(accel.bvh_with(&off).references(), tris.len());
     assert_eq!(accel.bvh().references(), tris.len());
-    assert_eq!(accel.bvh_with(&BvhParams::default()).references(), tris.len());
-    let fresh = Accel::new(KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap());
+    assert_eq!(accel.bvh_with(&BvhSettings::default()).references(), tris.len());
+    let fresh = Accel::new(KdTree::from_triangles(tris.clone(), &KdTreeSettings::default()).unwrap());
     assert!(fresh.bvh().references() > tris.len(), "the default splits slivers");
 }
 
@@ -315,7 +315,7 @@ fn bvh_with_builds_once() {
 fn spatial_splits_keep_every_hit() {
     let mut rng = Rng(77);
     let tris = slivers(&mut rng, 2000);
-    let accel = Accel::new(KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap());
+    let accel = Accel::new(KdTree::from_triangles(tris.clone(), &KdTreeSettings::default()).unwrap());
     assert!(
         accel.bvh().references() > tris.len(),
         "the default build splits these slivers"
@@ -499,7 +499,7 @@ fn packets_equal_single_rays() {
     use crate::geom::simd::Isa;
     let mut rng = Rng(0x0cc1_0de5);
     let tris = random_soup(&mut rng, 3000, 0.15);
-    let accel = Accel::new(KdTree::from_triangles(tris, &KdTreeParams::default()).unwrap());
+    let accel = Accel::new(KdTree::from_triangles(tris, &KdTreeSettings::default()).unwrap());
     let mut counts = [0usize; 2];
     for k in 0..1500 {
         let origin = rng.vec(-1.5, 1.5);
@@ -539,7 +539,7 @@ fn closest_packets_equal_single_rays() {
     let mut tris = random_soup(&mut rng, 2000, 0.15);
     // Copies of the first 300 triangles: every hit on them is a tie.
     tris.extend_from_within(..300);
-    let accel = Accel::new(KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap());
+    let accel = Accel::new(KdTree::from_triangles(tris.clone(), &KdTreeSettings::default()).unwrap());
     let (mut hits, mut ties, mut rays) = (0usize, 0usize, 0usize);
     for k in 0..1500 {
         let origin = rng.vec(-1.5, 1.5);
@@ -593,7 +593,7 @@ fn packet_images_equal_single_rays() {
     use crate::geom::simd::Isa;
     let mut rng = Rng(41);
     let tris = random_soup(&mut rng, 1500, 0.2);
-    let accel = Accel::new(KdTree::from_triangles(tris, &KdTreeParams::default()).unwrap());
+    let accel = Accel::new(KdTree::from_triangles(tris, &KdTreeSettings::default()).unwrap());
     let (w, h) = (37u32, 22u32);
     let eye = Vec3::new(0.3, -0.2, 4.0);
     let mut rays: Vec<Ray> = (0..w * h)

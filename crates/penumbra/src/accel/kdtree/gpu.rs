@@ -104,10 +104,10 @@ impl GpuKdTree {
     }
 }
 
-/// `TraceParams` in `wgsl/trace_rays.wgsl`.
+/// `TraceRaysUniforms` in `wgsl/trace_rays.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct TraceParams {
+pub struct TraceRaysUniforms {
     pub ray_count: u32,
     pub row_pitch: u32,
     pub t_max: f32,
@@ -128,7 +128,7 @@ pub enum TraceMode {
 const TRACE_IO: &[Io] = &[
     Io::In(0, "rays"),
     Io::Out(1, "hits"),
-    Io::Uniform(2, "trace params", std::mem::size_of::<TraceParams>() as u64),
+    Io::Uniform(2, "trace params", std::mem::size_of::<TraceRaysUniforms>() as u64),
     Io::Out(3, "trace counts"),
 ];
 
@@ -167,7 +167,7 @@ impl TreePass<TraceRaysKernels> {
     ) -> Result<()> {
         let n = rays.len() as u64;
         let (gx, gy, pitch) = dispatch_grid(n as u32, device.limits().max_compute_workgroups_per_dimension);
-        let params = TraceParams {
+        let params = TraceRaysUniforms {
             ray_count: n as u32,
             row_pitch: pitch,
             t_max: if t_max.is_finite() { t_max } else { f32::MAX },

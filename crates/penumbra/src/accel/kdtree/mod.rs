@@ -18,7 +18,7 @@ use std::time::Instant;
 use glam::Vec3;
 use rayon::prelude::*;
 
-pub use build::{BuildStats, KdTreeParams};
+pub use build::{BuildStats, KdTreeSettings};
 pub use leaf_blocks::LeafBlocks;
 pub use node::{KdNode, MAX_TREE_DEPTH};
 pub use traverse::{Counters, NoCounts, TRAVERSAL_SLACK, TraversalCounts};
@@ -68,13 +68,13 @@ pub struct KdTree {
 
 impl KdTree {
     /// Builds the tree over all triangles of a mesh (validated first).
-    pub fn build(mesh: &Mesh, params: &KdTreeParams) -> Result<KdTree> {
+    pub fn build(mesh: &Mesh, params: &KdTreeSettings) -> Result<KdTree> {
         Self::build_with(mesh, params, &Bar::hidden())
     }
 
     /// `build`, advancing `progress` (a bar of one step per triangle) as
     /// leaves are made (big scenes take seconds).
-    pub fn build_with(mesh: &Mesh, params: &KdTreeParams, progress: &Bar) -> Result<KdTree> {
+    pub fn build_with(mesh: &Mesh, params: &KdTreeSettings, progress: &Bar) -> Result<KdTree> {
         mesh.validate()?;
         let triangles = (0..mesh.triangles.len()).map(|t| mesh.triangle(t)).collect();
         Self::from_triangles_with(triangles, params, progress)
@@ -82,12 +82,12 @@ impl KdTree {
 
     /// Builds the tree over a triangle soup; a triangle's index in the soup is
     /// the index hits report.
-    pub fn from_triangles(triangles: Vec<[Vec3; 3]>, params: &KdTreeParams) -> Result<KdTree> {
+    pub fn from_triangles(triangles: Vec<[Vec3; 3]>, params: &KdTreeSettings) -> Result<KdTree> {
         Self::from_triangles_with(triangles, params, &Bar::hidden())
     }
 
     /// `from_triangles`, advancing `progress` as `build_with` does.
-    pub fn from_triangles_with(triangles: Vec<[Vec3; 3]>, params: &KdTreeParams, progress: &Bar) -> Result<KdTree> {
+    pub fn from_triangles_with(triangles: Vec<[Vec3; 3]>, params: &KdTreeSettings, progress: &Bar) -> Result<KdTree> {
         validate_params(params)?;
         if triangles.is_empty() {
             return Err(Error::input(
@@ -191,7 +191,7 @@ impl KdTree {
     }
 }
 
-fn validate_params(p: &KdTreeParams) -> Result<()> {
+fn validate_params(p: &KdTreeSettings) -> Result<()> {
     let positive = [
         ("traversal_cost", p.traversal_cost),
         ("intersection_cost", p.intersection_cost),

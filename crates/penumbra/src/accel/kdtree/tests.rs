@@ -39,7 +39,7 @@ fn rays_at(rng: &mut Rng, n: usize, spread: f32) -> Vec<(Vec3, Vec3)> {
 fn random_soups_match_brute_force() {
     let mut rng = Rng(0x9e3779b97f4a7c15);
     for (n, size) in [(1, 0.5), (10, 0.3), (500, 0.1), (3000, 0.05)] {
-        let tree = KdTree::from_triangles(random_soup(&mut rng, n, size), &KdTreeParams::default()).unwrap();
+        let tree = KdTree::from_triangles(random_soup(&mut rng, n, size), &KdTreeSettings::default()).unwrap();
         let rays = rays_at(&mut rng, 2000, 1.0);
         let hits = assert_matches_brute_force(&tree, &rays);
         assert!(hits > 0, "{n} triangles: no ray hit anything");
@@ -49,7 +49,7 @@ fn random_soups_match_brute_force() {
 #[test]
 fn sorted_ray_order_gives_the_same_hits() {
     let mut rng = Rng(0x51ed_270b_4a3f_1c9d);
-    let tree = KdTree::from_triangles(random_soup(&mut rng, 2000, 0.05), &KdTreeParams::default()).unwrap();
+    let tree = KdTree::from_triangles(random_soup(&mut rng, 2000, 0.05), &KdTreeSettings::default()).unwrap();
     let mut rays: Vec<Ray> = rays_at(&mut rng, 5000, 1.0)
         .into_iter()
         .map(|(o, d)| Ray::new(o, d))
@@ -66,7 +66,7 @@ fn sorted_ray_order_gives_the_same_hits() {
 #[test]
 fn origins_inside_the_scene_and_short_rays() {
     let mut rng = Rng(7);
-    let tree = KdTree::from_triangles(random_soup(&mut rng, 2000, 0.08), &KdTreeParams::default()).unwrap();
+    let tree = KdTree::from_triangles(random_soup(&mut rng, 2000, 0.08), &KdTreeSettings::default()).unwrap();
     for _ in 0..2000 {
         let o = rng.vec(-1.0, 1.0);
         let d = rng.vec(-1.0, 1.0);
@@ -84,24 +84,24 @@ fn rule_settings_do_not_change_answers() {
     let soup = random_soup(&mut rng, 1500, 0.1);
     let rays = rays_at(&mut rng, 1000, 1.0);
     let variants = [
-        KdTreeParams::default(),
-        KdTreeParams::for_cpu(),
-        KdTreeParams {
+        KdTreeSettings::default(),
+        KdTreeSettings::for_cpu(),
+        KdTreeSettings {
             empty_cell_volume: 2.0,
             coplanar_rule: false,
             min_cell_area: 0.0,
             ..Default::default()
         },
-        KdTreeParams {
+        KdTreeSettings {
             exact_sah_below: 0,
             bins: 4,
             ..Default::default()
         },
-        KdTreeParams {
+        KdTreeSettings {
             max_depth: Some(3),
             ..Default::default()
         },
-        KdTreeParams {
+        KdTreeSettings {
             min_cell_area: 0.5,
             ..Default::default()
         },
@@ -117,8 +117,8 @@ fn rule_settings_do_not_change_answers() {
 fn the_cpus_tree_has_fewer_larger_leaves_and_the_same_hits() {
     let mut rng = Rng(0x2545_f491_4f6c_dd1d);
     let soup = random_soup(&mut rng, 4000, 0.05);
-    let gpu = KdTree::from_triangles(soup.clone(), &KdTreeParams::default()).unwrap();
-    let cpu = KdTree::from_triangles(soup, &KdTreeParams::for_cpu()).unwrap();
+    let gpu = KdTree::from_triangles(soup.clone(), &KdTreeSettings::default()).unwrap();
+    let cpu = KdTree::from_triangles(soup, &KdTreeSettings::for_cpu()).unwrap();
     assert_eq!((gpu.stats.traversal_cost, cpu.stats.traversal_cost), (1.0, 4.0));
     assert!(
         cpu.stats.nodes < gpu.stats.nodes && cpu.stats.mean_triangles_per_leaf > gpu.stats.mean_triangles_per_leaf,
@@ -159,7 +159,7 @@ fn rays_through_vertices_and_edges_of_a_grid_never_leak() {
         (1.0, Vec3::splat(1e5)),
     ] {
         let n = 16;
-        let tree = KdTree::from_triangles(grid(n, scale, offset), &KdTreeParams::default()).unwrap();
+        let tree = KdTree::from_triangles(grid(n, scale, offset), &KdTreeSettings::default()).unwrap();
         let eye = offset + Vec3::new(0.37, 0.21, 1.3) * scale;
         let mut leaks = 0;
         // Aim at every interior vertex, every interior edge's midpoint and
@@ -189,7 +189,7 @@ fn rays_along_edges_in_the_plane_of_a_grid_hit_nothing_in_it() {
     // vertices; every in-plane triangle has det = 0 there, so nothing is hit,
     // and the traversal (which sees the ray in every split plane z = 0) ends.
     let mut tris = grid(8, 1.0, Vec3::ZERO);
-    let tree = KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap();
+    let tree = KdTree::from_triangles(tris.clone(), &KdTreeSettings::default()).unwrap();
     for (o, d) in [
         (Vec3::new(-1.0, 0.5, 0.0), Vec3::X),
         (Vec3::new(0.25, -1.0, 0.0), Vec3::Y),
@@ -203,7 +203,7 @@ fn rays_along_edges_in_the_plane_of_a_grid_hit_nothing_in_it() {
         Vec3::new(2.0, 2.0, -1.0),
         Vec3::new(2.0, 0.5, 2.0),
     ]);
-    let tree = KdTree::from_triangles(tris, &KdTreeParams::default()).unwrap();
+    let tree = KdTree::from_triangles(tris, &KdTreeSettings::default()).unwrap();
     let h = tree.closest_hit(Vec3::new(-1.0, 0.5, 0.0), Vec3::X, f32::INFINITY);
     assert_eq!((h.t, h.triangle), (3.0, 128));
 }
@@ -212,7 +212,7 @@ fn rays_along_edges_in_the_plane_of_a_grid_hit_nothing_in_it() {
 fn rays_parallel_to_and_lying_in_split_planes() {
     // A closed cube's faces lie in the planes the builder splits on.
     let tris = cube(Vec3::ZERO, 1.0);
-    let tree = KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap();
+    let tree = KdTree::from_triangles(tris.clone(), &KdTreeSettings::default()).unwrap();
     // Axis-parallel rays from outside at many offsets, including exactly on
     // the face planes and edges.
     for k in 0..=8 {
@@ -253,7 +253,7 @@ fn cube(min: Vec3, size: f32) -> Vec<[Vec3; 3]> {
 
 #[test]
 fn origins_on_a_surface_do_not_hit_it() {
-    let tree = KdTree::from_triangles(cube(Vec3::ZERO, 1.0), &KdTreeParams::default()).unwrap();
+    let tree = KdTree::from_triangles(cube(Vec3::ZERO, 1.0), &KdTreeSettings::default()).unwrap();
     // From a point on the floor going up: hits the ceiling at t = 1.
     let h = tree.closest_hit(Vec3::new(0.3, 0.4, 0.0), Vec3::Z, f32::INFINITY);
     assert_eq!(h.t, 1.0);
@@ -273,13 +273,13 @@ fn degenerate_and_needle_triangles() {
         let dir = rng.vec(-1.0, 1.0).normalize();
         tris.push([c, c + dir, c + dir + Vec3::splat(1e-7) * (k as f32 + 1.0)]);
     }
-    let tree = KdTree::from_triangles(tris, &KdTreeParams::default()).unwrap();
+    let tree = KdTree::from_triangles(tris, &KdTreeSettings::default()).unwrap();
     assert_matches_brute_force(&tree, &rays_at(&mut rng, 2000, 1.0));
 }
 
 #[test]
 fn a_single_triangle() {
-    let tree = KdTree::from_triangles(vec![[Vec3::ZERO, Vec3::X, Vec3::Y]], &KdTreeParams::default()).unwrap();
+    let tree = KdTree::from_triangles(vec![[Vec3::ZERO, Vec3::X, Vec3::Y]], &KdTreeSettings::default()).unwrap();
     assert_eq!(tree.stats.triangles, 1);
     let h = tree.closest_hit(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z, f32::INFINITY);
     assert_eq!((h.t, h.triangle), (1.0, 0));
@@ -307,7 +307,7 @@ fn a_million_coplanar_triangles() {
     // splits happen in x and y only, and the tree must stay shallow and small.
     let tris = grid(708, 1.0, Vec3::ZERO);
     assert!(tris.len() >= 1_000_000);
-    let tree = KdTree::from_triangles(tris, &KdTreeParams::default()).unwrap();
+    let tree = KdTree::from_triangles(tris, &KdTreeSettings::default()).unwrap();
     let s = &tree.stats;
     assert!(s.depth <= s.depth_limit);
     assert!(
@@ -333,11 +333,11 @@ fn covered_planes_become_splits() {
     let mut rng = Rng(9);
     let mut tris = grid(1, 4.0, Vec3::new(-2.0, -2.0, -1.0));
     tris.extend(random_soup(&mut rng, 400, 0.05));
-    let tree = KdTree::from_triangles(tris, &KdTreeParams::default()).unwrap();
+    let tree = KdTree::from_triangles(tris, &KdTreeSettings::default()).unwrap();
     assert!(tree.stats.covered_plane_splits >= 1, "{:?}", tree.stats);
     let off = KdTree::from_triangles(
         tree.triangles.clone(),
-        &KdTreeParams {
+        &KdTreeSettings {
             coplanar_rule: false,
             ..Default::default()
         },
@@ -357,7 +357,7 @@ fn empty_space_is_cut_off() {
             .iter()
             .map(|t| t.map(|v| v + Vec3::X * 10.0)),
     );
-    let tree = KdTree::from_triangles(tris, &KdTreeParams::default()).unwrap();
+    let tree = KdTree::from_triangles(tris, &KdTreeSettings::default()).unwrap();
     assert!(tree.stats.empty_cuts >= 1, "{:?}", tree.stats);
 }
 
@@ -368,7 +368,7 @@ fn depth_limit_is_respected_and_the_stack_suffices() {
     for depth in [1, 5, MAX_TREE_DEPTH] {
         let tree = KdTree::from_triangles(
             soup.clone(),
-            &KdTreeParams {
+            &KdTreeSettings {
                 max_depth: Some(depth),
                 min_cell_area: 0.0,
                 ..Default::default()
@@ -382,7 +382,7 @@ fn depth_limit_is_respected_and_the_stack_suffices() {
 
 #[test]
 fn bad_input_is_rejected() {
-    let p = KdTreeParams::default();
+    let p = KdTreeSettings::default();
     assert!(
         KdTree::from_triangles(vec![], &p)
             .unwrap_err()
@@ -391,12 +391,12 @@ fn bad_input_is_rejected() {
     );
     let e = KdTree::from_triangles(vec![[Vec3::ZERO, Vec3::X, Vec3::new(f32::NAN, 0.0, 0.0)]], &p).unwrap_err();
     assert!(e.to_string().contains("non-finite"), "{e}");
-    let bad = KdTreeParams {
+    let bad = KdTreeSettings {
         intersection_cost: -1.0,
         ..Default::default()
     };
     assert!(KdTree::from_triangles(vec![[Vec3::ZERO, Vec3::X, Vec3::Y]], &bad).is_err());
-    let bad = KdTreeParams {
+    let bad = KdTreeSettings {
         max_depth: Some(MAX_TREE_DEPTH + 1),
         ..Default::default()
     };
@@ -411,7 +411,7 @@ fn bad_input_is_rejected() {
 fn overlapping_geometry_stays_within_the_reference_budget() {
     let mut rng = Rng(77);
     let tris = random_soup(&mut rng, 20_000, 1.0);
-    let tree = KdTree::from_triangles(tris.clone(), &KdTreeParams::default()).unwrap();
+    let tree = KdTree::from_triangles(tris.clone(), &KdTreeSettings::default()).unwrap();
     let s = &tree.stats;
     println!(
         "{} triangles: {} references ({:.1} per triangle), {} budget leaves, {:.0} ms",
@@ -426,7 +426,7 @@ fn overlapping_geometry_stays_within_the_reference_budget() {
     assert!(s.leaf_references <= 2 * build::MAX_REFERENCES_PER_TRIANGLE * 2 * tris.len());
     assert_matches_brute_force(&tree, &rays_at(&mut rng, 300, 1.5));
     let sparse = random_soup(&mut rng, 20_000, 0.01);
-    let tree = KdTree::from_triangles(sparse, &KdTreeParams::default()).unwrap();
+    let tree = KdTree::from_triangles(sparse, &KdTreeSettings::default()).unwrap();
     assert_eq!(tree.stats.budget_leaves, 0);
 }
 
@@ -439,7 +439,7 @@ fn the_build_progress_bar_fills_exactly_when_the_tree_is_built() {
     for spread in [0.01, 1.0] {
         let soup = random_soup(&mut rng, 20_000, spread);
         let progress = crate::progress::Bar::hidden();
-        let tree = KdTree::from_triangles_with(soup, &KdTreeParams::default(), &progress).unwrap();
+        let tree = KdTree::from_triangles_with(soup, &KdTreeSettings::default(), &progress).unwrap();
         assert_eq!(progress.position(), 20_000, "spread {spread}");
         assert!(tree.stats.leaves > 1000, "advanced by many leaves, not one step");
     }
@@ -472,7 +472,7 @@ fn triangles_without_area_are_never_hit() {
     // The arithmetic alone reports the segment.
     let t = watertight::ShearedRay::new(origin, d).intersect(segment[0], segment[1], segment[2], f32::INFINITY);
     assert!(t.is_some_and(|t| t > 0.3), "{t:?}");
-    let tree = KdTree::from_triangles(vec![segment, small], &KdTreeParams::default()).unwrap();
+    let tree = KdTree::from_triangles(vec![segment, small], &KdTreeSettings::default()).unwrap();
     assert!(!tree.closest_hit(origin, d, f32::INFINITY).is_hit(), "kd-tree");
     assert!(!tree.any_hit(origin, d, f32::INFINITY), "kd-tree, any hit");
     let accel = crate::accel::Accel::new(tree);

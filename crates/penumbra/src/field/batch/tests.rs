@@ -6,7 +6,7 @@ use glam::Vec3;
 use super::*;
 use crate::field::build::DisplacementField;
 use crate::field::positions::OctahedralGrid;
-use crate::field::storage::{FieldParams, Storage};
+use crate::field::storage::{FieldSampling, Storage};
 use crate::geom::simd::{Isa, Kernel, Lanes, dispatch};
 use crate::progress::Bar;
 use crate::scene::procedural::sphere_on_plane;
@@ -27,7 +27,7 @@ impl Kernel for Batch<'_, '_, '_> {
 }
 
 fn field(directions: DirectionMapping, storage: Storage) -> DisplacementField {
-    let params = FieldParams {
+    let params = FieldSampling {
         grid: OctahedralGrid { side: 17 },
         res: 16,
         storage,

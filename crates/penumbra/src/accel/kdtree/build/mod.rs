@@ -49,7 +49,7 @@ use crate::progress::Bar;
 /// built with; `for_cpu` the CPU's (fewer, larger leaves for its vector
 /// lanes).
 #[derive(Debug, Clone, PartialEq)]
-pub struct KdTreeParams {
+pub struct KdTreeSettings {
     /// Cost of one traversal step, relative to `intersection_cost`.
     pub traversal_cost: f32,
     /// Cost of one ray–triangle test, relative to a traversal step: 1.0,
@@ -86,9 +86,9 @@ pub struct KdTreeParams {
     pub bins: usize,
 }
 
-impl Default for KdTreeParams {
+impl Default for KdTreeSettings {
     fn default() -> Self {
-        KdTreeParams {
+        KdTreeSettings {
             traversal_cost: 1.0,
             intersection_cost: 1.0,
             empty_bonus: 0.5,
@@ -102,7 +102,7 @@ impl Default for KdTreeParams {
     }
 }
 
-impl KdTreeParams {
+impl KdTreeSettings {
     /// The settings for a tree walked on the CPU: `Default` with
     /// `traversal_cost` 4. The CPU tests a leaf's triangles several at a time
     /// in vector lanes (four a block for single rays, sixteen lanes for
@@ -119,10 +119,10 @@ impl KdTreeParams {
     /// (docs/results/tracing.md, "A tree for each device"). 2 gave about
     /// half the packets' gain, 3 most of it; 6 and 8 the same as 4 on the
     /// bunny and dragon100k, and 6 was 5% slower on the kitchen.
-    pub fn for_cpu() -> KdTreeParams {
-        KdTreeParams {
+    pub fn for_cpu() -> KdTreeSettings {
+        KdTreeSettings {
             traversal_cost: 4.0,
-            ..KdTreeParams::default()
+            ..KdTreeSettings::default()
         }
     }
 
@@ -260,7 +260,7 @@ struct Split {
 
 pub(super) struct Builder<'a> {
     triangles: &'a [[Vec3; 3]],
-    params: &'a KdTreeParams,
+    params: &'a KdTreeSettings,
     max_depth: usize,
     /// Leaf references made so far in the whole tree (triangles plus the
     /// duplicates splits made), and the soft and hard limits on them.
@@ -289,7 +289,7 @@ impl<'a> Builder<'a> {
     /// `progress`: a bar of `triangles.len()` steps, full when the tree is.
     pub fn new(
         triangles: &'a [[Vec3; 3]],
-        params: &'a KdTreeParams,
+        params: &'a KdTreeSettings,
         (bounds, frame): (&Aabb, f32),
         progress: &'a Bar,
     ) -> Self {
@@ -750,7 +750,7 @@ pub struct BuildStats {
     /// geometry; see `MAX_REFERENCES_PER_TRIANGLE`).
     pub budget_leaves: usize,
     /// The builder's `traversal_cost` (4 for the CPU's trees, 1 for the
-    /// GPU's: `KdTreeParams::for_cpu`).
+    /// GPU's: `KdTreeSettings::for_cpu`).
     pub traversal_cost: f32,
     pub build_ms: f64,
 }

@@ -3,7 +3,7 @@
 use glam::Vec3;
 
 use super::*;
-use crate::accel::kdtree::KdTreeParams;
+use crate::accel::kdtree::KdTreeSettings;
 
 struct Rng(u32);
 
@@ -54,7 +54,7 @@ fn directions(rng: &mut Rng, k: usize) -> Vec<Vec3> {
 #[test]
 fn packets_equal_single_rays_in_every_instruction_set() {
     let mut rng = Rng(7);
-    let tree = KdTree::from_triangles(scene(&mut rng), &KdTreeParams::default()).unwrap();
+    let tree = KdTree::from_triangles(scene(&mut rng), &KdTreeSettings::default()).unwrap();
     let (mut rays, mut hit) = (0, 0);
     for k in 0..2000 {
         // Origins anywhere, on the grid's plane and at its vertices (on
