@@ -1,10 +1,8 @@
-//! The methods' knobs as command-line option groups (`clap::Args`), next to
-//! the settings they build: `ssao::options`, `mlrta::options`,
-//! `raytrace::options`, `bounded::options`, `field::options`. A tool built
-//! on penumbra flattens the groups it needs (`#[command(flatten)]`) and
-//! gets the same flags, help, defaults and checks as `penumbra` itself;
-//! ours (`src/cli`) adds only inputs, outputs and reports. This module
-//! holds what the groups share.
+//! The methods' knobs as command-line option groups (`clap::Args`), each
+//! building the library's settings with their checks: `ao`, `field`,
+//! `ssao`, `prt`, `mlrta`, `raytrace`, `bounded`. The subcommands flatten
+//! the groups they need (`#[command(flatten)]`) and add inputs, outputs and
+//! reports. This module holds what the groups share.
 
 pub mod ao;
 pub mod bounded;

@@ -42,7 +42,7 @@ use super::ao::RayClasses;
 /// `FieldLookupUniforms` in `wgsl/field_lookup.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct FieldLookupUniforms {
+pub(crate) struct FieldLookupUniforms {
     pub center: [f32; 3],
     pub radius: f32,
     pub side: u32,
@@ -58,7 +58,7 @@ pub struct FieldLookupUniforms {
 /// `FieldAoUniforms` in `wgsl/field_ao.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct FieldAoUniforms {
+pub(crate) struct FieldAoUniforms {
     pub rays: AoRays,
     pub instance_count: u32,
     pub _pad: u32,

@@ -55,7 +55,7 @@ impl AoRays {
 /// `AoRaysUniforms` in `wgsl/ao_rays.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct AoRaysUniforms {
+pub(crate) struct AoRaysUniforms {
     pub rays: AoRays,
     pub _pad: [u32; 2],
 }

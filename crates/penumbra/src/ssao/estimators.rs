@@ -250,7 +250,9 @@ fn uniform_sphere(u1: f32, u2: f32) -> Vec3 {
     direction(1.0 - 2.0 * u1, u2)
 }
 
-/// `SsaoUniforms` in `wgsl/ssao_common.wgsl`: one uniform for every SSAO kernel.
+/// `SsaoUniforms` in `wgsl/ssao_common.wgsl`: one uniform for every SSAO
+/// kernel, and what their CPU twins take, so a test can run both on the
+/// same input.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct SsaoUniforms {

@@ -25,4 +25,5 @@ pub mod whitted;
 pub use ray_tree::{LightCode, RayKind, RayNode, RayTree};
 pub use runner::{PACKETS_FROM_TRIANGLES, Packets, RayCounts, RenderStats, Rendered, WhittedRenderer, WhittedSettings};
 pub use scene::{LightingSettings, RenderScene};
-pub use whitted::{PixelOut, Whitted, WhittedUniforms};
+pub use whitted::WhittedUniforms;
+pub use whitted::{PixelOut, Whitted};

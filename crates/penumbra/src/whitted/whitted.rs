@@ -47,7 +47,9 @@ pub const MAX_SHADOW_CROSSINGS: u32 = 16;
 /// `WhittedUniforms::flags`: Fresnel-weighted reflection and transmission.
 pub const FRESNEL: u32 = 1;
 
-/// What one render asks, as the GPU reads it (`WhittedUniforms` in WGSL).
+/// What one render asks, as the GPU reads it (`WhittedUniforms` in WGSL)
+/// and as the CPU twin (`Whitted`) takes it, so a test can run both on the
+/// same input; `WhittedRenderer::params` makes it.
 /// The camera is a pinhole: the ray through image point (x, y) is
 /// `normalize(forward + (2x/w - 1) right + (1 - 2y/h) up)`, with `right`
 /// and `up` scaled by the field of view's half-width and half-height.

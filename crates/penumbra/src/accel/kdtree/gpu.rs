@@ -107,7 +107,7 @@ impl GpuKdTree {
 /// `TraceRaysUniforms` in `wgsl/trace_rays.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct TraceRaysUniforms {
+pub(crate) struct TraceRaysUniforms {
     pub ray_count: u32,
     pub row_pitch: u32,
     pub t_max: f32,
