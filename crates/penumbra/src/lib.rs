@@ -45,7 +45,7 @@
 
 pub mod accel;
 pub mod bounded;
-pub mod choice;
+pub(crate) mod choice;
 pub mod error;
 pub mod field;
 pub mod geom;

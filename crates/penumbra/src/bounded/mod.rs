@@ -5,24 +5,24 @@
 //! error predicate that is a guarantee (affine arithmetic through the ray
 //! tree), reprojection of the previous frame's cells, and a memory cap.
 
-pub mod affine;
-pub mod frame;
-pub mod geometry;
+pub(crate) mod affine;
+pub(crate) mod frame;
+pub(crate) mod geometry;
 pub mod gpu;
 pub mod interpolate;
-pub mod jet;
-pub mod linespace;
+pub(crate) mod jet;
+pub(crate) mod linespace;
 pub mod linetree;
 pub mod measure;
-pub mod patch;
+pub(crate) mod patch;
 pub mod predicate;
-pub mod runner;
-pub mod samples;
-pub mod screen;
+pub(crate) mod runner;
+pub(crate) mod samples;
+pub(crate) mod screen;
 pub mod sequence;
 pub mod settings;
-pub mod shaft;
-pub mod tune;
+pub(crate) mod shaft;
+pub(crate) mod tune;
 
 pub use frame::{BoundedFrame, FrameStats, PixelPath, TraceReason};
 pub use predicate::{BoundKind, Failure};

@@ -18,7 +18,7 @@
 use glam::Vec3;
 
 use super::directions::{DirectionMapping, rim_clamp};
-use super::lookup::{FieldTrace, Positional, interval, texel_taps, unit_entry};
+use super::lookup::{Positional, interval, texel_taps, unit_entry};
 use super::positions::OctahedralGrid;
 use super::query::FieldQuery;
 use super::storage::FieldData;
@@ -59,7 +59,9 @@ pub struct Traces {
 
 impl Traces {
     /// Lane i as the scalar lookup reports it.
-    pub fn lane(&self, i: usize) -> FieldTrace {
+    #[cfg(test)]
+    pub fn lane(&self, i: usize) -> super::lookup::FieldTrace {
+        use super::lookup::FieldTrace;
         let bit = |m: u16| m >> i & 1 == 1;
         if bit(self.outside) {
             FieldTrace::Outside

@@ -17,7 +17,7 @@
 //!   are filled with the value of the grazing direction at the disk's rim in
 //!   their direction, so that bilinear filtering near the rim stays sane.
 
-use std::f32::consts::{FRAC_PI_2, PI, TAU};
+use std::f32::consts::{FRAC_PI_2, TAU};
 
 use glam::Vec3;
 use serde::Serialize;
@@ -133,6 +133,7 @@ pub(super) fn rim_clamp(x: f32, y: f32) -> [f32; 2] {
 
 /// Fraction of a rejection map's texels that are unused: 1 - pi/4 in the
 /// limit.
+#[cfg(test)]
 pub fn rejection_unused_fraction(res: u32) -> f64 {
     let mut unused = 0u64;
     for b in 0..res {
@@ -145,7 +146,8 @@ pub fn rejection_unused_fraction(res: u32) -> f64 {
 }
 
 /// pi, for the limit quoted in the docs.
-pub const REJECTION_UNUSED_LIMIT: f64 = 1.0 - (PI as f64) / 4.0;
+#[cfg(test)]
+pub const REJECTION_UNUSED_LIMIT: f64 = 1.0 - std::f64::consts::PI / 4.0;
 
 #[cfg(test)]
 mod tests {

@@ -22,20 +22,20 @@
 //! - `runner`: AO of a scene's receivers through its casters' fields, on
 //!   any device (`ao --method field`).
 
-pub mod ao;
-pub mod batch;
+pub(crate) mod ao;
+pub(crate) mod batch;
 pub mod build;
-pub mod directions;
+pub(crate) mod directions;
 mod entry;
 pub mod file;
 pub mod gpu;
 pub mod lookup;
-pub mod positions;
-pub mod query;
+pub(crate) mod positions;
+pub(crate) mod query;
 pub mod reach;
 pub mod report;
 pub mod runner;
-pub mod storage;
+pub(crate) mod storage;
 pub mod tune;
 
 pub use ao::{FieldCaster, NO_OWNER, RayClasses, field_ao};

@@ -4,7 +4,7 @@
 
 pub mod aabb;
 pub mod color;
-pub mod float;
+pub(crate) mod float;
 pub mod ray;
 pub mod sampling;
 pub mod simd;

@@ -12,12 +12,12 @@
 
 pub mod batch;
 pub mod buffers;
-pub mod capabilities;
+pub(crate) mod capabilities;
 mod context;
 pub mod device;
 pub mod kernels;
-pub mod layout;
-pub mod timer;
+pub(crate) mod layout;
+pub(crate) mod timer;
 pub mod wgsl;
 
 pub use context::{AdapterKinds, AdapterSettings, AdapterSummary, GpuContext, LimitsChoice, enumerate_adapters};

@@ -24,12 +24,12 @@ pub mod frustum;
 pub mod gpu;
 pub mod images;
 pub mod packet;
-pub mod prepared;
+pub(crate) mod prepared;
 pub mod runner;
 mod squares;
 mod tile_rows;
 pub mod tiles;
-pub mod tune;
+pub(crate) mod tune;
 
 pub use entry::{PrimaryRays, TraceSettings};
 pub use packet::MlrtaCounts;

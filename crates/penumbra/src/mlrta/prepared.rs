@@ -254,6 +254,7 @@ fn subtree_ends(tree: &KdTree) -> Vec<u32> {
 }
 
 /// Every leaf with its cell.
+#[cfg(test)]
 pub fn leaf_cells(tree: &KdTree) -> Vec<(u32, Aabb)> {
     leaf_cells_where(tree, |_, _| true)
 }

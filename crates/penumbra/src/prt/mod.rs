@@ -27,18 +27,18 @@
 
 pub mod blockers;
 pub mod clip;
-pub mod clusters;
-pub mod geometry;
+pub(crate) mod clusters;
+pub(crate) mod geometry;
 pub mod gpu;
 pub mod hierarchy;
 pub mod images;
-pub mod level;
+pub(crate) mod level;
 pub mod lut;
 pub mod mask;
 pub mod objects;
 pub mod pipeline;
-pub mod proxy;
-pub mod pvs;
+pub(crate) mod proxy;
+pub(crate) mod pvs;
 pub mod raster;
 pub mod reference;
 pub mod render;
@@ -46,7 +46,7 @@ pub mod runner;
 pub mod scene_play;
 pub mod selfcheck;
 pub mod sh_out;
-pub mod sides;
+pub(crate) mod sides;
 pub mod transfer;
 pub mod tune;
 

@@ -107,6 +107,7 @@ impl Topology {
 
 /// Whether the mesh is closed and consistently oriented by its indices
 /// alone: every edge used by exactly two triangles, once in each direction.
+#[cfg(test)]
 pub fn is_closed(triangles: &[[u32; 3]]) -> bool {
     Topology::of(triangles, |v| v).closed()
 }

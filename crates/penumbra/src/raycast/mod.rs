@@ -11,7 +11,7 @@
 pub mod ao_rays;
 mod entry;
 pub mod gpu;
-pub mod packets;
+pub(crate) mod packets;
 pub mod points;
 pub mod report;
 pub mod runner;

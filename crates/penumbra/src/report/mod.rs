@@ -2,7 +2,7 @@
 //! what a run left out because the scene did not need it.
 
 pub mod repeats;
-pub mod skipped;
+pub(crate) mod skipped;
 
 /// Millions of rays per second of `rays` in `ms` (0 when nothing was timed).
 pub fn mrays_per_s(rays: usize, ms: f64) -> f64 {

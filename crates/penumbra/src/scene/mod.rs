@@ -14,7 +14,7 @@ pub mod animation_assets;
 mod camera;
 mod camera_path;
 pub mod chess;
-pub mod deform;
+pub(crate) mod deform;
 pub mod environment;
 pub mod frame;
 #[cfg(feature = "gltf")]
@@ -22,7 +22,7 @@ mod gltf;
 mod input;
 mod mesh;
 mod mesh_file;
-pub mod mtl;
+pub(crate) mod mtl;
 mod obj;
 #[cfg(feature = "ply")]
 mod ply;

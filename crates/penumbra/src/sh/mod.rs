@@ -19,8 +19,8 @@
 //! Evaluation (`basis`) is by fully normalised recurrences in (x, y, z),
 //! stable to high order (tests go to 15 bands).
 
-pub mod basis;
-pub mod projection;
+pub(crate) mod basis;
+pub(crate) mod projection;
 pub mod quadrature;
 pub mod rotation;
 pub mod window;

@@ -17,13 +17,13 @@
 //! 1 = open, 0 = occluded, with the fuzzy measure mu of `measure`.
 
 mod entry;
-pub mod estimators;
-pub mod filter;
+pub(crate) mod estimators;
+pub(crate) mod filter;
 pub mod gbuffer;
 pub mod gpu;
-pub mod indirect;
-pub mod interleave;
-pub mod measure;
+pub(crate) mod indirect;
+pub(crate) mod interleave;
+pub(crate) mod measure;
 pub mod runner;
 pub mod truth;
 pub mod tune;

@@ -12,10 +12,10 @@
 //! in the method's own module (`field::tune`, `ssao::tune`, ...); this
 //! module imports no method.
 
-pub mod budget;
-pub mod grid;
-pub mod knob;
-pub mod sweep;
+pub(crate) mod budget;
+pub(crate) mod grid;
+pub(crate) mod knob;
+pub(crate) mod sweep;
 
 pub use budget::{
     Budgeted, Candidate, ChoiceCache, ErrorBudget, Order, Pick, SampleError, cache_key, choose, choose_cached,

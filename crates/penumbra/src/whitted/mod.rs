@@ -6,21 +6,21 @@
 
 pub mod gpu;
 pub mod image;
-pub mod lights;
-pub mod offset;
-pub mod optics;
-pub mod packets;
-pub mod pixel_rays;
+pub(crate) mod lights;
+pub(crate) mod offset;
+pub(crate) mod optics;
+pub(crate) mod packets;
+pub(crate) mod pixel_rays;
 pub mod ray_tree;
 pub mod report;
-pub mod runner;
+pub(crate) mod runner;
 pub mod scene;
 pub mod scenes;
-pub mod sequence;
-pub mod sphere;
-pub mod surface;
+pub(crate) mod sequence;
+pub(crate) mod sphere;
+pub(crate) mod surface;
 pub mod tree_records;
-pub mod whitted;
+pub(crate) mod whitted;
 
 pub use ray_tree::{LightCode, RayKind, RayNode, RayTree};
 pub use runner::{PACKETS_FROM_TRIANGLES, Packets, RayCounts, RenderStats, Rendered, WhittedRenderer, WhittedSettings};

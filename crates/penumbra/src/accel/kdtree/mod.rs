@@ -6,10 +6,10 @@
 mod build;
 pub(crate) mod clip;
 pub mod gpu;
-pub mod leaf_blocks;
-pub mod node;
-pub mod occlusion;
-pub mod pass;
+pub(crate) mod leaf_blocks;
+pub(crate) mod node;
+pub(crate) mod occlusion;
+pub(crate) mod pass;
 mod traverse;
 pub mod watertight;
 

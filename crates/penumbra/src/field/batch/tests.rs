@@ -5,6 +5,7 @@ use glam::Vec3;
 
 use super::*;
 use crate::field::build::DisplacementField;
+use crate::field::lookup::FieldTrace;
 use crate::field::positions::OctahedralGrid;
 use crate::field::storage::{FieldSampling, Storage};
 use crate::geom::simd::{Isa, Kernel, Lanes, dispatch};

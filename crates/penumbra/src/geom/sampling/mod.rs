@@ -8,10 +8,10 @@
 //! * `hemisphere`: Malley's method (cosine-weighted hemisphere directions by
 //!   lifting concentric-disk points), and an orthonormal basis around a normal.
 
-pub mod atan;
-pub mod concentric;
-pub mod hemisphere;
-pub mod sequence;
+pub(crate) mod atan;
+pub(crate) mod concentric;
+pub(crate) mod hemisphere;
+pub(crate) mod sequence;
 
 pub use concentric::{concentric_disk, concentric_square};
 pub use hemisphere::{Frame, cosine_hemisphere, malley_inverse};
