@@ -42,3 +42,46 @@ fn stated_rust_version_covers_every_dependency() {
         highest.0, highest.1
     );
 }
+
+/// The library with its default features off carries none of the command
+/// line's crates nor the optional formats' (what a host engine that adds
+/// `penumbra = { default-features = false }` builds).
+#[test]
+fn the_library_without_default_features_builds_none_of_the_command_lines_crates() {
+    let out = Command::new(env!("CARGO"))
+        .args([
+            "tree",
+            "-p",
+            "penumbra",
+            "-e",
+            "normal",
+            "--no-default-features",
+            "--offline",
+        ])
+        .args(["--prefix", "none"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("cargo tree runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    let mut crates: Vec<&str> = text.lines().filter_map(|l| l.split_whitespace().next()).collect();
+    crates.sort_unstable();
+    crates.dedup();
+    println!("penumbra without default features: {} crates", crates.len());
+    let forbidden = [
+        "clap",
+        "indicatif",
+        "ctrlc",
+        "plotters",
+        "meshopt",
+        "image",
+        "exr",
+        "gltf",
+    ];
+    let found: Vec<&&str> = forbidden.iter().filter(|f| crates.contains(f)).collect();
+    assert!(
+        found.is_empty(),
+        "the library without default features pulls in {found:?}"
+    );
+    assert!(crates.contains(&"wgpu") && crates.contains(&"glam"), "{crates:?}");
+}
