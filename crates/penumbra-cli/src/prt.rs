@@ -11,6 +11,7 @@ use serde_json::{Value, json};
 use crate::args::{CameraArgs, Common, check_outputs, parse_vec3};
 use crate::options::prt::{AnimationOptions, PlaybackOptions, PrtOptions};
 use penumbra::error::Result;
+use penumbra::gpu::device::Device;
 use penumbra::io::image::ImageFormat;
 use penumbra::prt::blockers::InterObject;
 use penumbra::prt::images::FrameImages;
@@ -21,6 +22,7 @@ use penumbra::prt::scene_play::play_scene_runs;
 use penumbra::prt::sh_out::write_sh_json;
 use penumbra::prt::tune::choose_cached;
 use penumbra::scene::{EnvironmentMap, View, file_stem, load_scene_in, used_bounds};
+use penumbra::tune::Pick;
 
 #[derive(clap::Args)]
 pub struct PrtArgs {
@@ -109,25 +111,14 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     // Camera: the animation's, else the contract's default; options override.
     let camera = scene.camera_in(&view.camera, &used_bounds(&rest, &triangles))?;
     let choice = match args.max_error {
-        Some(e) => {
-            let files: Vec<&Path> = args.mesh.iter().map(PathBuf::as_path).collect();
-            // The rest pose itself keys the cache: sequences and clips have no one file.
-            let pose_crc = crc32fast::hash(bytemuck::cast_slice(&rest));
-            let source = (&*format!("{:?}|{pose_crc:08x}", args.animated), &files[..]);
-            let (seed, pose) = (args.common.seed, (&rest[..], &triangles[..]));
-            let choice = choose_cached(
-                &device,
-                pose,
-                &mut settings,
-                camera.eye,
-                source,
-                seed,
-                &crate::args::error_budget(e),
-                &crate::progress::stderr(),
-            )?;
-            crate::io::note_choice(&choice);
-            Some(choice)
-        }
+        Some(e) => Some(max_error_choice(
+            args,
+            &device,
+            (&rest, &triangles),
+            &mut settings,
+            camera.eye,
+            e,
+        )?),
         None => None,
     };
     let transfer = args.per_vertex_transfer as usize * penumbra::sh::coefficient_count(settings.bands);
@@ -174,6 +165,35 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
                  "sh_out": args.sh_out, "per_vertex": args.per_vertex, "runs": times });
     let report = crate::io::merged(head, &report)?;
     crate::io::merged(report, args.common.report(&used, threads))
+}
+
+/// `--max-error`'s choice of `settings` for the rest pose, cached per pose.
+fn max_error_choice(
+    args: &PrtArgs,
+    device: &Device,
+    (rest, triangles): (&[Vec3], &[[u32; 3]]),
+    settings: &mut PrtSettings,
+    eye: Vec3,
+    max_error: f64,
+) -> Result<Pick> {
+    let files: Vec<&Path> = args.mesh.iter().map(PathBuf::as_path).collect();
+    // The rest pose itself keys the cache: sequences and clips have no one file.
+    let pose_crc = crc32fast::hash(bytemuck::cast_slice(rest));
+    let source = (&*format!("{:?}|{pose_crc:08x}", args.animated), &files[..]);
+    let budget = crate::args::error_budget(max_error);
+    let progress = crate::progress::stderr();
+    let choice = choose_cached(
+        device,
+        (rest, triangles),
+        settings,
+        eye,
+        source,
+        args.common.seed,
+        &budget,
+        &progress,
+    )?;
+    crate::io::note_choice(&choice);
+    Ok(choice)
 }
 
 /// The checked `--out` (its image format too), `--sh-out`, `--per-vertex`
