@@ -27,8 +27,13 @@ use crate::geom::color::srgb8;
 /// The image formats penumbra writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ImageFormat {
+    /// `.png`: 8-bit sRGB radiance, or linear 8- or 16-bit grey (the
+    /// `png` feature).
     Png,
+    /// `.exr`: OpenEXR, linear 32-bit float (the `exr` feature).
     Exr,
+    /// `.pfm`: Portable FloatMap, linear 32-bit float, no alpha (always
+    /// available).
     Pfm,
 }
 
@@ -97,7 +102,7 @@ impl ImageFormat {
     }
 }
 
-/// The name radiance outputs used before grey images shared them.
+/// The format of a radiance output: the same formats as grey images.
 pub type RadianceFormat = ImageFormat;
 
 /// Bits per channel of a grey PNG.
@@ -107,9 +112,11 @@ pub enum PngBits {
     #[default]
     #[cfg_attr(feature = "clap", value(name = "8"))]
     #[serde(rename = "8")]
+    /// 8 bits: pixel / 255 is the value.
     Eight,
     #[cfg_attr(feature = "clap", value(name = "16"))]
     #[serde(rename = "16")]
+    /// 16 bits: pixel / 65535 is the value.
     Sixteen,
 }
 
@@ -128,7 +135,10 @@ pub enum Background {
 /// How a grey image is stored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct GreyStyle {
+    /// Bits per channel when the file is a PNG (EXR and PFM are always
+    /// 32-bit float).
     pub bits: PngBits,
+    /// What pixels without a surface hold.
     pub background: Background,
 }
 

@@ -69,6 +69,9 @@ pub struct Pending {
 }
 
 impl Pending {
+    /// Opens the temporary sibling of `path` for writing; an error if
+    /// `path` names a folder or the temporary cannot be created. `path`
+    /// itself is untouched until [`Pending::finish`].
     pub fn create(path: &Path) -> Result<Pending> {
         if path.file_name().is_none() || path.is_dir() {
             return Err(Error::file(path, "", "is a folder, not a file name"));
@@ -142,6 +145,7 @@ where
 /// An image the `image` crate can encode.
 #[cfg(any(feature = "png", feature = "exr"))]
 pub trait ImageWrite {
+    /// Encodes the image as `format` into `out`; the error as text.
     fn encode<O: Write + std::io::Seek>(
         &self,
         out: &mut O,

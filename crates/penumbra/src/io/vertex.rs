@@ -27,6 +27,8 @@ pub enum VertexFormat {
 }
 
 impl VertexFormat {
+    /// [`VertexFormat::Ply`] for a `.ply` extension (case-insensitive),
+    /// else [`VertexFormat::Csv`].
     pub fn of(path: &Path) -> VertexFormat {
         let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
         if ext.as_deref() == Some("ply") {

@@ -152,7 +152,12 @@ impl Chunks {
 /// triangles chunked alike, and each chunk's deviation (proxy check).
 #[derive(Debug, Clone)]
 pub struct BlockerTopology {
+    /// The far level in its culling groups (`Chunks::far_level`): what
+    /// [`InterObject::Coarse`] draws.
     pub coarse: Arc<Chunks>,
+    /// The full mesh chunked by the same groups (`Chunks::fine_of_groups`):
+    /// what [`InterObject::Fine`] draws, and what refinement near contact
+    /// draws in place of a group.
     pub fine: Arc<Chunks>,
     /// Per chunk: the largest deviation of its coarse triangles from the
     /// fine surface (0 without a coarse level, without the proxy check, or
@@ -327,6 +332,8 @@ impl SceneBlockers {
         SceneBlockers { objects, tolerance }
     }
 
+    /// True when no object casts: inter-object shadows off, or no caster
+    /// with finite coordinates.
     pub fn is_empty(&self) -> bool {
         self.objects.is_empty()
     }

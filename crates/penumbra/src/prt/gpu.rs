@@ -38,6 +38,7 @@ use crate::progress::Bar;
 /// the same in every form; only how many vertices share a workgroup differs.
 #[derive(Debug, Clone, Copy)]
 pub struct ShTransferForm {
+    /// The WGSL module of this form (portable or wide).
     pub module: Composition,
     /// Most vertices per workgroup (`MAX_VERTS`); fewer for 64x64 masks,
     /// whose words and cells must fit the staged arrays.
@@ -113,8 +114,13 @@ const FRAME_IO: &[Io] = &[
 /// The layouts and pipeline of `sh_transfer.wgsl` for one device, in the
 /// widest form its limits allow.
 pub struct ShTransferKernels {
+    /// Bind group 0: the mesh's packed tables, the lighting and the
+    /// per-cell basis integrals (read-only storage).
     pub tables_layout: wgpu::BindGroupLayout,
+    /// Bind group 1: one batch's uniform, masks, vertices, transfer and
+    /// radiance.
     pub frame_layout: wgpu::BindGroupLayout,
+    /// The form built for this device's limits.
     pub form: ShTransferForm,
     pipeline: Pipelines,
 }
@@ -344,10 +350,17 @@ impl ShTransferPass {
 /// lighting (`3 x coeffs`).
 #[derive(Debug, Clone, Copy)]
 pub struct FrameInputs<'a> {
+    /// Visibility masks, `MaskGrid::words` u64 per vertex, vertex order.
     pub masks: &'a [u64],
+    /// World-space vertex positions.
     pub positions: &'a [Vec3],
+    /// Shading normals (`Prt::shading_normals`; zero: no normal, transfer and radiance zero).
     pub normals: &'a [Vec3],
+    /// World-space eye position, for the Phong lobe's reflected view;
+    /// `None`: the lobe points along the normal.
     pub eye: Option<Vec3>,
+    /// Lighting SH coefficients, planar RGB: `coeffs` red, then green, then
+    /// blue.
     pub lighting: &'a [f32],
 }
 
@@ -366,7 +379,9 @@ impl<'a> FrameInputs<'a> {
 /// One frame's GPU results.
 #[derive(Debug, Clone, Default)]
 pub struct GpuFrame {
+    /// World-space transfer vectors, `coeffs` per vertex.
     pub transfer: Vec<f32>,
+    /// Exitant radiance per vertex (linear RGB).
     pub radiance: Vec<[f32; 3]>,
     /// Kernel time from timestamps, where the device has them.
     pub kernel_ms: Option<f64>,
@@ -375,6 +390,7 @@ pub struct GpuFrame {
 /// One mesh's transfer on a device: the pass, its batch size and the kept
 /// read-back buffer.
 pub struct GpuTransfer {
+    /// The pass holding the mesh's tables and the current batch.
     pub pass: ShTransferPass,
     readback: GrowingBuffer,
     vertex_count: usize,

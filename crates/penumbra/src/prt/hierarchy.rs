@@ -72,10 +72,13 @@ pub enum NearField {
 
 crate::choice!(NearField { Clusters = "clusters", Rings = "rings" });
 
+/// How the two-level hierarchy and the culling groups are built (section
+/// 3.2); `Default` is the command line's defaults.
 #[derive(Debug, Clone, PartialEq)]
 pub struct HierarchySettings {
     /// Use the two-level hierarchy (off: every fine triangle is a far blocker).
     pub enabled: bool,
+    /// Which fine triangles are drawn near a vertex (default: clusters).
     pub near: NearField,
     /// 1 or 2: the ring of the full mesh around the vertex.
     pub ring: usize,
@@ -115,10 +118,17 @@ impl Default for HierarchySettings {
 /// they use.
 #[derive(Debug, Clone)]
 pub struct Group {
+    /// Its triangles: a range of [`Hierarchy::far`] (and `far_local`).
     pub far: std::ops::Range<u32>,
+    /// Its vertices: a range of [`Hierarchy::group_verts`].
     pub verts: std::ops::Range<u32>,
 }
 
+/// A mesh's blockers as section 3.2 arranges them: the far set (coarse
+/// level, or the whole mesh) in culling groups, and per vertex the fine
+/// triangles drawn near it and the far ones skipped. Built once from the
+/// rest pose; its triangles are vertex indices, so it follows any
+/// deformation.
 #[derive(Debug, Clone)]
 pub struct Hierarchy {
     /// The full mesh.
@@ -129,6 +139,8 @@ pub struct Hierarchy {
     pub far_local: Vec<[u16; 3]>,
     /// The vertices of each group, concatenated (`Group::verts` ranges).
     pub group_verts: Vec<u32>,
+    /// The culling groups, in `far` order, each of at most
+    /// `HierarchySettings::group_size` triangles.
     pub groups: Vec<Group>,
     /// Whether `far` is a coarse mesh.
     pub coarse: bool,

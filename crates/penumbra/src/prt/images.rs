@@ -14,17 +14,23 @@ use crate::io::image::write_radiance;
 use crate::io::output::frame_output;
 use crate::scene::{Camera, EnvironmentMap};
 
+/// Where and how the frames of a PRT animation are drawn; [`FrameImages::frame`]
+/// writes each frame's images.
 pub struct FrameImages<'a> {
     /// A folder for frame-0000.png, frame-0001.png, ...
     pub folder: Option<&'a Path>,
     /// One image, or one per frame where the name holds `{}`.
     pub out: Option<&'a Path>,
+    /// Width and height of every image, pixels.
     pub size: (u32, u32),
+    /// RGB albedo the transfer's albedo-1 radiance is multiplied by
+    /// (non-negative).
     pub albedo: Vec3,
     /// `None`: the first frame drawn sets it (`auto_exposure`).
     pub exposure: Option<f32>,
     /// The background.
     pub env: &'a EnvironmentMap,
+    /// The camera every frame is seen through.
     pub camera: Camera,
     /// Images written so far.
     pub written: usize,

@@ -51,7 +51,11 @@ impl std::fmt::Debug for PlaneLut {
 /// Where a plane's mask is: entry index and whether to complement it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct LutRef {
+    /// Index of the stored mask: `(axis · n + iv) · n + iu`, axis 0, 1, 2
+    /// for a major component along x, y, z.
     pub entry: u32,
+    /// The major component is negative: the plane's mask is the complement
+    /// of the stored one.
     pub complement: bool,
 }
 

@@ -33,6 +33,7 @@ pub const CELL: usize = 4;
 /// The geometry of an S x S mask: pixel directions and areas, and the cells.
 #[derive(Debug, Clone)]
 pub struct MaskGrid {
+    /// Pixels per side, S (one of [`MASK_SIDES`]).
     pub side: usize,
     /// u64 words per mask.
     pub words: usize,
@@ -45,6 +46,8 @@ pub struct MaskGrid {
 }
 
 impl MaskGrid {
+    /// The grid of an S x S mask, pixel directions and areas integrated
+    /// over pixel ∩ disk; an error unless `side` is one of [`MASK_SIDES`].
     pub fn new(side: usize) -> Result<MaskGrid> {
         if !MASK_SIDES.contains(&side) {
             return Err(Error::param(
@@ -92,6 +95,7 @@ impl MaskGrid {
         self.side / CELL
     }
 
+    /// Number of downsampled cells, `(S / 4)²`.
     pub fn cell_count(&self) -> usize {
         self.cells_per_side() * self.cells_per_side()
     }

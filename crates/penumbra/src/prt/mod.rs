@@ -53,11 +53,15 @@ pub mod tune;
 /// Compressed lists: `items[offsets[i]..offsets[i+1]]` is list i.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Csr {
+    /// Start of each list in `items`, plus the end of the last: one more
+    /// than the number of lists, non-decreasing, from 0.
     pub offsets: Vec<u32>,
+    /// The lists' items, one list after another.
     pub items: Vec<u32>,
 }
 
 impl Csr {
+    /// The lists `lists`, in order.
     pub fn from_vecs(lists: &[Vec<u32>]) -> Csr {
         let mut offsets = Vec::with_capacity(lists.len() + 1);
         let mut items = Vec::with_capacity(lists.iter().map(Vec::len).sum());
@@ -87,15 +91,18 @@ impl Csr {
         Csr { offsets: counts, items }
     }
 
+    /// List `i` (panics past the last).
     #[inline]
     pub fn get(&self, i: usize) -> &[u32] {
         &self.items[self.offsets[i] as usize..self.offsets[i + 1] as usize]
     }
 
+    /// Number of lists.
     pub fn len(&self) -> usize {
         self.offsets.len().saturating_sub(1)
     }
 
+    /// True when there are no lists (empty lists count as lists).
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }

@@ -26,9 +26,14 @@ use crate::scene::{Role, Scene};
 /// checked on (`poses[0]` the first frame's; world coordinates).
 #[derive(Debug, Clone)]
 pub struct ObjectSpec {
+    /// The object's name, as errors and reports give it.
     pub name: String,
+    /// Its triangles, indices into each pose's positions.
     pub triangles: Vec<[u32; 3]>,
+    /// Its vertex positions per pose, world coordinates; at least the
+    /// first frame's.
     pub poses: Vec<Vec<Vec3>>,
+    /// Whether it casts shadows, is shaded, or both.
     pub role: Role,
 }
 
@@ -128,22 +133,28 @@ impl ObjectsRunner {
         Self::new(device, specs, settings, visibility, inter)
     }
 
+    /// Number of objects, whatever their role.
     pub fn len(&self) -> usize {
         self.objects.len()
     }
 
+    /// Always false once built: a runner has at least one object.
     pub fn is_empty(&self) -> bool {
         self.objects.is_empty()
     }
 
+    /// How other objects shadow each shaded one.
     pub fn inter_object(&self) -> InterObject {
         self.inter
     }
 
+    /// Where visibility comes from (receivers-only objects cast nothing,
+    /// even with shadows on).
     pub fn shadows(&self) -> Shadows {
         self.shadows
     }
 
+    /// Rays per vertex and seed of the ray-traced reference.
     pub fn reference(&self) -> RayTraced {
         self.reference
     }

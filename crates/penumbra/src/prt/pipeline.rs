@@ -43,7 +43,9 @@ const COUNTERS: usize = 19;
 pub enum Toggle {
     /// Decided from the mesh.
     Auto,
+    /// Forced on.
     On,
+    /// Forced off.
     Off,
 }
 
@@ -59,6 +61,10 @@ impl Toggle {
     }
 }
 
+/// How PRT computes transfer: mask and LUT resolution, SH order, BRDF,
+/// integration, hierarchy and culling. `Default` is the command line's
+/// defaults (the paper's 32x32 masks, 128² LUT cells per face, 25
+/// coefficients, diffuse).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PrtSettings {
     /// Mask side S (16, 32 or 64).
@@ -67,9 +73,11 @@ pub struct PrtSettings {
     pub lut_size: usize,
     /// SH bands (5 = 25 coefficients).
     pub bands: usize,
+    /// The BRDF integrated into the transfer (default: diffuse).
     pub brdf: Brdf,
     /// How masks are integrated (4x4 cells, with first moments, or pixels).
     pub integration: Integration,
+    /// The two-level mesh and culling groups (section 3.2).
     pub hierarchy: HierarchySettings,
     /// Skip culling groups whose box is below the tangent plane.
     pub group_culling: bool,
@@ -101,6 +109,10 @@ impl Default for PrtSettings {
 }
 
 impl PrtSettings {
+    /// Checks the settings before any work: 1 to [`MAX_BANDS`] bands, a LUT
+    /// of at least one cell, Phong's exponent in [0, 10000] and weight in
+    /// [0, 1], a supported mask side; an error naming the setting
+    /// otherwise. (The hierarchy's settings are checked when it is built.)
     pub fn validate(&self) -> Result<()> {
         if self.bands == 0 || self.bands > MAX_BANDS {
             return Err(Error::param(
@@ -137,8 +149,12 @@ pub struct FrameStats {
     pub candidates: u64,
     /// Blockers skipped with their culling group.
     pub group_culled: u64,
+    /// Blockers with no vertex above the vertex's tangent plane.
     pub below_horizon: u64,
+    /// Blockers culled as facing away from the vertex (back-face culling on).
     pub back_facing: u64,
+    /// Blockers seen edge-on from the vertex (zero solid angle), zero-area
+    /// ones included.
     pub edge_on: u64,
     /// Blockers rasterised.
     pub drawn: u64,
@@ -177,16 +193,23 @@ pub struct FrameOutput {
     pub normals: Vec<Vec3>,
     /// Its visibility mask (only when asked for).
     pub masks: Vec<u64>,
+    /// The frame's blocker counts and, with profiling, phase times.
     pub stats: FrameStats,
 }
 
 /// Everything built once per mesh: tables, LUT, hierarchy, optional PVS.
 pub struct Prt {
+    /// The settings it was built with (validated).
     pub settings: PrtSettings,
+    /// The mask grid of `settings.mask_side`.
     pub grid: MaskGrid,
+    /// The plane LUT of `settings.lut_size` cells per face.
     pub lut: PlaneLut,
+    /// The cell and pixel integrals of `settings.bands` bands.
     pub tables: CellTables,
+    /// Rotation of transfer vectors from tangent frame to world space.
     pub rotation: ShRotation,
+    /// The two-level mesh and culling groups.
     pub hierarchy: Hierarchy,
     /// Per vertex, blocker ids (`far` index, or `far.len() + fine index`);
     /// set with `set_pvs`.
@@ -194,15 +217,22 @@ pub struct Prt {
     /// Per vertex, the blockers it always visits (near field, or its whole
     /// PVS) with their vertices, for the transform loop.
     own: OwnLists,
+    /// Blockers facing away from the vertex are culled (the `backface`
+    /// toggle, or decided from the mesh).
     pub cull_backfaces: bool,
+    /// Each vertex is shaded on the side facing the eye (the `two_sided`
+    /// toggle, or decided from the mesh).
     pub two_sided: bool,
     /// How culling and sidedness were decided.
     pub sides: Sides,
+    /// Vertices of the mesh: every frame's positions must have this many.
     pub vertex_count: usize,
     /// Bounding-box diagonal of the rest pose's used vertices (sets the
     /// contract's origin offset and the scale of tangent-frame coordinates).
     pub scale: f32,
+    /// Milliseconds spent building the LUT (wall clock).
     pub lut_ms: f64,
+    /// Milliseconds spent building everything, LUT included (wall clock).
     pub setup_ms: f64,
     avx2: bool,
 }
@@ -267,7 +297,6 @@ thread_local! {
     static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
 }
 
-/// Per-frame data shared by all vertices.
 /// What a frame computes: with timing, keeping the masks, and whether it
 /// integrates, rotates and shades (false: masks only, for the GPU kernel).
 #[derive(Debug, Clone, Copy)]
@@ -277,6 +306,7 @@ struct FrameWork {
     integrate: bool,
 }
 
+/// Per-frame data shared by all vertices.
 struct FrameShared<'a> {
     positions: &'a [Vec3],
     normals: &'a [Vec3],
@@ -396,6 +426,7 @@ impl Prt {
         self.own = own;
     }
 
+    /// SH coefficients per transfer vector and lighting channel, `bands²`.
     pub fn coeffs(&self) -> usize {
         coefficient_count(self.settings.bands)
     }

@@ -30,9 +30,15 @@ pub const EDGE_ON: f32 = 1e-6;
 /// What happened to one blocker triangle.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Fate {
+    /// No vertex above the tangent plane (z <= 0 for all three): it cannot
+    /// block any direction of the hemisphere.
     BelowHorizon,
+    /// It faces away from the vertex (`det > 0`) and back-face culling is on.
     BackFacing,
+    /// The vertex lies in its plane (|det| below [`EDGE_ON`] relative to the
+    /// vertices' lengths, or not finite): it subtends no solid angle.
     EdgeOn,
+    /// Its coverage was OR-ed into the mask.
     Drawn,
 }
 
@@ -112,6 +118,7 @@ pub fn raster_triangle_exact(grid: &MaskGrid, t: &[Vec3; 3], cull_backfaces: boo
 pub struct TriangleBatch {
     /// x, y, z of vertices a, b, c: `v[3 * vertex + axis][i]`.
     pub v: [Vec<f32>; 9],
+    /// Number of valid triangles, slots `0..len` of every array.
     pub len: usize,
 }
 
@@ -145,18 +152,22 @@ impl TriangleBatch {
         }
     }
 
+    /// Empties the batch, keeping its storage.
     pub fn clear(&mut self) {
         self.len = 0;
     }
 
+    /// Number of valid triangles.
     pub fn len(&self) -> usize {
         self.len
     }
 
+    /// True when no triangle is valid.
     pub fn is_empty(&self) -> bool {
         self.len == 0
     }
 
+    /// Triangle `i` (vertices a, b, c in the tangent frame).
     pub fn get(&self, i: usize) -> [Vec3; 3] {
         let p = |k: usize| Vec3::new(self.v[3 * k][i], self.v[3 * k + 1][i], self.v[3 * k + 2][i]);
         [p(0), p(1), p(2)]
@@ -168,7 +179,11 @@ impl TriangleBatch {
 /// triangle is drawn.
 #[derive(Debug, Default, Clone)]
 pub struct BatchRefs {
+    /// Per edge ab, bc, ca and per triangle: the LUT entry of the inward
+    /// edge plane, [`COMPLEMENT`] set when its mask is to be complemented.
     pub edge: [Vec<u32>; 3],
+    /// Per triangle, 1 if it is drawn, 0 if it is edge-on or culled as
+    /// back-facing.
     pub keep: Vec<u32>,
     /// First and last 64-byte line of the masks the triangle can touch
     /// (`first | last << 16`), see `line_span`.

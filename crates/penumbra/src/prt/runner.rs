@@ -45,7 +45,9 @@ pub enum Shadows {
 /// The Monte Carlo ray-traced reference: rays per vertex and the sequence's seed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RayTraced {
+    /// Cosine-distributed rays per vertex (the command line's default: 4096).
     pub rays: u32,
+    /// Seed of the scrambled Sobol sequence the directions come from.
     pub seed: u32,
 }
 
@@ -164,6 +166,7 @@ impl PrtRunner {
         })
     }
 
+    /// The tables, hierarchy and CPU pipeline the runner computes with.
     pub fn prt(&self) -> &Prt {
         &self.prt
     }
@@ -309,12 +312,17 @@ impl PrtRunner {
 /// How an animation is played: frames, time, lighting spin, PVS, checks.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Playback {
+    /// Frames played (at least 1).
     pub frames: usize,
-    /// Animation time of the first frame and between frames, seconds.
+    /// Animation time of the first frame, seconds.
     pub start: f32,
+    /// Animation time between frames, seconds.
     pub dt: f32,
     /// Turn the lighting about +y by this many degrees per frame.
     pub env_spin: f32,
+    /// Gather a potentially visible set from sampled poses before the
+    /// first frame and use it instead of the hierarchy (section 3.2, "PVS");
+    /// `None`: no PVS.
     pub pvs: Option<PvsSampling>,
     /// Frames compared with ray tracing, evenly spread (0: none).
     pub check_frames: usize,
@@ -330,11 +338,17 @@ pub struct Playback {
 /// start (default: the frames' span, at least 2 s).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PvsSampling {
+    /// Poses sampled, evenly over the span, first and last included (at
+    /// least 1).
     pub frames: usize,
+    /// Animation seconds the poses span from `Playback::start`; `None`:
+    /// the played frames' span, at least 2 s.
     pub span: Option<f32>,
 }
 
 impl Playback {
+    /// Checks for at least one frame (and one PVS pose), finite times and
+    /// spin, and a valid self-check; an error naming the setting otherwise.
     pub fn validate(&self) -> Result<()> {
         for (name, v) in [
             ("frames", self.frames),
@@ -384,7 +398,6 @@ impl Playback {
         self.spread(self.check_frames)
     }
 
-    /// `k` frames evenly spread over the run (fewer if there are fewer).
     /// The poses a runner for `mesh` is built on: the first frame's (the
     /// rest pose), then, for an animated mesh, those of `k` frames spread
     /// over the playback, the rest pose's repeat left out.
@@ -401,6 +414,7 @@ impl Playback {
         poses
     }
 
+    /// `k` frames evenly spread over the run (fewer if there are fewer).
     pub(crate) fn spread(&self, k: usize) -> Vec<usize> {
         let k = k.min(self.frames);
         (0..k)
@@ -409,8 +423,6 @@ impl Playback {
     }
 }
 
-/// Runs `animation` of `mesh` under `env`, seen from `eye`, calling
-/// `on_frame` with each frame's index, pose and results.
 /// `animate` played `runs.warmup` untimed times, then `runs.repeat`
 /// measured times (each play's measure: the sum of its frame times, setup
 /// and checks apart); `on_frame` sees only the last play's frames, and the
@@ -435,6 +447,11 @@ pub fn animate_runs(
     runs.run("animation_ms", once, |r| r.frame_ms.mean * r.frames as f64)
 }
 
+/// Runs `animation` of `mesh` under `env`, seen from `eye`, calling
+/// `on_frame` with each frame's index, pose and results, and reports what
+/// it measured. The probe is projected onto the runner's bands and windowed
+/// to stay non-negative (`sh::window`); the PVS and the self-check, where
+/// asked for, are made before the first frame.
 pub fn animate(
     runner: &mut PrtRunner,
     mesh: &SceneMesh,
@@ -595,7 +612,9 @@ pub fn spun(lighting: &ShRgb, rotation: &ShRotation, degrees: f32) -> ShRgb {
 /// What a run measured, with the settings it ran with (`prt --json`).
 #[derive(Debug, Clone, Serialize)]
 pub struct PrtReport {
+    /// Vertices of the mesh.
     pub vertices: usize,
+    /// Triangles of the full-resolution mesh.
     pub triangles: usize,
     /// Blockers rasterised per vertex (after every culling; see `blockers_per_vertex`).
     pub avg_blockers_per_vertex: f64,
@@ -604,39 +623,67 @@ pub struct PrtReport {
     /// Frames per second of whole frames: animation, lighting, transfer and
     /// shading (`phases_ms`); not checks, images or CSV rows.
     pub fps: f64,
+    /// Frames per second of the fastest whole frame.
     pub fps_best: f64,
     /// Milliseconds per frame by phase, averaged, and over the run.
     pub phases_ms: Option<PhaseReport>,
     /// Where the animation comes from (None: a static mesh).
     pub animation: Option<AnimationSource>,
-    /// Animation time of the first frame and between frames, seconds.
+    /// Animation time of the first frame, seconds.
     pub start: f32,
+    /// Animation time between frames, seconds.
     pub dt: f32,
     /// Mean relative L2 error of the transfer against ray tracing (checks only).
     pub transfer_l2_error: Option<f64>,
+    /// Frames played.
     pub frames: usize,
     /// Whole frames (as `fps`).
     pub frame_ms: FrameTimes,
+    /// Milliseconds of the SH transfer kernel per frame, on average, from
+    /// GPU timestamps; `None` on the CPU, with ray-traced shadows, or where
+    /// the device has no timestamps.
     pub gpu_ms_per_frame: Option<f64>,
+    /// SH bands (`PrtSettings::bands`; 5 is the paper's 25-term basis).
     pub order: usize,
+    /// SH coefficients per transfer vector, `order²`.
     pub coefficients: usize,
+    /// Mask side S in pixels (S x S masks).
     pub mask: usize,
+    /// How masks were integrated against the basis.
     pub integration: Integration,
+    /// The plane LUT.
     pub lut: LutReport,
+    /// The BRDF integrated into the transfer.
     pub brdf: Brdf,
+    /// Where visibility came from.
     pub shadows: Shadows,
+    /// The two-level mesh hierarchy and culling groups.
     pub hierarchy: HierarchyReport,
+    /// Whether blockers facing away from the vertex were culled.
     pub backface_culling: bool,
+    /// Whether each vertex was shaded on the side facing the eye.
     pub two_sided: bool,
     /// How culling and sidedness were decided (`prt::sides`).
     pub sides: Sides,
+    /// The potentially visible set gathered before the first frame (`None`:
+    /// none, the hierarchy's lists were used).
     pub pvs: Option<PvsReport>,
     /// Blockers per vertex before culling (= `blockers_per_vertex.before_culling`).
     pub avg_candidates_per_vertex: f64,
+    /// Blockers culled per vertex, by reason.
     pub culling_per_vertex: CullingReport,
+    /// Vertices without a normal (no triangle of non-zero area uses them)
+    /// per frame, the mean rounded down: their transfer and radiance are
+    /// zero.
     pub without_normal: u64,
+    /// The paper's Table 2: share of frame time per phase (with profiling
+    /// only; `None` otherwise).
     pub phases: Option<Phases>,
+    /// Milliseconds building the tables, LUT and hierarchy (wall clock;
+    /// not the GPU upload, the PVS or the self-check).
     pub setup_ms: f64,
+    /// The comparison with ray tracing on the checked frames (`None`: no
+    /// frame checked).
     pub check: Option<CheckReport>,
     /// The ray-traced estimate of the error made at setup (`prt::selfcheck`).
     pub self_check: Option<SelfCheckReport>,
@@ -648,7 +695,11 @@ pub struct PrtReport {
 /// those rasterised after group, horizon, back-face and edge-on culling.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct BlockerCounts {
+    /// Candidates per vertex with a normal, averaged over the frames
+    /// (culling groups' triangles included).
     pub before_culling: f64,
+    /// Blockers rasterised per vertex with a normal, averaged over the
+    /// frames.
     pub after_culling: f64,
 }
 
@@ -669,79 +720,131 @@ pub struct FramePhases {
 /// `phases_ms`: per frame on average and over the run, ms.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct PhaseReport {
+    /// Each phase's mean over the frames, ms.
     pub per_frame: FramePhases,
+    /// Each phase summed over the run, ms.
     pub total: FramePhases,
 }
 
+/// Wall-clock milliseconds of whole frames, as the report's `fps` counts
+/// them (not checks or the host's output).
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct FrameTimes {
+    /// Total over the frames divided by their number.
     pub mean: f64,
+    /// The middle frame time (the upper of the two middle ones for an even
+    /// count).
     pub median: f64,
+    /// The fastest frame.
     pub best: f64,
 }
 
+/// The plane LUT of section 3.1.1.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct LutReport {
+    /// Cells per cube-face side (`PrtSettings::lut_size`; the paper's 128).
     pub size: usize,
+    /// Bytes of the table as stored (three faces).
     pub bytes: usize,
     /// The paper's six-face layout (we store three faces and complement).
     pub paper_layout_bytes: usize,
+    /// Milliseconds building the table (wall clock).
     pub build_ms: f64,
 }
 
+/// The two-level mesh hierarchy and culling groups (section 3.2) as built.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct HierarchyReport {
+    /// Whether the two-level hierarchy was asked for.
     pub enabled: bool,
+    /// Which fine triangles are drawn near a vertex.
     pub near: NearField,
+    /// The k of the k-ring drawn at full resolution (1 or 2).
     pub ring: usize,
+    /// Triangles of the coarse level; `None` where there is none (the far
+    /// blockers are the whole mesh).
     pub low_res_triangles: Option<usize>,
     /// `HierarchySettings::tolerance`, radians (0: no refinement).
     pub tolerance: f32,
     /// Coarse triangles' deviation from the fine surface (`prt::proxy`),
     /// relative to the rest pose's bounding-box diagonal: mean and largest.
     pub deviation_mean: Option<f64>,
+    /// The largest such deviation, relative likewise; `None` without a
+    /// coarse level or refinement.
     pub deviation_max: Option<f64>,
     /// Per vertex, on average: fine triangles drawn near it and coarse
     /// triangles they replace (the near field, refinement included).
     pub near_triangles_per_vertex: f64,
+    /// Far triangles skipped per vertex on average, in place of its near
+    /// field.
     pub replaced_per_vertex: f64,
+    /// Culling groups of the far triangles.
     pub groups: usize,
+    /// Whether groups below a vertex's tangent plane were skipped.
     pub group_culling: bool,
 }
 
+/// The potentially visible set gathered from sampled poses (section 3.2).
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct PvsReport {
+    /// Poses it was gathered from.
     pub frames: usize,
+    /// Milliseconds posing the mesh and building the sets (wall clock).
     pub build_ms: f64,
+    /// Blockers per vertex in the sets, on average.
     pub avg_size: f64,
 }
 
 /// Blockers culled per vertex, by reason.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct CullingReport {
+    /// Skipped with their culling group (box below the tangent plane).
     pub groups: f64,
+    /// No vertex above the tangent plane.
     pub below_horizon: f64,
+    /// Facing away from the vertex (back-face culling on).
     pub back_facing: f64,
+    /// Seen edge-on (zero solid angle), zero-area triangles included.
     pub edge_on: f64,
 }
 
 /// Share of frame time per phase (the paper's Table 2) and ms per frame.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct Phases {
+    /// Share of tangent frames, group culling, blockers into the frame and
+    /// horizon culling, in [0, 1].
     pub transform: f64,
+    /// Share of edge planes, back-face and edge-on tests, LUT fetches and
+    /// AND/OR, in [0, 1].
     pub rasterization: f64,
+    /// Share of downsampling, SH integration and rotation to world space
+    /// (on a GPU: the kernel's time), in [0, 1].
     pub integration: f64,
+    /// Share of the rest: normals, group boxes, shading, bookkeeping (on a
+    /// GPU: uploads, readback and waits), in [0, 1].
     pub other: f64,
+    /// Milliseconds per frame of transform, rasterisation, integration and
+    /// other: CPU phases summed over threads and divided by their number
+    /// (on a GPU, integration and other as above).
     pub ms_per_frame: [f64; 4],
 }
 
+/// The transfer of the checked frames compared with Monte Carlo ray tracing
+/// of the full mesh (the paper's Table 1 error: mean relative L2 error).
 #[derive(Debug, Clone, Serialize)]
 pub struct CheckReport {
+    /// Rays per vertex of the reference.
     pub rays: u32,
+    /// The frames checked, evenly spread over the run.
     pub frames: Vec<usize>,
+    /// Each checked frame's mean relative L2 transfer error, `frames` order.
     pub per_frame: Vec<f64>,
+    /// Vertices compared, summed over the checked frames.
     pub vertices: usize,
+    /// Vertices skipped as nearly dark (a reference transfer of at most 1%
+    /// of the unoccluded transfer's length), summed over the checked frames.
     pub skipped_dark: usize,
+    /// Seed of the reference's ray directions.
     pub seed: u32,
 }
 

@@ -24,23 +24,33 @@ use crate::sh::{ShRotation, coefficient_count, project_environment};
 /// What playing a scene measured (`prt --scene --json`).
 #[derive(Debug, Clone, Serialize)]
 pub struct SceneReport {
+    /// Every object of the scene, in instance order.
     pub objects: Vec<ObjectReport>,
     /// Over the shaded objects.
     pub vertices: usize,
     /// Every object's triangles, shaded or casting.
     pub triangles: usize,
+    /// How other objects shadowed each shaded one.
     pub inter_object: InterObject,
+    /// Where visibility came from.
     pub shadows: Shadows,
     /// Frames per second of whole frames: poses, lighting, blockers,
     /// transfer and shading of every object (`phases_ms`); not checks or output.
     pub fps: f64,
+    /// Frames per second of the fastest whole frame.
     pub fps_best: f64,
+    /// Whole frames (as `fps`).
     pub frame_ms: FrameTimes,
+    /// Milliseconds of each phase of a frame, averaged over the frames.
     pub phases_ms: ScenePhases,
     /// With `--profile`: shares of the per-vertex time over every object
     /// (the paper's Table 2) and ms per frame (`runner::Phases`).
     pub phases: Option<Phases>,
+    /// Milliseconds of the SH transfer kernels per frame (every object's
+    /// summed), on average, from GPU timestamps; `None` on the CPU, with
+    /// ray-traced shadows, or where the device has no timestamps.
     pub gpu_ms_per_frame: Option<f64>,
+    /// Frames played.
     pub frames: usize,
     /// Blockers per shaded vertex, over the scene.
     pub blockers_per_vertex: BlockersPerVertex,
@@ -53,28 +63,50 @@ pub struct SceneReport {
     /// What the coarse approximation costs against the other objects' full
     /// meshes (coarse - fine), and what inter-object shadows buy (off - coarse).
     pub inter_object_cost: Option<f64>,
+    /// What inter-object shadows buy: the error with them off minus the
+    /// error with the coarse approximation (checks with `--shadows on`
+    /// only).
     pub inter_object_gain: Option<f64>,
+    /// The comparison with ray tracing on the checked frames (`None`: no
+    /// frame checked).
     pub check: Option<SceneCheck>,
+    /// SH bands (`PrtSettings::bands`).
     pub order: usize,
+    /// SH coefficients per transfer vector, `order²`.
     pub coefficients: usize,
+    /// Mask side S in pixels.
     pub mask: usize,
+    /// Milliseconds building every object's tables, LUT and hierarchy,
+    /// summed (wall clock).
     pub setup_ms: f64,
+    /// How the lighting was windowed to keep it non-negative (`sh::window`).
     pub lighting: Deringing,
 }
 
 /// One object of the report.
 #[derive(Debug, Clone, Serialize)]
 pub struct ObjectReport {
+    /// The instance's name.
     pub name: String,
+    /// Whether it casts, is shaded, or both.
     pub role: Role,
+    /// Its mesh's vertices.
     pub vertices: usize,
+    /// Its mesh's triangles.
     pub triangles: usize,
     /// Triangles of the approximation other objects draw (its far level).
     pub coarse_triangles: usize,
+    /// Blockers per vertex of this object (`None`: it is not shaded).
     pub blockers_per_vertex: Option<BlockersPerVertex>,
+    /// Its mean relative L2 transfer error against ray tracing of the whole
+    /// scene, over the checked frames (shaded objects with checks only).
     pub transfer_l2_error: Option<f64>,
+    /// The same error by inter-object mode (shaded objects, checks with
+    /// `--shadows on` only).
     pub errors_by_inter_object: Option<ModeErrors>,
+    /// Whether blockers facing away from its vertices were culled.
     pub backface_culling: bool,
+    /// Whether its vertices were shaded on the side facing the eye.
     pub two_sided: bool,
     /// The self-check of the object alone (self-shadowing; `selfcheck`).
     pub self_check: Option<SelfCheckReport>,
@@ -85,28 +117,41 @@ pub struct ObjectReport {
 /// after every culling, own and others together.
 #[derive(Debug, Clone, Serialize)]
 pub struct BlockersPerVertex {
+    /// The object's own candidates (hierarchy lists), before any culling.
     pub own_before_culling: f64,
+    /// The other objects' blockers, by what happened to them.
     pub others: OtherPerVertex,
+    /// Blockers rasterised, own and others', after every culling.
     pub drawn: f64,
 }
 
 /// `OtherStats` per vertex.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct OtherPerVertex {
+    /// Triangles of the other objects' approximations, before culling.
     pub before_culling: f64,
+    /// Skipped with their whole object (below the horizon, under a pixel).
     pub object_culled: f64,
+    /// Skipped with their culling group.
     pub group_culled: f64,
+    /// Coarse triangles replaced by fine ones near contact.
     pub refined: f64,
+    /// Fine triangles drawn in their place.
     pub refined_fine: f64,
+    /// Gathered triangles wholly below the horizon.
     pub below_horizon: f64,
+    /// Triangles passed to the rasteriser (before back-face culling).
     pub gathered: f64,
 }
 
 /// Error against ray tracing of the whole scene by inter-object mode.
 #[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct ModeErrors {
+    /// Self-shadowing only ([`InterObject::Off`]).
     pub off: f64,
+    /// Other objects' coarse levels ([`InterObject::Coarse`]).
     pub coarse: f64,
+    /// Other objects' full meshes ([`InterObject::Fine`]).
     pub fine: f64,
 }
 
@@ -125,14 +170,22 @@ pub struct ScenePhases {
     pub output: f64,
 }
 
+/// The scene's transfer on the checked frames compared with Monte Carlo ray
+/// tracing of the whole scene at full resolution.
 #[derive(Debug, Clone, Serialize)]
 pub struct SceneCheck {
+    /// Rays per vertex of the reference.
     pub rays: u32,
+    /// The frames checked, evenly spread over the run.
     pub frames: Vec<usize>,
     /// The error of each checked frame (mode in use).
     pub per_frame: Vec<f64>,
+    /// Shaded vertices compared, summed over the checked frames.
     pub vertices: usize,
+    /// Vertices skipped as nearly dark (a reference transfer of at most 1%
+    /// of the unoccluded transfer's length), summed over the checked frames.
     pub skipped_dark: usize,
+    /// Seed of the reference's ray directions.
     pub seed: u32,
 }
 

@@ -59,6 +59,8 @@ impl Default for SelfCheck {
 }
 
 impl SelfCheck {
+    /// Checks for at least one vertex and one ray and a positive, finite
+    /// threshold; an error naming the setting otherwise.
     pub fn validate(&self) -> Result<()> {
         if self.vertices == 0 || self.rays == 0 {
             return Err(Error::param("self_check", "needs at least one vertex and one ray"));
@@ -80,15 +82,22 @@ pub struct SelfCheckReport {
     pub estimate: f64,
     /// One standard error of the estimate from sampling vertices.
     pub uncertainty: f64,
-    /// Vertices compared, and those skipped as nearly dark (as `--check`).
+    /// Vertices compared (draws: a vertex drawn twice counts twice).
     pub vertices: usize,
+    /// Drawn vertices skipped as nearly dark: a reference transfer of at
+    /// most 1% of the unoccluded transfer's length (as `--check`).
     pub skipped_dark: usize,
     /// The frames the samples were spread over.
     pub frames: Vec<usize>,
+    /// Rays traced per sampled vertex.
     pub rays: u32,
+    /// The estimated error above which `exceeded` is set.
     pub threshold: f64,
-    /// Whether the estimate is above the threshold (a warning is printed).
+    /// Whether the estimate is above the threshold (then `warning` has the
+    /// text for a user).
     pub exceeded: bool,
+    /// Milliseconds the self-check took (wall clock: frames, kd-trees and
+    /// rays).
     pub ms: f64,
 }
 

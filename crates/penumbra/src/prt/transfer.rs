@@ -52,7 +52,12 @@ pub enum Brdf {
     Diffuse,
     /// Diffuse base plus a normalised Phong lobe about the reflected view
     /// direction; view-dependent.
-    Phong { shininess: f32, specular: f32 },
+    Phong {
+        /// The lobe's exponent e, in [0, 10000].
+        shininess: f32,
+        /// The lobe's weight k_s, in [0, 1]; the diffuse base has 1 - k_s.
+        specular: f32,
+    },
 }
 
 impl Brdf {
@@ -76,6 +81,7 @@ impl Brdf {
         }
     }
 
+    /// `"diffuse"` or `"phong"`, as reports and the command line name it.
     pub fn name(&self) -> &'static str {
         match self {
             Brdf::Diffuse => "diffuse",
@@ -113,6 +119,8 @@ pub enum Integration {
 crate::choice!(Integration { Cells = "cells", CellsLinear = "cells-linear", Pixels = "pixels" });
 
 impl Integration {
+    /// `"cells"`, `"cells-linear"` or `"pixels"`, as reports and the
+    /// command line name it.
     pub fn name(self) -> &'static str {
         match self {
             Integration::Cells => "cells",
@@ -133,10 +141,16 @@ impl Integration {
 /// per-pixel values looked up four pixels (one nibble of a row) at a time.
 #[derive(Debug, Clone)]
 pub struct CellTables {
+    /// Mask side S in pixels.
     pub side: usize,
+    /// SH bands.
     pub bands: usize,
+    /// SH coefficients, `bands²`.
     pub coeffs: usize,
+    /// Cells of 4x4 pixels, `(S / 4)²`.
     pub cells: usize,
+    /// How [`CellTables::integrate`] uses the tables (all of them are built
+    /// whatever this is).
     pub integration: Integration,
     /// `B_ci / π`, cell-major (`cells x coeffs`).
     pub basis: Vec<f32>,
@@ -146,9 +160,11 @@ pub struct CellTables {
     pub pixel_basis: Vec<f32>,
     /// Cell areas A_c.
     pub area: Vec<f32>,
-    /// Per pixel: `A_p / A_c`, and its first moments `∫_p (x - x̄_c) dA / A_c`,
-    /// `∫_p (y - ȳ_c) dA / A_c` (0 outside the disk). The WGSL kernel's layout.
+    /// Per pixel, `A_p / A_c` with c the pixel's cell (0 outside the disk).
+    /// The WGSL kernel's layout.
     pub pixel_fraction: Vec<f32>,
+    /// Per pixel, its first moments about its cell's centroid,
+    /// `[∫_p (x - x̄_c) dA / A_c, ∫_p (y - ȳ_c) dA / A_c]` (0 outside the disk).
     pub pixel_moment: Vec<[f32; 2]>,
     /// Per cell and row k of its 4 rows, for each of the 16 nibble values:
     /// occluded fraction and first moments (`cells x 4 x 16 x [o, μx, μy]`).
@@ -160,10 +176,13 @@ pub struct CellTables {
 }
 
 impl CellTables {
+    /// The tables for [`Integration::CellsLinear`], the default.
     pub fn new(grid: &MaskGrid, bands: usize) -> CellTables {
         Self::with_integration(grid, bands, Integration::CellsLinear)
     }
 
+    /// The tables of `grid` and `bands` bands, integrated once by
+    /// `disk_rect_quadrature` to rounding, for `integration`.
     pub fn with_integration(grid: &MaskGrid, bands: usize, integration: Integration) -> CellTables {
         let basis_fn = ShBasis::new(bands);
         let n = coefficient_count(bands);

@@ -14,7 +14,9 @@ pub const MAX_RUNS: u32 = 1000;
 /// How many untimed and measured runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Repeats {
+    /// Untimed runs before the measured ones (at most [`MAX_RUNS`]).
     pub warmup: u32,
+    /// Measured runs (1 to [`MAX_RUNS`]; [`Repeats::run`] runs at least one).
     pub repeat: u32,
 }
 
@@ -29,10 +31,16 @@ impl Default for Repeats {
 pub struct RunTimes {
     /// Which time: the report's field the runs measure.
     pub measure: &'static str,
+    /// Untimed warm-up runs made before the measured ones.
     pub warmup: u32,
+    /// Measured runs: the length of `ms`.
     pub repeat: u32,
+    /// Fastest measured run, in milliseconds (NaN when none was measured).
     pub min_ms: f64,
+    /// Median of the measured runs, in milliseconds: the mean of the middle
+    /// two for an even count (NaN when none was measured).
     pub median_ms: f64,
+    /// Slowest measured run, in milliseconds (NaN when none was measured).
     pub max_ms: f64,
     /// Every measured run's time, in order.
     pub ms: Vec<f64>,

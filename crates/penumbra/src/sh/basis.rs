@@ -68,14 +68,17 @@ impl ShBasis {
         }
     }
 
+    /// Number of bands: l = 0..bands - 1.
     pub fn bands(&self) -> usize {
         self.bands
     }
 
+    /// Number of basis functions, `bands²`.
     pub fn len(&self) -> usize {
         coefficient_count(self.bands)
     }
 
+    /// Always false: a basis has at least one band.
     pub fn is_empty(&self) -> bool {
         false
     }

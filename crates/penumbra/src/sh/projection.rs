@@ -24,11 +24,15 @@ use crate::scene::EnvironmentMap;
 /// SH coefficients of RGB radiance: `rgb[i]` is coefficient i of (r, g, b).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ShRgb {
+    /// Number of bands; `rgb` holds `bands²` coefficients.
     pub bands: usize,
+    /// Coefficient `l (l + 1) + m` of red, green and blue (the order of the
+    /// module documentation of `sh`).
     pub rgb: Vec<[f64; 3]>,
 }
 
 impl ShRgb {
+    /// All `bands²` coefficients zero: no light.
     pub fn zeros(bands: usize) -> ShRgb {
         ShRgb {
             bands,

@@ -57,11 +57,15 @@ pub fn gauss_legendre_on(n: usize, a: f64, b: f64) -> Vec<(f64, f64)> {
 /// in (x, y, z); `for_degree(d)` picks the smallest such rule.
 #[derive(Debug, Clone)]
 pub struct SphereQuadrature {
+    /// The nodes, unit directions, `nphi` azimuths per z node.
     pub points: Vec<DVec3>,
+    /// Each node's weight (solid angle, steradians): they sum to 4π.
     pub weights: Vec<f64>,
 }
 
 impl SphereQuadrature {
+    /// The rule of `nz` Gauss–Legendre nodes in z and `nphi` azimuths at
+    /// (k + ½) 2π / `nphi`: `nz · nphi` points.
     pub fn new(nz: usize, nphi: usize) -> SphereQuadrature {
         let (z, wz) = gauss_legendre(nz);
         let mut points = Vec::with_capacity(nz * nphi);

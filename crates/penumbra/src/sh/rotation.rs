@@ -32,6 +32,8 @@ pub struct ShRotation {
 }
 
 impl ShRotation {
+    /// The D(Rx(90°)) matrices of `bands` bands (at least one), projected
+    /// with an exact product quadrature.
     pub fn new(bands: usize) -> ShRotation {
         let basis = ShBasis::new(bands);
         let q = SphereQuadrature::for_degree(2 * (bands - 1));
@@ -58,6 +60,7 @@ impl ShRotation {
         ShRotation { bands, x90, x90_32 }
     }
 
+    /// Number of bands the matrices cover.
     pub fn bands(&self) -> usize {
         self.bands
     }

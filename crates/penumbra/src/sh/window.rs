@@ -117,9 +117,17 @@ fn least(sums: &[Vec<[f64; 3]>], window: &[f64]) -> f64 {
 /// relative to the mean radiance (`lighting` in the PRT report).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Deringing {
+    /// The exponent s of the kernel `((1 + cos γ) / 2)^s`, at least
+    /// `bands - 1`; `None` when the lighting was already non-negative.
     pub exponent: Option<f64>,
+    /// The per-band factors `σ_l(s)` applied, band 0 first (`σ_0` = 1);
+    /// `None` when no window was needed.
     pub window: Option<Vec<f64>>,
+    /// The least reconstructed radiance of any channel over the grid of
+    /// directions, divided by the mean radiance, before windowing
+    /// (negative: the lighting rang).
     pub least_before: f64,
+    /// The same after windowing (equal to `least_before` when unwindowed).
     pub least_after: f64,
 }
 
