@@ -38,6 +38,8 @@ use crate::mlrta::tiles::{Rect, TileReport, block_rects, trace_image, trace_rect
 use crate::mlrta::{MlrtaSettings, Prepared};
 use crate::scene::Camera;
 
+/// Where anti-aliasing spends extra rays (`AaRequest::mode`; see the module
+/// documentation for how adaptive mode picks its pixels).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
@@ -62,10 +64,9 @@ pub fn validate_samples(n: u32) -> Result<()> {
     Ok(())
 }
 
-/// The rectangles that get extra rays: final tiles and blocks of diverging
-/// tiles whose footprint may contain an edge (see the module documentation).
-/// The final tiles (or diverging tiles' 4x4 blocks) whose footprint shows
-/// complex geometry, and how many footprints were searched.
+/// The rectangles that get extra rays: final tiles of the one-ray pass and
+/// 4x4 blocks of its diverging tiles whose footprint may contain an edge
+/// (see the module documentation), and how many footprints were searched.
 pub fn complex_units(
     p: &Prepared,
     camera: &Camera,
@@ -142,11 +143,18 @@ fn is_planar_leaf(p: &Prepared, node: u32) -> bool {
 
 /// An anti-aliased image.
 pub struct AaResult {
+    /// Where the extra rays went.
     pub mode: AaMode,
+    /// Rays per pixel of the stratified grid, in the pixels that get one
+    /// (every pixel with `Uniform`, the complex units' with `Adaptive`, none
+    /// with `None`).
     pub samples: u32,
-    /// Shaded value per pixel.
+    /// Shaded value per pixel, row-major: |cos| between ray and triangle
+    /// times stripes across the scene, 0 for background; the mean over the
+    /// pixel's grid where it has one.
     pub image: Vec<f32>,
-    /// Rays per pixel.
+    /// Rays per pixel, row-major: 1 for the one-ray pass, plus `samples`
+    /// where the grid was traced (`samples` alone with `Uniform`).
     pub spp: Vec<u32>,
     /// Every ray traced: the one-ray pass (adaptive), the footprint
     /// searches (one per tile or block, counted as a ray each) and the
@@ -158,12 +166,17 @@ pub struct AaResult {
     pub complex_units: usize,
     /// Final tiles of the one-ray pass.
     pub tiles: usize,
+    /// Wall-clock milliseconds of `render`: its own one-ray pass (`None`,
+    /// `Adaptive`), the footprint searches and the extra samples.
     pub ms: f64,
 }
 
 /// The 16-ray reference: shaded values and edge pixels.
 pub struct Reference {
+    /// Per pixel, row-major, the mean shaded value of its 16 samples.
     pub image: Vec<f32>,
+    /// Per pixel, whether its 16 samples do not all hit the same triangle
+    /// (or all miss): the pixels the edge error is measured on.
     pub edges: Vec<bool>,
     /// The same scene with uniform supersampling at the samples asked for.
     pub uniform: Option<AaResult>,

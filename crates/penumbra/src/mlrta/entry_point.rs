@@ -34,7 +34,9 @@ use crate::mlrta::prepared::{Occluder, Prepared};
 /// Where a group starts its traversal.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EntryPoint {
+    /// Index of the node in the kd-tree's `nodes` (0: the root).
     pub node: u32,
+    /// The node's cell: the tree's bounds cut by the splits above it.
     pub cell: Aabb,
     /// Reached through a stopping rule: see the module documentation.
     pub speculative: bool,

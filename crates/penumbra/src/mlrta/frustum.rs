@@ -37,16 +37,21 @@ pub fn up(x: f32) -> f32 {
 /// A closed interval `[lo, hi]` of f32.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Interval {
+    /// Lower end.
     pub lo: f32,
+    /// Upper end; below `lo` for an empty interval.
     pub hi: f32,
 }
 
 impl Interval {
+    /// The empty interval `[+inf, -inf]`, the start of a running hull
+    /// (`include`, `hull`).
     pub const EMPTY: Interval = Interval {
         lo: f32::INFINITY,
         hi: f32::NEG_INFINITY,
     };
 
+    /// Grows the interval to hold `x`.
     pub fn include(&mut self, x: f32) {
         self.lo = self.lo.min(x);
         self.hi = self.hi.max(x);
@@ -63,6 +68,7 @@ impl Interval {
         }
     }
 
+    /// `self + x`: both ends moved by `x`.
     #[inline]
     pub fn offset(self, x: f32) -> Interval {
         Interval {
@@ -92,7 +98,9 @@ impl Interval {
 /// Which children of an interior node a group may enter.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Children {
+    /// The child on the low side of the split plane (`x_axis <= split`).
     pub below: bool,
+    /// The child on the high side of the split plane (`x_axis >= split`).
     pub above: bool,
 }
 
@@ -165,6 +173,8 @@ impl FrustumBounds {
         }
     }
 
+    /// The frustum of the rays added, from `origin` and ending at `t_max`,
+    /// its intervals widened by `SLACK`; `None` if no ray was added.
     pub fn finish(self, origin: Vec3, t_max: f32) -> Option<Frustum> {
         let class = self.class?;
         let interval = |lo: f32, hi: f32| Interval { lo, hi }.widened();
@@ -190,6 +200,7 @@ impl FrustumBounds {
 /// A group of rays with a common origin and same-sign directions.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Frustum {
+    /// The rays' common origin.
     pub origin: Vec3,
     /// Per axis, whether the directions' components are positive.
     pub positive: [bool; 3],

@@ -31,22 +31,41 @@ use crate::mlrta::tiles::{
 };
 use crate::progress::Bar;
 
-/// `PacketRecord` in `wgsl/packet_traverse.wgsl`.
+/// One packet for the kernel (up to 16 rays with a common origin, or one
+/// ray traced alone); mirrors `PacketRecord` in `wgsl/packet_traverse.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct PacketRecord {
+    /// The rays' common origin.
     pub origin: [f32; 3],
+    /// Rays end at this `t` (in units of their directions); `f32::MAX` for
+    /// none. Re-traces from the root use it.
     pub t_max: f32,
+    /// Per axis, the lower end of the packet's widened interval of `1 / d`
+    /// (`Frustum::inv`).
     pub inv_lo: [f32; 3],
+    /// `EntryPoint::node`: the kd-tree node the traversal starts at.
     pub entry_node: u32,
+    /// Per axis, the upper end of the widened interval of `1 / d`.
     pub inv_hi: [f32; 3],
+    /// Index of the packet's first ray in the directions and hits buffers;
+    /// its rays follow it.
     pub first_ray: u32,
+    /// Lower corner of the entry point's cell (`EntryPoint::cell`).
     pub cell_min: [f32; 3],
+    /// Rays in the packet, 1 to 16.
     pub ray_count: u32,
+    /// Upper corner of the entry point's cell.
     pub cell_max: [f32; 3],
+    /// Bits 0 to 2: the directions' x, y, z components are positive; 8:
+    /// the entry point is speculative (rays that miss are traced again from
+    /// the root); 16: any hit will do (shadow rays); 32: a single ray
+    /// traced from the root (a zero direction component), no frustum.
     pub flags: u32,
-    /// `EntryPoint::t_limit` (at most `t_max`).
+    /// `EntryPoint::t_limit` (at most `t_max`): the packet traversal stops
+    /// there.
     pub t_limit: f32,
+    /// Padding to the WGSL struct's 16-byte size multiple.
     pub _pad: [f32; 3],
 }
 
@@ -223,13 +242,17 @@ impl Batch {
     }
 }
 
-/// What `trace_image_gpu` returns besides the image.
+/// An image traced with its packets on the GPU
+/// (`PacketBatches::trace_image`), and where its time went.
 pub struct GpuImageTrace {
+    /// Hits, shadow flags, counts and tiles, as the CPU path returns them.
     pub image: ImageTrace,
     /// Kernel time of the packet passes (timestamps), where supported.
     pub gpu_ms: Option<f64>,
     /// CPU time spent on tiles, entry points and packet records.
     pub cpu_ms: f64,
+    /// Wall-clock milliseconds of the whole call, uploads and read-backs
+    /// included.
     pub wall_ms: f64,
 }
 

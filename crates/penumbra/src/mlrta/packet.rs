@@ -54,8 +54,9 @@ pub struct MlrtaCounts {
     pub isects: u64,
     /// Ray-triangle tests (each active ray of each packet test).
     pub ray_tests: u64,
-    /// Leaves packets visited, and how many of them were empty.
+    /// Leaves packets visited.
     pub xp_leaves: u64,
+    /// How many of those leaves held no triangle.
     pub xp_empty_leaves: u64,
     /// Rays traced one by one: diverging directions (a zero component) and
     /// re-traces after a speculative entry point.
@@ -87,8 +88,13 @@ impl std::ops::AddAssign for MlrtaCounts {
 /// each lane needs precomputed, lane by lane side by side (unused lanes
 /// repeat lane 0, so that the arithmetic stays valid for all sixteen).
 pub struct Packet {
+    /// What is known of the packet's rays as a group (its widened
+    /// intervals), for the interval traversal and entry-point searches.
     pub frustum: Frustum,
+    /// Rays in the packet, 1 to 16.
     pub len: usize,
+    /// The rays' directions, lane by lane (lanes from `len` on repeat
+    /// lane 0).
     pub dirs: [Vec3; PACKET],
     /// `1 / d` per axis and lane, for the lanes' own slab tests at leaves.
     inv: [[f32; PACKET]; 3],

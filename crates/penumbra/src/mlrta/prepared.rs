@@ -48,6 +48,7 @@ pub enum Occluder {
 
 /// A kd-tree with what MLRTA needs on top of it.
 pub struct Prepared<'a> {
+    /// The kd-tree, built from the mesh `new` was given.
     pub tree: &'a KdTree,
     /// One past the last node of each node's subtree (depth-first layout).
     pub subtree_end: Vec<u32>,

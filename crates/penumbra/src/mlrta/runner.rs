@@ -32,6 +32,7 @@ const PACKET: u32 = 4;
 /// Where shadow rays go.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ShadowLight {
+    /// No shadow rays.
     None,
     /// A point light one scene diagonal above the scene, slightly off-axis.
     AboveScene,
@@ -56,6 +57,8 @@ impl ShadowLight {
 /// Anti-aliasing and its measurement.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AaRequest {
+    /// Where extra rays go (`AaMode::None`: no anti-aliasing, one ray per
+    /// pixel).
     pub mode: AaMode,
     /// Rays per pixel where it applies (a square, 4 to 64).
     pub samples: u32,
@@ -66,6 +69,7 @@ pub struct AaRequest {
 /// One image to trace.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TraceRequest {
+    /// The camera (resolved against the scene's) and the image size.
     pub view: View,
     /// One ray at a time instead of packets.
     pub single_ray: bool,
@@ -76,11 +80,17 @@ pub struct TraceRequest {
     pub accel: Structure,
     /// Packets: entry points on or off, tile sizes.
     pub params: MlrtaSettings,
+    /// Where shadow rays go, one from the light to each primary hit.
     pub light: ShadowLight,
+    /// Anti-aliasing (packets through the kd-tree only).
     pub aa: AaRequest,
 }
 
 impl TraceRequest {
+    /// Checks the image size, that anti-aliasing has MLRTA's tiles to
+    /// follow (not BVH packets), the tile knobs
+    /// (`MlrtaSettings::validate`) and the anti-aliasing sample count (a
+    /// square from 4 to 64, checked whatever the mode).
     pub fn validate(&self) -> Result<()> {
         crate::scene::check_image_size(self.view.width, self.view.height)?;
         if !self.single_ray && self.accel == Structure::Bvh && self.aa.mode != AaMode::None {
@@ -96,28 +106,43 @@ impl TraceRequest {
 
 /// A traced image: its rays, hits and shadows, and what it cost.
 pub struct TracedImage {
+    /// The camera the view resolved to, in the mesh's frame (`Mesh::origin`
+    /// subtracted).
     pub camera: Camera,
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
+    /// The primary rays, one per pixel, row-major from the top left, in the
+    /// mesh's frame.
     pub rays: Vec<Ray>,
+    /// Per ray, its closest hit (`Hit::MISS` where it hits nothing).
     pub hits: Vec<Hit>,
     /// Per pixel, whether the hit is in shadow (with a light).
     pub shadowed: Option<Vec<bool>>,
+    /// The point light the shadow rays start from, in the mesh's frame;
+    /// `None` without shadows.
     pub light: Option<Vec3>,
     /// Final tiles (packets only).
     pub tiles: Vec<TileReport>,
     /// The anti-aliased image and where its rays went (with AA).
     pub aa: Option<aa::AaResult>,
+    /// What it cost, as `penumbra trace --json` reports it.
     pub stats: TraceStats,
 }
 
 /// What `penumbra trace --json` reports, by the paper's Tables 2 and 3.
 #[derive(Debug, Clone, Serialize)]
 pub struct TraceStats {
+    /// Primary rays: one per pixel.
     pub rays: usize,
+    /// Primary rays that hit a triangle.
     pub hits: usize,
+    /// Wall-clock milliseconds of the kd-tree's build (`kdtree.build_ms`).
     pub build_ms: f64,
+    /// The kd-tree built for the mesh (every mode builds it).
     pub kdtree: BuildStats,
+    /// The camera in world (file) coordinates, where the user's scene is.
     pub camera: Camera,
     /// "single-ray", MLRTA "on"/"off", or "bvh-packets".
     pub mlrta: &'static str,
@@ -132,17 +157,27 @@ pub struct TraceStats {
     /// BVH packets: what the walk did (rays that went one by one included).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bvh_packets: Option<PacketCounts>,
+    /// How `trace_ms` was measured.
     pub timing: Timing,
     /// Primary (and shadow) rays' time: kernel time on a GPU with timestamps.
     pub trace_ms: f64,
+    /// Millions of rays per second over `trace_ms`: the primary rays, and
+    /// with a light one shadow ray per hit.
     pub mrays_per_s: f64,
     /// Traversal steps (entry-point and packet steps together) per 4x4 packet.
     pub cells_per_packet: f64,
+    /// Triangle tests per 4x4 packet of the image (Table 2's intersection
+    /// tests: a triangle tested against any of a packet's rays counts once;
+    /// single rays' tests each count).
     pub isects_per_packet: f64,
+    /// Packets through the kd-tree: their counts, preparation and tiles
+    /// (flattened into the report); `None` for single rays and BVH packets.
     #[serde(flatten)]
     pub packets: Option<PacketStats>,
+    /// Shadow rays, with a light.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shadows: Option<ShadowStats>,
+    /// The anti-aliasing report (`AaResult::report`), with anti-aliasing.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub aa: Option<Value>,
 }
@@ -150,42 +185,70 @@ pub struct TraceStats {
 /// Statistics of packets with or without entry points.
 #[derive(Debug, Clone, Serialize)]
 pub struct PacketStats {
+    /// Nodes the primary rays' entry-point searches visited, per 4x4 packet
+    /// of the image.
     pub ep_steps_per_packet: f64,
+    /// The primary rays' statistics, summed over the image.
     pub counts: MlrtaCounts,
+    /// Wall-clock milliseconds of preparing the kd-tree for MLRTA
+    /// (subtree sizes, occluders); not part of `trace_ms`.
     pub prepare_ms: f64,
+    /// What the preparation found.
     pub prepared: PreparedStats,
+    /// The tile knobs and the tiles they made.
     pub tiles: TileStats,
     /// GPU: CPU time of tiles, entry points and packet records.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cpu_ms: Option<f64>,
+    /// GPU: wall-clock milliseconds of the whole image, CPU work, uploads
+    /// and read-backs included.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub wall_ms: Option<f64>,
 }
 
+/// Tile splitting of the primary rays (section 4.2): the knobs and the
+/// final tiles they made.
 #[derive(Debug, Clone, Serialize)]
 pub struct TileStats {
+    /// Initial tile side in pixels (ITS, `MlrtaSettings::initial_tile`).
     pub initial: u32,
+    /// Minimum tile side in pixels (MTS, `MlrtaSettings::min_tile`).
     pub min: u32,
+    /// Pieces a tile is split into (SF).
     pub split_factor: u32,
+    /// Final tiles (reported as `final`).
     #[serde(rename = "final")]
     pub final_tiles: usize,
+    /// Final tiles whose rays' directions differ in sign (no entry point).
     pub diverging: usize,
+    /// Final tiles whose entry-point search stopped at an occluder
+    /// (stopping rule (4)).
     pub stopped_at_occluder: usize,
 }
 
 /// Shadow rays: primary + shadow statistics (packets only), and results.
 #[derive(Debug, Clone, Serialize)]
 pub struct ShadowStats {
+    /// The point light, in the mesh's frame.
     pub light: [f32; 3],
+    /// Traversal steps of primary and shadow rays together per 4x4 packet
+    /// (Table 3); kd-tree packets only.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cells_per_packet: Option<f64>,
+    /// Triangle tests of primary and shadow rays together per 4x4 packet;
+    /// kd-tree packets only.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub isects_per_packet: Option<f64>,
+    /// Entry-point search steps of primary and shadow rays together per 4x4
+    /// packet; kd-tree packets only.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ep_steps_per_packet: Option<f64>,
+    /// The shadow rays' own statistics; kd-tree packets only.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub counts: Option<MlrtaCounts>,
+    /// Shadow rays traced: one per primary hit.
     pub shadow_rays: usize,
+    /// Primary hits whose shadow ray is blocked.
     pub shadowed_hits: usize,
 }
 

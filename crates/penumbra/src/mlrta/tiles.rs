@@ -92,6 +92,8 @@ impl Default for MlrtaSettings {
 }
 
 impl MlrtaSettings {
+    /// Checks that `split_factor` is a square of at least 4 and that
+    /// 4 <= `min_tile` <= `initial_tile`.
     pub fn validate(&self) -> Result<()> {
         let side = (self.split_factor as f64).sqrt() as u32;
         if self.split_factor < 4 || side * side != self.split_factor {
@@ -119,15 +121,20 @@ impl MlrtaSettings {
 /// A pixel rectangle.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 pub struct Rect {
+    /// Column of its left edge, from the image's left.
     pub x: u32,
+    /// Row of its top edge, from the image's top.
     pub y: u32,
+    /// Width in pixels.
     pub w: u32,
+    /// Height in pixels.
     pub h: u32,
 }
 
 /// What happened to one final tile (for the complexity map and Figure 7).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct TileReport {
+    /// The tile's pixels.
     pub rect: Rect,
     /// Splitting level (0 = initial tile).
     pub level: u32,
@@ -144,11 +151,16 @@ pub struct TileReport {
 
 /// The result of tracing an image of rays.
 pub struct ImageTrace {
+    /// Per ray, row-major, its closest hit (`Hit::MISS` where it hits
+    /// nothing).
     pub hits: Vec<Hit>,
     /// Per pixel, whether the primary hit is in shadow (with a light).
     pub shadowed: Option<Vec<bool>>,
+    /// The primary rays' statistics, summed over the image.
     pub counts: MlrtaCounts,
+    /// The shadow rays' statistics (zero without a light).
     pub shadow_counts: MlrtaCounts,
+    /// Every final tile of the image.
     pub tiles: Vec<TileReport>,
 }
 
@@ -700,9 +712,14 @@ fn trace_shadows(ctx: &Ctx, light: Vec3, out: &mut TileOut) {
 
 /// Up to 16 rays from one origin.
 pub struct Group<'a> {
+    /// The rays' common origin.
     pub origin: Vec3,
+    /// Their directions, at most 16.
     pub dirs: &'a [Vec3],
+    /// Rays end at this `t`, in units of their directions.
     pub t_max: f32,
+    /// Any hit before `t_max` will do (shadow rays); otherwise the
+    /// closest.
     pub any_hit: bool,
 }
 

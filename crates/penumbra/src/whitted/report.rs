@@ -14,7 +14,6 @@ use crate::io::image::write_radiance;
 use crate::io::output::frame_output;
 use crate::scene::Camera;
 
-/// The fields of every `raytrace` report.
 /// Which ray tracer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
@@ -26,20 +25,37 @@ pub enum RaytraceMethod {
     Bounded,
 }
 
+/// The fields of every `raytrace` report.
 #[derive(Debug, Clone, Serialize)]
 pub struct RenderReport {
+    /// Which ray tracer rendered the frames.
     pub method: RaytraceMethod,
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
+    /// Frames rendered.
     pub frames: u32,
+    /// `WhittedSettings::max_depth`.
     pub max_depth: u32,
+    /// `WhittedSettings::spp`.
     pub spp: u32,
+    /// `WhittedSettings::fresnel`.
     pub fresnel: bool,
+    /// Wall-clock milliseconds of the kd-tree's build
+    /// (`WhittedRenderer::build_ms`).
     pub build_ms: f64,
+    /// Wall-clock milliseconds of preparing the CPU packets' tables (0 on a
+    /// GPU; `WhittedRenderer::prepare_ms`).
     pub prepare_ms: f64,
+    /// Triangles of the scene's instances together (one placeholder, never
+    /// hit, in a scene of spheres alone).
     pub triangles: usize,
+    /// Analytic spheres.
     pub spheres: usize,
+    /// Lights, emissive polygons' samples included.
     pub lights: usize,
+    /// Emissive polygons made into lights.
     pub emitters: usize,
     /// The last frame's camera, in world coordinates.
     pub camera: Camera,
@@ -84,10 +100,16 @@ impl RenderReport {
 /// The ray tree of one pixel's first sample, with the objects it meets.
 #[derive(Debug, Clone, Serialize)]
 pub struct PixelTree {
+    /// The pixel, `[x, y]` from the top left.
     pub pixel: [u32; 2],
+    /// The sample's radiance.
     pub radiance: [f32; 3],
+    /// The tree's topology signature (`RayTree::signature`).
     pub signature: u32,
+    /// The names of the objects its rays hit, each once, in order (`None`
+    /// for an id the scene does not name).
     pub objects: Vec<Option<String>>,
+    /// The tree's rays, root first (`RayTree::nodes`).
     pub nodes: Vec<RayNode>,
 }
 
@@ -116,7 +138,10 @@ impl WhittedRenderer {
 /// it holds `{}` (or `{:04}`), else the last frame's.
 #[derive(Debug, Clone)]
 pub struct FrameImages {
+    /// The image file name, `{}` or `{:04}` standing for the frame number;
+    /// `None` writes no image.
     pub out: Option<PathBuf>,
+    /// Width and height in pixels.
     pub size: (u32, u32),
     /// PNG only: radiance is multiplied by this before clamping to [0, 1].
     pub exposure: f32,

@@ -95,6 +95,8 @@ impl Default for WhittedSettings {
 pub const MAX_SPP: u32 = 4096;
 
 impl WhittedSettings {
+    /// Checks that `max_depth` is at most `MAX_DEPTH` and `spp` is between
+    /// 1 and `MAX_SPP`.
     pub fn validate(&self) -> Result<()> {
         if self.max_depth > MAX_DEPTH {
             return Err(Error::param(
@@ -115,13 +117,21 @@ impl WhittedSettings {
 /// Rays traced, by kind.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
 pub struct RayCounts {
+    /// Eye rays: one per sample.
     pub primary: u64,
+    /// Shadow rays: one per lit hit and light that does not face away, and
+    /// in a scene with glass one more per transmitting surface it passes
+    /// (each segment counts).
     pub shadow: u64,
+    /// Mirror reflections traced.
     pub reflection: u64,
+    /// Transmitted rays traced (refracted, or straight through a dissolved
+    /// surface).
     pub refraction: u64,
 }
 
 impl RayCounts {
+    /// Rays of every kind.
     pub fn total(&self) -> u64 {
         self.primary + self.shadow + self.reflection + self.refraction
     }
@@ -145,12 +155,18 @@ impl RayCounts {
 /// What a render measured.
 #[derive(Debug, Clone, Serialize)]
 pub struct RenderStats {
+    /// Rays traced, summed over the pixels.
     pub rays: RayCounts,
+    /// Milliseconds of the render: kernel time from GPU timestamps where the
+    /// device has them, else wall-clock time (`timing` says which).
     pub render_ms: f64,
+    /// How `render_ms` was measured.
     pub timing: Timing,
     /// All rays (primary, shadow and secondary) per second of `render_ms`.
     pub mrays_per_s: f64,
+    /// `WhittedSettings::max_depth` of the render.
     pub max_depth: u32,
+    /// `WhittedSettings::spp` of the render.
     pub spp: u32,
     /// Which path traced the rays: "gpu", "cpu-packets" or "cpu-single".
     pub path: &'static str,
@@ -159,11 +175,15 @@ pub struct RenderStats {
 /// An image and its statistics.
 #[derive(Debug, Clone)]
 pub struct Rendered {
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
+    /// The camera it was rendered through, in the scene's frame.
     pub camera: Camera,
     /// Row-major, row 0 at the top.
     pub pixels: Vec<PixelOut>,
+    /// Rays, time and the settings that matter for them.
     pub stats: RenderStats,
 }
 
@@ -242,6 +262,8 @@ impl WhittedRenderer {
         })
     }
 
+    /// The scene as it renders: triangles with their surfaces, spheres and
+    /// lights.
     pub fn scene(&self) -> &RenderScene {
         &self.scene
     }
@@ -259,6 +281,7 @@ impl WhittedRenderer {
         self.gpu.state().is_some()
     }
 
+    /// The kd-tree over the scene's triangles (spheres are tested apart).
     pub fn tree(&self) -> &KdTree {
         &self.tree
     }

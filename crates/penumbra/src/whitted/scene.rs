@@ -25,7 +25,8 @@ pub const MISS: u32 = u32::MAX;
 /// The ambient light where neither the scene nor the caller gives one.
 pub const DEFAULT_AMBIENT: f32 = 0.05;
 
-/// What the renderer needs of each triangle, as the GPU reads it (32 bytes).
+/// What the renderer needs of each triangle, as the GPU reads it (32 bytes;
+/// two words4 of the kernel's `triangle_shading`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct TriangleShading {
@@ -34,10 +35,13 @@ pub struct TriangleShading {
     /// Its corners' shading normals (indices into `RenderScene::normals`),
     /// or `NO_NORMAL` for a flat triangle.
     pub normals: [u32; 3],
-    /// Ray-tree ids: the object (an instance's OBJ object), and the face
-    /// (the OBJ polygon the triangle was fanned from, or `SMOOTH_FACE`).
+    /// Ray-tree object id: an instance's OBJ object (an index into
+    /// `RenderScene::objects`).
     pub object: u32,
+    /// Ray-tree face id: the OBJ polygon the triangle was fanned from,
+    /// numbered across the scene's instances, or `SMOOTH_FACE`.
     pub face: u32,
+    /// Padding to 32 bytes.
     pub _pad: [u32; 2],
 }
 
@@ -70,15 +74,25 @@ impl Default for LightingSettings {
 pub struct RenderScene {
     /// World-space triangles, one mesh object per ray-tree object.
     pub mesh: Mesh,
+    /// Per triangle of `mesh`, its surface, shading normals and ray-tree ids.
     pub triangles: Vec<TriangleShading>,
     /// Unit shading normals (w unused).
     pub normals: Vec<[f32; 4]>,
+    /// The surfaces (materials as shading coefficients), each material
+    /// made once.
     pub surfaces: Vec<Surface>,
     /// The material each surface came from.
     pub surface_names: Vec<String>,
+    /// The analytic spheres, primitives `triangles.len()` onwards.
     pub spheres: Vec<Sphere>,
+    /// The scene's point and directional lights, then the emissive
+    /// polygons' samples; the default light where there is none.
     pub lights: Vec<LightSample>,
+    /// Ambient light: the caller's, else the scene's, else
+    /// `DEFAULT_AMBIENT` grey.
     pub ambient: Vec3,
+    /// Radiance of rays that leave the scene: the caller's, else the
+    /// scene's, else black.
     pub background: Vec3,
     /// Ray-tree object names: the mesh's objects, then the spheres.
     pub objects: Vec<String>,
@@ -284,8 +298,8 @@ impl RenderScene {
         })
     }
 
-    /// The surface of a primitive: triangle `t`, or sphere `s` as `t =
-    /// triangles + s`.
+    /// Surface `id` (an index into `surfaces`, as `primitive_surface`
+    /// gives it).
     pub fn surface(&self, id: u32) -> &Surface {
         &self.surfaces[id as usize]
     }

@@ -17,14 +17,20 @@ use serde_json::json;
 use crate::scene::{Checker, Material, write_mtl};
 use crate::whitted::sphere::tessellate;
 
-/// Tessellation of the spheres of the tessellated twins.
+/// Rings from pole to pole of the tessellated twins' spheres.
 pub const SPHERE_RINGS: u32 = 32;
+/// Segments around each ring of the tessellated twins' spheres.
 pub const SPHERE_SEGMENTS: u32 = 64;
 
 /// One scene: its name, what it shows, and its files (name, contents).
 pub struct ShippedScene {
+    /// The scene's name, also its scene file's stem (`scene_file`).
     pub name: &'static str,
+    /// What the scene shows and tests, in one line.
     pub summary: &'static str,
+    /// Its files: name within `assets/raytrace/` and text contents (the
+    /// scene file, and the OBJ and MTL files it has of its own; a scene
+    /// may use another's).
     pub files: Vec<(String, String)>,
 }
 

@@ -35,23 +35,31 @@ const HIT: u32 = 0x1000;
 const LIT: u32 = 0x2000;
 
 /// The ray a slot traces: from `origin` along the unit `dir`, its root hit
-/// given (`root_primitive` = `MISS`: the line misses the root).
+/// given (`root_primitive` = `MISS`: the line misses the root). Eight
+/// words, as the kernel reads them from its ray list.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct TreeRay {
+    /// Where the ray starts, in the scene's frame (in air).
     pub origin: [f32; 3],
+    /// Distance of the root hit along `dir` (unused for a miss).
     pub root_t: f32,
+    /// Unit direction.
     pub dir: [f32; 3],
+    /// The primitive the root hit is on (a triangle, or triangles + sphere
+    /// index), or `MISS`.
     pub root_primitive: u32,
 }
 
 /// A ray's slot read back.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RecordedTree {
+    /// The ray's radiance.
     pub radiance: Vec3,
     /// The root's ambient and diffuse terms before its texture
     /// (`Whitted::shade`'s `diffuse`).
     pub diffuse: Vec3,
+    /// The ray's tree.
     pub tree: RayTree,
 }
 
@@ -84,6 +92,7 @@ pub struct TreeLayout {
     pub capacity: u32,
     /// Words4 a node takes.
     pub stride: u32,
+    /// Lights per node: the scene's light count.
     pub lights: u32,
 }
 

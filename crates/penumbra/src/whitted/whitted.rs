@@ -47,47 +47,73 @@ pub const MAX_SHADOW_CROSSINGS: u32 = 16;
 /// `WhittedUniforms::flags`: Fresnel-weighted reflection and transmission.
 pub const FRESNEL: u32 = 1;
 
-/// What one render asks, as the GPU reads it (`WhittedUniforms` in WGSL)
-/// and as the CPU twin (`Whitted`) takes it, so a test can run both on the
-/// same input; `WhittedRenderer::params` makes it.
+/// What one render asks, as the GPU reads it (it mirrors `WhittedUniforms`
+/// in `wgsl/whitted.wgsl`) and as the CPU twin (`Whitted`) takes it, so a
+/// test can run both on the same input; `WhittedRenderer::params` makes it.
+///
 /// The camera is a pinhole: the ray through image point (x, y) is
 /// `normalize(forward + (2x/w - 1) right + (1 - 2y/h) up)`, with `right`
 /// and `up` scaled by the field of view's half-width and half-height.
+/// Positions and directions are in the scene's frame.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct WhittedUniforms {
+    /// The camera's eye: where primary rays start.
     pub eye: [f32; 3],
+    /// Image width in pixels.
     pub width: u32,
+    /// Unit viewing direction.
     pub forward: [f32; 3],
+    /// Image height in pixels.
     pub height: u32,
+    /// The camera's right axis times `tan(fov / 2) * width / height`: half
+    /// the image plane's width at distance 1.
     pub right: [f32; 3],
+    /// Samples per pixel: 1 through the pixel's centre, more jittered.
     pub spp: u32,
+    /// The camera's up axis times `tan(fov / 2)`: half the image plane's
+    /// height at distance 1.
     pub up: [f32; 3],
+    /// Seeds the jitter (with more than one sample per pixel).
     pub seed: u32,
+    /// Ambient light `A` per colour channel: a lit surface adds `ka A`
+    /// (times its texture).
     pub ambient: [f32; 3],
+    /// Deepest reflection/refraction (0: primary rays and shadows only).
     pub max_depth: u32,
+    /// Radiance of rays that leave the scene.
     pub background: [f32; 3],
+    /// Bit flags: `FRESNEL`.
     pub flags: u32,
     /// The media the eye is inside (surface ids, outermost first).
     pub media: [u32; MAX_MEDIA],
+    /// Entries of `media` in use.
     pub media_len: u32,
+    /// Lights in the scene's records (point, directional and emitter
+    /// samples).
     pub light_count: u32,
+    /// Analytic spheres in the scene's records.
     pub sphere_count: u32,
     /// Whether shadow rays pass transmitting surfaces (a scene with glass).
     pub transmissive: u32,
-    /// The batch: its first pixel and how many.
+    /// The batch's first pixel, row-major (0 for a list of pixels or rays).
     pub first_pixel: u32,
+    /// Pixels (listed pixels, or rays for `whitted_trees`) in the batch.
     pub pixel_count: u32,
     /// Invocations per row of the 2D dispatch grid.
     pub row_pitch: u32,
-    /// Where the lights and the spheres start in the GPU's records (the
-    /// surfaces come first, 8 words4 each; a light takes 3, a sphere 2).
+    /// Where the lights start in the GPU's records, in words4 (the surfaces
+    /// come first, 8 words4 each; a light takes 3, a sphere 2).
     pub lights_at: u32,
+    /// Where the spheres start in the GPU's records, in words4 (after the
+    /// lights).
     pub spheres_at: u32,
-    /// `whitted_trees`: nodes a ray's slot holds, and words4 per node
-    /// (`raytrace::tree_records`).
+    /// `whitted_trees`: nodes a ray's slot holds
+    /// (`tree_records::TreeLayout::capacity`; 0 for the pixel entries).
     pub tree_capacity: u32,
+    /// `whitted_trees`: words4 a node takes (`TreeLayout::stride`).
     pub tree_stride: u32,
+    /// Padding to the WGSL struct's 16-byte size multiple.
     pub _pad: u32,
 }
 
@@ -156,8 +182,11 @@ impl Media {
 
 /// What the twin reads: the scene, its tree and the render's parameters.
 pub struct Whitted<'a> {
+    /// The scene's shading data, spheres and lights.
     pub scene: &'a RenderScene,
+    /// The kd-tree over the scene's triangles (spheres are tested apart).
     pub tree: &'a KdTree,
+    /// The render's parameters, as the kernel reads them.
     pub params: &'a WhittedUniforms,
 }
 
