@@ -26,7 +26,10 @@ use glam::Quat;
 /// One caster instance: its mesh's field and its placement.
 #[derive(Debug, Clone, Copy)]
 pub struct FieldCaster<'f> {
+    /// The field of the instance's mesh, in the mesh's object space.
     pub field: &'f DisplacementField,
+    /// Object to world: the instance's rigid motion and uniform scale at the
+    /// frame traced (section 3.2's M; rays are taken back by M^-1).
     pub transform: Transform,
     /// The instance's index in the scene; points with this owner skip it.
     pub instance: u32,

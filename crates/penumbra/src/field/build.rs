@@ -25,49 +25,77 @@ use crate::scene::Mesh;
 /// the sampling and storage, and the maps.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DisplacementField {
+    /// How the maps were sampled and how they are stored.
     pub params: FieldSampling,
+    /// Centre of the bounding sphere the maps live on, object space
+    /// (`bounding_sphere`).
     pub center: Vec3,
+    /// Radius R of that sphere, object units: stored distances are in units of
+    /// 2R.
     pub radius: f32,
     /// The object's bounding box (informative; checked against meshes).
     pub bounds: Aabb,
     /// Triangles of the object it was built from.
     pub triangles: u32,
+    /// The maps: per positional sample, per direction, the normalised distance
+    /// D = hit distance / 2R to the object (1: no hit).
     pub data: FieldData,
 }
 
 /// A field's header: sampling, storage, sphere, the object it came from.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FieldSummary {
+    /// Maps: one per positional sample, `grid_side` squared.
     pub maps: usize,
+    /// Side N of the octahedral grid of positional samples.
     pub grid_side: u32,
+    /// Side S of each map: S x S directions.
     pub res: u32,
+    /// Bits per direction: 32, 8 or 1.
     pub bits: u32,
+    /// How a map's texels cover the hemisphere of inward directions.
     pub directions: DirectionMapping,
+    /// Bytes of map data (1-bit maps: the bits and the per-map mean distances).
     pub map_bytes: usize,
+    /// The bounding sphere, object space.
     pub sphere: SphereSummary,
+    /// The object's bounding box, object space.
     pub bounds: BoundsSummary,
+    /// Triangles of the object the field was built from.
     pub triangles: u32,
 }
 
+/// A field's bounding sphere, as reports show it.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct SphereSummary {
+    /// Centre, object space.
     pub center: [f32; 3],
+    /// Radius, object units.
     pub radius: f32,
 }
 
+/// An object's bounding box, as reports show it.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct BoundsSummary {
+    /// Smallest corner, object space.
     pub min: [f32; 3],
+    /// Largest corner, object space.
     pub max: [f32; 3],
 }
 
+/// What building a field cost (`DisplacementField::build`).
 #[derive(Debug, Clone, Serialize)]
 pub struct BuildStats {
+    /// Maps built, one per positional sample.
     pub maps: usize,
+    /// Rays traced: maps x directions per map.
     pub rays: u64,
     /// Fraction of the rays that hit the object.
     pub hit_fraction: f64,
+    /// Wall-clock milliseconds building the kd-tree over the object's
+    /// triangles.
     pub kdtree_ms: f64,
+    /// Wall-clock milliseconds of the whole build, kd-tree included.
     pub build_ms: f64,
 }
 

@@ -24,18 +24,32 @@ use serde::Serialize;
 
 use crate::geom::sampling::{concentric_disk, concentric_square};
 
+/// How the texels of a displacement map cover the hemisphere of directions
+/// towards the sphere's centre (section 3.4 of the paper, Figures 3 and 5). A
+/// map point (s, t) lies in [0, 1]^2; directions are local to the positional
+/// sample, +z along the inward normal.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum DirectionMapping {
+    /// Shirley and Chiu's concentric map of the square to the disk, lifted to
+    /// the hemisphere by Malley's method: texels of equal area in the
+    /// cosine-weighted measure, low distortion, continuous. The default.
     Concentric,
+    /// s = theta / (pi/2), t = phi / (2 pi): texels crowd at the pole (the row
+    /// s = 0 is a single direction) and t wraps around.
     Polar,
+    /// The square [-1, 1]^2 lifted by Malley's method: the texels outside the
+    /// unit disk (1 - pi/4, about 21.5%) are unused and hold the value of the
+    /// grazing direction at the rim, so that bilinear filtering near the rim
+    /// stays sane.
     Rejection,
 }
 
 crate::choice!(DirectionMapping { Concentric = "concentric", Polar = "polar", Rejection = "rejection" });
 
 impl DirectionMapping {
+    /// Every mapping, in the order of their codes.
     pub const ALL: [DirectionMapping; 3] = [Self::Concentric, Self::Polar, Self::Rejection];
 
     /// The code stored in `.dfield` files and passed to the GPU.
@@ -47,10 +61,13 @@ impl DirectionMapping {
         }
     }
 
+    /// The mapping whose `code` is `code`, or None for an unknown code.
     pub fn from_code(code: u32) -> Option<DirectionMapping> {
         Self::ALL.into_iter().find(|m| m.code() == code)
     }
 
+    /// The name the command line and reports use: `concentric`, `polar` or
+    /// `rejection`.
     pub fn name(self) -> &'static str {
         match self {
             Self::Concentric => "concentric",

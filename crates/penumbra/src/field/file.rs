@@ -32,7 +32,9 @@ use super::storage::{FieldData, FieldSampling, MAX_GRID_SIDE, MAX_RES, Storage};
 use crate::error::{Error, Result};
 use crate::geom::aabb::Aabb;
 
+/// The first eight bytes of every `.dfield` file.
 pub const MAGIC: &[u8; 8] = b"PENFIELD";
+/// The format version this library writes, and the only one it reads.
 pub const VERSION: u32 = 1;
 const HEADER: usize = 96;
 
@@ -95,6 +97,8 @@ pub fn write(path: &Path, field: &DisplacementField) -> Result<()> {
     crate::io::output::write_bytes(path, &bytes)
 }
 
+/// Reads the `.dfield` file at `path`, checked as `from_bytes` checks it
+/// (errors name the file and the header field).
 pub fn read(path: &Path) -> Result<DisplacementField> {
     let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
     from_bytes(&bytes).map_err(|e| e.in_file(path))

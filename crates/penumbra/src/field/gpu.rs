@@ -68,14 +68,22 @@ pub(crate) struct FieldAoUniforms {
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct GpuInstance {
+    /// The inverse of the instance's rotation, a unit quaternion (x, y, z, w).
     pub inv_rotation: [f32; 4],
+    /// The instance's translation, world space: a point's object-space position
+    /// is inv_rotation (p - translation) / scale.
     pub translation: [f32; 3],
+    /// The instance's uniform scale, > 0: an object-space hit distance times it
+    /// is the world distance.
     pub scale: f32,
+    /// The instance's index in the scene: points it owns skip it.
     pub instance: u32,
+    /// Zero: pads the struct to the WGSL's 48 bytes.
     pub _pad: [u32; 3],
 }
 
 impl GpuInstance {
+    /// Instance `instance`, placed by `transform` (object to world).
     pub fn new(transform: &Transform, instance: u32) -> GpuInstance {
         GpuInstance {
             inv_rotation: transform.rotation.inverse().to_array(),
@@ -110,6 +118,7 @@ pub enum MapAccess {
 }
 
 impl MapAccess {
+    /// How maps of `storage` are read.
     pub fn of(storage: Storage) -> MapAccess {
         match storage {
             Storage::U8 => MapAccess::Filtered,
@@ -123,9 +132,13 @@ impl MapAccess {
 /// `res x res` texels side by side, layer after layer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub struct TextureLayout {
+    /// Maps side by side along x in a layer.
     pub tiles_x: u32,
+    /// Maps along y in a layer.
     pub tiles_y: u32,
+    /// Layers (the texture's depth), enough for every map.
     pub layers: u32,
+    /// Texels along a map's side.
     pub res: u32,
 }
 
@@ -153,6 +166,8 @@ impl TextureLayout {
         }
     }
 
+    /// The texture's size: `tiles_x * res` by `tiles_y * res` texels, `layers`
+    /// deep.
     pub fn size(&self) -> wgpu::Extent3d {
         wgpu::Extent3d {
             width: self.tiles_x * self.res,
@@ -197,8 +212,12 @@ pub fn maps_layout(device: &wgpu::Device, access: MapAccess) -> wgpu::BindGroupL
 
 /// A field on the device: its parameters and maps, as bind group 0.
 pub struct GpuField {
+    /// How the kernels read the maps (from the field's storage).
     pub access: MapAccess,
+    /// The maps' tiling in the 3D texture; None for 1-bit maps, which live in
+    /// storage buffers.
     pub layout: Option<TextureLayout>,
+    /// Bind group 0 of the field kernels: the lookup parameters and the maps.
     pub bind_group: wgpu::BindGroup,
     /// Bytes of map data on the device.
     pub bytes: u64,
@@ -390,10 +409,16 @@ const PROBE_IO: &[Io] = &[
 
 /// The layouts and pipelines of one map access.
 pub struct FieldPipelines {
+    /// Bind group 0: the field's lookup parameters and maps (`maps_layout`).
     pub maps_layout: wgpu::BindGroupLayout,
+    /// Bind group 1 of `field_ao`: its parameters, the points, their owners,
+    /// the instances and the ray classes.
     pub ao_layout: wgpu::BindGroupLayout,
+    /// Bind group 1 of `field_probe`: its parameters, the rays and the results.
     pub probe_layout: wgpu::BindGroupLayout,
+    /// The `field_ao` kernel (Algorithm 2).
     pub ao: Pipelines,
+    /// The `field_probe` kernel (single lookups).
     pub probe: Pipelines,
 }
 
@@ -418,6 +443,8 @@ impl Kernels for FieldKernels {
 }
 
 impl FieldKernels {
+    /// The layouts and pipelines of maps read by `access`, built on the first
+    /// call.
     pub fn pipelines(&self, device: &wgpu::Device, access: MapAccess) -> &FieldPipelines {
         use crate::gpu::wgsl::*;
         let (cell, ao_module, probe_module) = match access {
@@ -445,7 +472,9 @@ impl FieldKernels {
 
 /// One field with the instances that use it.
 pub struct FieldGroup<'f> {
+    /// The field on the device, which every instance of its mesh shares.
     pub field: &'f GpuField,
+    /// The instances that use it, placed at the frame traced.
     pub instances: Vec<GpuInstance>,
 }
 
@@ -580,8 +609,13 @@ impl FieldAoPass {
 
 /// Result of `FieldAoBatches::visibility`.
 pub struct GpuFieldAo {
+    /// Visibility per ray: bit set = open (no field hit within the AO radius).
     pub masks: VisibilityMasks,
+    /// The rays that started inside a sphere, and those whose surface a field
+    /// put behind the origin.
     pub classes: RayClasses,
+    /// Milliseconds of the `field_ao` dispatches, summed over the batches, from
+    /// GPU timestamps; None where the device has no timestamp queries.
     pub gpu_ms: Option<f64>,
 }
 

@@ -56,10 +56,20 @@ pub enum FieldTrace {
     /// The line misses the sphere, or the sphere lies behind the origin.
     Outside,
     /// Through the sphere without an estimated surface ahead of the origin.
-    /// `hidden`: the estimated surface lies behind the origin.
-    Miss { inside: bool, hidden: bool },
-    /// A surface at distance `t` along the (unit) direction.
-    Hit { t: f32, inside: bool },
+    Miss {
+        /// The ray's origin lies inside the sphere.
+        inside: bool,
+        /// The estimated surface lies behind the origin (t <= 0): the field
+        /// says nothing about what lies ahead.
+        hidden: bool,
+    },
+    /// A surface ahead of the origin, before the ray leaves the sphere.
+    Hit {
+        /// Distance from the origin along the unit direction, object units.
+        t: f32,
+        /// The ray's origin lies inside the sphere.
+        inside: bool,
+    },
 }
 
 impl FieldTrace {
@@ -153,7 +163,11 @@ fn clamp(x: f32, hi: f32) -> f32 {
 /// taps that hit, and their weighted distances' sum.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Sample {
+    /// Share of the interpolation weight carried by the taps that hit, in
+    /// [0, 1].
     pub coverage: f32,
+    /// Sum over the taps that hit of weight x normalised distance (`distance`
+    /// divides it by `coverage`).
     pub weighted_distance: f32,
 }
 

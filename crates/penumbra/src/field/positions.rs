@@ -29,6 +29,8 @@ use crate::geom::sampling::atan::atan_unit;
 /// The positional samples: `side * side` points on the unit sphere.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct OctahedralGrid {
+    /// Side N of the grid: N x N samples, sample k = i + j N at grid cell
+    /// (i, j).
     pub side: u32,
 }
 
@@ -77,6 +79,7 @@ impl OctahedralGrid {
         OctahedralGrid { side }
     }
 
+    /// Samples: `side` squared.
     pub fn count(&self) -> u32 {
         self.side * self.side
     }

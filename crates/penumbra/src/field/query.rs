@@ -18,11 +18,13 @@ use crate::geom::sampling::Frame;
 /// A field with its maps' frames tabulated.
 #[derive(Debug, Clone)]
 pub struct FieldQuery<'f> {
+    /// The field the lookups read.
     pub field: &'f DisplacementField,
     frames: Vec<Frame>,
 }
 
 impl<'f> FieldQuery<'f> {
+    /// `field` with its maps' frames computed, one per map.
     pub fn new(field: &'f DisplacementField) -> Self {
         let frames = (0..field.params.grid.count())
             .map(|m| map_frame(&field.params, m))

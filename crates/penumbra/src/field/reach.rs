@@ -23,7 +23,9 @@ use crate::scene::{Instance, Scene};
 /// over animation frames `0..frames`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Reach {
+    /// Largest AO radius, world units (infinite: no limit).
     pub radius: f32,
+    /// Animation frames covered, from frame 0.
     pub frames: u32,
 }
 

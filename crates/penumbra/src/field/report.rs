@@ -20,20 +20,40 @@ use crate::report::skipped::Skipped;
 use crate::scene::{Role, load_mesh};
 use crate::tune::Pick;
 
+/// What `ao --method field` reports (the CLI's `--json`).
 #[derive(Debug, Clone, Serialize)]
 pub struct FieldRunReport {
+    /// The fields every AO report has: `build_ms` is the time of the fields
+    /// built (read ones cost none), `ao_ms` the last frame's.
     #[serde(flatten)]
     pub ao: AoReport,
+    /// How the lookups combined the positional samples.
     pub positional: Positional,
+    /// Wall-clock milliseconds ray casting (CPU) the self-occlusion of the
+    /// objects that cast and receive: frame 0, then every frame in which one
+    /// moved; None when no object does both.
     pub self_occlusion_ms: Option<Vec<f64>>,
+    /// Each caster mesh's field: its header, and the file it was read from or
+    /// its build time.
     pub fields: Vec<FieldReport>,
+    /// The caster meshes left without a field, and why.
     pub skipped: Vec<Skipped>,
+    /// Caster instances, and their triangles in the world.
     pub casters: Casters,
+    /// Animation frames run.
     pub frames: usize,
+    /// Milliseconds of each frame's field lookups for the receivers' vertices:
+    /// GPU timestamps where the device has them, else the wall clock.
     pub frame_ao_ms: Vec<f64>,
+    /// Mean of `frame_ao_ms`.
     pub ao_ms_mean: f64,
+    /// Rays of the last frame that started inside the bounding sphere of a
+    /// caster they entered.
     pub rays_inside_sphere: u64,
+    /// Rays of the last frame for which some field put the surface behind the
+    /// origin (that field counts them as misses).
     pub rays_hidden: u64,
+    /// The error against ray casting the same rays, when asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reference: Option<FieldReference>,
     /// What the error budget chose, where one was given.
@@ -72,14 +92,23 @@ impl FieldRunReport {
 /// What `field build` reports: the header, the file and what building cost.
 #[derive(Debug, Clone, Serialize)]
 pub struct BuildReport {
+    /// The field's header.
     #[serde(flatten)]
     pub summary: FieldSummary,
+    /// The `.dfield` file written.
     pub file: String,
+    /// The file's size in bytes.
     pub bytes: u64,
+    /// Wall-clock milliseconds of the last build, kd-tree included.
     pub build_ms: f64,
+    /// Of which building the kd-tree over the mesh.
     pub kdtree_ms: f64,
+    /// Rays traced per build: maps x directions per map.
     pub rays: u64,
+    /// Fraction of those rays that hit the object.
     pub hit_fraction: f64,
+    /// Positional samples asked for; the grid takes the nearest square
+    /// (`maps`).
     pub positions_requested: i64,
     /// The measured builds' times (`--warmup`, `--repeat`).
     pub runs: RunTimes,

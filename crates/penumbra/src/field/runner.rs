@@ -37,6 +37,7 @@ pub const MAX_FRAMES: u32 = 100_000;
 pub struct FieldReport {
     /// The scene's name of the mesh.
     pub mesh: String,
+    /// The field's header.
     #[serde(flatten)]
     pub summary: FieldSummary,
     /// The `.dfield` file it was read from, if it was.
@@ -397,37 +398,61 @@ pub struct FieldAoRun {
     pub frame_ao_ms: Vec<f64>,
     /// The last frame's AO at the receivers' vertices.
     pub vertices: Option<VertexAo>,
+    /// Receiver vertices that cast rays.
     pub points: usize,
+    /// Rays of the last frame that started inside the bounding sphere of a
+    /// caster they entered.
     pub rays_inside_sphere: u64,
+    /// Rays of the last frame for which some field put the surface behind the
+    /// origin (that field counts them as misses).
     pub rays_hidden: u64,
+    /// The same rays cast against the casters' triangles at the last frame,
+    /// when `run` was asked for it.
     pub reference: Option<FieldReference>,
+    /// The last frame's AO per pixel, when the request asks for an image.
     pub image: Option<PixelAo>,
 }
 
 /// Rays on which the fields and ray casting disagree, by where they start.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct RayErrors {
+    /// Rays compared: points x rays per point.
     pub total: u64,
+    /// Rays that the fields and ray casting find differently open or blocked.
     pub disagree: u64,
+    /// Rays that started inside the bounding sphere of a caster they entered.
     pub inside_sphere: u64,
+    /// Of those, the rays that disagree.
     pub disagree_inside_sphere: u64,
+    /// Disagreeing rays among the others (started outside every sphere they
+    /// entered, or entered none).
     pub disagree_outside_sphere: u64,
+    /// `disagree_inside_sphere` / `inside_sphere` (0 when no ray started
+    /// inside).
     pub disagree_fraction_inside: f64,
+    /// `disagree_outside_sphere` over the rays that started outside
+    /// (0 when there are none).
     pub disagree_fraction_outside: f64,
 }
 
 /// Error against ray casting, per vertex and per ray.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct AoErrors {
+    /// Root-mean-square difference of the vertices' accessibility.
     pub rms_error: f64,
+    /// Largest absolute difference of a vertex's accessibility.
     pub max_error: f64,
+    /// The rays that disagree, by where they start.
     pub rays: RayErrors,
 }
 
 /// The same rays cast against the casters' triangles at the last frame.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FieldReference {
+    /// Milliseconds ray casting the reference on the run's device: GPU
+    /// timestamps where the device has them, else the wall clock.
     pub raycast_ms: f64,
+    /// Milliseconds building the casters' kd-tree for it.
     pub kdtree_ms: f64,
     /// The result (fields and self-occlusion) against all casters.
     #[serde(flatten)]

@@ -14,14 +14,20 @@ use super::directions::DirectionMapping;
 use super::positions::OctahedralGrid;
 use crate::error::{Error, Result};
 
+/// Bits per direction of a field's maps (section 4 of the paper).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub enum Storage {
+    /// 32-bit float: D as is.
     F32,
+    /// 8 bits: round(255 D), one byte per direction (the default).
     U8,
+    /// 1 bit: hit or miss per direction, plus per map the mean D of its texels
+    /// that hit, which every hit reads.
     Bit1,
 }
 
 impl Storage {
+    /// 32, 8 or 1.
     pub fn bits(self) -> u32 {
         match self {
             Storage::F32 => 32,
@@ -30,6 +36,7 @@ impl Storage {
         }
     }
 
+    /// The storage of `bits` per direction; None unless 32, 8 or 1.
     pub fn from_bits(bits: u32) -> Option<Storage> {
         match bits {
             32 => Some(Storage::F32),
@@ -43,10 +50,13 @@ impl Storage {
 /// The sampling and storage choices of a field.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FieldSampling {
+    /// The positional samples on the bounding sphere.
     pub grid: OctahedralGrid,
     /// Each map is `res x res` texels.
     pub res: u32,
+    /// Bits per direction.
     pub storage: Storage,
+    /// How each map's texels cover the hemisphere.
     pub directions: DirectionMapping,
 }
 
@@ -82,6 +92,8 @@ impl FieldSampling {
         Ok(params)
     }
 
+    /// Checks the grid side (1 to `MAX_GRID_SIDE`) and the map side
+    /// (2 to `MAX_RES`).
     pub fn validate(&self) -> Result<()> {
         if self.grid.side == 0 || self.grid.side > MAX_GRID_SIDE {
             return Err(Error::param(
@@ -103,10 +115,12 @@ impl FieldSampling {
         Ok(())
     }
 
+    /// Texels (directions) per map: `res` squared.
     pub fn texels_per_map(&self) -> usize {
         self.res as usize * self.res as usize
     }
 
+    /// Maps: one per positional sample.
     pub fn maps(&self) -> usize {
         self.grid.count() as usize
     }
@@ -121,11 +135,15 @@ impl FieldSampling {
 /// m * res^2 + b * res + a.
 #[derive(Debug, Clone, PartialEq)]
 pub enum FieldData {
+    /// 32-bit storage: D per texel.
     F32(Vec<f32>),
+    /// 8-bit storage: round(255 D) per texel, 255 a miss.
     U8(Vec<u8>),
     /// Bit set = the direction hits; `mean[m]` = map m's mean hit distance.
     Bits {
+        /// `words_per_map` words per map, texel i at bit i % 32 of word i / 32.
         words: Vec<u32>,
+        /// Per map, the mean D of its texels that hit (1 if none does).
         mean: Vec<f32>,
     },
 }

@@ -77,6 +77,7 @@ pub enum Estimator {
 crate::choice!(Estimator { Raymarch = "raymarch", Sphere = "sphere", Hemisphere = "hemisphere", Importance = "importance", TangentSphere = "tangent-sphere", BaseDisk = "base-disk" });
 
 impl Estimator {
+    /// Every estimator, in the order of the paper's sections.
     pub const ALL: [Estimator; 6] = [
         Estimator::Raymarch,
         Estimator::Sphere,
@@ -86,6 +87,8 @@ impl Estimator {
         Estimator::BaseDisk,
     ];
 
+    /// The name the command line and reports use: `raymarch`, `sphere`,
+    /// `hemisphere`, `importance`, `tangent-sphere` or `base-disk`.
     pub fn name(&self) -> &'static str {
         match self {
             Estimator::Raymarch => "raymarch",
@@ -142,19 +145,28 @@ impl Family {
 /// kernels, uploaded as it is).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SampleTable {
+    /// The kernel that reads the table.
     pub family: Family,
+    /// Which set each pixel uses: 4x4 interleaved sets, or a tile of
+    /// independent ones (`SsaoSettings::interleave`).
     pub patterns: Patterns,
     /// Entries per set (= spp).
     pub samples: u32,
-    /// Raymarch: rays and steps per ray (rays * steps = samples).
+    /// Rays per set: for raymarch samples / steps, for the others `samples`.
     pub rays: u32,
+    /// Steps per ray: raymarch's (rays * steps = samples), 1 for the others.
     pub steps: u32,
     /// Raymarch: value of a ray without occluded step (1 / rays).
     pub open_weight: f32,
+    /// The sets one after another, `samples` entries each: (q.x, q.y, q.z, w),
+    /// the sample point in the tangent frame in units of R (base-disk: the disk
+    /// offset in camera x, y) and its weight.
     pub entries: Vec<[f32; 4]>,
 }
 
 impl SampleTable {
+    /// The table of `s`'s estimator, measure, radius, samples per pixel,
+    /// interleaving, calibration and seed; checks `s` first.
     pub fn build(s: &SsaoSettings) -> Result<SampleTable> {
         s.validate()?;
         let n = s.spp;

@@ -38,14 +38,20 @@ pub fn valid_depth(d: f32) -> bool {
 /// pixel and its depth into a point and back.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScreenView {
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
-    /// tan(fov/2) * aspect and tan(fov/2).
+    /// tan(fov/2) x width / height: half the image's width at depth 1.
     pub tan_half_x: f32,
+    /// tan(fov/2), fov the camera's vertical field of view: half the image's
+    /// height at depth 1.
     pub tan_half_y: f32,
 }
 
 impl ScreenView {
+    /// The view of `camera` (its vertical field of view) at `width` x `height`
+    /// pixels.
     pub fn new(camera: &Camera, width: u32, height: u32) -> ScreenView {
         let tan_half_y = (0.5 * camera.fov_degrees.to_radians()).tan();
         ScreenView {
@@ -77,15 +83,25 @@ impl ScreenView {
 /// See `ScreenView::constants`; mirrored field by field in `SsaoUniforms`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScreenConstants {
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
+    /// tan(fov/2) x width / height: half the image's width at depth 1.
     pub tan_half_x: f32,
+    /// tan(fov/2): half the image's height at depth 1.
     pub tan_half_y: f32,
+    /// 1 / `tan_half_x`.
     pub inv_tan_half_x: f32,
+    /// 1 / `tan_half_y`.
     pub inv_tan_half_y: f32,
+    /// Half the width in pixels.
     pub half_w: f32,
+    /// Half the height in pixels.
     pub half_h: f32,
+    /// A pixel's width in normalised device coordinates: 2 / width.
     pub px_x: f32,
+    /// A pixel's height in normalised device coordinates: 2 / height.
     pub px_y: f32,
 }
 
@@ -144,21 +160,32 @@ impl ScreenConstants {
 /// A W x H G-buffer, row 0 at the top.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GBuffer {
+    /// Width W in pixels.
     pub width: u32,
+    /// Height H in pixels.
     pub height: u32,
+    /// Per pixel, row-major: (n.x, n.y, n.z, z), the unit face normal in camera
+    /// space (x right, y up, z forward) turned towards the camera, and the
+    /// camera-space depth z > 0; all zero on the background.
     pub geometry: Vec<[f32; 4]>,
+    /// Per pixel: (L.r, L.g, L.b, albedo), the reflected direct radiance
+    /// (albedo x direct light, no shadows) and the packed albedo
+    /// (`pack_albedo`); all zero on the background.
     pub shade: Vec<[f32; 4]>,
 }
 
 impl GBuffer {
+    /// Pixels: W x H.
     pub fn pixels(&self) -> usize {
         self.width as usize * self.height as usize
     }
 
+    /// Camera-space depth of pixel `i` (row-major); 0 on the background.
     pub fn depth(&self, i: usize) -> f32 {
         self.geometry[i][3]
     }
 
+    /// Camera-space unit normal of pixel `i`; zero on the background.
     pub fn normal(&self, i: usize) -> Vec3 {
         let g = self.geometry[i];
         Vec3::new(g[0], g[1], g[2])
@@ -169,6 +196,7 @@ impl GBuffer {
         valid_depth(self.geometry[i][3])
     }
 
+    /// Pixels that show a surface.
     pub fn surface_pixels(&self) -> usize {
         (0..self.pixels()).filter(|&i| self.is_surface(i)).count()
     }
@@ -179,6 +207,7 @@ pub fn pack_albedo(rgb: [u8; 3]) -> f32 {
     (rgb[0] as u32 + 256 * rgb[1] as u32 + 65536 * rgb[2] as u32) as f32
 }
 
+/// The albedo, each channel in [0, 1], of a value of `pack_albedo`.
 pub fn unpack_albedo(v: f32) -> Vec3 {
     let b = v as u32;
     Vec3::new((b & 255) as f32, ((b >> 8) & 255) as f32, ((b >> 16) & 255) as f32) * (1.0 / 255.0)
@@ -251,6 +280,7 @@ pub fn lights_or_default(lights: &[Light]) -> Vec<Light> {
 /// At most this many lights reach the GPU's uniform.
 pub const MAX_LIGHTS: usize = 4;
 
+/// Checks that the G-buffer takes `lights`: at most `MAX_LIGHTS`.
 pub fn validate_lights(lights: &[Light]) -> Result<()> {
     if lights.len() > MAX_LIGHTS {
         return Err(Error::param(
@@ -354,13 +384,22 @@ pub fn world_point(camera: &Camera, sc: &ScreenConstants, gb: &GBuffer, x: u32, 
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct ViewUniform {
+    /// The camera's position, world space.
     pub eye: [f32; 3],
+    /// Lights in `lights` (at most `MAX_LIGHTS`).
     pub light_count: u32,
+    /// The camera's unit right axis, world space.
     pub right: [f32; 3],
+    /// tan(fov/2) x width / height.
     pub tan_half_x: f32,
+    /// The camera's unit up axis, world space.
     pub up: [f32; 3],
+    /// tan(fov/2), fov the vertical field of view.
     pub tan_half_y: f32,
+    /// The camera's unit viewing direction, world space.
     pub forward: [f32; 3],
+    /// Camera-space depth of the near plane (reversed-Z projection, infinite
+    /// far plane): nearer geometry is clipped.
     pub near: f32,
     /// Per light: (position or travel direction, 1 = point / 0 = directional),
     /// (intensity or radiance, 0).

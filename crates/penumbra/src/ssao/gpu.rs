@@ -39,19 +39,27 @@ pub const TILE: u32 = 8;
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct GBufferVertex {
+    /// World-space position.
     pub position: [f32; 3],
+    /// Unit world face normal of its triangle (zero for a degenerate one).
     pub normal: [f32; 3],
+    /// Packed albedo of its triangle (`gbuffer::pack_albedo`).
     pub albedo: f32,
 }
 
 /// A mesh as the G-buffer pass draws it: unindexed, with the unit face
 /// normal and packed albedo on every vertex.
 pub struct SceneVertices {
+    /// The vertex buffer: `GBufferVertex`es, three per triangle.
     pub buffer: wgpu::Buffer,
+    /// Vertices in it: three per triangle.
     pub vertex_count: u32,
 }
 
 impl SceneVertices {
+    /// Uploads `mesh` (world space) with one packed albedo per triangle
+    /// (`gbuffer::triangle_albedos`, `gbuffer::scene_albedos`); fails on an
+    /// invalid mesh or one beyond the device's largest buffer.
     pub fn upload(device: &wgpu::Device, mesh: &Mesh, albedos: &[f32]) -> Result<SceneVertices> {
         mesh.validate()?;
         if albedos.len() != mesh.triangles.len() {
@@ -92,14 +100,21 @@ impl SceneVertices {
 /// The G-buffer's textures: geometry and shade (`Rgba32Float`, the layout
 /// of `gbuffer`), and the depth attachment of the z-test.
 pub struct GBufferTargets {
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
+    /// Camera-space normal and depth per pixel.
     pub geometry: wgpu::Texture,
+    /// Direct radiance and packed albedo per pixel.
     pub shade: wgpu::Texture,
+    /// The z-test's attachment (`Depth32Float`, reversed Z: nearer is larger).
     pub depth: wgpu::Texture,
 }
 
 impl GBufferTargets {
+    /// Targets of `width` x `height` pixels; fails where the device's textures
+    /// or read-back buffers cannot hold them.
     pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Result<GBufferTargets> {
         let max = device.limits().max_texture_dimension_2d;
         if width > max || height > max {
@@ -221,11 +236,13 @@ impl GBufferTargets {
 
 /// The G-buffer render pipeline.
 pub struct GBufferPass {
+    /// Bind group 0 of the render pipeline: one `ViewUniform` buffer.
     pub view_layout: wgpu::BindGroupLayout,
     pipeline: wgpu::RenderPipeline,
 }
 
 impl GBufferPass {
+    /// Builds the render pipeline of `wgsl/gbuffer.wgsl` for `device`.
     pub fn new(device: &wgpu::Device) -> GBufferPass {
         let view_layout = layout(
             device,
@@ -386,7 +403,10 @@ const SSAO_IO: &[Io] = &[
 
 /// The layouts and pipelines of the SSAO kernels for one device.
 pub struct SsaoKernels {
+    /// Bind group 0 of every SSAO kernel: the geometry and shade textures
+    /// (`SsaoPass::gbuffer_bind_group`).
     pub gbuffer_layout: wgpu::BindGroupLayout,
+    /// Bind group 1: parameters, sample table and the frame's buffers.
     pub io_layout: wgpu::BindGroupLayout,
     /// By module: estimate (pack depth, points, march, disk), indirect
     /// (indirect, compose), filter (ao rows, ao columns, upsample, indirect).
@@ -453,10 +473,15 @@ enum Action {
 /// A step of a frame, as timings split it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SsaoStep {
+    /// Rasterising the G-buffer and packing its depths.
     GBuffer,
+    /// The estimator.
     Estimate,
+    /// The AO filter's two passes and, at half resolution, the upsampling.
     Filter,
+    /// The indirect light and its filter.
     Indirect,
+    /// Composing the shaded image.
     Compose,
 }
 
@@ -654,8 +679,12 @@ impl SsaoPass {
 pub enum GBufferSource<'a> {
     /// Rasterise a mesh (every triangle occludes and receives).
     Render {
+        /// The mesh drawn, world space.
         mesh: &'a Mesh,
+        /// The camera it is seen through.
         camera: &'a Camera,
+        /// The direct term's lights (at most `gbuffer::MAX_LIGHTS`; none: a
+        /// default directional light).
         lights: &'a [Light],
         /// Packed albedo per triangle (`gbuffer::scene_albedos`); `None`:
         /// the palette (`gbuffer::triangle_albedos`).
@@ -667,7 +696,9 @@ pub enum GBufferSource<'a> {
 
 /// Result of `run_frame`: the G-buffer the kernels saw (read back) and the frame.
 pub struct GpuFrame {
+    /// The G-buffer the kernels read, read back.
     pub gbuffer: GBuffer,
+    /// The frame's outputs (the last run's) and timings.
     pub frame: SsaoFrame,
     /// Each run's time: its passes' sum (timestamps) or its wall time.
     pub runs_ms: Vec<f64>,

@@ -22,13 +22,24 @@
 
 use crate::error::{Error, Result};
 
+/// A fuzzy measure mu(r) (section 2): how much a direction whose first occluder
+/// lies at distance r counts as open, rising from mu(0) = 0 to 1 at the
+/// neighbourhood radius R.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Measure {
+    /// mu = 0 below R, 1 from R on: classical ambient occlusion with a maximum
+    /// distance. Its derivative is a Dirac delta at R, so the estimators that
+    /// weight by dmu/dr cannot use it.
     Step,
-    /// Extinction coefficient sigma, in inverse scene units.
+    /// The participating-medium measure 1 - exp(-sigma r) of section 2,
+    /// truncated at R and renormalised to reach 1 there.
     Exp {
+        /// Extinction coefficient sigma, in inverse scene units
+        /// (`Measure::new` defaults it to 3 / R).
         sigma: f32,
     },
+    /// mu = (r/R)^4, the paper's choice for section 4.5: (dmu/dr) / r is a
+    /// polynomial of r^2.
     Poly4,
 }
 
@@ -62,6 +73,7 @@ impl Measure {
         })
     }
 
+    /// The name the command line and reports use: `step`, `exp` or `poly4`.
     pub fn name(&self) -> &'static str {
         match self {
             Measure::Step => "step",
@@ -70,6 +82,7 @@ impl Measure {
         }
     }
 
+    /// Checks the exponential measure's sigma: positive and finite.
     pub fn validate(&self) -> Result<()> {
         if let Measure::Exp { sigma } = *self
             && !(sigma > 0.0 && sigma.is_finite())

@@ -69,6 +69,7 @@ impl Resolution {
         }
     }
 
+    /// The name the command line and reports use: `full` or `half`.
     pub fn name(&self) -> &'static str {
         match self {
             Resolution::Full => "full",
@@ -80,12 +81,14 @@ impl Resolution {
 /// Every knob of one SSAO frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SsaoSettings {
+    /// Which of the paper's estimators of O (sections 3.2 and 4) runs.
     pub estimator: Estimator,
     /// Samples per pixel: depth-buffer tests (points, or steps of all rays
     /// for `raymarch`, or pipes for `base-disk`).
     pub spp: u32,
     /// Neighbourhood radius R, scene units.
     pub radius: f32,
+    /// The fuzzy measure mu(r) of section 2.
     pub measure: Measure,
     /// Steps per ray of `raymarch` (rays = spp / steps).
     pub steps: u32,
@@ -108,6 +111,7 @@ pub struct SsaoSettings {
     pub calibrate: bool,
     /// Estimation grid: every pixel or every other one (then upsampled).
     pub resolution: Resolution,
+    /// Seed of the sample tables' Owen-scrambled Sobol sequence.
     pub seed: u32,
 }
 
@@ -142,6 +146,10 @@ impl SsaoSettings {
         }
     }
 
+    /// Checks every knob and how they combine: spp from 1 to `MAX_SPP`, a
+    /// positive finite radius, raymarch's spp a multiple of its steps, a
+    /// measure with a density for the estimators that weight by dmu/dr, poly4
+    /// for base-disk.
     pub fn validate(&self) -> Result<()> {
         if self.spp == 0 || self.spp > MAX_SPP {
             return Err(Error::param(
@@ -220,6 +228,7 @@ pub struct ShadeSettings {
 }
 
 impl ShadeSettings {
+    /// Checks that the ambient radiance is non-negative and finite.
     pub fn validate(&self) -> Result<()> {
         if !(self.ambient >= 0.0 && self.ambient.is_finite()) {
             return Err(Error::param(
@@ -249,17 +258,28 @@ pub struct SsaoFrame {
     pub indirect: Option<Vec<[f32; 4]>>,
     /// Linear RGBA of the shaded image: direct + a (La O + I); alpha 0 on background.
     pub image: Option<Vec<[f32; 4]>>,
+    /// What each step took.
     pub timings: Timings,
 }
 
-/// Milliseconds per step (GPU: timestamps where the device has them).
+/// Milliseconds per step (GPU: timestamps where the device has them; over
+/// repeated runs, each step's fastest).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Timings {
+    /// The G-buffer: rasterising it and packing its depths on a GPU, its
+    /// primary rays on the CPU (`run_cpu` starts after the G-buffer and leaves
+    /// this 0).
     pub gbuffer_ms: f64,
+    /// The estimator. On a GPU without timestamps: the whole frame's mean wall
+    /// time, every other step 0.
     pub estimate_ms: f64,
+    /// The AO filter and, at half resolution, the upsampling.
     pub filter_ms: f64,
+    /// The indirect light and its filter (0 without shading).
     pub indirect_ms: f64,
+    /// Composing the shaded image (0 without shading).
     pub compose_ms: f64,
+    /// How the times were measured: GPU timestamps or the wall clock.
     pub timing: Timing,
 }
 

@@ -24,7 +24,10 @@ use std::cell::OnceCell;
 /// One SSAO frame and its measurements.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SsaoRequest {
+    /// The estimator and its knobs.
     pub settings: SsaoSettings,
+    /// The camera (completed from the scene's, else framing the scene) and the
+    /// image size.
     pub view: View,
     /// The indirect light and shaded image (ambient La), if wanted.
     pub shade: Option<ShadeSettings>,
@@ -38,6 +41,9 @@ pub struct SsaoRequest {
 }
 
 impl SsaoRequest {
+    /// Checks the settings, the image size, the shading, the references'
+    /// samples per pixel (at most `raycast::MAX_RAYS_PER_POINT`) and the
+    /// repeats.
     pub fn validate(&self) -> Result<()> {
         self.settings.validate()?;
         crate::scene::check_image_size(self.view.width, self.view.height)?;
@@ -63,48 +69,90 @@ impl SsaoRequest {
 
 /// A frame with its G-buffer and references.
 pub struct SsaoRun {
+    /// The camera the frame was seen through, resolved against the scene.
     pub camera: Camera,
+    /// The frame's G-buffer.
     pub gbuffer: GBuffer,
+    /// The frame's outputs (the last run's) and timings.
     pub frame: SsaoFrame,
+    /// World-space ray-traced AO at the same points, when asked for
+    /// (`truth_rays` > 0).
     pub truth: Option<Estimate>,
+    /// The screen-space reference, when asked for (`reference_spp` > 0).
     pub reference: Option<Estimate>,
+    /// What `ssao --json` reports of it.
     pub report: SsaoReport,
 }
 
 /// What `ssao --json` reports.
 #[derive(Debug, Clone, Serialize)]
 pub struct SsaoReport {
+    /// The estimator run.
     pub estimator: Estimator,
+    /// Samples per pixel.
     pub spp: u32,
+    /// Milliseconds of the AO: estimator and filter.
     pub ao_ms: f64,
+    /// RMS difference of the final AO from the ray-traced truth over the
+    /// surface pixels; None without truth.
     pub rmse_vs_raytraced: Option<f64>,
+    /// RMS difference of the final AO from the screen-space reference over the
+    /// surface pixels; None without reference.
     pub rmse_vs_screen_reference: Option<f64>,
+    /// How the times were measured: GPU timestamps or the wall clock.
     pub timing: Timing,
+    /// Milliseconds of the G-buffer (`Timings::gbuffer_ms`).
     pub gbuffer_ms: f64,
+    /// Milliseconds of the estimator (`Timings::estimate_ms`).
     pub estimate_ms: f64,
+    /// Milliseconds of the AO filter (`Timings::filter_ms`).
     pub filter_ms: f64,
+    /// Milliseconds of the indirect light (`Timings::indirect_ms`).
     pub indirect_ms: f64,
+    /// Milliseconds composing the shaded image (`Timings::compose_ms`).
     pub compose_ms: f64,
+    /// Milliseconds of every step together.
     pub frame_ms: f64,
+    /// Neighbourhood radius R, scene units.
     pub radius: f32,
+    /// The fuzzy measure's name.
     pub measure: &'static str,
+    /// The exponential measure's sigma, inverse scene units; None for the
+    /// others.
     pub sigma: Option<f32>,
+    /// Steps per ray; raymarch only.
     pub steps: Option<u32>,
+    /// Whether the sample sets were interleaved over 4x4 pixels.
     pub interleave: bool,
+    /// Whether the depth-aware filter ran.
     pub filter: bool,
+    /// The filter's depth limit, scene units (R / 2 unless set).
     pub filter_depth: f32,
+    /// The visibility test's depth bias, in pixel footprints.
     pub bias_px: f32,
+    /// Whether each pixel's weights were scaled to give 1 at an open point.
     pub calibrate: bool,
+    /// The estimation grid: `full` or `half`.
     pub resolution: &'static str,
+    /// Seed of the sample tables.
     pub seed: u32,
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
+    /// Pixels that show a surface.
     pub surface_pixels: usize,
+    /// Mean final accessibility over the surface pixels.
     pub mean_ao: f64,
+    /// The ray-traced truth's noise, samples per pixel and time (its values are
+    /// not written).
     pub truth: Option<Estimate>,
+    /// The screen-space reference's noise, samples per pixel and time (its
+    /// values are not written).
     pub reference: Option<Estimate>,
     /// The whole scene's kd-tree (0 when it was not needed).
     pub build_ms: f64,
+    /// The camera the frame was seen through.
     pub camera: Camera,
     /// What the frame did not need: the kd-tree of the drawn scene (a GPU
     /// rasterises the G-buffer; the truth needs only the casters'), the

@@ -34,12 +34,14 @@ use crate::scene::{Camera, ORIGIN_OFFSET};
 /// Per-pixel values (1 on background) and their estimated noise.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Estimate {
+    /// Per pixel, row-major: the mean of the two halves; 1 on the background.
     #[serde(skip)]
     pub values: Vec<f32>,
     /// RMS over surface pixels of the estimated standard deviation of each value.
     pub noise_rms: f64,
     /// Samples per pixel used.
     pub samples: u32,
+    /// Wall-clock milliseconds of the whole estimate, both halves (CPU).
     pub ms: f64,
 }
 
