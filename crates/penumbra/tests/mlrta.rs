@@ -54,7 +54,7 @@ fn compare_image(name: &str, mesh: &Mesh, camera: &Camera, size: u32, params: Ml
             entry_points,
             corner_frusta,
             ep_budget,
-            ..params.clone()
+            ..params
         };
         let traced = trace_image(&prepared, &rays, size, size, &p, Some(light)).unwrap();
         let label =
@@ -113,13 +113,10 @@ fn primary_and_shadow_rays_equal_single_rays_on_procedural_scenes() {
         };
         for tree in [KdTreeSettings::default(), KdTreeSettings::for_cpu()] {
             let label = format!("{name}, traversal cost {}", tree.traversal_cost);
-            compare_image(&label, &mesh, &camera, 128, params.clone(), &tree);
+            compare_image(&label, &mesh, &camera, 128, params, &tree);
         }
         // Tiles of whole 8x8 squares: blocks walked four at a time.
-        let squares = MlrtaSettings {
-            min_tile: 8,
-            ..params.clone()
-        };
+        let squares = MlrtaSettings { min_tile: 8, ..params };
         compare_image(
             &format!("{name}, min tile 8"),
             &mesh,

@@ -256,11 +256,10 @@ fn up_lanes<V: Lanes>(x: V) -> V {
 }
 
 /// Active lanes above which a triangle is tested in all sixteen lanes at
-/// once rather than lane by lane. 1 (was 2) since the packets' set-up moved
-/// into the kernel: 1024x1024 primary rays, one thread, best of 2-3
-/// alternated rounds, bunny 50.2 -> 49.5 ms, dragon100k 52.5 -> 51.1,
-/// kitchen 62.8 -> 61.8 with AVX2; bunny 65.4 -> 64.4 with SSE, 83.8 ->
-/// 84.7 in the scalar lanes (noise); 4 was slower (53.8 ms).
+/// once rather than lane by lane: 1, the fastest measured on 1024x1024
+/// primary rays (one thread, alternated rounds: 2 was about 2% slower on
+/// the bunny, the dragon and the kitchen with AVX2 and SSE, 4 slower
+/// still).
 const LANE_BY_LANE: u32 = 1;
 
 /// The packet's `1 / d` as vectors of lanes `V`, for the lanes' own slab
