@@ -30,73 +30,127 @@ pub enum TraceReason {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PixelPath {
+    /// The fast path (section 6.1): a cell of the previous frame,
+    /// reprojected to this eye, claimed the pixel, which was interpolated
+    /// from it without tracing anything.
     Reprojected,
+    /// Inside a run of one reprojected cell's pixels along a row, filled
+    /// by screen-space interpolation between the run's ends (section 6.2,
+    /// `BoundedSettings::span`): outside the guarantee.
     SpanFilled,
+    /// Its primary ray was traced (pixel assignment is exact) and its line
+    /// interpolated in an accepted cell of that surface's linetree.
     Interpolated,
     /// Its ray left the scene: the background, exactly.
     Background,
+    /// Traced exactly by the Whitted tracer (the slow path), for this
+    /// reason.
     Traced(TraceReason),
 }
 
 /// Pixels by path.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct PathCounts {
+    /// Pixels `PixelPath::Reprojected`.
     pub reprojected: u64,
+    /// Pixels `PixelPath::SpanFilled`.
     pub span_filled: u64,
+    /// Pixels `PixelPath::Interpolated`.
     pub interpolated: u64,
+    /// Pixels `PixelPath::Background`.
     pub background: u64,
+    /// Pixels `PixelPath::Traced`, whatever the reason.
     pub traced: u64,
-    /// Traced pixels by the reason.
+    /// Traced pixels by the reason: a `Failure`'s name (`topology`,
+    /// `nonlinear`, ...), `eye`, `face_mismatch`, `epsilon_zero` or
+    /// `texture_edge`.
     pub traced_by: std::collections::BTreeMap<String, u64>,
 }
 
 /// What one frame did and cost.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct FrameStats {
+    /// Pixels by how they got their radiance.
     pub pixels: PathCounts,
     /// Share of pixels interpolated (fast path, span-filled or built) among
     /// those that hit a surface.
     pub success_rate: f64,
+    /// Linetree cells after the frame, over every tree, split ones
+    /// included (the trees persist from frame to frame).
     pub cells: usize,
+    /// Leaves among them (cells not split).
     pub leaves: usize,
+    /// Accepted leaves among them.
     pub valid_cells: usize,
+    /// Cells built this frame: their extremal rays traced and the
+    /// predicate run.
     pub cells_built: usize,
+    /// Rejected cells split this frame (section 7's cost model let them).
     pub cells_split: usize,
+    /// Cells of the previous frame that reprojection let claim pixels.
     pub cells_reprojected: usize,
-    /// Cells reprojection tried and dropped: the eye was not before their
-    /// front face, their shaft from the eye was not clear, or no pixel's
-    /// line fell in them any more.
+    /// Cells reprojection tried and dropped, by why: `[0]` the predicate
+    /// did not prove that every line of the cell hits its surface (not
+    /// reprojectable), `[1]` their shaft from the eye was not clear, `[2]`
+    /// no pixel's line fell in them any more.
     pub reproject_dropped: [usize; 3],
     /// Extremal rays asked for (16 per built cell) and traced (the rest
     /// were shared with built cells).
     pub extremal_rays_requested: u64,
+    /// Extremal rays traced: those asked for that no cell had traced yet,
+    /// each once.
     pub extremal_rays_traced: u64,
     /// Of those, traced by the Whitted kernel's `whitted_trees` (the rest
     /// on the CPU: no GPU, `SlowPath` chose the CPU, or a tree overflowed
     /// its slot).
     pub extremal_rays_on_gpu: u64,
+    /// Rays the slow path traced: every ray of each traced pixel's ray
+    /// tree (primary, shadow, reflected and refracted).
     pub rays_traced_slow_path: u64,
+    /// Bytes the linetrees' cells and samples take after the frame (after
+    /// eviction).
     pub memory_bytes: usize,
+    /// The most bytes they have taken at once since the renderer was made.
     pub memory_peak_bytes: usize,
+    /// Built leaves evicted after the frame to keep under
+    /// `BoundedSettings::memory_mb` (least recently used first).
     pub evicted_cells: usize,
+    /// Wall-clock milliseconds of the whole frame; the phases below are
+    /// parts of it.
     pub frame_ms: f64,
+    /// Milliseconds of the fast path: reprojecting the previous frame's
+    /// cells and claiming their pixels.
     pub reproject_ms: f64,
+    /// Milliseconds of pixel assignment: the primary rays and each line's
+    /// linetree leaf.
     pub assign_ms: f64,
+    /// Milliseconds of the rounds of builds: extremal rays, predicates and
+    /// splits.
     pub build_ms: f64,
+    /// Milliseconds of the slow path (on an exact frame, the whole Whitted
+    /// render).
     pub trace_ms: f64,
+    /// Milliseconds of interpolating the reprojected and interpolated
+    /// pixels, on the GPU where the renderer has one.
     pub interpolate_ms: f64,
 }
 
 /// A rendered frame.
 pub struct BoundedFrame {
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
+    /// The camera it was rendered from, in the scene's frame.
     pub camera: Camera,
+    /// Linear RGB radiance per pixel, row-major from the top row.
     pub radiance: Vec<Vec3>,
+    /// How each pixel got its radiance, in the same order.
     pub paths: Vec<PixelPath>,
     /// The linetree cell (index into `Linetrees::cells`) each interpolated
     /// or reprojected pixel took its radiance from, `u32::MAX` elsewhere.
     pub cells: Vec<u32>,
+    /// What the frame did and cost.
     pub stats: FrameStats,
 }
 

@@ -44,6 +44,8 @@ const INTERPOLATE_IO: &[Io] = &[
 /// Pixels per dispatch (64 bytes each, in and out).
 pub const JOBS_PER_BATCH: usize = 1 << 18;
 
+/// The `interpolate` kernel's pipeline and bind-group layout, built once
+/// per device (cached on its context) and shared by its passes.
 pub struct InterpolateKernels {
     layout: wgpu::BindGroupLayout,
     pipeline: Pipelines,

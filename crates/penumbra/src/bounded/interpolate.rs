@@ -9,14 +9,23 @@ use rayon::prelude::*;
 /// One pixel to interpolate: its cell's slot in the corner table and the
 /// pixel's line in the cell, each coordinate in [0, 1]; on a textured
 /// surface (`textured` 1) also the diffuse table in the next slot and the
-/// texture factor at the pixel's hit: radiance `B + texture x A`.
+/// texture factor at the pixel's hit: radiance `B + texture x A`. Mirrors
+/// the WGSL struct of the same name (48 bytes).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
 pub struct PixelJob {
+    /// The cell's slot: its 16 corners are entries `16 slot ..16 slot + 16`
+    /// of the corner table.
     pub slot: u32,
+    /// The pixel's row-major index in the image, where its result goes
+    /// (the kernel writes results in job order and does not read it).
     pub pixel: u32,
+    /// 1 on a textured surface (the diffuse table in slot `slot + 1`), else 0.
     pub textured: u32,
+    /// Padding to the WGSL struct's 16-byte alignment.
     pub _pad: u32,
+    /// The pixel's line in the cell: (a, b, c, d), each in [0, 1] from the
+    /// cell's low to its high end.
     pub local: [f32; 4],
     /// The texture factor (xyz; w unused) where `textured` is 1.
     pub texture: [f32; 4],

@@ -23,16 +23,20 @@ use crate::whitted::ray_tree::{RayNode, RayTree};
 /// An extremal ray's radiance and ray tree.
 #[derive(Debug, Clone)]
 pub struct Sample {
+    /// The Whitted radiance leaving the linetree's surface along the ray.
     pub radiance: Vec3,
     /// Its first hit's ambient and diffuse terms before the texture
     /// (`RayOut::diffuse`).
     pub diffuse: Vec3,
+    /// Its ray tree: the surfaces, lights and occluders its radiance
+    /// depends on (section 5.1), which the predicate compares and culls.
     pub tree: RayTree,
     refs: u32,
     key: u128,
 }
 
 impl Sample {
+    /// A traced sample, held by no cell yet.
     pub fn new(radiance: Vec3, diffuse: Vec3, tree: RayTree) -> Sample {
         Sample {
             radiance,
@@ -71,6 +75,7 @@ pub struct Interpolant {
     pub radiance: [Vec3; 16],
     /// The ambient and diffuse terms the texture scales, where it has one.
     pub diffuse: Option<Box<[Vec3; 16]>>,
+    /// What the predicate proved of the cell: its bound, surface and hits.
     pub accepted: Accepted,
 }
 
@@ -100,28 +105,43 @@ impl Interpolant {
     }
 }
 
+/// Where a linetree cell stands.
 #[derive(Debug, Clone)]
 pub enum CellState {
+    /// A leaf no pixel has built yet, or one evicted under the memory cap.
     Unbuilt,
+    /// A leaf the predicate accepted: its interpolant.
     Valid(Box<Interpolant>),
     /// Rejected; `pixels` asked for it when it was (the cost model splits
     /// it when more do), `split` the 4-way split's coordinates.
     Failed {
+        /// The sub-test that rejected it.
         failure: Failure,
+        /// The coordinates a 4-way split halves: `0b0101` (a, c) or
+        /// `0b1010` (b, d).
         split: u8,
+        /// The most pixels one frame asked of it.
         pixels: u32,
     },
     /// Its children are `first ..first + 2^popcount(axes)`.
     Split {
+        /// The coordinates halved, bit i for coordinate i of (a, b, c, d):
+        /// `0b1111` for 16 children.
         axes: u8,
+        /// Its first child's index in `Linetrees::cells`.
         first: u32,
     },
 }
 
+/// A cell of a linetree: a 4D box of lines (section 4.2) and what is
+/// known of it.
 #[derive(Debug, Clone)]
 pub struct Cell {
+    /// Its linetree's index in `Linetrees::trees`.
     pub tree: u32,
+    /// Its box in line space: how often and where the root was halved.
     pub cell: CellBox,
+    /// Unbuilt, accepted, rejected or split.
     pub state: CellState,
     /// The last frame a pixel used it.
     pub used: u32,
@@ -134,8 +154,12 @@ pub struct Cell {
 /// object's box would mix the faces of a checkerboard.)
 #[derive(Debug, Clone)]
 pub struct Linetree {
+    /// The surface whose outgoing radiance it interpolates.
     pub surface: RootFace,
+    /// The face pair that names its lines (section 4.1): two faces of the
+    /// surface's expanded box, across its lines' dominant axis and sign.
     pub pair: FacePair,
+    /// Its root cell's index in `Linetrees::cells`.
     pub root: u32,
 }
 
@@ -143,12 +167,16 @@ pub struct Linetree {
 #[derive(Default)]
 pub struct Linetrees {
     index: HashMap<(RootFace, u8), u32>,
+    /// The linetrees, in the order they were made.
     pub trees: Vec<Linetree>,
+    /// The cells of every tree; a split appends its children, and cells
+    /// are never removed (an evicted leaf is `Unbuilt` again).
     pub cells: Vec<Cell>,
     sample_index: HashMap<u128, u32>,
     samples: Vec<Option<Sample>>,
     free: Vec<u32>,
     bytes: usize,
+    /// The most bytes cells and samples have taken at once.
     pub peak_bytes: usize,
 }
 
@@ -380,7 +408,7 @@ impl Linetrees {
         evicted
     }
 
-    /// Built cells now, and accepted ones.
+    /// Cells, leaves among them (not split), and accepted leaves.
     pub fn counts(&self) -> (usize, usize, usize) {
         let leaves = self
             .cells
@@ -395,6 +423,7 @@ impl Linetrees {
         (self.cells.len(), leaves, valid)
     }
 
+    /// The extremal rays' samples held now.
     pub fn samples_held(&self) -> usize {
         self.sample_index.len()
     }

@@ -18,9 +18,11 @@ use crate::whitted::whitted::WhittedUniforms;
 /// The error of a frame against the exact image.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct ErrorStats {
-    /// Largest and mean relative error `|L - L_exact| / max(L_exact, floor)`
-    /// over channels and pixels (all pixels).
+    /// The largest relative error `|L - L_exact| / max(L_exact, floor)`
+    /// over channels and pixels (all pixels, whatever their path).
     pub max_rel: f64,
+    /// The mean over all pixels of each pixel's largest relative error
+    /// over its channels.
     pub mean_rel: f64,
     /// Interpolated (reprojected or built) pixels over `epsilon`.
     pub violations: u64,
@@ -60,12 +62,19 @@ pub fn compare(frame: &BoundedFrame, exact: &[Vec3], epsilon: f32, floor: f32) -
 /// What `check` found.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct CheckStats {
+    /// Accepted cells checked.
     pub cells: u64,
-    /// Random lines traced, and those whose first hit was not the cell's
-    /// surface (no pixel could be interpolated with them: skipped).
+    /// Random lines traced, `k` per cell.
     pub lines: u64,
+    /// Lines whose first hit was not the cell's surface (or not one of its
+    /// patch's triangles): no pixel could be interpolated with them, so
+    /// they are left out of the comparison.
     pub skipped: u64,
+    /// Lines compared whose interpolated radiance is more than `epsilon`
+    /// from the traced one (relative, `relative_error`): each a broken
+    /// guarantee.
     pub violations: u64,
+    /// The largest relative error over the lines compared.
     pub max_rel: f64,
 }
 

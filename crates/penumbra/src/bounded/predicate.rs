@@ -62,15 +62,30 @@ use crate::whitted::whitted::{FRESNEL, Whitted};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Failure {
+    /// The 16 ray trees are not isomorphic (section 5.1: geometry changes
+    /// and shadows).
     Topology,
+    /// Some line of the cell may miss the surface the trees name, or meet
+    /// it at a grazing angle.
     Silhouette,
+    /// A primitive the trees do not name may cross a reflected or refracted
+    /// segment of some line (section 5.1, occluders: a shaft cull).
     Blocker,
+    /// A light's visibility may change inside the cell: a shadow segment's
+    /// shaft is not clear, the light turns towards or away from the
+    /// surface, or the lights whose visibility is unknown (counted whole)
+    /// push the bound over epsilon.
     Shadow,
+    /// Total internal reflection holds for some lines of the cell and not
+    /// others.
     Tir,
+    /// The bound on the interpolation error (section 5.2) exceeds
+    /// `epsilon * max(L, floor)` even with every light's visibility known.
     Nonlinear,
 }
 
 impl Failure {
+    /// Every sub-test, in the order the module lists them.
     pub const ALL: [Failure; 6] = [
         Failure::Topology,
         Failure::Silhouette,
@@ -110,7 +125,9 @@ pub enum RootFace {
 }
 
 impl RootFace {
-    pub fn of(geometry: &SceneGeometry, scene: &crate::whitted::RenderScene, primitive: u32) -> RootFace {
+    /// The surface of scene primitive `primitive` (a triangle's index, or
+    /// a sphere's primitive index) as linetrees key it.
+    pub(crate) fn of(geometry: &SceneGeometry, scene: &crate::whitted::RenderScene, primitive: u32) -> RootFace {
         if geometry.is_sphere(primitive) {
             return RootFace::Sphere(primitive);
         }
@@ -129,6 +146,7 @@ impl RootFace {
 pub struct Accepted {
     /// The bound on the interpolation error, per channel.
     pub bound: [f64; 3],
+    /// The surface every line of the cell hits first.
     pub root: RootFace,
     /// The box of the cell's first hits (the shaft of reprojection).
     pub hits: (DVec3, DVec3),
@@ -157,6 +175,7 @@ impl Accepted {
 /// A rejected cell, and which coordinates a 4-way split should halve.
 #[derive(Debug, Clone, Copy)]
 pub struct Rejected {
+    /// The sub-test that rejected the cell.
     pub failure: Failure,
     /// `0b0101` (a, c) or `0b1010` (b, d).
     pub split: u8,
@@ -187,11 +206,16 @@ enum Texture {
 }
 
 /// What the predicate reads.
-pub struct Predicate<'a> {
+pub(crate) struct Predicate<'a> {
+    /// The Whitted twin, for the scene's surfaces, lights and kd-tree.
     pub w: &'a Whitted<'a>,
+    /// The scene's faces, spheres and patches.
     pub geometry: &'a SceneGeometry,
+    /// `BoundedSettings::epsilon`.
     pub epsilon: f64,
+    /// `BoundedSettings::floor`.
     pub floor: f64,
+    /// Which bound decides non-linearity.
     pub bound: BoundKind,
 }
 

@@ -58,9 +58,13 @@ struct Assigned {
 
 /// The bounded-error renderer of one scene, kept across frames.
 pub struct BoundedRenderer {
+    /// The Whitted renderer whose radiance is interpolated: its scene,
+    /// kd-tree and device; it traces the slow path and the extremal rays.
     pub whitted: WhittedRenderer,
     geometry: SceneGeometry,
+    /// Every linetree built so far, kept from frame to frame.
     pub trees: Linetrees,
+    /// The knobs, as validated by `new`; `patches` is read only there.
     pub settings: BoundedSettings,
     frame: u32,
     /// The accepted cells the last frame used (what reprojection tries).
@@ -837,6 +841,7 @@ impl BoundedRenderer {
         (s.radiance, first.map(|h| h.primitive), texture)
     }
 
+    /// The scene's faces, spheres and patches as the predicate sees them.
     pub fn geometry(&self) -> &SceneGeometry {
         &self.geometry
     }

@@ -30,14 +30,19 @@ pub struct Measures {
 /// (absent fields were not asked for).
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct Measured {
-    /// The exact renders' time, and theirs over the bounded renders'.
+    /// The exact (Whitted) renders' time in milliseconds, each the
+    /// renderer's own `render_ms`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reference_ms: Option<f64>,
+    /// `reference_ms` over the bounded renders' time: how many times
+    /// faster the bounded frames were.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub speedup: Option<f64>,
     /// Over a sequence: the worst frame (`mean_rel`: mean of the frames' means).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<ErrorStats>,
+    /// The random lines' check (`Measures::check_lines`); over a sequence,
+    /// summed (`max_rel`: the worst frame's).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub check: Option<CheckStats>,
 }
@@ -45,8 +50,10 @@ pub struct Measured {
 /// One frame's statistics and measures.
 #[derive(Debug, Clone, Serialize)]
 pub struct FrameReport {
+    /// What the frame did and cost.
     #[serde(flatten)]
     pub stats: FrameStats,
+    /// What was measured of it.
     #[serde(flatten)]
     pub measured: Measured,
 }
@@ -54,7 +61,10 @@ pub struct FrameReport {
 /// Rays by kind over the sequence.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct SequenceRays {
+    /// Rays the slow path traced: every ray of each traced pixel's ray
+    /// tree (primary, shadow, reflected and refracted).
     pub slow_path: u64,
+    /// Extremal rays traced (each counted once, not its ray tree's rays).
     pub extremal: u64,
     /// Extremal rays whose trees the Whitted kernel traced (`whitted_trees`).
     pub extremal_on_gpu: u64,
@@ -66,24 +76,40 @@ pub struct SequenceRays {
 /// Sums over the frames of a sequence.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct SequenceReport {
+    /// The frames' `frame_ms` summed: wall-clock milliseconds of rendering,
+    /// measures and writing left out.
     pub render_ms: f64,
+    /// Each frame's `frame_ms`, in order.
     pub frame_ms: Vec<f64>,
     /// Pixels by path (`traced_<reason>` for each reason a pixel was traced).
     pub pixels: BTreeMap<String, u64>,
     /// Interpolated (built, reprojected or span-filled) pixels among those
     /// that hit a surface.
     pub success_rate: f64,
+    /// The frames' `FrameStats::extremal_rays_requested` summed.
     pub extremal_rays_requested: u64,
+    /// The frames' `FrameStats::extremal_rays_traced` summed.
     pub extremal_rays_traced: u64,
+    /// The frames' `FrameStats::extremal_rays_on_gpu` summed.
     pub extremal_rays_on_gpu: u64,
+    /// The most bytes the linetrees' cells and samples took at once.
     pub memory_peak_bytes: usize,
+    /// Linetree cells after the last frame (the trees persist across
+    /// frames).
     pub cells: usize,
+    /// Leaves among them (cells not split) after the last frame.
     pub leaves: usize,
+    /// Accepted leaves after the last frame.
     pub valid_cells: usize,
+    /// Rays by kind.
     pub rays: SequenceRays,
+    /// Slow-path and extremal rays per second of `render_ms`, in millions.
     pub mrays_per_s: f64,
+    /// The measures over the sequence: total reference time, overall
+    /// speed-up, worst error, summed check.
     #[serde(flatten)]
     pub measured: Measured,
+    /// Every frame's own report, in order.
     pub per_frame: Vec<FrameReport>,
     #[serde(skip)]
     surfaces: u64,

@@ -43,7 +43,10 @@ pub struct BoundedSettings {
     pub epsilon: f32,
     /// The radiance below which the bound is absolute (`epsilon * floor`).
     pub floor: f32,
+    /// Which bound decides non-linearity: the conservative one (a
+    /// guarantee) or the paper's estimate.
     pub bound: BoundKind,
+    /// How a rejected cell is split.
     pub split: SplitKind,
     /// Reproject the previous frame's cells (the fast path).
     pub reproject: bool,
@@ -65,6 +68,8 @@ pub struct BoundedSettings {
     /// shading they save (docs/results/bounded.md, "Smooth patches").
     /// Read when the renderer is made.
     pub patches: bool,
+    /// The Whitted tracer's knobs (ray depth, Fresnel, packets) for the
+    /// slow path and the extremal rays; `spp` must be 1.
     pub whitted: WhittedSettings,
 }
 
@@ -96,6 +101,8 @@ impl Default for BoundedSettings {
 }
 
 impl BoundedSettings {
+    /// Checks every knob (the Whitted ones too): an error names the first
+    /// out of range.
     pub fn validate(&self) -> Result<()> {
         self.whitted.validate()?;
         if self.whitted.spp != 1 {

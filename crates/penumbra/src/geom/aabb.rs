@@ -5,28 +5,37 @@ use glam::Vec3;
 /// A closed axis-aligned box `[min, max]`. The empty box has `min > max`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Aabb {
+    /// The smallest corner (least x, y and z).
     pub min: Vec3,
+    /// The largest corner (greatest x, y and z).
     pub max: Vec3,
 }
 
 impl Aabb {
+    /// The empty box, `min = +inf` and `max = -inf`: the identity of
+    /// `grow` and `union`.
     pub const EMPTY: Aabb = Aabb {
         min: Vec3::splat(f32::INFINITY),
         max: Vec3::splat(f32::NEG_INFINITY),
     };
 
+    /// The box with corners `min` and `max`, taken as given (not sorted).
     pub fn new(min: Vec3, max: Vec3) -> Self {
         Aabb { min, max }
     }
 
+    /// The smallest box holding every point; `EMPTY` for none.
     pub fn from_points<'a>(points: impl IntoIterator<Item = &'a Vec3>) -> Self {
         points.into_iter().fold(Aabb::EMPTY, |b, p| b.grow(*p))
     }
 
+    /// Whether `min > max` on some axis. A flat box (`min == max` on an
+    /// axis) or a single point is not empty.
     pub fn is_empty(&self) -> bool {
         self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
     }
 
+    /// The smallest box holding `self` and `p`.
     #[must_use]
     pub fn grow(self, p: Vec3) -> Self {
         Aabb {
@@ -35,6 +44,7 @@ impl Aabb {
         }
     }
 
+    /// The smallest box holding both boxes.
     #[must_use]
     pub fn union(self, o: Aabb) -> Self {
         Aabb {
@@ -43,6 +53,8 @@ impl Aabb {
         }
     }
 
+    /// The points both boxes hold; empty (`min > max` somewhere) where
+    /// they do not overlap.
     #[must_use]
     pub fn intersection(self, o: Aabb) -> Self {
         Aabb {
@@ -51,10 +63,12 @@ impl Aabb {
         }
     }
 
+    /// `max - min`: the edge lengths (negative on an empty box's axes).
     pub fn extent(&self) -> Vec3 {
         self.max - self.min
     }
 
+    /// The midpoint of `min` and `max`.
     pub fn center(&self) -> Vec3 {
         0.5 * (self.min + self.max)
     }
@@ -79,11 +93,13 @@ impl Aabb {
         2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
     }
 
+    /// The volume, 0 for a flat or empty box.
     pub fn volume(&self) -> f32 {
         let e = self.extent().max(Vec3::ZERO);
         e.x * e.y * e.z
     }
 
+    /// Whether `p` is in the closed box (boundary included).
     pub fn contains(&self, p: Vec3) -> bool {
         p.cmpge(self.min).all() && p.cmple(self.max).all()
     }

@@ -11,11 +11,14 @@ use crate::geom::aabb::Aabb;
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct Ray {
+    /// The origin `o`, relative to the traced mesh's `origin` (its frame).
     pub origin: [f32; 3],
+    /// The direction `d`, of any length: `t` counts in its units.
     pub dir: [f32; 3],
 }
 
 impl Ray {
+    /// The ray from `origin` along `dir` (not normalised).
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
         Ray {
             origin: origin.to_array(),
@@ -23,10 +26,12 @@ impl Ray {
         }
     }
 
+    /// The origin as a vector.
     pub fn o(&self) -> Vec3 {
         Vec3::from_array(self.origin)
     }
 
+    /// The direction as a vector.
     pub fn d(&self) -> Vec3 {
         Vec3::from_array(self.dir)
     }
@@ -37,18 +42,24 @@ impl Ray {
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct Hit {
+    /// Where along the ray the hit is, in units of the ray's direction;
+    /// `+inf` for a miss.
     pub t: f32,
+    /// The index of the triangle hit in the mesh traced, `MISS_INDEX` for
+    /// a miss.
     pub triangle: u32,
 }
 
 impl Hit {
     /// Triangle index of a miss.
     pub const MISS_INDEX: u32 = u32::MAX;
+    /// The hit of a ray that hits nothing.
     pub const MISS: Hit = Hit {
         t: f32::INFINITY,
         triangle: Hit::MISS_INDEX,
     };
 
+    /// Whether the ray hit a triangle.
     pub fn is_hit(&self) -> bool {
         self.triangle != Hit::MISS_INDEX
     }

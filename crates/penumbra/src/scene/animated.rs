@@ -21,11 +21,14 @@ use crate::error::{Error, Result};
 /// Which built-in animation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum AnimatedScene {
+    /// The draped, waving cloth (`cloth`).
     Cloth,
+    /// The walking character of skinned capsules (`character`).
     Character,
 }
 
 impl AnimatedScene {
+    /// The animation named `cloth` or `character` (`--animated`).
     pub fn parse(name: &str) -> Result<AnimatedScene> {
         match name {
             "cloth" => Ok(AnimatedScene::Cloth),
@@ -37,6 +40,7 @@ impl AnimatedScene {
         }
     }
 
+    /// Its name, as `parse` reads it.
     pub fn name(self) -> &'static str {
         match self {
             AnimatedScene::Cloth => "cloth",
@@ -56,7 +60,10 @@ impl AnimatedScene {
 /// A mesh whose vertices move with time.
 #[derive(Debug, Clone)]
 pub struct Animation {
+    /// The name reports and the mesh's one object take: `cloth`,
+    /// `character`, a glTF file's stem, the name a sequence is given.
     pub name: String,
+    /// The fixed topology: three vertex indices per triangle.
     pub triangles: Vec<[u32; 3]>,
     kind: Kind,
     /// A camera that frames the whole animation: (eye, target, fov degrees)
@@ -88,6 +95,7 @@ impl Animation {
         }
     }
 
+    /// The number of vertices, the same at every time.
     pub fn vertex_count(&self) -> usize {
         match &self.kind {
             Kind::Cloth { n } => n * n,

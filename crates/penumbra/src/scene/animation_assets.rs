@@ -85,29 +85,43 @@ pub fn flag_frames(frames: usize) -> Vec<super::Mesh> {
 /// at the bind pose (no rotation at bind).
 #[derive(Debug, Clone)]
 pub struct Bone {
+    /// Its glTF node's name.
     pub name: String,
+    /// The index of its parent in `SkinnedModel::bones` (listed before
+    /// it); `None` for a root.
     pub parent: Option<usize>,
+    /// Its translation from the parent's joint (from the model's origin
+    /// for a root).
     pub offset: DVec3,
 }
 
 /// A rotation track of one bone: LINEAR or STEP keys.
 #[derive(Debug, Clone)]
 pub struct Track {
+    /// The index of the bone it turns in `SkinnedModel::bones`.
     pub bone: usize,
+    /// Key times in seconds, increasing.
     pub times: Vec<f64>,
+    /// The bone's local rotation at each key (identity at the bind pose).
     pub rotations: Vec<DQuat>,
+    /// STEP keys (each held until the next) rather than LINEAR ones.
     pub step: bool,
 }
 
 /// A mesh skinned to a skeleton, with its animation clips.
 #[derive(Debug, Clone, Default)]
 pub struct SkinnedModel {
+    /// Bind-pose vertex positions.
     pub positions: Vec<Vec3>,
+    /// Three indices into `positions` per triangle.
     pub triangles: Vec<[u32; 3]>,
     /// Four influences per vertex (weights sum to 1).
     pub joints: Vec<[u16; 4]>,
+    /// The weights of `joints`' influences, per vertex.
     pub weights: Vec<[f32; 4]>,
+    /// The skeleton, parents before children.
     pub bones: Vec<Bone>,
+    /// Animation clips: a name and the rotation tracks it plays.
     pub clips: Vec<(String, Vec<Track>)>,
 }
 

@@ -7,9 +7,13 @@ use crate::error::{Error, Result};
 use crate::geom::aabb::Aabb;
 use crate::geom::ray::Ray;
 
+/// A pinhole camera looking from `eye` at `target`, in the scene's frame,
+/// with +y up (+z for a vertical view, `basis`) and square pixels.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Camera {
+    /// The centre of projection, where every primary ray starts.
     pub eye: Vec3,
+    /// The point at the image's centre; any distance from `eye` but zero.
     pub target: Vec3,
     /// Vertical field of view in degrees.
     #[serde(rename = "fov")]
@@ -23,8 +27,11 @@ pub struct Camera {
 /// into the scene's frame (`scene::frame`).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct CameraSpec {
+    /// `--eye`, in world coordinates.
     pub eye: Option<DVec3>,
+    /// `--target`, in world coordinates.
     pub target: Option<DVec3>,
+    /// `--fov`: the vertical field of view in degrees, in (0, 180).
     pub fov_degrees: Option<f32>,
 }
 
@@ -64,8 +71,11 @@ pub const MAX_PIXELS: u64 = 1 << 28;
 /// its size in pixels.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct View {
+    /// The camera, in as far as it is given.
     pub camera: CameraSpec,
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
 }
 
@@ -95,6 +105,7 @@ impl View {
         }
     }
 
+    /// `width * height`.
     pub fn pixels(&self) -> usize {
         self.width as usize * self.height as usize
     }
@@ -178,6 +189,8 @@ impl Camera {
         }
     }
 
+    /// Checks that eye and target are finite and distinct and the field
+    /// of view is in (0, 180) degrees.
     pub fn validate(&self) -> Result<()> {
         if !self.eye.is_finite() || !self.target.is_finite() {
             return Err(Error::param("eye/target", "must be finite"));
@@ -289,10 +302,12 @@ pub struct PixelDirections {
 }
 
 impl PixelDirections {
+    /// The image's width in pixels.
     pub fn width(&self) -> u32 {
         self.px.len() as u32
     }
 
+    /// The image's height in pixels.
     pub fn height(&self) -> u32 {
         self.py.len() as u32
     }
@@ -344,10 +359,12 @@ impl CameraRays {
         }
     }
 
+    /// The camera's eye, every ray's origin.
     pub fn eye(&self) -> Vec3 {
         self.eye
     }
 
+    /// The pixel directions the rays were made from.
     pub fn directions(&self) -> &PixelDirections {
         &self.directions
     }
@@ -357,6 +374,7 @@ impl CameraRays {
         &self.rays
     }
 
+    /// The rays, row-major, without the directions.
     pub fn into_rays(self) -> Vec<Ray> {
         self.rays
     }

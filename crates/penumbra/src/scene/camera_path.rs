@@ -16,14 +16,20 @@ use glam::Vec3;
 use super::Camera;
 use crate::error::{Error, Result};
 
+/// How the camera moves over an animation's frames (see the module's
+/// description).
 #[derive(Debug, Clone, PartialEq)]
 pub enum CameraPath {
+    /// Keyframes of a path file, at least one, in the scene's frame: the
+    /// frames spread evenly over them, interpolated linearly.
     Keys(Vec<Camera>),
     /// The built-in walk from a camera.
     Walk(Camera),
 }
 
 impl CameraPath {
+    /// Reads a path file whose points are taken as they are (a scene at
+    /// the world's origin); errors name the file and line.
     pub fn load(path: &Path) -> Result<CameraPath> {
         Self::load_in(path, glam::DVec3::ZERO)
     }

@@ -16,8 +16,11 @@ use crate::error::{Error, Result};
 /// 2π/w slice of azimuth: solid angle `(2π / w) (cos θ0 - cos θ1)`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EnvironmentMap {
+    /// Texels per row: twice `height`.
     pub width: u32,
+    /// Rows, from +y (row 0) to -y.
     pub height: u32,
+    /// Linear RGB radiance, row-major, finite and non-negative.
     pub texels: Vec<[f32; 3]>,
 }
 

@@ -17,7 +17,11 @@ pub const ORIGIN_OFFSET: f32 = 1e-4;
 /// one instance of a scene.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeshObject {
+    /// An OBJ's `o`/`g` name (`default` before any), a glTF node's or
+    /// mesh's name, a scene instance's name, `default` for a PLY, `mesh`
+    /// from `Mesh::new`.
     pub name: String,
+    /// Its triangles' indices in `Mesh::triangles`.
     pub triangles: Range<u32>,
 }
 
@@ -25,7 +29,10 @@ pub struct MeshObject {
 /// file order for vertices, fan order across all objects for triangles.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Mesh {
+    /// Vertex positions, relative to `origin`.
     pub positions: Vec<Vec3>,
+    /// Three indices into `positions` per triangle, in the winding the
+    /// file gives (`face_normal` follows it).
     pub triangles: Vec<[u32; 3]>,
     /// Per-object triangle ranges, in order, covering all triangles.
     pub objects: Vec<MeshObject>,
@@ -88,6 +95,7 @@ impl Mesh {
         Ok(())
     }
 
+    /// Triangle `t`'s three corners.
     pub fn triangle(&self, t: usize) -> [Vec3; 3] {
         let [a, b, c] = self.triangles[t];
         [

@@ -46,9 +46,13 @@ pub fn is_gltf_json(bytes: &[u8]) -> bool {
 /// The mesh formats penumbra reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum MeshFormat {
+    /// Wavefront OBJ text.
     Obj,
+    /// PLY, ASCII or binary.
     Ply,
+    /// glTF 2.0 JSON (`.gltf`), its buffers in files beside it or in data URIs.
     Gltf,
+    /// Binary glTF 2.0 (`.glb`).
     Glb,
 }
 

@@ -70,17 +70,24 @@ pub enum Role {
 }
 
 impl Role {
+    /// Whether instances of this role occlude (`Caster` or `Both`).
     pub fn casts(self) -> bool {
         matches!(self, Role::Caster | Role::Both)
     }
+    /// Whether instances of this role get results (`Receiver` or `Both`).
     pub fn receives(self) -> bool {
         matches!(self, Role::Receiver | Role::Both)
     }
 }
 
+/// A mesh of a scene, which its instances place.
 #[derive(Debug, Clone)]
 pub struct SceneMesh {
+    /// The scene file's name for it (a key of `"meshes"`), or a
+    /// one-mesh scene's name.
     pub name: String,
+    /// The file it was read from, resolved against the scene file's
+    /// folder (`<NAME animation>` for a built-in animation).
     pub path: PathBuf,
     /// The mesh (a deforming one's rest pose).
     pub mesh: Mesh,
@@ -121,12 +128,19 @@ impl SceneMesh {
     }
 }
 
+/// One placement of a mesh in a scene: which mesh, where, and what part
+/// it takes.
 #[derive(Debug, Clone)]
 pub struct Instance {
+    /// The scene file's `name`, else `MESH#i` for its `i`th instance; a
+    /// one-mesh scene's is the mesh's name.
     pub name: String,
     /// Index into `Scene::meshes`.
     pub mesh: usize,
+    /// Whether it occludes, receives or both.
     pub role: Role,
+    /// Its placement in the scene's frame at animation frame 0: mesh
+    /// coordinates (the mesh's own frame) to scene coordinates.
     pub transform: Transform,
     /// Rigid motion over animation frames, if any.
     pub motion: Option<Motion>,
@@ -141,15 +155,24 @@ impl Instance {
     }
 }
 
+/// A light of a scene file, for the methods that shade (`raytrace`, and
+/// the first four for SSAO's G-buffer).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Light {
+    /// A point light, falling off as 1/d².
     Point {
+        /// Where it is, in the scene's frame.
         position: Vec3,
+        /// RGB intensity (W/sr per channel).
         intensity: Vec3,
     },
-    /// `direction` is the direction the light travels.
+    /// A light from infinitely far; `direction` is the direction the light
+    /// travels.
     Directional {
+        /// Unit direction of travel (from the light towards the scene).
         direction: Vec3,
+        /// RGB irradiance it gives a surface facing it (the scene file's
+        /// `radiance`).
         radiance: Vec3,
     },
 }
@@ -166,24 +189,41 @@ impl Light {
     }
 }
 
+/// A scene file's `"environment"`: a light probe around the scene.
 #[derive(Debug, Clone)]
 pub struct Environment {
+    /// The `.hdr` file it was read from.
     pub path: PathBuf,
+    /// The probe's radiance.
     pub map: EnvironmentMap,
+    /// The factor on the probe's radiance, >= 0 (default 1).
     pub intensity: f32,
+    /// The probe's rotation about +y, in degrees (default 0).
     pub rotation_degrees: f32,
 }
 
+/// Everything a method is given to work on: meshes, their instances, a
+/// camera, lights, an environment and, for rendering, materials and
+/// spheres, with every point in the scene's frame (relative to `origin`).
 #[derive(Debug, Clone)]
 pub struct Scene {
     /// Where the scene's coordinate zero is in world coordinates: every
     /// point of the scene (instances' placements, camera, lights, spheres)
     /// is relative to it (`frame`; zero unless the scene is far off).
     pub origin: glam::DVec3,
+    /// The meshes the instances place (a scene file's in the order of
+    /// their names).
     pub meshes: Vec<SceneMesh>,
+    /// The instances, in the scene file's order: a merged mesh
+    /// (`world_mesh`) numbers its objects, triangles and vertices in it.
     pub instances: Vec<Instance>,
+    /// The scene file's camera, if it has one (the command line's
+    /// `--eye/--target/--fov` override it; `camera_in`).
     pub camera: Option<Camera>,
+    /// Its lights, in file order; with none (and no emissive faces) the
+    /// methods that shade use `Light::default_light`.
     pub lights: Vec<Light>,
+    /// The light probe of the file, if it names one.
     pub environment: Option<Environment>,
     /// Precomputed displacement fields by mesh index (`.dfield` paths).
     pub fields: std::collections::BTreeMap<usize, PathBuf>,
@@ -194,6 +234,8 @@ pub struct Scene {
     /// Ambient light and the radiance of rays that leave the scene, where
     /// the scene file gives them (rendering only).
     pub ambient: Option<Vec3>,
+    /// The RGB radiance of rays that leave the scene, where the scene
+    /// file gives it (rendering only).
     pub background: Option<Vec3>,
     /// Problems met while loading that do not stop it (MTL files...).
     pub warnings: Vec<String>,

@@ -16,10 +16,18 @@ use crate::error::{Error, Result};
 /// One `newmtl` block, fields as MTL names them (linear RGB).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Material {
+    /// The `newmtl` name, or the key in a scene file's `"materials"`.
     pub name: String,
+    /// `Ka`, ambient reflectance (>= 0): what reflects the scene's ambient
+    /// light.
     pub ka: Vec3,
+    /// `Kd`, diffuse reflectance (>= 0).
     pub kd: Vec3,
+    /// `Ks`, specular reflectance (>= 0): the highlight's colour and, where
+    /// `illum` asks for it, the mirror reflection's.
     pub ks: Vec3,
+    /// `Ke`, emitted radiance (>= 0): a face with a non-zero `Ke` lights
+    /// the scene when ray traced.
     pub ke: Vec3,
     /// Transmission filter `Tf`.
     pub tf: Vec3,
@@ -47,8 +55,11 @@ pub struct Material {
 /// pattern.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Checker {
+    /// The cubes' side, in scene units (> 0).
     pub size: f32,
+    /// A corner of the cube (0, 0, 0).
     pub origin: Vec3,
+    /// The factor on `Ka` and `Kd` in the odd cubes.
     pub odd: Vec3,
 }
 

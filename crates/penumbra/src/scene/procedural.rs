@@ -358,7 +358,7 @@ fn scenes() -> Vec<ProceduralScene> {
 }
 
 /// Every procedural scene at its default parameters, as (kebab-case name,
-/// mesh), in the order [`write_assets`] writes them.
+/// mesh), in the order `penumbra gen-assets` writes them ([`asset_files`]).
 pub fn all_scenes() -> Vec<(&'static str, Mesh)> {
     scenes().into_iter().map(|s| (s.name, s.mesh)).collect()
 }

@@ -28,9 +28,13 @@ const OPTION: &str = "--mesh-sequence";
 /// A loaded sequence: positions per frame over one triangle list.
 #[derive(Debug, Clone)]
 pub struct MeshSequence {
+    /// The pattern as given (`--mesh-sequence`).
     pub pattern: String,
+    /// The files it matched, in frame order.
     pub files: Vec<PathBuf>,
+    /// Each frame's vertex positions, all in frame 0's frame (`origin`).
     pub frames: Vec<Vec<Vec3>>,
+    /// Frame 0's triangles, which every frame shares.
     pub triangles: Vec<[u32; 3]>,
     /// Where frame 0's frame (every frame's) is in world coordinates.
     pub origin: glam::DVec3,

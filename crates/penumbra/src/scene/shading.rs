@@ -40,8 +40,11 @@ impl MeshShading {
 /// An analytic sphere of a scene file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneSphere {
+    /// Its `name` in the file, else `sphere#i` for the `i`th sphere.
     pub name: String,
+    /// Its centre, in the scene's frame.
     pub center: Vec3,
+    /// Its radius, > 0.
     pub radius: f32,
     /// A material of the scene's `"materials"` (none: the default material).
     pub material: Option<String>,

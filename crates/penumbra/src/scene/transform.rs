@@ -3,9 +3,13 @@
 
 use glam::{Quat, Vec3};
 
+/// A placement: scale uniformly, rotate, then translate
+/// (`p' = rotation (scale p) + translation`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Transform {
+    /// Where the mesh's coordinate zero lands, in the scene's frame.
     pub translation: Vec3,
+    /// A unit quaternion.
     pub rotation: Quat,
     /// Uniform scale, > 0.
     pub scale: f32,
@@ -22,6 +26,7 @@ impl Default for Transform {
 }
 
 impl Transform {
+    /// A point of the mesh placed in the scene.
     pub fn apply_point(&self, p: Vec3) -> Vec3 {
         self.rotation * (p * self.scale) + self.translation
     }
@@ -31,6 +36,8 @@ impl Transform {
         self.rotation * v
     }
 
+    /// A point of the scene in the mesh's coordinates: the inverse of
+    /// `apply_point`.
     pub fn inverse_point(&self, p: Vec3) -> Vec3 {
         (self.rotation.inverse() * (p - self.translation)) / self.scale
     }
@@ -40,9 +47,13 @@ impl Transform {
 /// translation, applied `frame` times on top of an instance's placement.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Motion {
+    /// The unit axis of the rotation.
     pub axis: Vec3,
+    /// The rotation per frame, in degrees (right-handed about `axis`).
     pub degrees_per_frame: f32,
+    /// The point the rotation turns about, in the scene's frame.
     pub pivot: Vec3,
+    /// The translation per frame, in scene units.
     pub velocity: Vec3,
 }
 

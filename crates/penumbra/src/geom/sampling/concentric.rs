@@ -11,7 +11,7 @@ use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
 
 use super::atan::atan_unit;
 
-/// Square [0,1]^2 to unit disk.
+/// Square [0, 1]^2 to unit disk.
 #[inline]
 pub fn concentric_disk(u: f32, v: f32) -> [f32; 2] {
     let [r, phi] = concentric_polar(u, v);
@@ -38,7 +38,7 @@ pub fn concentric_polar(u: f32, v: f32) -> [f32; 2] {
     if a == 0.0 && b == 0.0 { [0.0, 0.0] } else { [r, phi] }
 }
 
-/// Unit disk to square [0,1]^2: the inverse of `concentric_disk`. The
+/// Unit disk to square [0, 1]^2: the inverse of `concentric_disk`. The
 /// diagonals split the disk as they split the square: where |x| >= |y| the
 /// point came from the triangle r = a, whose angle is phi = atan(y / x) off
 /// the x axis (pi added for x < 0, which the ratio absorbs), so b = a phi /

@@ -33,12 +33,16 @@ pub fn malley_inverse(w: Vec3) -> [f32; 2] {
 /// and continuous except across n.z = 0's sign.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Frame {
+    /// The tangent: local +x.
     pub t: Vec3,
+    /// The bitangent: local +y, with `t.cross(b) == n` (right-handed).
     pub b: Vec3,
+    /// The normal given: local +z.
     pub n: Vec3,
 }
 
 impl Frame {
+    /// The frame around the unit normal `n`.
     #[inline]
     pub fn from_normal(n: Vec3) -> Self {
         let sign = 1.0f32.copysign(n.z);
@@ -51,6 +55,8 @@ impl Frame {
         }
     }
 
+    /// A vector given in the frame's (t, b, n) coordinates, in world
+    /// coordinates: a `cosine_hemisphere` direction turned around `n`.
     #[inline]
     pub fn to_world(&self, local: Vec3) -> Vec3 {
         self.t * local.x + self.b * local.y + self.n * local.z

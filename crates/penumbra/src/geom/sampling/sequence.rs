@@ -8,10 +8,12 @@
 /// select an independent scramble of the same Sobol points.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct SampleSequence {
+    /// The seed every stream's scramble is hashed from.
     pub seed: u32,
 }
 
 impl SampleSequence {
+    /// The sequence of `seed` (`DEFAULT_SEED` unless a method is told).
     pub fn new(seed: u32) -> Self {
         SampleSequence { seed }
     }
@@ -181,6 +183,8 @@ pub struct StreamSampler {
 }
 
 impl StreamSampler {
+    /// The stream whose scramble seed is `seed`
+    /// (`SampleSequence::stream_seed`).
     #[inline]
     pub fn new(seed: u32) -> Self {
         StreamSampler {

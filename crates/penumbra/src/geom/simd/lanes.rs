@@ -6,10 +6,13 @@ pub trait Mask: Copy {
     fn from_bits(bits: u16) -> Self;
     /// Lane r's state as bit r.
     fn bits(self) -> u16;
+    /// Lanes set in both.
     fn and(self, o: Self) -> Self;
+    /// Lanes set in either.
     fn or(self, o: Self) -> Self;
     /// `self & !o`.
     fn and_not(self, o: Self) -> Self;
+    /// Whether some lane is set.
     #[inline(always)]
     fn any(self) -> bool {
         self.bits() != 0
@@ -28,27 +31,43 @@ pub trait Mask: Copy {
 /// instruction set is available; an implementation's values must be created
 /// only after `Isa::is_available` said so (the dispatching functions check).
 pub unsafe trait Lanes: Copy {
+    /// The mask the comparisons return.
     type M: Mask;
     /// The CPU has AVX2 wherever these lanes exist (they are made only
     /// inside functions compiled with it), so code inlined beside them may
     /// use 256-bit intrinsics: eight-wide work such as a BVH node's boxes.
     const AVX2: bool = false;
+    /// `x` in every lane.
     fn splat(x: f32) -> Self;
+    /// Lane r from `a[r]`.
     fn from_array(a: [f32; 16]) -> Self;
+    /// Lane r into element r.
     fn to_array(self) -> [f32; 16];
+    /// `self + o` per lane.
     fn add(self, o: Self) -> Self;
+    /// `self - o` per lane.
     fn sub(self, o: Self) -> Self;
+    /// `self * o` per lane (no fused multiply-add).
     fn mul(self, o: Self) -> Self;
+    /// `self / o` per lane, correctly rounded.
     fn div(self, o: Self) -> Self;
     /// The correctly rounded square root, as `f32::sqrt`.
     fn sqrt(self) -> Self;
+    /// The smaller of each pair (operands not NaN).
     fn min(self, o: Self) -> Self;
+    /// The larger of each pair (operands not NaN).
     fn max(self, o: Self) -> Self;
+    /// `self < o` per lane (false on NaN).
     fn lt(self, o: Self) -> Self::M;
+    /// `self <= o` per lane (false on NaN).
     fn le(self, o: Self) -> Self::M;
+    /// `self > o` per lane (false on NaN).
     fn gt(self, o: Self) -> Self::M;
+    /// `self >= o` per lane (false on NaN).
     fn ge(self, o: Self) -> Self::M;
+    /// `self == o` per lane (false on NaN; `-0 == 0`).
     fn eq(self, o: Self) -> Self::M;
+    /// `self != o` per lane (true on NaN).
     fn ne(self, o: Self) -> Self::M;
     /// `m ? a : b` per lane.
     fn select(m: Self::M, a: Self, b: Self) -> Self;

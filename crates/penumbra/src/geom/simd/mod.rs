@@ -119,6 +119,7 @@ pub fn set_lanes<T: Copy>(out: &mut [T; 16], bits: u16, value: T) {
 
 /// Work generic over the lanes, run by `dispatch` in one instruction set.
 pub trait Kernel {
+    /// What the work returns.
     type Out;
     /// The work in lanes `V`. Implementations are `#[inline(always)]` (as
     /// everything they call on the lanes), so that they compile into the
