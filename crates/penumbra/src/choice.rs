@@ -23,7 +23,10 @@ pub trait Choice: Copy + Sized + 'static {
 }
 
 /// Implements [`Choice`] for an enum: `choice!(Estimator { Raymarch =
-/// "raymarch", TangentSphere = "tangent-sphere" });`.
+/// "raymarch", TangentSphere = "tangent-sphere" });`. Crate-internal: its
+/// expansion names the crate-private `choice` module, so it is hidden from
+/// the public docs.
+#[doc(hidden)]
 #[macro_export]
 macro_rules! choice {
     ($ty:ident { $($variant:ident = $name:literal),+ $(,)? }) => {

@@ -28,18 +28,18 @@
 //! ```
 //!
 //! A host engine adopts its own `wgpu::Device` and `Queue`
-//! ([`Device::from_host`]); the GPU passes one level down (`ssao::gpu`,
-//! `prt::gpu`, `field::gpu`, `whitted::gpu`, ...) follow `new` / `prepare`
-//! / `record`: built once for the device, uploading into buffers they
-//! keep, recording only into the caller's encoder. Long work reports to a
+//! ([`Device::from_host`]); the GPU passes one level down ([`ssao::gpu`],
+//! [`prt::gpu`], [`field::gpu`], [`whitted::gpu`], ...) follow `new` /
+//! `prepare` / `record`: built once for the device, uploading into buffers
+//! they keep, recording only into the caller's encoder. Long work reports to a
 //! [`Progress`] the host implements, through a [`Reporter`]; nothing is
 //! printed, no environment variable is read and no file is written unless
 //! a call is given its path.
 //!
-//! Cargo features (all on by default): `gltf`, `ply` (readers), `png`,
-//! `exr` (image writers), `hdr` (light probes), `simplify` (PRT's coarse
-//! level, meshoptimizer) and `clap` (`clap::ValueEnum` on the settings'
-//! enums, off by default). Layers and module map: docs/design.md.
+//! Cargo features, on by default: `gltf`, `ply` (readers), `png`, `exr`
+//! (image writers), `hdr` (light probes) and `simplify` (PRT's coarse
+//! level, meshoptimizer); off by default: `clap` (`clap::ValueEnum` on the
+//! settings' enums). Layers and module map: docs/design.md.
 
 #![warn(missing_docs)]
 

@@ -6,7 +6,7 @@
 //! "AO vertices", ...) and counts their steps; it never draws, prints or
 //! reads the terminal. Cancellation is checked between units of work (a
 //! batch of rays, a frame, a setting of a sweep), so a cancelled call
-//! returns [`Error::Cancelled`](crate::Error::Cancelled) soon, with nothing
+//! returns [`Error::Cancelled`] soon, with nothing
 //! half-written.
 
 use std::sync::Arc;

@@ -36,12 +36,16 @@ pub trait BatchPass {
 /// batch recording `dispatches` timed passes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct BatchPlan {
+    /// Items of the whole request.
     pub items: usize,
+    /// Most items in one batch (at least 1).
     pub per_batch: usize,
+    /// Timed passes each batch records: the timestamp pairs its timer holds.
     pub dispatches: u32,
 }
 
 impl BatchPlan {
+    /// A plan; a `per_batch` of 0 is taken as 1.
     pub fn new(items: usize, per_batch: usize, dispatches: u32) -> BatchPlan {
         BatchPlan {
             items,
@@ -72,6 +76,7 @@ pub fn readback_buffer() -> GrowingBuffer {
 /// A pass built from kernels that are cached per device: `new` for a
 /// host's device, `for_context` from a context's cache.
 pub trait Pass: Sized {
+    /// The pass's pipelines and layouts, built once per device.
     type Kernels: Kernels;
 
     /// A pass (with empty kept buffers) over kernels built before.
@@ -93,11 +98,13 @@ pub trait Pass: Sized {
 /// A pass with the read-back buffer of its batches: what a runner keeps on
 /// a device to serve many requests without reallocating.
 pub struct Batched<P> {
+    /// The pass itself, for a caller that records it into its own encoder.
     pub pass: P,
     pub(crate) readback: GrowingBuffer,
 }
 
 impl<P> Batched<P> {
+    /// `pass` with an empty read-back buffer.
     pub fn with_pass(pass: P) -> Batched<P> {
         Batched {
             pass,
@@ -181,6 +188,7 @@ impl BatchSizer {
     /// About how long one batch should take.
     pub const TARGET: Duration = Duration::from_millis(250);
 
+    /// A sizer whose batches never exceed `largest` items (at least 1).
     pub fn new(largest: usize) -> BatchSizer {
         let largest = largest.max(1);
         BatchSizer {

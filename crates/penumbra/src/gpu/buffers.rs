@@ -72,6 +72,7 @@ pub fn zeroed_buffer(device: &wgpu::Device, label: &str, bytes: u64, usage: wgpu
     })
 }
 
+/// A uniform buffer holding `value`, writable later (`COPY_DST`).
 pub fn uniform_buffer<T: bytemuck::Pod>(device: &wgpu::Device, label: &str, value: &T) -> wgpu::Buffer {
     device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some(label),
@@ -118,6 +119,8 @@ pub struct GrowingBuffer {
 }
 
 impl GrowingBuffer {
+    /// An empty buffer (nothing allocated until `reserve`) of `usage`,
+    /// `label` naming it in device errors and debuggers.
     pub const fn new(label: &'static str, usage: wgpu::BufferUsages) -> GrowingBuffer {
         GrowingBuffer {
             label,
@@ -194,6 +197,8 @@ pub struct KeptGroup {
 }
 
 impl KeptGroup {
+    /// A group over `bindings` (binding number, buffer); the bind group
+    /// itself is built by the first `update`.
     pub fn new(label: &'static str, bindings: Vec<(u32, Kept)>) -> KeptGroup {
         KeptGroup {
             label,

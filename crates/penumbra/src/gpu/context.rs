@@ -10,13 +10,20 @@ use crate::error::{Error, Result};
 /// One adapter as `penumbra info` reports it.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct AdapterSummary {
+    /// The adapter's name, as the driver gives it.
     pub name: String,
+    /// The backend, lower case (`vulkan`, `gl`, `metal`, `dx12`, ...).
     pub backend: String,
+    /// The kind of device, lower case (`discretegpu`, `integratedgpu`,
+    /// `virtualgpu`, `cpu`, `other`).
     pub device_type: String,
+    /// The driver's name and its version text, space-separated; empty where
+    /// the driver gives neither.
     pub driver_info: String,
 }
 
 impl AdapterSummary {
+    /// The summary of an adapter wgpu describes.
     pub fn from_info(info: &wgpu::AdapterInfo) -> Self {
         let driver_info = [info.driver.as_str(), info.driver_info.as_str()]
             .iter()
@@ -40,7 +47,9 @@ impl AdapterSummary {
 /// convenience entry points (CLI, tests) need on top of that.
 #[derive(Clone)]
 pub struct GpuContext {
+    /// The device every pass is built for and records on.
     pub device: wgpu::Device,
+    /// The device's queue, which the blocking helpers submit to.
     pub queue: wgpu::Queue,
     /// Adapter name for reports ("host device" when adopted).
     pub name: String,
@@ -338,6 +347,7 @@ impl GpuContext {
         self.capabilities.check(needs, &self.device.limits(), &self.label())
     }
 
+    /// The limits the device was created with.
     pub fn limits(&self) -> wgpu::Limits {
         self.device.limits()
     }

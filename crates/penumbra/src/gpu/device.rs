@@ -50,6 +50,8 @@ pub struct Device {
 pub struct Needs {
     /// The method, for messages.
     pub what: &'static str,
+    /// The WGSL modules its kernels are composed of, whose bindings and
+    /// entry points are checked against the device's limits.
     pub modules: &'static [crate::gpu::wgsl::Composition],
     /// Formats rendered to, and what for.
     pub render_targets: &'static [(wgpu::TextureFormat, &'static str)],
@@ -163,6 +165,7 @@ impl Device {
         self.gpu.as_ref()
     }
 
+    /// Whether methods run their WGSL kernels (`false`: their CPU twins).
     pub fn is_gpu(&self) -> bool {
         self.gpu.is_some()
     }
@@ -229,14 +232,25 @@ impl Device {
 /// A method's resources on its device: GPU state (uploaded data, passes
 /// with their kept buffers), or nothing for the CPU path.
 pub enum OnDevice<G> {
+    /// The CPU path: nothing kept.
     Cpu,
-    Gpu { ctx: GpuContext, state: G },
+    /// The GPU path.
+    Gpu {
+        /// The device the state lives on.
+        ctx: GpuContext,
+        /// What the method uploaded and built (`Device::prepare`'s `upload`).
+        state: G,
+    },
 }
 
 /// What a GPU path returns: its value and, where the device has timestamp
 /// queries, its kernels' time.
 pub struct GpuOutput<T> {
+    /// What the kernels computed, read back.
     pub value: T,
+    /// Milliseconds of the kernels' own work from GPU timestamps; `None`
+    /// where the device has no timestamp queries (the caller then times
+    /// the call on the wall clock).
     pub gpu_ms: Option<f64>,
 }
 
@@ -255,8 +269,11 @@ pub enum Timing {
 /// A value and the time it took.
 #[derive(Debug, Clone)]
 pub struct Timed<T> {
+    /// What was computed.
     pub value: T,
+    /// Milliseconds, measured as `timing` says.
     pub ms: f64,
+    /// Whether `ms` is the kernels' timestamped time or wall-clock time.
     pub timing: Timing,
 }
 
@@ -272,6 +289,7 @@ impl<T> Timed<T> {
         })
     }
 
+    /// The value passed through `f`, with the same time.
     pub fn map<U>(self, f: impl FnOnce(T) -> U) -> Timed<U> {
         Timed {
             value: f(self.value),

@@ -37,6 +37,8 @@ impl KernelCache {
 /// on a context (`cached`) for every later pass. `log` records which of
 /// its pipelines get compiled (they compile on first use, see `Pipelines`).
 pub trait Kernels: Any + Send + Sync + Sized {
+    /// Builds the set's layouts and declares its pipelines on `device`;
+    /// `log` records which of them get compiled (on first use).
     fn build(device: &wgpu::Device, log: &Arc<PipelineLog>) -> Self;
 
     /// The kernels cached on `ctx`, built on first use.
@@ -63,15 +65,20 @@ struct LogEntry {
 pub struct PipelineReport {
     /// Sum of the compiled pipelines' times.
     pub compile_ms: f64,
+    /// The pipelines compiled, in the order their kernel sets declared them.
     pub compiled: Vec<CompiledPipeline>,
     /// Declared by a kernel set the run used, never needed.
     pub skipped: Vec<String>,
 }
 
+/// One compiled pipeline of a `PipelineReport`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CompiledPipeline {
     /// `module.entry_point`.
     pub name: String,
+    /// Wall-clock milliseconds of creating the pipeline, and the shader
+    /// module where this entry point was the first of its module to need
+    /// it (or has a variant of its own).
     pub ms: f64,
 }
 
@@ -94,6 +101,7 @@ impl PipelineLog {
         entry.compile_ms = Some(entry.compile_ms.unwrap_or(0.0) + ms);
     }
 
+    /// What was declared and compiled so far.
     pub fn report(&self) -> PipelineReport {
         let entries = self.entries.lock().unwrap_or_else(|e| e.into_inner());
         let compiled: Vec<CompiledPipeline> = entries

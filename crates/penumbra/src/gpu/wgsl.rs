@@ -10,6 +10,7 @@
 pub struct WgslFile {
     /// Path relative to the crate root, for messages.
     pub path: &'static str,
+    /// The file's WGSL source.
     pub text: &'static str,
 }
 
@@ -22,31 +23,90 @@ macro_rules! wgsl_file {
     };
 }
 
+/// Owen-scrambled Sobol points, the concentric disk map and Malley's cosine
+/// hemisphere: the twin of `geom::sampling`, bit for bit.
 pub const SAMPLING: WgslFile = wgsl_file!("sampling.wgsl");
+/// The orthonormal basis about a unit normal (Duff et al. 2017), the twin
+/// of `Frame::from_normal`.
 pub const FRAME: WgslFile = wgsl_file!("frame.wgsl");
+/// The G-buffer's albedo packed into one float (`r + 256 g + 65536 b`),
+/// shared by the G-buffer pass and SSAO's indirect light.
 pub const ALBEDO: WgslFile = wgsl_file!("albedo.wgsl");
+/// Single-ray kd-tree traversal with the watertight triangle test over the
+/// tree's buffers (bind group 0): the twin of `kdtree::traverse` and
+/// `kdtree::watertight`.
 pub const KDTREE_TRAVERSE: WgslFile = wgsl_file!("kdtree_traverse.wgsl");
+/// Kernel: closest or any hit of a batch of rays (`kdtree::gpu`).
 pub const TRACE_RAYS: WgslFile = wgsl_file!("trace_rays.wgsl");
+/// Kernel: ambient-occlusion rays, one invocation per ray, each setting a
+/// bit of its point's visibility mask (`raycast`).
 pub const AO_RAYS: WgslFile = wgsl_file!("ao_rays.wgsl");
+/// Kernel: MLRTA packets, sixteen invocations per packet walking the tree
+/// from the packet's entry point (Reshetov, Soupikov and Hurley, section
+/// 4.3).
 pub const PACKET_TRAVERSE: WgslFile = wgsl_file!("packet_traverse.wgsl");
+/// Displacement-field geometry: the field's parameters, its octahedral grid
+/// of positional samples and the hemisphere mappings.
 pub const FIELD_LOOKUP: WgslFile = wgsl_file!("field_lookup.wgsl");
+/// Map access for 8-bit fields: an RG8Unorm 3D texture read through the
+/// texture unit's bilinear filter.
 pub const FIELD_MAPS_FILTERED: WgslFile = wgsl_file!("field_maps_filtered.wgsl");
+/// Map access for 32-bit fields: an R32Float 3D texture, its four texels
+/// loaded and weighed in f32 as the CPU twin does.
 pub const FIELD_MAPS_LOADED: WgslFile = wgsl_file!("field_maps_loaded.wgsl");
+/// Map access for 1-bit fields: hit bits packed 32 to a word in a storage
+/// buffer, with each map's mean hit distance.
 pub const FIELD_MAPS_BITS: WgslFile = wgsl_file!("field_maps_bits.wgsl");
+/// The displacement-field query (a map's sample in world terms, a sample, a
+/// trace), over a map-access file.
 pub const FIELD_TRACE: WgslFile = wgsl_file!("field_trace.wgsl");
+/// Kernel: ambient occlusion through displacement fields (Gaitatzes,
+/// Chrysanthou and Papaioannou, Algorithm 2), one invocation per 32-ray
+/// word of a point's mask.
 pub const FIELD_AO: WgslFile = wgsl_file!("field_ao.wgsl");
+/// Kernel: single field lookups along object-space rays, the twin of the
+/// CPU's `field_probe`.
 pub const FIELD_PROBE: WgslFile = wgsl_file!("field_probe.wgsl");
+/// Render pipeline: the SSAO G-buffer (camera-space normal and z, direct
+/// light and packed albedo), reversed-Z with an infinite far plane.
 pub const GBUFFER: WgslFile = wgsl_file!("gbuffer.wgsl");
+/// What the SSAO kernels share: parameters, bindings, camera-space
+/// reconstruction and projection, the depth-buffer visibility test and the
+/// pixel's sample set.
 pub const SSAO_COMMON: WgslFile = wgsl_file!("ssao_common.wgsl");
+/// Kernels: Szirmay-Kalos et al.'s screen-space AO estimators (point
+/// samples, ray marching, pipes through the base disk), one invocation per
+/// estimation cell.
 pub const SSAO_ESTIMATE: WgslFile = wgsl_file!("ssao_estimate.wgsl");
+/// Kernels: SSAO's depth-aware 4x4 low-pass filter (Szirmay-Kalos et al.,
+/// section 5) and the half-resolution upsampling.
 pub const SSAO_FILTER: WgslFile = wgsl_file!("ssao_filter.wgsl");
+/// Kernels: SSAO's indirect light (Szirmay-Kalos et al., section 3.1) and
+/// the composed image.
 pub const SSAO_INDIRECT: WgslFile = wgsl_file!("ssao_indirect.wgsl");
+/// Kernel: PRT's SH transfer vectors from per-vertex visibility masks
+/// (Kautz et al. 2004, equation 3 and section 3.2), rotated to world space
+/// and dotted with the lighting; composed after one of the two
+/// workgroup-array files.
 pub const SH_TRANSFER: WgslFile = wgsl_file!("sh_transfer.wgsl");
+/// `SH_TRANSFER`'s workgroup arrays for 8 vertices a workgroup (14,848
+/// bytes), within WebGPU's portable 16 KiB.
 pub const SH_TRANSFER_PORTABLE: WgslFile = wgsl_file!("sh_transfer_portable.wgsl");
+/// `SH_TRANSFER`'s workgroup arrays for 16 vertices a workgroup (29,696
+/// bytes), for devices with 32 KiB of workgroup memory.
 pub const SH_TRANSFER_WIDE: WgslFile = wgsl_file!("sh_transfer_wide.wgsl");
+/// `WHITTED`'s pixel entries, with ray-tree recording compiled out: its
+/// mere presence makes them 18 times slower on lavapipe.
 pub const WHITTED_PIXELS: WgslFile = wgsl_file!("whitted_pixels.wgsl");
+/// `WHITTED`'s `whitted_trees` entry: each ray's tree written into its slot.
 pub const WHITTED_TREES: WgslFile = wgsl_file!("whitted_trees.wgsl");
+/// Kernel: Whitted ray tracing, one invocation per pixel, each sample's ray
+/// tree walked depth first with an explicit stack; composed after
+/// `WHITTED_PIXELS` or `WHITTED_TREES`.
 pub const WHITTED: WgslFile = wgsl_file!("whitted.wgsl");
+/// Kernel: bounded-error ray tracing's fast path (Bala, Dorsey and Teller,
+/// sections 4.2 and 6): each pixel's radiance interpolated quadrilinearly
+/// from its linetree cell's 16 extremal rays.
 pub const INTERPOLATE: WgslFile = wgsl_file!("interpolate.wgsl");
 
 /// Every file compiled in (the validation test checks this against `wgsl/`).
@@ -83,7 +143,10 @@ pub const FILES: &[WgslFile] = &[
 /// device.
 #[derive(Debug, Clone, Copy)]
 pub struct Composition {
+    /// The module's name: shader module and pipeline labels, `module` in
+    /// pipeline names (`module.entry_point`) and messages.
     pub name: &'static str,
+    /// The files concatenated, libraries first, the kernel's own file last.
     pub parts: &'static [WgslFile],
     /// Written out, not read from the WGSL when a device is checked:
     /// parsing every module costs about 50 ms, more than a small command's
@@ -99,6 +162,7 @@ pub struct Demands {
     /// Storage buffers its declarations bind: the pipeline layout its entry
     /// points share, which wgpu counts per shader stage.
     pub storage_buffers: u32,
+    /// Storage textures its declarations bind, counted as storage buffers are.
     pub storage_textures: u32,
     /// The most workgroup memory one entry point uses (each variable
     /// rounded up to 16 bytes, as WebGPU counts it).
@@ -188,18 +252,21 @@ impl Demands {
     }
 }
 
+/// `TRACE_RAYS` over the kd-tree traversal.
 pub const TRACE_RAYS_MODULE: Composition = Composition {
     name: "trace_rays",
     parts: &[KDTREE_TRAVERSE, TRACE_RAYS],
     demands: Demands::compute(6),
 };
 
+/// `AO_RAYS` over sampling, the tangent frame and the kd-tree traversal.
 pub const AO_RAYS_MODULE: Composition = Composition {
     name: "ao_rays",
     parts: &[SAMPLING, FRAME, KDTREE_TRAVERSE, AO_RAYS],
     demands: Demands::compute(6),
 };
 
+/// `WHITTED` with its pixel entries (no ray-tree recording).
 pub const WHITTED_MODULE: Composition = Composition {
     name: "whitted",
     parts: &[SAMPLING, KDTREE_TRAVERSE, WHITTED_PIXELS, WHITTED],
@@ -214,12 +281,14 @@ pub const WHITTED_TREES_MODULE: Composition = Composition {
     demands: Demands::compute(8),
 };
 
+/// `INTERPOLATE` on its own.
 pub const INTERPOLATE_MODULE: Composition = Composition {
     name: "interpolate",
     parts: &[INTERPOLATE],
     demands: Demands::compute(3),
 };
 
+/// `PACKET_TRAVERSE` over the kd-tree traversal.
 pub const PACKET_TRAVERSE_MODULE: Composition = Composition {
     name: "packet_traverse",
     parts: &[KDTREE_TRAVERSE, PACKET_TRAVERSE],
@@ -238,13 +307,19 @@ macro_rules! field_module {
     };
 }
 
+/// `FIELD_AO` over 8-bit maps (filtered texture).
 pub const FIELD_AO_FILTERED_MODULE: Composition = field_module!("field_ao_filtered", FIELD_MAPS_FILTERED, FIELD_AO, 4);
+/// `FIELD_AO` over 32-bit maps (loaded texture).
 pub const FIELD_AO_LOADED_MODULE: Composition = field_module!("field_ao_loaded", FIELD_MAPS_LOADED, FIELD_AO, 4);
+/// `FIELD_AO` over 1-bit maps (storage buffers).
 pub const FIELD_AO_BITS_MODULE: Composition = field_module!("field_ao_bits", FIELD_MAPS_BITS, FIELD_AO, 6);
+/// `FIELD_PROBE` over 8-bit maps (filtered texture).
 pub const FIELD_PROBE_FILTERED_MODULE: Composition =
     field_module!("field_probe_filtered", FIELD_MAPS_FILTERED, FIELD_PROBE, 2);
+/// `FIELD_PROBE` over 32-bit maps (loaded texture).
 pub const FIELD_PROBE_LOADED_MODULE: Composition =
     field_module!("field_probe_loaded", FIELD_MAPS_LOADED, FIELD_PROBE, 2);
+/// `FIELD_PROBE` over 1-bit maps (storage buffers).
 pub const FIELD_PROBE_BITS_MODULE: Composition = field_module!("field_probe_bits", FIELD_MAPS_BITS, FIELD_PROBE, 4);
 
 /// The G-buffer render pipeline (vertex and fragment stages).
@@ -257,18 +332,22 @@ pub const GBUFFER_MODULE: Composition = Composition {
     },
 };
 
+/// `SSAO_ESTIMATE` over the tangent frame and `SSAO_COMMON`.
 pub const SSAO_ESTIMATE_MODULE: Composition = Composition {
     name: "ssao_estimate",
     parts: &[FRAME, SSAO_COMMON, SSAO_ESTIMATE],
     demands: Demands::per_pixel(8),
 };
 
+/// `SSAO_FILTER` over the tangent frame and `SSAO_COMMON`.
 pub const SSAO_FILTER_MODULE: Composition = Composition {
     name: "ssao_filter",
     parts: &[FRAME, SSAO_COMMON, SSAO_FILTER],
     demands: Demands::per_pixel(8),
 };
 
+/// `SSAO_INDIRECT` over the tangent frame, the packed albedo and
+/// `SSAO_COMMON`.
 pub const SSAO_INDIRECT_MODULE: Composition = Composition {
     name: "ssao_indirect",
     parts: &[FRAME, ALBEDO, SSAO_COMMON, SSAO_INDIRECT],
@@ -330,15 +409,20 @@ pub const VARIANTS: &[Composition] = &[SH_TRANSFER_MODULE];
 pub struct EntryNeeds {
     /// `module.entry_point`.
     pub name: String,
+    /// The entry point's stage (compute, or the G-buffer's vertex and
+    /// fragment).
     pub stage: naga::ShaderStage,
     /// Storage buffers the entry point itself uses (its pipeline layout,
     /// shared by the module's entry points, binds `Resources::storage_buffers`).
     pub storage_buffers: u32,
+    /// Storage textures the entry point itself uses.
     pub storage_textures: u32,
+    /// Sampled (non-storage) textures the entry point itself uses.
     pub sampled_textures: u32,
     /// Bytes of the `var<workgroup>` variables it uses, each rounded up to
     /// 16 as WebGPU counts them against `max_compute_workgroup_storage_size`.
     pub workgroup_bytes: u32,
+    /// The entry point's `@workgroup_size` (zero for a render stage).
     pub workgroup_size: [u32; 3],
 }
 
@@ -347,9 +431,13 @@ pub struct EntryNeeds {
 /// wgpu counts per shader stage) and what each entry point uses.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Resources {
+    /// The module's name (`Composition::name`).
     pub module: &'static str,
+    /// Storage buffers the module declares, used or not.
     pub storage_buffers: u32,
+    /// Storage textures the module declares, used or not.
     pub storage_textures: u32,
+    /// Each entry point's own needs, in the module's order.
     pub entries: Vec<EntryNeeds>,
 }
 
@@ -381,8 +469,11 @@ pub struct Exceeded {
     pub limit: &'static str,
     /// What it counts ("bytes of workgroup memory").
     pub counts: &'static str,
+    /// How many the module needs.
     pub needs: u32,
+    /// The module's name.
     pub module: String,
+    /// How many the device allows.
     pub allows: u32,
 }
 
@@ -407,6 +498,7 @@ impl Composition {
         self.exceeded(limits).is_empty()
     }
 
+    /// The composed WGSL: the parts concatenated, each ending in a newline.
     pub fn source(&self) -> String {
         let mut s = String::new();
         for part in self.parts {

@@ -25,9 +25,13 @@ use crate::progress::Bar;
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct AoRays {
+    /// Points in the batch.
     pub point_count: u32,
+    /// Rays cast from each point (`AoSettings::rays_per_point`).
     pub rays_per_point: u32,
+    /// Words of each point's visibility mask (`AoSettings::words_per_point`).
     pub words_per_point: u32,
+    /// The sample sequence's seed (`AoSettings::seed`).
     pub seed: u32,
     /// Invocations per row of the 2D dispatch grid.
     pub row_pitch: u32,
@@ -36,6 +40,9 @@ pub struct AoRays {
 }
 
 impl AoRays {
+    /// The rays of `points` points cast as `settings` says (an infinite
+    /// radius as `f32::MAX`), on a dispatch grid of `row_pitch` invocations
+    /// a row.
     pub fn new(points: usize, settings: &AoSettings, row_pitch: u32) -> AoRays {
         AoRays {
             point_count: points as u32,

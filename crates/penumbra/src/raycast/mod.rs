@@ -38,13 +38,20 @@ pub const MAX_RAYS_PER_POINT: u32 = 1 << 20;
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct AoPoint {
+    /// The rays' origin, in the mesh's coordinates, already offset from the
+    /// surface along the normal.
     pub origin: [f32; 3],
+    /// The point's stream in the sample sequence.
     pub stream: u32,
+    /// The hemisphere's unit normal; zero for none.
     pub normal: [f32; 3],
+    /// Padding to the GPU's 8 words; always 0.
     pub _pad: u32,
 }
 
 impl AoPoint {
+    /// A point at `origin` (already offset) with hemisphere `normal` (unit,
+    /// or zero for none) and sample stream `stream`.
     pub fn new(origin: Vec3, normal: Vec3, stream: u32) -> Self {
         AoPoint {
             origin: origin.to_array(),
@@ -54,6 +61,7 @@ impl AoPoint {
         }
     }
 
+    /// Whether rays are cast from the point (its normal is not zero).
     pub fn has_hemisphere(&self) -> bool {
         self.normal != [0.0; 3]
     }
@@ -86,6 +94,8 @@ impl Default for AoSettings {
 }
 
 impl AoSettings {
+    /// `Ok`, or a parameter error: `rays_per_point` must be in
+    /// 1..=`MAX_RAYS_PER_POINT` and `radius` positive (infinity allowed).
     pub fn validate(&self) -> Result<()> {
         if self.rays_per_point == 0 {
             return Err(Error::param("rays_per_point", "must be at least 1"));
@@ -99,6 +109,7 @@ impl AoSettings {
         Ok(())
     }
 
+    /// 32-bit words of a point's visibility mask: one bit per ray.
     pub fn words_per_point(&self) -> u32 {
         self.rays_per_point.div_ceil(32)
     }
@@ -121,6 +132,7 @@ pub struct PointDirections {
 }
 
 impl PointDirections {
+    /// The directions of stream `point` of `seq` about the unit `normal`.
     #[inline]
     pub fn new(seq: &SampleSequence, point: u32, normal: Vec3) -> Self {
         PointDirections {
@@ -129,6 +141,7 @@ impl PointDirections {
         }
     }
 
+    /// Ray `j`'s unit direction, in world space.
     #[inline]
     pub fn direction(&self, j: u32) -> Vec3 {
         let [u, v] = self.stream.sample(j);
@@ -181,16 +194,23 @@ impl PointDirections {
 /// ray j escaped.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct VisibilityMasks {
+    /// Rays cast from each point.
     pub rays_per_point: u32,
+    /// Words of each point's mask: `rays_per_point` rounded up to 32 bits.
     pub words_per_point: u32,
+    /// The masks, point after point; the bits past `rays_per_point` in a
+    /// point's last word are 0.
     pub bits: Vec<u32>,
 }
 
 impl VisibilityMasks {
+    /// How many points the masks are of.
     pub fn points(&self) -> usize {
         self.bits.len() / self.words_per_point as usize
     }
 
+    /// Point `point`'s mask: `words_per_point` words, bit j of word j / 32
+    /// (counting from the least significant) set when ray j escaped.
     pub fn mask(&self, point: usize) -> &[u32] {
         let w = self.words_per_point as usize;
         &self.bits[point * w..(point + 1) * w]

@@ -23,16 +23,21 @@ pub struct AoOutputs<'a> {
     pub per_vertex: Option<&'a Path>,
     /// AO per pixel: PNG, EXR or PFM.
     pub image: Option<&'a Path>,
+    /// How the image is written: PNG bit depth, and what a pixel whose
+    /// primary ray missed becomes.
     pub style: GreyStyle,
 }
 
 /// The per-vertex file written.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct VertexSummary {
+    /// The path written, as given.
     pub file: String,
+    /// Vertices written: the receivers'.
     pub vertices: usize,
     /// Vertices no triangle of non-zero area uses (ao = 1, no rays).
     pub without_normal: usize,
+    /// Mean AO over the vertices (in [0, 1], 1 open).
     pub mean_ao: f64,
     /// Ray casting's time for the vertices (the field runner reports per frame instead).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -42,21 +47,35 @@ pub struct VertexSummary {
 /// The image written.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ImageSummary {
+    /// The path written, as given.
     pub file: String,
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
+    /// Pixels whose primary ray hit, and so have AO.
     pub pixels_hit: usize,
+    /// Mean AO over the pixels hit.
     pub mean_ao: f64,
+    /// Milliseconds of the pixels' AO (primary rays not included): the
+    /// kernels' own time from GPU timestamps where the device has them,
+    /// else wall clock.
     pub ao_ms: f64,
+    /// The camera's eye, in the scene's frame (world coordinates less
+    /// `Mesh::origin`, which is zero but for models far from the origin).
     pub eye: [f32; 3],
+    /// The point the camera looks at, in the same frame.
     pub target: [f32; 3],
+    /// Vertical field of view, degrees.
     pub fov: f32,
 }
 
 /// What `AoOutputs::write` wrote, and what a user should be told about it.
 #[derive(Debug, Clone, Default)]
 pub struct Written {
+    /// The per-vertex file, if one was written.
     pub per_vertex: Option<VertexSummary>,
+    /// The image, if one was written.
     pub image: Option<ImageSummary>,
     /// Warnings worth a line on stderr (AO near 0 everywhere, vertices without a normal).
     pub notes: Vec<String>,
@@ -157,10 +176,13 @@ impl ImageSummary {
 /// The fields every AO report has.
 #[derive(Debug, Clone, Serialize)]
 pub struct AoReport {
+    /// The method: `raycast` or `field`.
     pub method: &'static str,
+    /// Rays per point (`AoSettings::rays_per_point`).
     pub rays_per_point: u32,
     /// `None`: infinite.
     pub radius: Option<f32>,
+    /// The sample sequence's seed.
     pub seed: u32,
     /// Kd-tree (ray casting) or field (fields) build time.
     pub build_ms: f64,
@@ -168,9 +190,12 @@ pub struct AoReport {
     pub points: usize,
     /// AO time (the field runner: its last frame's).
     pub ao_ms: f64,
+    /// Millions of rays a second: `points * rays_per_point` over `ao_ms`.
     pub mrays_per_s: f64,
+    /// The per-vertex file, if one was written.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub per_vertex: Option<VertexSummary>,
+    /// The image, if one was written.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub image: Option<ImageSummary>,
     /// The measured runs' `ao_ms` (`--warmup`, `--repeat`); the rest is the last run's.
@@ -179,6 +204,9 @@ pub struct AoReport {
 }
 
 impl AoReport {
+    /// The common fields of `method`'s run with `settings`: `build_ms` its
+    /// structure's build, `points` that cast rays in `ao_ms`; no outputs
+    /// or runs yet.
     pub fn new(method: &'static str, settings: &AoSettings, build_ms: f64, (points, ao_ms): (usize, f64)) -> Self {
         AoReport {
             method,
@@ -206,16 +234,21 @@ impl AoReport {
 /// The casters' size.
 #[derive(Debug, Clone, Serialize)]
 pub struct Casters {
+    /// Instances that cast (the field runner's report); `None` for ray
+    /// casting, which merges them.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub instances: Option<usize>,
+    /// The casters' triangles, merged.
     pub triangles: usize,
 }
 
 /// `ao --method raycast`'s report.
 #[derive(Debug, Clone, Serialize)]
 pub struct RaycastReport {
+    /// The fields every AO report has, at the top level of the JSON.
     #[serde(flatten)]
     pub ao: AoReport,
+    /// The casters' size.
     pub casters: Casters,
     /// The casters' wide BVH on the CPU: its build (apart from `build_ms`,
     /// the kd-tree's, and from `ao_ms`), nodes, blocks and bytes.
@@ -224,11 +257,13 @@ pub struct RaycastReport {
 }
 
 impl RaycastReport {
+    /// The report with the measured runs' times.
     pub fn with_runs(mut self, runs: RunTimes) -> Self {
         self.ao.runs = Some(runs);
         self
     }
 
+    /// The report of a run's AO with `settings`, and of what was written.
     pub fn new(ao: &RaycastAo, settings: &AoSettings, written: Written) -> Self {
         RaycastReport {
             ao: AoReport::new("raycast", settings, ao.build_ms, (ao.points(), ao.ao_ms())).with(written),

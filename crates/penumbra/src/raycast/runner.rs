@@ -18,27 +18,42 @@ use crate::scene::{Camera, Mesh, Role, Scene, View};
 /// What AO is asked for: the receivers' vertices and/or an image.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AoRequest {
+    /// How the AO rays are cast.
     pub settings: AoSettings,
+    /// Whether the receivers' vertices get AO.
     pub vertices: bool,
+    /// The view whose visible pixels get AO; `None` for no image.
     pub image: Option<View>,
 }
 
 /// AO at the receivers' vertices, in `Scene::receivers` order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct VertexAo {
+    /// Ambient accessibility per vertex, in [0, 1]: the fraction of its
+    /// rays that escaped (1 open).
     pub ao: Vec<f32>,
     /// Vertices no triangle of non-zero area uses: no normal, no rays, ao = 1.
     pub without_normal: usize,
+    /// Milliseconds of the vertices' AO: the kernels' own time from GPU
+    /// timestamps where the device has them, else wall clock; 0 where the
+    /// runner times whole frames instead (`field::runner`).
     pub ms: f64,
 }
 
 /// AO at the pixels a camera sees; `None` where the primary ray misses.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PixelAo {
+    /// Ambient accessibility per pixel, row by row from the top.
     pub values: Vec<Option<f32>>,
+    /// The camera the image was seen through (the view's, completed).
     pub camera: Camera,
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
+    /// Milliseconds of the pixels' AO (the primary rays not included): the
+    /// kernels' own time from GPU timestamps where the device has them,
+    /// else wall clock.
     pub ms: f64,
 }
 
@@ -57,12 +72,15 @@ impl PixelAo {
 /// The reference AO of a scene.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RaycastAo {
+    /// The casters' triangles, merged.
     pub caster_triangles: usize,
     /// The casters' kd-tree build.
     pub build_ms: f64,
     /// On the CPU, the wide BVH the AO packets walked (`accel::Structure`).
     pub bvh: Option<BvhStats>,
+    /// The vertices' AO, if asked for.
     pub vertices: Option<VertexAo>,
+    /// The image's AO, if asked for.
     pub image: Option<PixelAo>,
 }
 
@@ -152,9 +170,13 @@ pub fn near_zero_warning(ao: &[f32], radius: Option<f32>, scene: &Scene) -> Opti
 /// The AO points of the pixels a view sees, from `tracer`'s closest hits
 /// on `everything` (the scene at that moment).
 pub struct VisiblePoints {
+    /// The view's camera, completed.
     pub camera: Camera,
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
+    /// The primary rays through the pixel centres, row by row from the top.
     pub rays: Vec<Ray>,
     /// Closest hit per pixel.
     pub hits: Timed<Vec<crate::geom::ray::Hit>>,

@@ -62,7 +62,9 @@ pub enum KnobKind {
     },
     /// `on` or `off` (also `true` or `false`).
     OnOff,
-    /// The names of a [`Choice`], read case-insensitively.
+    /// The names of an enum of named values (such as
+    /// [`Estimator`](crate::Estimator)'s `raymarch`, `tangent-sphere`, ...),
+    /// read case-insensitively.
     Named {
         /// The canonical name of the value `text` names, or why none.
         parse: fn(&str) -> Result<&'static str, String>,
@@ -125,8 +127,8 @@ fn parse_integer(text: &str, min: i128, max: i128) -> Result<i128, String> {
     }
 }
 
-/// A type a knob's values have: integers, floats, `bool` (on/off) and
-/// [`Choice`] enums.
+/// A type a knob's values have: integers, floats, `bool` (on/off) and the
+/// library's enums of named values (such as [`Estimator`](crate::Estimator)).
 pub trait KnobType: Copy {
     /// The kind of knob whose values are of this type.
     const KIND: KnobKind;

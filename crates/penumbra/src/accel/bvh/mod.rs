@@ -57,7 +57,12 @@ pub const EMPTY_CHILD: u32 = u32::MAX;
 #[repr(C, align(64))]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Node8 {
+    /// The children's boxes in world units (unscaled, unlike the leaf
+    /// blocks), widened by a few ulps of the scene's largest coordinate;
+    /// lane `i` is child `i`'s. An empty slot's box is empty.
     pub planes: [[f32; WIDTH]; 6],
+    /// Per slot: an interior child's node index, or `LEAF_BIT` with the
+    /// index of its leaf block in `Bvh8::blocks`, or `EMPTY_CHILD`.
     pub child: [u32; WIDTH],
 }
 

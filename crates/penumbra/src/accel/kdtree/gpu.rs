@@ -54,11 +54,18 @@ pub fn kdtree_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout 
 
 /// A kd-tree resident on a device (bind group 0 of the traversal kernels).
 pub struct GpuKdTree {
+    /// `KdTree::nodes`, 8 bytes each (binding 0).
     pub nodes: wgpu::Buffer,
+    /// `KdTree::leaf_triangles` (binding 1).
     pub leaf_triangles: wgpu::Buffer,
+    /// `KdTree::triangles`, nine f32 each, in world units (binding 2).
     pub triangles: wgpu::Buffer,
+    /// The `KdScene` uniform: bounds, node and triangle counts and the
+    /// frame scale (binding 3).
     pub scene: wgpu::Buffer,
+    /// Bind group 0 of the traversal kernels, over the four buffers.
     pub bind_group: wgpu::BindGroup,
+    /// Bytes of the three storage arrays (the uniform not counted).
     pub bytes: u64,
 }
 
@@ -117,7 +124,9 @@ pub(crate) struct TraceRaysUniforms {
 /// Which entry point of `trace_rays.wgsl` to run (in `TraceRaysKernels`' order).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TraceMode {
+    /// The closest hit of each ray.
     Closest,
+    /// Any hit: the first the walk finds, not necessarily the closest.
     Any,
     /// Closest hit, also writing (traversal steps, intersection tests) per ray.
     ClosestCounted,
@@ -206,6 +215,7 @@ impl TreePass<TraceRaysKernels> {
 
 /// What a blocking GPU trace returns.
 pub struct GpuTrace {
+    /// One per ray, in order; `Hit::MISS` where a ray hits nothing.
     pub hits: Vec<Hit>,
     /// Per ray (traversal steps, intersection tests), in `ClosestCounted` mode.
     pub counts: Option<Vec<[u32; 2]>>,

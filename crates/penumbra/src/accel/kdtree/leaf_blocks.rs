@@ -29,14 +29,21 @@ pub const BLOCK: usize = 4;
 #[repr(C, align(16))]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LeafBlock {
+    /// Coordinate `axis` of vertex `vertex` of the lane's triangle, at
+    /// `v[3 * vertex + axis][lane]`, in the tree's frame.
     pub v: [[f32; BLOCK]; 9],
+    /// Each lane's triangle index in the mesh; `u32::MAX` in unused lanes.
     pub triangles: [u32; BLOCK],
 }
 
 /// `KdTree::nodes` pointing into `blocks`, see the module's doc.
 #[derive(Debug, Clone)]
 pub struct LeafBlocks {
+    /// `KdTree::nodes`, each leaf's word 0 the index of its first block
+    /// in `blocks` (its triangle count still in word 1).
     pub nodes: Vec<KdNode>,
+    /// Every leaf's blocks, leaf after leaf; a leaf of `n` triangles has
+    /// `n.div_ceil(4)` of them.
     pub blocks: Vec<LeafBlock>,
 }
 

@@ -20,7 +20,9 @@ use crate::geom::ray::Hit;
 /// Receives traversal events; the statistics of `penumbra trace` count them,
 /// the fast path compiles them away.
 pub trait Counters {
+    /// A traversal step: one cell (interior or leaf) visited.
     fn cell(&mut self);
+    /// One ray–triangle test.
     fn intersection(&mut self);
 }
 
@@ -37,7 +39,9 @@ impl Counters for NoCounts {
 /// Traversal steps (interior and leaf cells visited) and ray–triangle tests.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct TraversalCounts {
+    /// Cells visited, interior and leaf.
     pub cells: u64,
+    /// Ray–triangle tests.
     pub intersections: u64,
 }
 

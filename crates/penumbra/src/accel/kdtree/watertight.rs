@@ -31,16 +31,25 @@ use glam::Vec3;
 pub struct ShearedRay {
     /// The ray's origin times `scale`.
     pub origin: Vec3,
-    /// Axis of the largest |direction| component, and the two others in an
-    /// order that keeps the triangle winding (swapped when d[kz] < 0).
+    /// The first of the two axes other than `kz`: it becomes the sheared
+    /// frame's x (`kx` and `ky` swapped when `d[kz] < 0`, which keeps the
+    /// triangles' winding).
     pub kx: usize,
+    /// The second axis other than `kz`: it becomes the sheared frame's y.
     pub ky: usize,
+    /// Axis of the direction's largest |component|: it becomes the sheared
+    /// frame's z.
     pub kz: usize,
+    /// Shear constant `S_x = d_kx / d_kz`.
     pub sx: f32,
+    /// Shear constant `S_y = d_ky / d_kz`.
     pub sy: f32,
+    /// Shear constant `S_z = 1 / d_kz`.
     pub sz: f32,
-    /// The frame's power of two, and its inverse.
+    /// The frame's power of two.
     pub scale: f32,
+    /// `1 / scale`, exact: it takes a t found in the frame back to units
+    /// of the ray's direction.
     pub inv_scale: f32,
 }
 

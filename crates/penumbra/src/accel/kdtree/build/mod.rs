@@ -126,6 +126,8 @@ impl KdTreeSettings {
         }
     }
 
+    /// The depth at which a tree of `triangles` triangles stops splitting:
+    /// `max_depth`, or `8 + 1.3 log2(N)` rounded, within 1..=`MAX_TREE_DEPTH`.
     pub fn depth_limit(&self, triangles: usize) -> usize {
         let auto = (8.0 + 1.3 * (triangles.max(1) as f32).log2()).round() as usize;
         self.max_depth.unwrap_or(auto).clamp(1, MAX_TREE_DEPTH)
@@ -731,20 +733,33 @@ fn extent_and_planar_axes(prims: &[Prim]) -> (Aabb, [bool; 3]) {
 /// Statistics of a built tree, as `penumbra trace --json` reports them.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct BuildStats {
+    /// Triangles given to the build, those without area (which no leaf
+    /// holds) included.
     pub triangles: usize,
+    /// Nodes, interior and leaves.
     pub nodes: usize,
+    /// Leaves, empty ones included.
     pub leaves: usize,
+    /// Leaves that hold no triangle.
     pub empty_leaves: usize,
+    /// Splits from the root (depth 0) to the deepest leaf.
     pub depth: usize,
+    /// The depth no cell was split beyond (`KdTreeSettings::depth_limit`).
     pub depth_limit: usize,
     /// Triangle references in leaves (a triangle may be in several).
     pub leaf_references: usize,
+    /// Triangles in the fullest leaf.
     pub max_triangles_per_leaf: usize,
     /// Mean over non-empty leaves.
     pub mean_triangles_per_leaf: f64,
+    /// Splits that cut off an empty slab (rule 1).
     pub empty_cuts: usize,
+    /// Splits on a plane covered by triangles lying in it (rule 2).
     pub covered_plane_splits: usize,
+    /// Non-empty leaves made because the cell was too small to split
+    /// (rule 3, `min_cell_area`).
     pub small_cell_leaves: usize,
+    /// Non-empty leaves made at the depth limit.
     pub depth_limited_leaves: usize,
     /// Leaves made because the reference budget was spent (overlapping
     /// geometry; see `MAX_REFERENCES_PER_TRIANGLE`).
@@ -752,6 +767,8 @@ pub struct BuildStats {
     /// The builder's `traversal_cost` (4 for the CPU's trees, 1 for the
     /// GPU's: `KdTreeSettings::for_cpu`).
     pub traversal_cost: f32,
+    /// Wall-clock milliseconds of the build, the leaves' vertex blocks
+    /// included (the input's checks not).
     pub build_ms: f64,
 }
 
