@@ -85,3 +85,18 @@ fn the_library_without_default_features_builds_none_of_the_command_lines_crates(
     );
     assert!(crates.contains(&"wgpu") && crates.contains(&"glam"), "{crates:?}");
 }
+
+/// The library documents every public item (`#![warn(missing_docs)]`) and
+/// its docs build without a warning: rustdoc run with warnings as errors.
+#[test]
+fn the_library_docs_build_without_a_warning() {
+    let out = Command::new(env!("CARGO"))
+        .args(["doc", "-p", "penumbra", "--no-deps", "--offline"])
+        .env("RUSTDOCFLAGS", "-D warnings")
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("cargo doc runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "cargo doc -p penumbra failed:\n{stderr}");
+    assert!(!stderr.contains("warning:"), "{stderr}");
+}
