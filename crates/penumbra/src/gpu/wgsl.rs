@@ -47,6 +47,8 @@ pub const SH_TRANSFER_WIDE: WgslFile = wgsl_file!("sh_transfer_wide.wgsl");
 pub const WHITTED_PIXELS: WgslFile = wgsl_file!("whitted_pixels.wgsl");
 pub const WHITTED_TREES: WgslFile = wgsl_file!("whitted_trees.wgsl");
 pub const WHITTED: WgslFile = wgsl_file!("whitted.wgsl");
+/// The kernel writing the Whitted pass's pixels into a host's texture.
+pub const WHITTED_IMAGE: WgslFile = wgsl_file!("whitted_image.wgsl");
 pub const INTERPOLATE: WgslFile = wgsl_file!("interpolate.wgsl");
 
 /// Every file compiled in (the validation test checks this against `wgsl/`).
@@ -76,6 +78,7 @@ pub const FILES: &[WgslFile] = &[
     WHITTED_PIXELS,
     WHITTED_TREES,
     WHITTED,
+    WHITTED_IMAGE,
     INTERPOLATE,
 ];
 
@@ -214,6 +217,16 @@ pub const WHITTED_TREES_MODULE: Composition = Composition {
     demands: Demands::compute(8),
 };
 
+/// The Whitted pass's pixels into a host's `rgba32float` storage texture.
+pub const WHITTED_IMAGE_MODULE: Composition = Composition {
+    name: "whitted_image",
+    parts: &[WHITTED_IMAGE],
+    demands: Demands {
+        storage_textures: 1,
+        ..Demands::compute(1)
+    },
+};
+
 pub const INTERPOLATE_MODULE: Composition = Composition {
     name: "interpolate",
     parts: &[INTERPOLATE],
@@ -317,6 +330,7 @@ pub const MODULES: &[Composition] = &[
     SH_TRANSFER_PORTABLE_MODULE,
     WHITTED_MODULE,
     WHITTED_TREES_MODULE,
+    WHITTED_IMAGE_MODULE,
     INTERPOLATE_MODULE,
 ];
 
