@@ -16,6 +16,8 @@
 //!   changes its pixel's tree; everything else is the same arithmetic.)
 //! * whitted_listed: bit-identical to the same pixels of the device's
 //!   whole-image render (the same kernel code, on either device).
+//! * whitted_image: every texel bit-identical to the CPU twin's (a copy of
+//!   each pixel's radiance, alpha 1), across batches.
 //! * interpolate: radiance per channel within 1e-5 x the cell's largest
 //!   corner value for every pixel (the same products and sums; a GPU
 //!   compiler may fuse them); the bounded renderer interpolates the same
@@ -40,7 +42,7 @@ use penumbra::scene::procedural::all_scenes;
 use penumbra::scene::{Camera, load_obj};
 use twins::{
     compare_ao, compare_ao_samples, compare_bounded, compare_interpolate, compare_traces, compare_whitted,
-    compare_whitted_listed, compare_whitted_trees, random_rays,
+    compare_whitted_image, compare_whitted_listed, compare_whitted_trees, random_rays,
 };
 
 #[test]
@@ -206,6 +208,13 @@ fn whitted_kernel_equals_cpu_on_every_shipped_scene_and_the_cornell_box() {
         };
         compare_whitted(&ctx, "CornellBox-Original", &scene, &camera, (160, 120));
     }
+}
+
+#[test]
+fn whitted_image_kernel_equals_cpu_twin_across_batches() {
+    let Some(ctx) = gpu() else { return };
+    compare_whitted_image(&ctx, (160, 120));
+    compare_whitted_image(&ctx, (37, 23));
 }
 
 #[test]

@@ -144,6 +144,7 @@ fn ray_tracing_kernels_on_a_portable_device() {
         twins::compare_whitted(&ctx, name, &scene, &scene.camera.unwrap(), (48, 36));
     }
     twins::compare_whitted_listed(&Device::gpu(ctx.clone()), (48, 36));
+    twins::compare_whitted_image(&ctx, (48, 36));
     twins::compare_whitted_trees(&ctx, &["checker-spheres", "cornell-mirror-glass"], 400);
     twins::compare_interpolate(&ctx, 5000);
     twins::compare_bounded(&ctx, (320, 240));

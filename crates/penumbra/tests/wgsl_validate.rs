@@ -105,7 +105,9 @@ fn every_kernel_module_fits_the_portable_limits() {
                 e.workgroup_bytes,
                 format!("{:?}", e.workgroup_size)
             );
-            assert_eq!(e.storage_textures, 0, "{}", e.name);
+            // Only the host's image is a storage texture.
+            let textures = u32::from(e.name == "whitted_image.whitted_image");
+            assert_eq!(e.storage_textures, textures, "{}", e.name);
         }
         assert_eq!(module.demands, r.demands(), "{}: the written-out demands", module.name);
         let exceeded = module.exceeded(&portable);

@@ -605,6 +605,13 @@ impl FieldAoPass {
     pub fn classes(&self) -> &wgpu::Buffer {
         self.classes.get()
     }
+
+    /// Bytes of each of the prepared batch's three masks in `classes`: the
+    /// occluded rays' come first, so a host copies out this many bytes
+    /// from offset 0 and reads them with `VisibilityMasks::from_occluded`.
+    pub fn mask_bytes(&self) -> u64 {
+        self.words * 4
+    }
 }
 
 /// Result of `FieldAoBatches::visibility`.
@@ -648,13 +655,7 @@ impl Batched<FieldAoPass> {
                 instances: g.instances.clone(),
             })
             .collect();
-        let valid: Vec<u32> = (0..words)
-            .map(|w| {
-                let rays = (settings.rays_per_point as usize).saturating_sub(32 * w).min(32);
-                if rays == 32 { u32::MAX } else { (1u32 << rays) - 1 }
-            })
-            .collect();
-        let mut bits = Vec::with_capacity(points.len() * words);
+        let mut occluded = Vec::with_capacity(points.len() * words);
         let mut inside = Vec::with_capacity(points.len() * words);
         let mut hidden = Vec::with_capacity(points.len() * words);
         // Per point: the point, its owner, and three masks (in one binding,
@@ -679,20 +680,14 @@ impl Batched<FieldAoPass> {
             progress,
             |items, w: &[u32]| {
                 let len = items.len() * words;
-                for (i, &occluded) in w[..len].iter().enumerate() {
-                    bits.push(!occluded & valid[i % words]);
-                }
+                occluded.extend_from_slice(&w[..len]);
                 inside.extend_from_slice(&w[len..2 * len]);
                 hidden.extend_from_slice(&w[2 * len..3 * len]);
                 Ok(())
             },
         )?;
         Ok(GpuFieldAo {
-            masks: VisibilityMasks {
-                rays_per_point: settings.rays_per_point,
-                words_per_point: words as u32,
-                bits,
-            },
+            masks: VisibilityMasks::from_occluded(&occluded, settings),
             classes: RayClasses { inside, hidden },
             gpu_ms,
         })
@@ -720,7 +715,7 @@ impl BatchPass for FieldBatch<'_> {
     }
 
     fn results(&self) -> Vec<(&wgpu::Buffer, u64)> {
-        vec![(self.pass.classes(), 3 * self.pass.words * 4)]
+        vec![(self.pass.classes(), 3 * self.pass.mask_bytes())]
     }
 }
 

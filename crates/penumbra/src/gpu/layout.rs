@@ -51,6 +51,20 @@ pub fn texture_entry(
     }
 }
 
+/// A write-only 2D storage texture of `format` visible to compute shaders.
+pub fn storage_texture_entry(binding: u32, format: wgpu::TextureFormat) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::StorageTexture {
+            access: wgpu::StorageTextureAccess::WriteOnly,
+            format,
+            view_dimension: wgpu::TextureViewDimension::D2,
+        },
+        count: None,
+    }
+}
+
 /// One binding of a pass's io bind group: what its layout declares and
 /// which buffer the pass keeps for it (`buffers::KeptGroup::for_io`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

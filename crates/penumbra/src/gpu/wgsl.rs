@@ -104,6 +104,8 @@ pub const WHITTED_TREES: WgslFile = wgsl_file!("whitted_trees.wgsl");
 /// tree walked depth first with an explicit stack; composed after
 /// `WHITTED_PIXELS` or `WHITTED_TREES`.
 pub const WHITTED: WgslFile = wgsl_file!("whitted.wgsl");
+/// The kernel writing the Whitted pass's pixels into a host's texture.
+pub const WHITTED_IMAGE: WgslFile = wgsl_file!("whitted_image.wgsl");
 /// Kernel: bounded-error ray tracing's fast path (Bala, Dorsey and Teller,
 /// sections 4.2 and 6): each pixel's radiance interpolated quadrilinearly
 /// from its linetree cell's 16 extremal rays.
@@ -136,6 +138,7 @@ pub const FILES: &[WgslFile] = &[
     WHITTED_PIXELS,
     WHITTED_TREES,
     WHITTED,
+    WHITTED_IMAGE,
     INTERPOLATE,
 ];
 
@@ -281,6 +284,16 @@ pub const WHITTED_TREES_MODULE: Composition = Composition {
     demands: Demands::compute(8),
 };
 
+/// The Whitted pass's pixels into a host's `rgba32float` storage texture.
+pub const WHITTED_IMAGE_MODULE: Composition = Composition {
+    name: "whitted_image",
+    parts: &[WHITTED_IMAGE],
+    demands: Demands {
+        storage_textures: 1,
+        ..Demands::compute(1)
+    },
+};
+
 /// `INTERPOLATE` on its own.
 pub const INTERPOLATE_MODULE: Composition = Composition {
     name: "interpolate",
@@ -396,6 +409,7 @@ pub const MODULES: &[Composition] = &[
     SH_TRANSFER_PORTABLE_MODULE,
     WHITTED_MODULE,
     WHITTED_TREES_MODULE,
+    WHITTED_IMAGE_MODULE,
     INTERPOLATE_MODULE,
 ];
 

@@ -204,6 +204,30 @@ pub struct VisibilityMasks {
 }
 
 impl VisibilityMasks {
+    /// The masks of rays whose occlusion `occluded` holds in this layout
+    /// (bit j of a point's words set when ray j was blocked, as
+    /// `field::gpu::FieldAoPass` writes them): every bit flipped, but the
+    /// bits past `settings.rays_per_point` in a point's last word, which
+    /// stay clear.
+    pub fn from_occluded(occluded: &[u32], settings: &AoSettings) -> VisibilityMasks {
+        let words = settings.words_per_point() as usize;
+        let valid: Vec<u32> = (0..words)
+            .map(|w| {
+                let rays = (settings.rays_per_point as usize).saturating_sub(32 * w).min(32);
+                if rays == 32 { u32::MAX } else { (1u32 << rays) - 1 }
+            })
+            .collect();
+        VisibilityMasks {
+            rays_per_point: settings.rays_per_point,
+            words_per_point: words as u32,
+            bits: occluded
+                .iter()
+                .enumerate()
+                .map(|(i, &o)| !o & valid[i % words])
+                .collect(),
+        }
+    }
+
     /// How many points the masks are of.
     pub fn points(&self) -> usize {
         self.bits.len() / self.words_per_point as usize

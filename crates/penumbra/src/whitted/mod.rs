@@ -2,7 +2,8 @@
 //! bounded-error paper, section 3 and 8.1): OBJ/MTL materials, emissive
 //! faces as lights, mirror reflection, refraction with total internal
 //! reflection through nested glass, analytic spheres beside triangles, and
-//! per-pixel ray trees, on the CPU and in `wgsl/whitted.wgsl`.
+//! per-pixel ray trees, on the CPU and in `wgsl/whitted.wgsl`; the image
+//! into a texture a host owns (`texture`, `wgsl/whitted_image.wgsl`).
 
 pub mod gpu;
 pub mod image;
@@ -19,6 +20,7 @@ pub mod scenes;
 pub(crate) mod sequence;
 pub(crate) mod sphere;
 pub(crate) mod surface;
+pub mod texture;
 pub mod tree_records;
 pub(crate) mod whitted;
 

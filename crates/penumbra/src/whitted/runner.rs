@@ -194,6 +194,60 @@ impl Rendered {
     }
 }
 
+impl RenderScene {
+    /// The Whitted kernel's parameters (and the CPU twin's) for the whole
+    /// `width` x `height` image of `camera` rendered with `settings`: what
+    /// `WhittedPass::prepare` takes, for a host that records the pass
+    /// itself (its `first_pixel` and `pixel_count` give the batch).
+    pub fn params(
+        &self,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+        settings: &WhittedSettings,
+    ) -> Result<WhittedUniforms> {
+        settings.validate()?;
+        crate::scene::check_image_size(width, height)?;
+        camera.validate()?;
+        let (right, up, forward) = camera.basis();
+        let tan_half = (0.5 * camera.fov_degrees.to_radians()).tan();
+        let aspect = width as f32 / height as f32;
+        let media = self.media_at(camera.eye);
+        let mut ids = [0u32; 4];
+        for (slot, &m) in ids.iter_mut().zip(&media) {
+            *slot = m;
+        }
+        let (_, lights_at, spheres_at) = super::gpu::scene_records(self);
+        Ok(WhittedUniforms {
+            eye: camera.eye.to_array(),
+            width,
+            forward: forward.to_array(),
+            height,
+            right: (right * (tan_half * aspect)).to_array(),
+            spp: settings.spp,
+            up: (up * tan_half).to_array(),
+            seed: settings.seed,
+            ambient: self.ambient.to_array(),
+            max_depth: settings.max_depth,
+            background: self.background.to_array(),
+            flags: if settings.fresnel { FRESNEL } else { 0 },
+            media: ids,
+            media_len: media.len().min(4) as u32,
+            light_count: self.lights.len() as u32,
+            sphere_count: self.spheres.len() as u32,
+            transmissive: self.transmissive as u32,
+            first_pixel: 0,
+            pixel_count: width * height,
+            row_pitch: 0,
+            lights_at,
+            spheres_at,
+            tree_capacity: 0,
+            tree_stride: 0,
+            _pad: 0,
+        })
+    }
+}
+
 /// What the renderer keeps on a GPU.
 pub struct GpuWhitted {
     tree: GpuKdTree,
@@ -297,7 +351,8 @@ impl WhittedRenderer {
         b
     }
 
-    /// The kernel's parameters for an image of `camera`.
+    /// The kernel's parameters for an image of `camera`
+    /// (`RenderScene::params`).
     pub fn params(
         &self,
         camera: &Camera,
@@ -305,45 +360,7 @@ impl WhittedRenderer {
         height: u32,
         settings: &WhittedSettings,
     ) -> Result<WhittedUniforms> {
-        settings.validate()?;
-        crate::scene::check_image_size(width, height)?;
-        camera.validate()?;
-        let (right, up, forward) = camera.basis();
-        let tan_half = (0.5 * camera.fov_degrees.to_radians()).tan();
-        let aspect = width as f32 / height as f32;
-        let media = self.scene.media_at(camera.eye);
-        let mut ids = [0u32; 4];
-        for (slot, &m) in ids.iter_mut().zip(&media) {
-            *slot = m;
-        }
-        let (_, lights_at, spheres_at) = super::gpu::scene_records(&self.scene);
-        Ok(WhittedUniforms {
-            eye: camera.eye.to_array(),
-            width,
-            forward: forward.to_array(),
-            height,
-            right: (right * (tan_half * aspect)).to_array(),
-            spp: settings.spp,
-            up: (up * tan_half).to_array(),
-            seed: settings.seed,
-            ambient: self.scene.ambient.to_array(),
-            max_depth: settings.max_depth,
-            background: self.scene.background.to_array(),
-            flags: if settings.fresnel { FRESNEL } else { 0 },
-            media: ids,
-            media_len: media.len().min(4) as u32,
-            light_count: self.scene.lights.len() as u32,
-            sphere_count: self.scene.spheres.len() as u32,
-            transmissive: self.scene.transmissive as u32,
-            first_pixel: 0,
-            pixel_count: width * height,
-            row_pitch: 0,
-            lights_at,
-            spheres_at,
-            tree_capacity: 0,
-            tree_stride: 0,
-            _pad: 0,
-        })
+        self.scene.params(camera, width, height, settings)
     }
 
     /// The CPU twin over this scene for `params`.

@@ -328,6 +328,123 @@ pub fn compare_whitted_listed(device: &Device, (w, h): (u32, u32)) -> usize {
     list.len()
 }
 
+/// whitted_image: random pixels (radiance over six decades, some zero) of
+/// a `w x h` image in two batches, the second starting mid-row, written
+/// into one `rgba32float` texture by `WhittedImagePass`, bit-identical to
+/// the CPU twin `whitted_image` (a copy: the same floats, alpha 1).
+pub fn compare_whitted_image(ctx: &GpuContext, (w, h): (u32, u32)) {
+    use penumbra::gpu::batch::Pass;
+    use penumbra::gpu::buffers::{read_back, storage_buffer};
+    use penumbra::whitted::texture::{IMAGE_FORMAT, WhittedImagePass, WhittedImageUniforms, whitted_image};
+    use penumbra::whitted::{PixelOut, WhittedUniforms};
+    let (device, queue) = (&ctx.device, &ctx.queue);
+    let mut rng = Rng(0x51ed_2701_3c4b_8a9d);
+    let n = (w * h) as usize;
+    let pixels: Vec<PixelOut> = (0..n)
+        .map(|i| {
+            let scale = if i % 7 == 0 {
+                0.0
+            } else {
+                10f32.powf(rng.f32() * 6.0 - 4.0)
+            };
+            PixelOut {
+                radiance: [rng.f32() * scale, rng.f32() * scale, rng.f32() * scale],
+                signature: i as u32,
+                rays: [1, 2, 3, 4],
+            }
+        })
+        .collect();
+    let extent = wgpu::Extent3d {
+        width: w,
+        height: h,
+        depth_or_array_layers: 1,
+    };
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("twin image"),
+        size: extent,
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: IMAGE_FORMAT,
+        usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    let view = texture.create_view(&Default::default());
+    let mut pass = WhittedImagePass::new(device);
+    let mut cpu = vec![[0.0f32; 4]; n];
+    let split = (n / 2 + w as usize / 3) as u32;
+    for (first, count) in [(0, split), (split, n as u32 - split)] {
+        let params = WhittedUniforms {
+            width: w,
+            height: h,
+            first_pixel: first,
+            pixel_count: count,
+            ..bytemuck::Zeroable::zeroed()
+        };
+        let batch = &pixels[first as usize..(first + count) as usize];
+        let buffer = storage_buffer(device, "twin pixels", bytemuck::cast_slice(batch)).unwrap();
+        pass.prepare(device, queue, &params, &buffer, &view).unwrap();
+        let mut encoder = device.create_command_encoder(&Default::default());
+        pass.record(&mut encoder, None);
+        queue.submit([encoder.finish()]);
+        whitted_image(&WhittedImageUniforms::of(&params), batch, &mut cpu);
+    }
+    let row = (w * 16).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("twin readback"),
+        size: (row * h) as u64,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &readback,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(row),
+                rows_per_image: Some(h),
+            },
+        },
+        extent,
+    );
+    queue.submit([encoder.finish()]);
+    let padded: Vec<[f32; 4]> = read_back(device, &readback, (row / 16 * h) as usize).unwrap();
+    let gpu: Vec<[f32; 4]> = padded
+        .chunks_exact((row / 16) as usize)
+        .flat_map(|r| &r[..w as usize])
+        .copied()
+        .collect();
+    let differ = gpu
+        .iter()
+        .zip(&cpu)
+        .filter(|(a, b)| bytemuck::bytes_of(*a) != bytemuck::bytes_of(*b))
+        .count();
+    println!("whitted_image {w}x{h} in two batches: {differ} of {n} texels differ from the twin's bits");
+    assert_eq!(differ, 0);
+    // A texture of another format is refused before anything is recorded.
+    let other = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("twin image rgba8"),
+        size: extent,
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba8Unorm,
+        usage: wgpu::TextureUsages::STORAGE_BINDING,
+        view_formats: &[],
+    });
+    let params = WhittedUniforms {
+        width: w,
+        height: h,
+        pixel_count: w * h,
+        ..bytemuck::Zeroable::zeroed()
+    };
+    let buffer = storage_buffer(device, "twin pixels", bytemuck::cast_slice(&pixels)).unwrap();
+    let refused = pass.prepare(device, queue, &params, &buffer, &other.create_view(&Default::default()));
+    assert!(refused.is_err());
+}
+
 /// The bounded renderer on checker-spheres, two `width x height` frames (the second
 /// reprojects the first's cells) with the slow path on the device: the
 /// same pixel paths on either device; interpolated and reprojected pixels
