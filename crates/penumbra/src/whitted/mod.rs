@@ -22,6 +22,8 @@ pub(crate) mod sphere;
 pub(crate) mod surface;
 pub mod texture;
 pub mod tree_records;
+// The CPU twin of `wgsl/whitted.wgsl` keeps the kernel's name.
+#[allow(clippy::module_inception)]
 pub(crate) mod whitted;
 
 pub use ray_tree::{LightCode, RayKind, RayNode, RayTree};
