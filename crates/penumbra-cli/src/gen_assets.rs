@@ -6,8 +6,9 @@ use std::path::{Path, PathBuf};
 
 use penumbra::error::{Error, Result};
 use penumbra::io::output::write_bytes;
-use penumbra::scene::{animation_assets, chess, procedural};
-use penumbra::whitted::scenes::shipped_scenes;
+use penumbra::scene::procedural;
+use penumbra_assets::raytrace::shipped_scenes;
+use penumbra_assets::{animations, chess};
 
 /// Writes `files` (paths relative to `dir`) under `dir`, creating the
 /// folders they need; returns the paths written, in order.
@@ -32,10 +33,7 @@ pub fn write_every_asset(out: &Path) -> Result<Vec<PathBuf>> {
     let mut written = write_files(out, procedural::asset_files())?;
     let raytrace: Vec<(String, String)> = shipped_scenes().into_iter().flat_map(|s| s.files).collect();
     written.extend(write_files(&out.join("raytrace"), raytrace)?);
-    written.extend(write_files(
-        &out.join("animations"),
-        animation_assets::animation_files(),
-    )?);
+    written.extend(write_files(&out.join("animations"), animations::animation_files())?);
     written.extend(write_files(out, chess::chess_files())?);
     Ok(written)
 }

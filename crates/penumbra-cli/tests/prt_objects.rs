@@ -24,8 +24,8 @@ use penumbra::prt::objects::{ObjectSpec, ObjectsRunner};
 use penumbra::prt::pipeline::{FrameOutput, PrtSettings};
 use penumbra::prt::runner::{PrtRunner, RayTraced, Shadows};
 use penumbra::scene::Role;
-use penumbra::scene::chess::{board, pawn};
 use penumbra::sh::coefficient_count;
+use penumbra_assets::chess::{board, pawn};
 
 const RAYS: RayTraced = RayTraced { rays: 256, seed: 7 };
 

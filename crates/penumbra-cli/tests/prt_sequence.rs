@@ -9,10 +9,10 @@ mod common;
 use common::cli::{GROUND, SKY, TempDir, asset_s, pen, write_probe};
 use glam::{DMat4, DQuat, DVec3, Vec3};
 use penumbra::scene::animated::AnimatedScene;
-use penumbra::scene::animation_assets::{FLAG_FRAMES, bending_tube, hand};
 use penumbra::scene::load_gltf_animation;
 use penumbra::scene::procedural::uv_sphere;
 use penumbra::scene::{Mesh, write_obj};
+use penumbra_assets::animations::{FLAG_FRAMES, bending_tube, hand};
 
 const FAST: &str = "--device cpu --json --self-check off --order 3 --mask 16";
 
@@ -83,7 +83,7 @@ fn sequence_of_the_cloth_matches_the_built_in_cloth() {
 fn bad_sequences_exit_2_naming_the_frame() {
     let dir = TempDir::new("seq-bad");
     let env = write_probe(&dir, SKY, GROUND);
-    let flag = penumbra::scene::animation_assets::flag_frames(3);
+    let flag = penumbra_assets::animations::flag_frames(3);
     let run = |pattern: &str| {
         pen(
             &format!("prt --mesh-sequence {{p}} --env {{env}} {FAST}"),
@@ -111,7 +111,7 @@ fn bad_sequences_exit_2_naming_the_frame() {
     fewer[1].objects[0].triangles = 0..fewer[1].triangles.len() as u32;
     run(&write_frames(&dir, "fewer", &fewer)).bad_input(&["frame 1", "479 triangles"]);
     // Frame 1 missing from the numbering.
-    let four = penumbra::scene::animation_assets::flag_frames(4);
+    let four = penumbra_assets::animations::flag_frames(4);
     let gap = write_frames(&dir, "gap", &four);
     std::fs::remove_file(dir.0.join("gap/f-01.obj")).unwrap();
     run(&gap).bad_input(&["frame number 1 is missing", "f-00.obj", "f-02.obj"]);

@@ -5,7 +5,7 @@
 //! `cargo bench --bench whitted` (optionally `-- <filter>`, e.g.
 //! `-- --quick whitted_cpu_1thread/checker-spheres`).
 //!
-//! Scenes: every scene of `raytrace::scenes::shipped_scenes()`
+//! Scenes: every scene of `penumbra_assets::raytrace::shipped_scenes()`
 //! (`assets/raytrace/NAME.json`, its own camera), and
 //! `$PENUMBRA_DATA/scenes/CornellBox-Original.obj` (eye (0, 1, 3.5), target
 //! (0, 1, 0), 40 degrees) when `PENUMBRA_DATA` is set. Each renderer (its

@@ -19,7 +19,7 @@ use penumbra::whitted::{LightingSettings, RenderScene, WhittedRenderer, WhittedS
 /// The shipped scenes with their cameras, and the Cornell box of the shared
 /// data where it is present.
 fn scenes() -> Vec<(String, Scene, Camera)> {
-    let mut out: Vec<(String, Scene, Camera)> = penumbra::whitted::scenes::shipped_scenes()
+    let mut out: Vec<(String, Scene, Camera)> = penumbra_assets::raytrace::shipped_scenes()
         .iter()
         .map(|s| {
             let scene = load_scene_shaded(&asset("raytrace").join(s.scene_file())).unwrap();

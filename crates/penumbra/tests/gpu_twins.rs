@@ -194,7 +194,7 @@ fn passes_record_into_a_host_engines_encoder() {
 #[test]
 fn whitted_kernel_equals_cpu_on_every_shipped_scene_and_the_cornell_box() {
     let Some(ctx) = gpu() else { return };
-    for s in penumbra::whitted::scenes::shipped_scenes() {
+    for s in penumbra_assets::raytrace::shipped_scenes() {
         let scene = penumbra::scene::load_scene_shaded(&asset("raytrace").join(s.scene_file())).unwrap();
         compare_whitted(&ctx, s.name, &scene, &scene.camera.unwrap(), (160, 120));
     }

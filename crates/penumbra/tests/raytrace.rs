@@ -12,8 +12,8 @@ use penumbra::gpu::device::Device;
 use penumbra::progress::{Bar, Reporter};
 use penumbra::scene::{Camera, Light, Scene, load_obj_file, load_scene_shaded};
 use penumbra::whitted::ray_tree::RayKind;
-use penumbra::whitted::scenes::shipped_scenes;
 use penumbra::whitted::{LightingSettings, Packets, RenderScene, Rendered, WhittedRenderer, WhittedSettings};
+use penumbra_assets::raytrace::shipped_scenes;
 
 fn assets() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/raytrace")

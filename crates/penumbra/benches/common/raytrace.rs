@@ -5,7 +5,7 @@ use std::path::Path;
 
 use glam::Vec3;
 use penumbra::scene::{Camera, Scene, load_obj_file, load_scene_shaded};
-use penumbra::whitted::scenes::shipped_scenes;
+use penumbra_assets::raytrace::shipped_scenes;
 
 /// A scene to render and its camera.
 pub struct BenchScene {

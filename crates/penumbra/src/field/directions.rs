@@ -32,17 +32,22 @@ use crate::geom::sampling::{concentric_disk, concentric_square};
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum DirectionMapping {
+    /// Equal-area texels, low distortion, continuous (the default).
+    ///
     /// Shirley and Chiu's concentric map of the square to the disk, lifted to
     /// the hemisphere by Malley's method: texels of equal area in the
-    /// cosine-weighted measure, low distortion, continuous. The default.
+    /// cosine-weighted measure.
     Concentric,
-    /// s = theta / (pi/2), t = phi / (2 pi): texels crowd at the pole (the row
-    /// s = 0 is a single direction) and t wraps around.
+    /// Polar angles: texels crowd at the pole.
+    ///
+    /// s = theta / (pi/2), t = phi / (2 pi): the row s = 0 is a single
+    /// direction and t wraps around.
     Polar,
-    /// The square [-1, 1]^2 lifted by Malley's method: the texels outside the
-    /// unit disk (1 - pi/4, about 21.5%) are unused and hold the value of the
-    /// grazing direction at the rim, so that bilinear filtering near the rim
-    /// stays sane.
+    /// The square lifted by Malley's method; 21.5% of texels unused.
+    ///
+    /// The texels of [-1, 1]^2 outside the unit disk (1 - pi/4, about 21.5%)
+    /// hold the value of the grazing direction at the rim, so that bilinear
+    /// filtering near the rim stays sane.
     Rejection,
 }
 

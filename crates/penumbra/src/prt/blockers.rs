@@ -421,7 +421,7 @@ mod tests {
 
     #[test]
     fn fine_chunks_hold_every_fine_triangle_and_far_chunks_the_far_level() {
-        let mesh = crate::scene::chess::pawn();
+        let mesh = crate::scene::procedural::uv_sphere("ball", glam::Vec3::ZERO, 1.0, 64, 32);
         let h = Hierarchy::build(&mesh.positions, &mesh.triangles, &HierarchySettings::default()).unwrap();
         assert!(h.coarse);
         let topo = BlockerTopology::new(&h, &mesh.positions);

@@ -10,10 +10,8 @@
 //! `mesh` for everyone.
 
 pub mod animated;
-pub mod animation_assets;
 mod camera;
 mod camera_path;
-pub mod chess;
 pub(crate) mod deform;
 pub mod environment;
 pub mod frame;
