@@ -70,22 +70,21 @@ pub fn data_root() -> Option<PathBuf> {
 /// A model of the shared data set, when `PENUMBRA_DATA` is set. If it is set
 /// but the file is missing, that is a broken setup: panic.
 pub fn data_model(name: &str) -> Option<PathBuf> {
-    let Some(root) = data_root() else {
-        println!("PENUMBRA_DATA not set: skipping the {name} evaluation");
-        return None;
-    };
-    let path = root.join("models").join(name);
-    assert!(path.is_file(), "PENUMBRA_DATA is set but {} is missing", path.display());
-    Some(path)
+    data_file("models", name)
 }
 
 /// A scene of the shared data set (`scenes/`), when `PENUMBRA_DATA` is set.
 pub fn data_scene(name: &str) -> Option<PathBuf> {
+    data_file("scenes", name)
+}
+
+/// `folder/name` of the shared data set, when `PENUMBRA_DATA` is set.
+fn data_file(folder: &str, name: &str) -> Option<PathBuf> {
     let Some(root) = data_root() else {
         println!("PENUMBRA_DATA not set: skipping the {name} evaluation");
         return None;
     };
-    let path = root.join("scenes").join(name);
+    let path = root.join(folder).join(name);
     assert!(path.is_file(), "PENUMBRA_DATA is set but {} is missing", path.display());
     Some(path)
 }
