@@ -28,6 +28,7 @@ pub mod procedural;
 mod scene_file;
 pub mod sequence;
 mod shading;
+pub mod texture;
 mod transform;
 
 use std::path::{Path, PathBuf};
@@ -52,6 +53,7 @@ pub use obj::{
 pub use ply::{load_ply, parse_ply};
 pub use scene_file::{load_scene, load_scene_in, load_scene_shaded, load_scene_shaded_in, referenced_files};
 pub use shading::{MeshShading, SceneSphere};
+pub use texture::{AlphaMap, MaterialMaps, Texture, TextureMap, TextureSource};
 pub use transform::{Motion, Transform};
 
 /// What an instance takes part in.

@@ -1,16 +1,18 @@
 //! Wavefront MTL materials: the colours and scalars a ray tracer shades with.
 //!
 //! Tolerant of what real exporters write (comments after values, tabs, CRLF,
-//! texture maps, stray statements: warnings), strict on numbers (a value that
-//! is not a finite number in range is an error naming the line). Texture maps
-//! are never read, so a missing texture file costs nothing but the one warning
-//! per keyword.
+//! stray statements: warnings), strict on numbers (a value that is not a
+//! finite number in range is an error naming the line). `map_Kd`, `map_Ka`,
+//! `map_Ks` and `map_d` name texture maps (`texture`); their images are read
+//! only when the scene is made ready to render. Bump, displacement and
+//! reflection maps are not used (one warning per keyword).
 
 use std::collections::HashMap;
 use std::path::Path;
 
 use glam::Vec3;
 
+use super::texture::{AlphaMap, MaterialMaps, TextureSource, parse_map_statement};
 use crate::error::{Error, Result};
 
 /// One `newmtl` block, fields as MTL names them (linear RGB).
@@ -45,6 +47,10 @@ pub struct Material {
     /// A procedural checker texture on `Ka` and `Kd` (scene files only;
     /// MTL has no such field).
     pub checker: Option<Checker>,
+    /// Texture maps (`map_Kd`, `map_Ka`, `map_Ks`, `map_d`), their files
+    /// relative to the MTL file's folder until `load_mtl` (or the OBJ
+    /// reader) resolves them.
+    pub maps: MaterialMaps,
 }
 
 /// A solid checker texture (pbrt's 3D checkerboard): space is cut into
@@ -80,6 +86,7 @@ impl Material {
             illum: 2,
             has_tf: false,
             checker: None,
+            maps: MaterialMaps::default(),
         }
     }
 
@@ -95,9 +102,33 @@ impl Material {
 }
 
 /// Reads an MTL file; errors name the file, the line and the problem.
+/// Texture maps' files are resolved against the file's folder.
 pub fn load_mtl(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<Material>> {
     let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
-    parse_mtl(&String::from_utf8_lossy(&bytes), warnings).map_err(|e| e.in_file(path))
+    let mut materials = parse_mtl(&String::from_utf8_lossy(&bytes), warnings).map_err(|e| e.in_file(path))?;
+    resolve_maps(&mut materials, path.parent().unwrap_or(Path::new(".")));
+    Ok(materials)
+}
+
+/// Makes the maps' relative file names relative to `dir` (the MTL file's
+/// folder). Exporters on Windows write `\` between folders: read as `/`.
+pub fn resolve_maps(materials: &mut [Material], dir: &Path) {
+    for m in materials {
+        let maps = &mut m.maps;
+        let alpha = maps.alpha.as_mut().map(|a| &mut a.map);
+        for map in [maps.kd.as_mut(), maps.ka.as_mut(), maps.ks.as_mut(), alpha]
+            .into_iter()
+            .flatten()
+        {
+            if let TextureSource::File(path) = &mut map.source {
+                let name = path.to_string_lossy().replace('\\', "/");
+                let relative = Path::new(&name);
+                if relative.is_relative() {
+                    *path = dir.join(relative);
+                }
+            }
+        }
+    }
 }
 
 /// Parses MTL text into its materials, in file order (a name defined twice
@@ -131,10 +162,37 @@ pub fn parse_mtl(text: &str, warnings: &mut Vec<String>) -> Result<Vec<Material>
             block = Some(Block::new(&args.join(" "), line_no));
             continue;
         }
+        if matches!(keyword, "map_Kd" | "map_Ka" | "map_Ks" | "map_d") {
+            let Some(b) = block.as_mut() else {
+                ignored.note(keyword, line_no, "a map before any newmtl belongs to no material");
+                continue;
+            };
+            let mut skipped = Vec::new();
+            let (file, mut map) =
+                parse_map_statement(&args, &mut skipped).map_err(|p| Error::input(at(), format!("{keyword}: {p}")))?;
+            for option in skipped {
+                ignored.note(&format!("{keyword} {option}"), line_no, "this map option is not used");
+            }
+            map.source = TextureSource::File(file.into());
+            let maps = &mut b.material.maps;
+            match keyword {
+                "map_Kd" => maps.kd = Some(map),
+                "map_Ka" => maps.ka = Some(map),
+                "map_Ks" => maps.ks = Some(map),
+                _ => {
+                    maps.alpha = Some(AlphaMap {
+                        map,
+                        factor: 1.0,
+                        cutoff: 0.5,
+                    })
+                }
+            }
+            continue;
+        }
         if !is_property(keyword) {
             let reason =
                 if keyword.starts_with("map_") || matches!(keyword, "bump" | "disp" | "decal" | "refl" | "norm") {
-                    "texture maps are not used"
+                    "bump, displacement, reflection and other maps than map_Kd, map_Ka, map_Ks and map_d are not used"
                 } else {
                     "unknown MTL statement"
                 };
@@ -419,6 +477,27 @@ pub fn write_mtl(materials: &[Material], header: &str) -> String {
             let _ = writeln!(s, "Tf {}", rgb(m.tf));
         }
         let _ = writeln!(s, "Ns {}\nNi {}\nd {}\nillum {}", m.ns, m.ni, m.dissolve, m.illum);
+        let maps = &m.maps;
+        let alpha = maps.alpha.as_ref().map(|a| &a.map);
+        for (keyword, map) in [
+            ("map_Kd", maps.kd.as_ref()),
+            ("map_Ka", maps.ka.as_ref()),
+            ("map_Ks", maps.ks.as_ref()),
+            ("map_d", alpha),
+        ] {
+            let Some(map) = map else { continue };
+            let mut options = String::new();
+            if map.scale != glam::Vec2::ONE {
+                let _ = write!(options, "-s {} {} ", map.scale.x, map.scale.y);
+            }
+            if map.offset != glam::Vec2::ZERO {
+                let _ = write!(options, "-o {} {} ", map.offset.x, map.offset.y);
+            }
+            if map.clamp {
+                options.push_str("-clamp on ");
+            }
+            let _ = writeln!(s, "{keyword} {options}{}", map.source.name());
+        }
     }
     s
 }

@@ -13,7 +13,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 
 use super::mesh::{Mesh, MeshObject};
 use super::mtl::{Ignored, Material, parse_mtl};
@@ -21,6 +21,8 @@ use crate::error::{Error, Result};
 
 /// A triangle corner whose face vertex had no `vn` index.
 pub const NO_NORMAL: u32 = u32::MAX;
+/// A triangle corner whose face vertex had no `vt` index.
+pub const NO_TEXCOORD: u32 = u32::MAX;
 /// The smoothing group of faces no `s` statement came before.
 pub const SMOOTH_DEFAULT: u32 = u32::MAX;
 
@@ -82,6 +84,11 @@ pub struct ObjFile {
     /// Per triangle corner, index into `normals`, or `NO_NORMAL` where the
     /// face vertex had no `vn` index.
     pub corner_normals: Vec<[u32; 3]>,
+    /// `vt` texture coordinates (u, v; v up the image).
+    pub texcoords: Vec<Vec2>,
+    /// Per triangle corner, index into `texcoords`, or `NO_TEXCOORD` where
+    /// the face vertex had no `vt` index.
+    pub corner_texcoords: Vec<[u32; 3]>,
     /// Per triangle, its smoothing group: `SMOOTH_DEFAULT` where no `s`
     /// statement came before the face, 0 after `s off` / `s 0`, else the
     /// group number.
@@ -154,6 +161,8 @@ struct Parsed {
     triangle_faces: Vec<u32>,
     normals: Vec<Vec3>,
     corner_normals: Vec<[u32; 3]>,
+    texcoords: Vec<Vec2>,
+    corner_texcoords: Vec<[u32; 3]>,
     smoothing: Vec<u32>,
     /// Per triangle, index into `usemtl`, or `NO_USEMTL`.
     triangle_usemtl: Vec<u32>,
@@ -184,6 +193,9 @@ fn parse(text: &str, extended: bool) -> Result<Parsed> {
 
     // Extended: the same forward-reference rule holds for normals.
     let mut face_normals: Vec<u32> = Vec::with_capacity(8);
+    let mut face_texcoords: Vec<u32> = Vec::with_capacity(8);
+    let mut texcoords: Vec<Vec2> = Vec::new();
+    let mut corner_texcoords: Vec<[u32; 3]> = Vec::new();
     let mut faces = 0u32;
     let mut triangle_faces: Vec<u32> = Vec::new();
     let mut normals: Vec<Vec3> = Vec::new();
@@ -208,9 +220,11 @@ fn parse(text: &str, extended: bool) -> Result<Parsed> {
         match keyword {
             "v" => positions.push(point(&mut tokens, &at, ("vertex", "vertices"), positions.len())?),
             "vn" if extended => normals.push(point(&mut tokens, &at, ("normal", "normals"), normals.len())?.as_vec3()),
+            "vt" if extended => texcoords.push(texcoord(&mut tokens, &at, texcoords.len())?),
             "f" => {
                 face.clear();
                 face_normals.clear();
+                face_texcoords.clear();
                 for token in tokens {
                     let mut parts = token.split('/');
                     let index_text = parts.next().unwrap_or("");
@@ -242,8 +256,15 @@ fn parse(text: &str, extended: bool) -> Result<Parsed> {
                     }
                     face.push(resolved as u32);
                     if extended {
-                        // `v`, `v/vt`: no normal; `v//vn`, `v/vt/vn`: parts[2].
-                        let normal = match parts.nth(1) {
+                        // `v`, `v//vn`: no texture coordinate; `v/vt`,
+                        // `v/vt/vn`: parts[1]. `v`, `v/vt`: no normal;
+                        // `v//vn`, `v/vt/vn`: parts[2].
+                        let texcoord = match parts.next() {
+                            None | Some("") => NO_TEXCOORD,
+                            Some(text) => texcoord_index(text, token, texcoords.len(), &at)?,
+                        };
+                        face_texcoords.push(texcoord);
+                        let normal = match parts.next() {
                             None | Some("") => NO_NORMAL,
                             Some(text) => normal_index(text, token, normals.len(), &at)?,
                         };
@@ -263,6 +284,7 @@ fn parse(text: &str, extended: bool) -> Result<Parsed> {
                     if extended {
                         triangle_faces.push(faces);
                         corner_normals.push([face_normals[0], face_normals[k - 1], face_normals[k]]);
+                        corner_texcoords.push([face_texcoords[0], face_texcoords[k - 1], face_texcoords[k]]);
                         smoothing.push(group);
                         triangle_usemtl.push(material);
                     }
@@ -361,6 +383,18 @@ fn parse(text: &str, extended: bool) -> Result<Parsed> {
             ));
         }
     }
+    let nt = texcoords.len() as u32;
+    for (corners, &line) in corner_texcoords.iter().zip(&triangle_lines) {
+        if let Some(&bad) = corners.iter().find(|&&n| n != NO_TEXCOORD && n >= nt) {
+            return Err(Error::input(
+                format!("line {line}"),
+                format!(
+                    "face texture coordinate index {} is out of range (the file has {nt} texture coordinates)",
+                    bad + 1
+                ),
+            ));
+        }
+    }
     if triangles.is_empty() {
         return Err(Error::input(
             "mesh",
@@ -382,6 +416,8 @@ fn parse(text: &str, extended: bool) -> Result<Parsed> {
         triangle_faces,
         normals,
         corner_normals,
+        texcoords,
+        corner_texcoords,
         smoothing,
         triangle_usemtl,
         usemtl,
@@ -433,6 +469,67 @@ fn parse_index(text: &str) -> Option<i128> {
         1e30 as i128
     };
     Some(text.parse::<i128>().unwrap_or(huge))
+}
+
+/// A `vt` statement's coordinates: u, and v (0 where not given); a third
+/// coordinate is allowed and not used.
+fn texcoord<'a>(tokens: &mut impl Iterator<Item = &'a str>, at: &dyn Fn() -> String, count: usize) -> Result<Vec2> {
+    let mut c = [0.0f32; 2];
+    for (k, (axis, slot)) in ["u", "v"].iter().zip(c.iter_mut()).enumerate() {
+        let Some(token) = tokens.next() else {
+            if k == 0 {
+                return Err(Error::input(at(), "texture coordinate has no u (need 1 to 3 numbers)"));
+            }
+            break;
+        };
+        *slot = token
+            .parse::<f32>()
+            .map_err(|_| Error::input(at(), format!("texture coordinate {axis} '{token}' is not a number")))?;
+        if !slot.is_finite() {
+            return Err(Error::input(
+                at(),
+                format!(
+                    "texture coordinate {} has {axis} '{token}'; it must be finite",
+                    count + 1
+                ),
+            ));
+        }
+    }
+    Ok(Vec2::from_array(c))
+}
+
+/// The `vt` index of face corner `token` (`text`, its second part),
+/// 0-based; negative indices count back from the `count` read so far.
+fn texcoord_index(text: &str, token: &str, count: usize, at: &dyn Fn() -> String) -> Result<u32> {
+    let index = parse_index(text).ok_or_else(|| {
+        Error::input(
+            at(),
+            format!("face vertex '{token}' has texture coordinate index '{text}', which is not an integer"),
+        )
+    })?;
+    let resolved = match index {
+        0 => {
+            return Err(Error::input(
+                at(),
+                "face texture coordinate index 0 (OBJ indices start at 1)",
+            ));
+        }
+        i if i > 0 => i - 1,
+        i => count as i128 + i,
+    };
+    if resolved < 0 {
+        return Err(Error::input(
+            at(),
+            format!("face texture coordinate index {index} refers before the first texture coordinate"),
+        ));
+    }
+    if resolved >= NO_TEXCOORD as i128 {
+        return Err(Error::input(
+            at(),
+            format!("face texture coordinate index {index} is out of range"),
+        ));
+    }
+    Ok(resolved as u32)
 }
 
 /// The `vn` index of face corner `token` (`text`, its third part), 0-based;
@@ -488,8 +585,9 @@ fn with_materials(parsed: Parsed, mtl_dir: Option<&Path>) -> Result<ObjFile> {
                 }
             };
             let mut mtl_warnings = Vec::new();
-            let materials =
+            let mut materials =
                 parse_mtl(&String::from_utf8_lossy(&bytes), &mut mtl_warnings).map_err(|e| e.in_file(&path))?;
+            super::mtl::resolve_maps(&mut materials, path.parent().unwrap_or(dir));
             let shown = path.display().to_string();
             warnings.extend(mtl_warnings.into_iter().map(|w| format!("{shown}: {w}")));
             for m in materials {
@@ -553,6 +651,8 @@ fn with_materials(parsed: Parsed, mtl_dir: Option<&Path>) -> Result<ObjFile> {
         triangle_faces: parsed.triangle_faces,
         normals: parsed.normals,
         corner_normals: parsed.corner_normals,
+        texcoords: parsed.texcoords,
+        corner_texcoords: parsed.corner_texcoords,
         smoothing: parsed.smoothing,
         vertex_colors: None,
         warnings,

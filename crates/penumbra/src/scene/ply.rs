@@ -259,6 +259,8 @@ impl Read {
             triangle_faces: self.triangle_faces,
             normals,
             corner_normals,
+            texcoords: Vec::new(),
+            corner_texcoords: vec![[super::obj::NO_TEXCOORD; 3]; mesh.triangles.len()],
             smoothing: vec![SMOOTH_DEFAULT; mesh.triangles.len()],
             vertex_colors: self.colours,
             warnings: self.warnings,

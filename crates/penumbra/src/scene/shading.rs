@@ -2,7 +2,7 @@
 //! shading normals (from its OBJ and MTL files), and the analytic spheres
 //! a scene file may hold. Methods that only cast rays ignore both.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use super::mtl::Material;
 use super::obj::ObjFile;
@@ -20,6 +20,11 @@ pub struct MeshShading {
     pub normals: Vec<Vec3>,
     /// Per triangle, its corners' indices into `normals`; `None` shades it flat.
     pub corner_normals: Vec<Option<[u32; 3]>>,
+    /// Texture coordinates (u, v; v up the image).
+    pub texcoords: Vec<Vec2>,
+    /// Per triangle, its corners' indices into `texcoords`; `None` where a
+    /// corner has none (texture maps are then not used on it).
+    pub corner_texcoords: Vec<Option<[u32; 3]>>,
 }
 
 impl MeshShading {
@@ -33,6 +38,12 @@ impl MeshShading {
             triangle_faces: obj.triangle_faces.clone(),
             normals,
             corner_normals,
+            texcoords: obj.texcoords.clone(),
+            corner_texcoords: obj
+                .corner_texcoords
+                .iter()
+                .map(|c| (!c.contains(&super::obj::NO_TEXCOORD)).then_some(*c))
+                .collect(),
         }
     }
 }

@@ -11,6 +11,7 @@ use glam::Vec3;
 use crate::error::{Error, Result};
 use crate::scene::{Light, Material, Mesh, MeshObject, Scene};
 use crate::whitted::lights::{Emitter, LightSample, check_light_count};
+use crate::whitted::maps::{DEFAULT_TEXTURE_BYTES, MapUse, NO_MAP, TextureTable, TextureTableBuilder};
 use crate::whitted::sphere::Sphere;
 use crate::whitted::surface::Surface;
 
@@ -21,6 +22,8 @@ pub const NO_NORMAL: u32 = u32::MAX;
 pub const SMOOTH_FACE: u32 = u32::MAX - 1;
 /// A ray tree's object and face ids of a miss.
 pub const MISS: u32 = u32::MAX;
+/// `TriangleShading::texcoords` of a triangle without texture coordinates.
+pub const NO_TEXCOORDS: u32 = u32::MAX;
 
 /// The ambient light where neither the scene nor the caller gives one.
 pub const DEFAULT_AMBIENT: f32 = 0.05;
@@ -41,8 +44,12 @@ pub struct TriangleShading {
     /// Ray-tree face id: the OBJ polygon the triangle was fanned from,
     /// numbered across the scene's instances, or `SMOOTH_FACE`.
     pub face: u32,
+    /// Its corners' texture coordinates: two entries of
+    /// `RenderScene::normals` from this index, (u0, v0, u1, v1) and
+    /// (u2, v2, -, -); or `NO_TEXCOORDS`.
+    pub texcoords: u32,
     /// Padding to 32 bytes.
-    pub _pad: [u32; 2],
+    pub _pad: u32,
 }
 
 /// An emissive polygon's surface and world-space triangles.
@@ -57,6 +64,9 @@ pub struct LightingSettings {
     pub ambient: Option<Vec3>,
     /// Radiance of rays that leave the scene, over the scene's (else black).
     pub background: Option<Vec3>,
+    /// Bytes of texels the scene's texture maps may take: larger images
+    /// are halved, largest first, with a warning each.
+    pub texture_bytes: u64,
 }
 
 impl Default for LightingSettings {
@@ -65,6 +75,7 @@ impl Default for LightingSettings {
             light_samples: 1,
             ambient: None,
             background: None,
+            texture_bytes: DEFAULT_TEXTURE_BYTES,
         }
     }
 }
@@ -76,13 +87,16 @@ pub struct RenderScene {
     pub mesh: Mesh,
     /// Per triangle of `mesh`, its surface, shading normals and ray-tree ids.
     pub triangles: Vec<TriangleShading>,
-    /// Unit shading normals (w unused).
+    /// Unit shading normals (w unused), then the triangles' texture
+    /// coordinates (`TriangleShading::texcoords`).
     pub normals: Vec<[f32; 4]>,
     /// The surfaces (materials as shading coefficients), each material
     /// made once.
     pub surfaces: Vec<Surface>,
     /// The material each surface came from.
     pub surface_names: Vec<String>,
+    /// The surfaces' texture maps and their images.
+    pub textures: TextureTable,
     /// The analytic spheres, primitives `triangles.len()` onwards.
     pub spheres: Vec<Sphere>,
     /// The scene's point and directional lights, then the emissive
@@ -96,8 +110,9 @@ pub struct RenderScene {
     pub background: Vec3,
     /// Ray-tree object names: the mesh's objects, then the spheres.
     pub objects: Vec<String>,
-    /// Whether any surface lets light through (shadow rays then pass
-    /// glass, filtered, instead of stopping at the first occluder).
+    /// Whether any surface lets light through (glass, dissolved or cut out:
+    /// shadow rays then pass it, filtered, instead of stopping at the first
+    /// occluder).
     pub transmissive: bool,
     /// Emissive polygons turned into lights, and their sample points.
     pub emitters: usize,
@@ -111,6 +126,7 @@ struct SurfaceTable<'a> {
     names: Vec<String>,
     index: HashMap<(usize, u32), u32>,
     scene_materials: &'a [Material],
+    textures: TextureTableBuilder,
     warnings: Vec<String>,
 }
 
@@ -121,8 +137,36 @@ impl<'a> SurfaceTable<'a> {
         if let Some(&s) = self.index.get(&key) {
             return s;
         }
-        let m = material();
-        self.surfaces.push(Surface::from_material(&m, &mut self.warnings));
+        let mut m = material();
+        let maps = &m.maps;
+        let mut add = |map: Option<&crate::scene::TextureMap>, usage| {
+            map.and_then(|map| self.textures.add(map, usage, &m.name, &mut self.warnings))
+                .unwrap_or(NO_MAP)
+        };
+        let ids = [
+            add(maps.kd.as_ref(), MapUse::Colour),
+            add(maps.ka.as_ref(), MapUse::Colour),
+            add(maps.ks.as_ref(), MapUse::Colour),
+            add(maps.alpha.as_ref().map(|a| &a.map), MapUse::Alpha),
+        ];
+        if let (Some(a), true) = (&maps.alpha, ids[3] != NO_MAP) {
+            self.textures.cut_out(ids[3], a.factor, a.cutoff);
+        }
+        // A black colour beside its map: the map alone is the colour.
+        if ids[0] != NO_MAP && m.kd == Vec3::ZERO {
+            m.kd = Vec3::ONE;
+        }
+        if ids[1] != NO_MAP && m.ka == Vec3::ZERO {
+            m.ka = Vec3::ONE;
+        }
+        let mut surface = Surface::from_material(&m, &mut self.warnings);
+        if ids[2] != NO_MAP && m.ks == Vec3::ZERO && !matches!(m.illum, 0 | 1) {
+            // The highlight's colour only: the mirror weight stays Ks's.
+            let dissolved = !surface.refracts() && m.dissolve < 1.0;
+            surface.ks = [if dissolved { m.dissolve } else { 1.0 }; 3];
+        }
+        [surface.map_kd, surface.map_ka, surface.map_ks, surface.map_alpha] = ids;
+        self.surfaces.push(surface);
         self.names.push(m.name.clone());
         let id = self.surfaces.len() as u32 - 1;
         self.index.insert(key, id);
@@ -156,8 +200,12 @@ impl RenderScene {
             names: Vec::new(),
             index: HashMap::new(),
             scene_materials: &scene.materials,
+            textures: TextureTableBuilder::default(),
             warnings: Vec::new(),
         };
+        // Texture coordinates, two entries per triangle that has them
+        // (appended to the normals at the end).
+        let mut texcoords: Vec<[f32; 4]> = Vec::new();
         let mut mesh = Mesh::default();
         let mut triangles = Vec::new();
         let mut normals = Vec::new();
@@ -199,6 +247,18 @@ impl RenderScene {
                     let polygon = shading.map_or(t as u32, |s| s.triangle_faces[t]);
                     faces_used = faces_used.max(polygon + 1);
                     let corner = shading.and_then(|s| s.corner_normals[t]);
+                    let uv = shading.and_then(|s| {
+                        let c = s.corner_texcoords.get(t).copied().flatten()?;
+                        Some(c.map(|i| s.texcoords[i as usize]))
+                    });
+                    let uv_at = match uv {
+                        Some([a, b, c]) => {
+                            texcoords.push([a.x, a.y, b.x, b.y]);
+                            texcoords.push([c.x, c.y, 0.0, 0.0]);
+                            texcoords.len() as u32 - 2
+                        }
+                        None => NO_TEXCOORDS,
+                    };
                     triangles.push(TriangleShading {
                         surface,
                         normals: corner.map_or([NO_NORMAL; 3], |c| c.map(|i| normal_base + i)),
@@ -208,7 +268,8 @@ impl RenderScene {
                         } else {
                             face_base + polygon
                         },
-                        _pad: [0; 2],
+                        texcoords: uv_at,
+                        _pad: 0,
                     });
                     if table.surfaces[surface as usize].emits() {
                         let entry = polygons.entry(polygon).or_insert((surface, Vec::new()));
@@ -264,6 +325,15 @@ impl RenderScene {
             placeholder_triangle(&mut mesh, &mut triangles, &spheres, table.default_surface());
         }
         mesh.validate()?;
+        let uv_base = normals.len() as u32;
+        for t in &mut triangles {
+            if t.texcoords != NO_TEXCOORDS {
+                t.texcoords += uv_base;
+            }
+        }
+        normals.extend_from_slice(&texcoords);
+        unmapped_warnings(&table.surfaces, &table.names, &triangles, &mut table.warnings);
+        let textures = table.textures.finish(options.texture_bytes, &mut table.warnings);
         let mut lights = scene_lights(&scene.lights);
         for (index, tris, surface) in &emitters {
             let emitter = Emitter {
@@ -277,13 +347,14 @@ impl RenderScene {
         if lights.is_empty() {
             lights = scene_lights(&[Light::default_light()]);
         }
-        let transmissive = table.surfaces.iter().any(Surface::transmits);
+        let transmissive = table.surfaces.iter().any(|s| s.transmits() || s.map_alpha != NO_MAP);
         Ok(RenderScene {
             mesh,
             triangles,
             normals,
             surfaces: table.surfaces,
             surface_names: table.names,
+            textures,
             spheres,
             lights,
             ambient: options
@@ -350,6 +421,31 @@ impl RenderScene {
     }
 }
 
+/// One warning per mapped surface some of whose triangles have no texture
+/// coordinates (its maps are not used there), and per mapped surface on a
+/// sphere (spheres have none).
+fn unmapped_warnings(
+    surfaces: &[Surface],
+    names: &[String],
+    triangles: &[TriangleShading],
+    warnings: &mut Vec<String>,
+) {
+    let mut missing = vec![0usize; surfaces.len()];
+    for t in triangles {
+        if t.texcoords == NO_TEXCOORDS && surfaces[t.surface as usize].mapped() {
+            missing[t.surface as usize] += 1;
+        }
+    }
+    for (s, &n) in missing.iter().enumerate() {
+        if n > 0 {
+            warnings.push(format!(
+                "material '{}' has texture maps, but {n} of its triangles have no texture coordinates (vt / TEXCOORD_0): the maps are not used there",
+                names[s]
+            ));
+        }
+    }
+}
+
 /// Diagonal of an object's bounds, to order nested media.
 fn object_extent(mesh: &Mesh, object: &MeshObject) -> f32 {
     let triangles = &mesh.triangles[object.triangles.start as usize..object.triangles.end as usize];
@@ -375,7 +471,8 @@ fn placeholder_triangle(mesh: &mut Mesh, triangles: &mut Vec<TriangleShading>, s
         normals: [NO_NORMAL; 3],
         object: MISS,
         face: MISS,
-        _pad: [0; 2],
+        texcoords: NO_TEXCOORDS,
+        _pad: 0,
     });
 }
 

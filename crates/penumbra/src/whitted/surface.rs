@@ -31,6 +31,7 @@ use glam::Vec3;
 use crate::geom::float::floor;
 
 use crate::scene::Material;
+use crate::whitted::maps::NO_MAP;
 
 /// `Surface::flags`: lit by the lights and the ambient term (else the
 /// constant colour `kd`, MTL illum 0).
@@ -39,7 +40,8 @@ pub const LIT: u32 = 1;
 /// media a ray is inside (glass); else transmission goes straight through.
 pub const REFRACTS: u32 = 2;
 
-/// A material's shading coefficients, as the GPU reads them (128 bytes).
+/// A material's shading coefficients, as the GPU reads them (128 bytes),
+/// and its texture maps' ids.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct Surface {
@@ -51,19 +53,24 @@ pub struct Surface {
     pub ni: f32,
     /// Mirror reflection weight.
     pub kr: [f32; 3],
-    pub _pad0: u32,
+    /// The diffuse colour's texture map (an index into the scene's
+    /// `TextureTable::maps`), or `NO_MAP`.
+    pub map_kd: u32,
     /// Transmission weight.
     pub kt: [f32; 3],
-    pub _pad1: u32,
+    /// The ambient colour's map, or `NO_MAP` (then `map_kd` serves).
+    pub map_ka: u32,
     /// Emitted radiance.
     pub ke: [f32; 3],
-    pub _pad2: u32,
+    /// The highlight colour's map, or `NO_MAP`.
+    pub map_ks: u32,
     /// The checker texture (`Checker`): the factor of `ka` and `kd` on odd
     /// cubes, and the reciprocal of the cube size (0: no texture).
     pub checker_odd: [f32; 3],
     pub checker_inv_size: f32,
     pub checker_origin: [f32; 3],
-    pub _pad3: u32,
+    /// The cut-out's alpha map, or `NO_MAP`.
+    pub map_alpha: u32,
 }
 
 impl Surface {
@@ -118,21 +125,28 @@ impl Surface {
             ks: ks.to_array(),
             ni: m.ni,
             kr: kr.to_array(),
-            _pad0: 0,
+            map_kd: NO_MAP,
             kt: kt.to_array(),
-            _pad1: 0,
+            map_ka: NO_MAP,
             ke: m.ke.to_array(),
-            _pad2: 0,
+            map_ks: NO_MAP,
             checker_odd: m.checker.map_or([1.0; 3], |c| c.odd.to_array()),
             checker_inv_size: m.checker.map_or(0.0, |c| 1.0 / c.size),
             checker_origin: m.checker.map_or([0.0; 3], |c| c.origin.to_array()),
-            _pad3: 0,
+            map_alpha: NO_MAP,
         }
     }
 
     /// Whether `ka` and `kd` vary over the surface (a checker texture).
     pub fn textured(&self) -> bool {
         self.checker_inv_size != 0.0
+    }
+
+    /// Whether any texture map (colour or cut-out) applies.
+    pub fn mapped(&self) -> bool {
+        [self.map_kd, self.map_ka, self.map_ks, self.map_alpha]
+            .iter()
+            .any(|&m| m != NO_MAP)
     }
 
     /// The cube of the checker texture that holds `p` (integer-valued).

@@ -158,6 +158,8 @@ impl Out {
             triangle_materials: self.triangle_materials,
             normals: self.normals,
             corner_normals: self.corner_normals,
+            texcoords: Vec::new(),
+            corner_texcoords: vec![[super::super::obj::NO_TEXCOORD; 3]; n as usize],
             smoothing: self.smoothing,
             vertex_colors: None,
             warnings: self.warnings,
