@@ -7,11 +7,14 @@
 //! The spheres' checkerboard is a texture (one square whose `ka` and `kd`
 //! a checker pattern scales), as in the paper; the glass block's and the
 //! grazing view's checkerboards are geometry, every check its own flat
-//! face with its own material, so ray trees see their edges.
+//! face with its own material, so ray trees see their edges. A textured
+//! room (image maps on a floor and a sphere, a cut-out leaf card, walls
+//! whose MTL is written as Maya's and Blender's exporters write it) has
+//! its images under `assets/raytrace/textures/`.
 
 use std::fmt::Write;
 
-use glam::{Quat, Vec3};
+use glam::{Quat, Vec2, Vec3};
 use serde_json::json;
 
 use penumbra::scene::{Checker, Material, write_mtl};
@@ -32,6 +35,8 @@ pub struct ShippedScene {
     /// scene file, and the OBJ and MTL files it has of its own; a scene
     /// may use another's).
     pub files: Vec<(String, String)>,
+    /// Its images: name within `assets/raytrace/` and PNG bytes.
+    pub images: Vec<(String, Vec<u8>)>,
 }
 
 impl ShippedScene {
@@ -47,6 +52,7 @@ impl ShippedScene {
 struct ObjWriter {
     positions: Vec<Vec3>,
     normals: Vec<Vec3>,
+    texcoords: Vec<Vec2>,
     body: String,
 }
 
@@ -85,6 +91,64 @@ impl ObjWriter {
                         Vec3::new(x1, height, z1),
                         Vec3::new(x1, height, z0),
                     ]);
+                }
+            }
+        }
+    }
+
+    /// A quad by its corners, counter-clockwise, with texture coordinates
+    /// (0, 0), (1, 0), (1, 1), (0, 1) at them.
+    fn textured_quad(&mut self, name: &str, material: &str, corners: [Vec3; 4]) {
+        self.object(name, material, false);
+        let (v0, t0) = (self.positions.len() + 1, self.texcoords.len() + 1);
+        self.positions.extend_from_slice(&corners);
+        self.texcoords
+            .extend_from_slice(&[Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y]);
+        let c: Vec<String> = (0..4).map(|k| format!("{}/{}", v0 + k, t0 + k)).collect();
+        let _ = writeln!(self.body, "f {}", c.join(" "));
+    }
+
+    /// A sphere of latitude-longitude quads (as triangles) with radial
+    /// normals and texture coordinates u = longitude, v = latitude (0 at
+    /// the south pole); the seam's vertices are doubled so u runs 0 to 1.
+    fn textured_sphere(
+        &mut self,
+        name: &str,
+        material: &str,
+        centre: Vec3,
+        radius: f32,
+        (rings, segments): (u32, u32),
+    ) {
+        self.object(name, material, true);
+        let (v0, t0, n0) = (
+            self.positions.len() + 1,
+            self.texcoords.len() + 1,
+            self.normals.len() + 1,
+        );
+        for i in 0..=rings {
+            let lat = std::f32::consts::PI * (i as f32 / rings as f32 - 0.5);
+            for j in 0..=segments {
+                let lon = std::f32::consts::TAU * j as f32 / segments as f32;
+                let n = Vec3::new(lat.cos() * lon.sin(), lat.sin(), lat.cos() * lon.cos());
+                self.positions.push(centre + radius * n);
+                self.normals.push(n);
+                self.texcoords
+                    .push(Vec2::new(j as f32 / segments as f32, i as f32 / rings as f32));
+            }
+        }
+        let at = |i: u32, j: u32| (i * (segments + 1) + j) as usize;
+        for i in 0..rings {
+            for j in 0..segments {
+                let quad = [at(i, j), at(i, j + 1), at(i + 1, j + 1), at(i + 1, j)];
+                for tri in [[quad[0], quad[1], quad[2]], [quad[0], quad[2], quad[3]]] {
+                    // The poles' rows meet in a point: no zero-area triangles.
+                    if (i == 0 && tri.contains(&quad[1]) && tri.contains(&quad[0]))
+                        || (i == rings - 1 && tri.contains(&quad[2]) && tri.contains(&quad[3]))
+                    {
+                        continue;
+                    }
+                    let c = tri.map(|k| format!("{}/{}/{}", v0 + k, t0 + k, n0 + k));
+                    let _ = writeln!(self.body, "f {} {} {}", c[0], c[1], c[2]);
                 }
             }
         }
@@ -139,6 +203,9 @@ impl ObjWriter {
         }
         for n in &self.normals {
             let _ = writeln!(s, "vn {} {} {}", n.x, n.y, n.z);
+        }
+        for t in &self.texcoords {
+            let _ = writeln!(s, "vt {} {}", t.x, t.y);
         }
         s + &self.body
     }
@@ -296,6 +363,7 @@ fn checker_spheres() -> ShippedScene {
         name: "checker-spheres",
         summary: "mirror, glass and Phong spheres (analytic) over a checkerboard (one square, 8x8 checks as a texture), one point light, a sky",
         files,
+        images: Vec::new(),
     }
 }
 
@@ -324,6 +392,7 @@ fn checker_spheres_tessellated() -> ShippedScene {
                 pretty(&with_setting(scene, checker_setting())),
             ),
         ],
+        images: Vec::new(),
     }
 }
 
@@ -398,6 +467,7 @@ fn cornell_mirror_glass() -> ShippedScene {
             ("cornell-mirror-glass.mtl".into(), write_mtl(&materials, HEADER)),
             ("cornell-mirror-glass.json".into(), pretty(&scene)),
         ],
+        images: Vec::new(),
     }
 }
 
@@ -430,6 +500,7 @@ fn tir_block() -> ShippedScene {
             ("tir-block.mtl".into(), write_mtl(&[a, b, glass()], HEADER)),
             ("tir-block.json".into(), pretty(&scene)),
         ],
+        images: Vec::new(),
     }
 }
 
@@ -473,6 +544,7 @@ fn grazing() -> ShippedScene {
             ),
             ("grazing.json".into(), pretty(&scene)),
         ],
+        images: Vec::new(),
     }
 }
 
@@ -494,6 +566,150 @@ fn inside_glass() -> ShippedScene {
         name: "inside-glass",
         summary: "the camera inside a glass sphere (index 1.5) over the checkerboard: every primary ray starts in glass",
         files: vec![("inside-glass.json".into(), pretty(&scene))],
+        images: Vec::new(),
+    }
+}
+
+/// An image as PNG bytes, `f(x, y)` giving each pixel's RGBA (row 0 at
+/// the top).
+fn png(width: u32, height: u32, f: impl Fn(u32, u32) -> [u8; 4]) -> Vec<u8> {
+    let image = image::RgbaImage::from_fn(width, height, |x, y| image::Rgba(f(x, y)));
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    image
+        .write_to(&mut bytes, image::ImageFormat::Png)
+        .expect("encoding a PNG in memory");
+    bytes.into_inner()
+}
+
+/// The textured room's images: a checkerboard (8 x 8 checks of warm and
+/// cool tones), a globe (latitude bands, a darker meridian every 30
+/// degrees) and a leaf (a green ellipse with a vein, transparent around).
+fn room_images() -> Vec<(String, Vec<u8>)> {
+    let checks = png(64, 64, |x, y| {
+        if (x / 8 + y / 8) % 2 == 0 {
+            [220, 200, 160, 255]
+        } else {
+            [50, 70, 110, 255]
+        }
+    });
+    let globe = png(128, 64, |x, y| {
+        let band = [[200, 60, 40], [230, 180, 50], [60, 150, 80], [50, 100, 200]][(y / 8 % 4) as usize];
+        let shade = if x % 11 == 0 { 2 } else { 1 };
+        [band[0] / shade, band[1] / shade, band[2] / shade, 255]
+    });
+    let leaf = png(64, 64, |x, y| {
+        let (u, v) = ((x as f32 + 0.5) / 32.0 - 1.0, (y as f32 + 0.5) / 32.0 - 1.0);
+        let inside = u * u / 0.45 + v * v / 0.95 < 1.0;
+        let vein = u.abs() < 0.04;
+        match (inside, vein) {
+            (false, _) => [40, 120, 40, 0],
+            (true, true) => [180, 200, 90, 255],
+            (true, false) => [40, 120, 40, 255],
+        }
+    });
+    vec![
+        ("textures/checks.png".into(), checks),
+        ("textures/globe.png".into(), globe),
+        ("textures/leaf.png".into(), leaf),
+    ]
+}
+
+/// The textured room's MTL, each block in the shape an exporter writes:
+/// the walls as Maya writes every material (`illum 4`, `Tf 1 1 1`, `Ni 1`:
+/// opaque surfaces, whatever the letter of the spec says), the textured
+/// ones as Blender writes them (`Kd` beside `map_Kd`, black for the floor
+/// as many exporters leave it, `Ni 1.45`, `illum 2`), the leaf with its
+/// cut-out (`map_d`, the same image's alpha).
+fn room_mtl() -> String {
+    let mut s = String::new();
+    for line in HEADER.lines() {
+        let _ = writeln!(s, "# {line}");
+    }
+    for (name, kd) in [("wallBackSG", "0.60 0.55 0.50"), ("wallSideSG", "0.35 0.45 0.55")] {
+        let _ = write!(
+            s,
+            "\nnewmtl {name}\nillum 4\nKd {kd}\nKa 0.00 0.00 0.00\nTf 1.00 1.00 1.00\nNi 1.00\n"
+        );
+    }
+    s.push_str(
+        "\nnewmtl floor\nNs 250.000000\nKa 1.000000 1.000000 1.000000\nKd 0.000000 0.000000 0.000000\n\
+         Ks 0.100000 0.100000 0.100000\nKe 0.000000 0.000000 0.000000\nNi 1.450000\nd 1.000000\nillum 2\n\
+         map_Kd -s 4 4 1 textures/checks.png\n",
+    );
+    s.push_str(
+        "\nnewmtl globe\nNs 80.000000\nKa 1.000000 1.000000 1.000000\nKd 0.900000 0.900000 0.900000\n\
+         Ks 0.300000 0.300000 0.300000\nKe 0.000000 0.000000 0.000000\nNi 1.450000\nd 1.000000\nillum 2\n\
+         map_Kd textures/globe.png\n",
+    );
+    s.push_str(
+        "\nnewmtl leaf\nNs 10.000000\nKa 1.000000 1.000000 1.000000\nKd 1.000000 1.000000 1.000000\n\
+         Ks 0.000000 0.000000 0.000000\nKe 0.000000 0.000000 0.000000\nNi 1.450000\nd 1.000000\nillum 2\n\
+         map_Kd -clamp on textures/leaf.png\nmap_d -clamp on textures/leaf.png\n",
+    );
+    s
+}
+
+fn textured_room() -> ShippedScene {
+    let mut obj = ObjWriter::default();
+    let (w, h) = (4.0, 3.0);
+    obj.textured_quad(
+        "floor",
+        "floor",
+        [
+            Vec3::new(-w, 0.0, w),
+            Vec3::new(w, 0.0, w),
+            Vec3::new(w, 0.0, -w),
+            Vec3::new(-w, 0.0, -w),
+        ],
+    );
+    obj.quad(
+        "wall-back",
+        "wallBackSG",
+        [
+            Vec3::new(-w, 0.0, -w),
+            Vec3::new(w, 0.0, -w),
+            Vec3::new(w, h, -w),
+            Vec3::new(-w, h, -w),
+        ],
+    );
+    obj.quad(
+        "wall-left",
+        "wallSideSG",
+        [
+            Vec3::new(-w, 0.0, w),
+            Vec3::new(-w, 0.0, -w),
+            Vec3::new(-w, h, -w),
+            Vec3::new(-w, h, w),
+        ],
+    );
+    obj.textured_sphere("globe", "globe", Vec3::new(1.2, 1.0, -1.0), 1.0, (24, 48));
+    obj.textured_quad(
+        "leaf-card",
+        "leaf",
+        [
+            Vec3::new(-2.2, 0.2, 0.2),
+            Vec3::new(-0.6, 0.2, -0.4),
+            Vec3::new(-0.6, 2.6, -0.4),
+            Vec3::new(-2.2, 2.6, 0.2),
+        ],
+    );
+    let scene = json!({
+        "meshes": { "room": "textured-room.obj" },
+        "instances": [ { "mesh": "room" } ],
+        "camera": { "eye": [0.5, 1.8, 6.5], "target": [0.0, 1.0, -1.0], "fov": 50 },
+        "lights": [ { "point": { "position": [2.5, 5.0, 4.0], "intensity": [40.0, 40.0, 40.0] } } ],
+        "ambient": [0.08, 0.08, 0.08],
+        "background": [0.35, 0.45, 0.65]
+    });
+    ShippedScene {
+        name: "textured-room",
+        summary: "image maps on a floor (repeated 4 x 4, Kd black beside the map) and a sphere, a cut-out leaf card casting a leaf-shaped shadow, walls written as Maya writes opaque materials",
+        files: vec![
+            ("textured-room.obj".into(), obj.text(HEADER, "textured-room.mtl")),
+            ("textured-room.mtl".into(), room_mtl()),
+            ("textured-room.json".into(), pretty(&scene)),
+        ],
+        images: room_images(),
     }
 }
 
@@ -506,5 +722,6 @@ pub fn shipped_scenes() -> Vec<ShippedScene> {
         tir_block(),
         grazing(),
         inside_glass(),
+        textured_room(),
     ]
 }

@@ -31,7 +31,11 @@ fn write_files<B: AsRef<[u8]>>(dir: &Path, files: Vec<(String, B)>) -> Result<Ve
 pub fn write_every_asset(out: &Path) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(out).map_err(|e| Error::write(out, e))?;
     let mut written = write_files(out, procedural::asset_files())?;
-    let raytrace: Vec<(String, String)> = shipped_scenes().into_iter().flat_map(|s| s.files).collect();
+    let scenes = shipped_scenes();
+    let raytrace: Vec<(String, Vec<u8>)> = scenes
+        .into_iter()
+        .flat_map(|s| s.files.into_iter().map(|(n, t)| (n, t.into_bytes())).chain(s.images))
+        .collect();
     written.extend(write_files(&out.join("raytrace"), raytrace)?);
     written.extend(write_files(&out.join("animations"), animations::animation_files())?);
     written.extend(write_files(out, chess::chess_files())?);

@@ -10,9 +10,14 @@
 //
 // records: the scene's surfaces (8 words4 each), lights (3) and spheres (2),
 //          one after another from params.lights_at / spheres_at; floats as
-//          their bits.
+//          their bits; then from params.maps_at the sRGB table (64 words4),
+//          the texture maps (3 words4 each: scale, offset; texels' first
+//          word, width, height, flags; factor, cutoff) and their texels
+//          (RGBA8, one per word).
 // triangle_shading: 2 words4 per triangle: (surface, normal indices),
-//                   (object, face, -, -).
+//                   (object, face, texture coordinates' index, -).
+// shading_normals: the shading normals, then per textured triangle two
+//                  entries (u0, v0, u1, v1), (u2, v2, -, -).
 // pixels: per pixel two words4 (radiance, signature), (rays by kind); for
 //         `whitted_trees`, per ray a slot of ray-tree records (below).
 // pixel_list: the pixels `whitted_listed` renders, any order (the bounded
@@ -53,7 +58,7 @@ struct WhittedUniforms {
     spheres_at: u32,
     tree_capacity: u32,
     tree_stride: u32,
-    _pad0: u32,
+    maps_at: u32,
 }
 
 struct PixelOut {
@@ -78,6 +83,13 @@ const LIT: u32 = 1u;
 const REFRACTS: u32 = 2u;
 const DIRECTIONAL: u32 = 1u;
 const NO_NORMAL: u32 = 0xffffffffu;
+const NO_MAP: u32 = 0xffffffffu;
+const NO_TEXCOORDS: u32 = 0xffffffffu;
+const MAP_CLAMP: u32 = 1u;
+const MAP_SRGB: u32 = 2u;
+const MAP_WORDS4: u32 = 3u;
+const SRGB_WORDS4: u32 = 64u;
+const MAX_HOLE_CROSSINGS: u32 = 16u;
 const OFFSET_SCALE: f32 = 1.52587890625e-5; // 2^-16
 const MIN_POSITIVE: f32 = 1.17549435e-38;
 const FNV_OFFSET: u32 = 0x811c9dc5u;
@@ -116,6 +128,10 @@ struct Surface {
     checker_odd: vec3<f32>,
     checker_inv_size: f32,
     checker_origin: vec3<f32>,
+    map_kd: u32,
+    map_ka: u32,
+    map_ks: u32,
+    map_alpha: u32,
 }
 
 const SURFACE_WORDS4: u32 = 8u;
@@ -132,14 +148,136 @@ fn load_surface(id: u32) -> Surface {
     s.ns = bitcast<f32>(r1.w);
     s.ks = bitcast<vec3<f32>>(r2.xyz);
     s.ni = bitcast<f32>(r2.w);
-    s.kr = bitcast<vec3<f32>>(records[b + 3u].xyz);
-    s.kt = bitcast<vec3<f32>>(records[b + 4u].xyz);
-    s.ke = bitcast<vec3<f32>>(records[b + 5u].xyz);
+    let r3 = records[b + 3u];
+    let r4 = records[b + 4u];
+    let r5 = records[b + 5u];
+    s.kr = bitcast<vec3<f32>>(r3.xyz);
+    s.map_kd = r3.w;
+    s.kt = bitcast<vec3<f32>>(r4.xyz);
+    s.map_ka = r4.w;
+    s.ke = bitcast<vec3<f32>>(r5.xyz);
+    s.map_ks = r5.w;
     let r6 = records[b + 6u];
     s.checker_odd = bitcast<vec3<f32>>(r6.xyz);
     s.checker_inv_size = bitcast<f32>(r6.w);
-    s.checker_origin = bitcast<vec3<f32>>(records[b + 7u].xyz);
+    let r7 = records[b + 7u];
+    s.checker_origin = bitcast<vec3<f32>>(r7.xyz);
+    s.map_alpha = r7.w;
     return s;
+}
+
+fn surface_map_alpha(id: u32) -> u32 {
+    return records[id * SURFACE_WORDS4 + 7u].w;
+}
+
+// One word of the records, counted from the first word.
+fn record_word(k: u32) -> u32 {
+    return records[k >> 2u][k & 3u];
+}
+
+// A texel of map m, decoded (TextureTable::texel).
+fn map_texel(first: u32, flags: u32, k: u32) -> vec3<f32> {
+    let w = record_word(first + k);
+    let c = vec3<u32>(w & 255u, (w >> 8u) & 255u, (w >> 16u) & 255u);
+    if ((flags & MAP_SRGB) != 0u) {
+        let at = params.maps_at * 4u;
+        return vec3<f32>(bitcast<f32>(record_word(at + c.x)), bitcast<f32>(record_word(at + c.y)), bitcast<f32>(record_word(at + c.z)));
+    }
+    return vec3<f32>(c) * (1.0 / 255.0);
+}
+
+// u clamped to [0, 1]; 0 where it is not a number (maps::unit_clamp).
+fn unit_clamp(u: f32) -> f32 {
+    if (u >= 0.0) {
+        return select(1.0, u, u <= 1.0);
+    }
+    return 0.0;
+}
+
+// The fractional part of u in [0, 1); 0 where u is not finite.
+fn unit_fract(u: f32) -> f32 {
+    let f = u - floor(u);
+    return select(0.0, f, f >= 0.0 && f < 1.0);
+}
+
+fn wrap_index(i: i32, n: i32, clamped: bool) -> i32 {
+    if (clamped) {
+        return clamp(i, 0, n - 1);
+    }
+    return (i + n) % n;
+}
+
+// Map m at texture coordinates uv (v up the image): the bilinear blend of
+// the four texels around the point (TextureTable::sample).
+fn sample_map(m: u32, uv: vec2<f32>) -> vec3<f32> {
+    let b = params.maps_at + SRGB_WORDS4 + m * MAP_WORDS4;
+    let r0 = bitcast<vec4<f32>>(records[b]);
+    let r1 = records[b + 1u];
+    let w = i32(r1.y);
+    let h = i32(r1.z);
+    let clamped = (r1.w & MAP_CLAMP) != 0u;
+    var u = uv.x * r0.x + r0.z;
+    var v = uv.y * r0.y + r0.w;
+    if (clamped) {
+        u = unit_clamp(u);
+        v = unit_clamp(v);
+    } else {
+        u = unit_fract(u);
+        v = unit_fract(v);
+    }
+    let x = u * f32(w) - 0.5;
+    let y = (1.0 - v) * f32(h) - 0.5;
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let fx = x - x0;
+    let fy = y - y0;
+    let i0 = i32(x0);
+    let j0 = i32(y0);
+    let ia = wrap_index(i0, w, clamped);
+    let ib = wrap_index(i0 + 1, w, clamped);
+    let ja = wrap_index(j0, h, clamped);
+    let jb = wrap_index(j0 + 1, h, clamped);
+    let top = map_texel(r1.x, r1.w, u32(ja * w + ia)) * (1.0 - fx) + map_texel(r1.x, r1.w, u32(ja * w + ib)) * fx;
+    let bottom = map_texel(r1.x, r1.w, u32(jb * w + ia)) * (1.0 - fx) + map_texel(r1.x, r1.w, u32(jb * w + ib)) * fx;
+    return top * (1.0 - fy) + bottom * fy;
+}
+
+// Whether cut-out map m has a hole at uv (TextureTable::is_hole).
+fn map_hole(m: u32, uv: vec2<f32>) -> bool {
+    let r2 = bitcast<vec4<f32>>(records[params.maps_at + SRGB_WORDS4 + m * MAP_WORDS4 + 2u]);
+    return sample_map(m, uv).x * r2.x < r2.y;
+}
+
+// Whether a hit falls in a cut-out's hole (Whitted::is_hole).
+fn is_hole(surface: u32, has_uv: bool, uv: vec2<f32>) -> bool {
+    let m = surface_map_alpha(surface);
+    return m != NO_MAP && has_uv && map_hole(m, uv);
+}
+
+// Texture factors on ka, kd and the highlight (Whitted::textures).
+struct TextureFactors {
+    ka: vec3<f32>,
+    kd: vec3<f32>,
+    ks: vec3<f32>,
+}
+
+fn textures(s: Surface, p: vec3<f32>, has_uv: bool, uv: vec2<f32>) -> TextureFactors {
+    let checker = texture(s, p);
+    var f = TextureFactors(checker, checker, vec3<f32>(1.0));
+    if (!has_uv) {
+        return f;
+    }
+    if (s.map_kd != NO_MAP) {
+        f.kd = checker * sample_map(s.map_kd, uv);
+        f.ka = f.kd;
+    }
+    if (s.map_ka != NO_MAP) {
+        f.ka = checker * sample_map(s.map_ka, uv);
+    }
+    if (s.map_ks != NO_MAP) {
+        f.ks = sample_map(s.map_ks, uv);
+    }
+    return f;
 }
 
 fn surface_ni(id: u32) -> f32 {
@@ -372,6 +510,8 @@ struct SurfaceHit {
     object: u32,
     face: u32,
     magnitude: f32,
+    has_uv: bool,
+    uv: vec2<f32>,
 }
 
 fn hit_info(o: vec3<f32>, d: vec3<f32>, t: f32, primitive: u32) -> SurfaceHit {
@@ -389,6 +529,8 @@ fn hit_info(o: vec3<f32>, d: vec3<f32>, t: f32, primitive: u32) -> SurfaceHit {
         h.object = ids.y;
         h.face = 0u;
         h.magnitude = max_abs(c.xyz) + c.w;
+        h.has_uv = false;
+        h.uv = vec2<f32>(0.0);
         return h;
     }
     let v0 = kd_vertex(primitive, 0u);
@@ -431,6 +573,13 @@ fn hit_info(o: vec3<f32>, d: vec3<f32>, t: f32, primitive: u32) -> SurfaceHit {
     h.object = ids.x;
     h.face = ids.y;
     h.magnitude = max(max_abs(v0), max(max_abs(v1), max_abs(v2)));
+    h.has_uv = ids.z != NO_TEXCOORDS;
+    h.uv = vec2<f32>(0.0);
+    if (h.has_uv) {
+        let a = shading_normals[ids.z];
+        let c2 = shading_normals[ids.z + 1u];
+        h.uv = b0 * a.xy + b1 * a.zw + b2 * c2.xy;
+    }
     return h;
 }
 
@@ -459,11 +608,14 @@ fn transmittance(o: vec3<f32>, d: vec3<f32>, t_max: f32, finite: bool) -> vec4<f
             return vec4<f32>(filt, f32(code));
         }
         let hit = hit_info(origin, dir, c.t, c.primitive);
-        let surf = load_surface(hit.surface);
-        if (max(surf.kt.x, max(surf.kt.y, surf.kt.z)) <= 0.0) {
-            return vec4<f32>(0.0, 0.0, 0.0, f32(CODE_BLOCKED));
+        // A cut-out's hole lets the light through unfiltered.
+        if (!is_hole(hit.surface, hit.has_uv, hit.uv)) {
+            let surf = load_surface(hit.surface);
+            if (max(surf.kt.x, max(surf.kt.y, surf.kt.z)) <= 0.0) {
+                return vec4<f32>(0.0, 0.0, 0.0, f32(CODE_BLOCKED));
+            }
+            filt = filt * surf.kt;
         }
-        filt = filt * surf.kt;
         code = CODE_FILTERED;
         let through = select(-hit.geometric, hit.geometric, dot(dir, hit.geometric) > 0.0);
         origin = offset_point(hit.point, through, hit.magnitude);
@@ -483,7 +635,7 @@ struct LightOut {
     diffuse: vec3<f32>,
 }
 
-fn light_term(j: u32, lifted: vec3<f32>, n_g: vec3<f32>, n_s: vec3<f32>, d: vec3<f32>, surf: Surface, kd: vec3<f32>) -> LightOut {
+fn light_term(j: u32, lifted: vec3<f32>, n_g: vec3<f32>, n_s: vec3<f32>, d: vec3<f32>, surf: Surface, kd: vec3<f32>, ks_factor: vec3<f32>) -> LightOut {
     let none = LightOut(vec3<f32>(0.0), CODE_FACES_AWAY, vec3<f32>(0.0));
     let light = load_light(j);
     var l: vec3<f32>;
@@ -525,7 +677,7 @@ fn light_term(j: u32, lifted: vec3<f32>, n_g: vec3<f32>, n_s: vec3<f32>, d: vec3
     if (n_h > 0.0) {
         spec = surf.ks * pow(n_h, surf.ns);
     }
-    return LightOut(irradiance * (kd * cos_p + spec), u32(seen.w), irradiance * (surf.kd * cos_p));
+    return LightOut(irradiance * (kd * cos_p + spec * ks_factor), u32(seen.w), irradiance * (surf.kd * cos_p));
 }
 
 // The primitive nearest light j on a blocked or filtered shadow ray from
@@ -605,8 +757,19 @@ fn shade(o: vec3<f32>, d: vec3<f32>, media: Media, root: Closest, slot: u32) -> 
         out.rays[select(ray.kind + 1u, 0u, ray.kind == KIND_PRIMARY)] += 1u;
         var sig = fnv_word(out.signature, ray.kind | (ray.depth << 2u));
         var c = root;
+        var past = ray.origin;
         if (ray.depth != 0u || root.primitive == TRACE_ROOT) {
             c = closest(ray.origin, ray.dir, T_INFINITE);
+        }
+        // Cut-out holes: the ray goes on from just past each one.
+        for (var holes = 0u; holes < MAX_HOLE_CROSSINGS && c.primitive != MISS_INDEX; holes = holes + 1u) {
+            let h = hit_info(past, ray.dir, c.t, c.primitive);
+            if (!is_hole(h.surface, h.has_uv, h.uv)) {
+                break;
+            }
+            let n_g = select(-h.geometric, h.geometric, dot(ray.dir, h.geometric) < 0.0);
+            past = offset_point(h.point, -n_g, h.magnitude);
+            c = closest(past, ray.dir, T_INFINITE);
         }
         if (c.primitive == MISS_INDEX) {
             out.radiance = out.radiance + ray.weight * params.background;
@@ -614,7 +777,7 @@ fn shade(o: vec3<f32>, d: vec3<f32>, media: Media, root: Closest, slot: u32) -> 
             out.signature = fnv_word(sig, 0u);
             continue;
         }
-        let hit = hit_info(ray.origin, ray.dir, c.t, c.primitive);
+        let hit = hit_info(past, ray.dir, c.t, c.primitive);
         sig = fnv_word(fnv_word(fnv_word(sig, hit.object), hit.face), hit.surface);
         let surf = load_surface(hit.surface);
         let front = dot(ray.dir, hit.geometric) < 0.0;
@@ -625,17 +788,17 @@ fn shade(o: vec3<f32>, d: vec3<f32>, media: Media, root: Closest, slot: u32) -> 
         }
         let lifted = offset_point(hit.point, n_g, hit.magnitude);
         var local = surf.ke;
-        let tex = texture(surf, hit.point);
+        let tex = textures(surf, hit.point, hit.has_uv, hit.uv);
         let lit = (surf.flags & LIT) != 0u;
         if (lit) {
-            local = local + surf.ka * tex * params.ambient;
+            local = local + surf.ka * tex.ka * params.ambient;
             if (ray.depth == 0u) {
                 out.diffuse = surf.ka * params.ambient;
             }
-            let kd = surf.kd * tex;
+            let kd = surf.kd * tex.kd;
             for (var j = 0u; j < params.light_count; j = j + 1u) {
                 shadow_rays = 0u;
-                let term = light_term(j, lifted, n_g, n_s, ray.dir, surf, kd);
+                let term = light_term(j, lifted, n_g, n_s, ray.dir, surf, kd, tex.ks);
                 out.rays.y += shadow_rays;
                 sig = fnv_word(sig, (j << 2u) | term.code);
                 local = local + term.radiance;
@@ -648,7 +811,7 @@ fn shade(o: vec3<f32>, d: vec3<f32>, media: Media, root: Closest, slot: u32) -> 
                 }
             }
         } else {
-            local = local + surf.kd * tex;
+            local = local + surf.kd * tex.kd;
             if (ray.depth == 0u) {
                 out.diffuse = surf.kd;
             }

@@ -539,6 +539,11 @@ impl Predicate<'_> {
                 })
                 .collect();
             let shading = *self.w.scene.surface(tree_hit.surface);
+            if shading.mapped() {
+                // An image map (or a cut-out's edge) varies within a cell
+                // in ways no bound here follows: such cells are traced.
+                return Err(Failure::Topology);
+            }
             let texture = if !shading.textured() {
                 Texture::Constant(DVec3::ONE)
             } else if i == 0 {
@@ -1068,6 +1073,10 @@ impl Predicate<'_> {
     ) -> Option<f64> {
         let p = occluder.filter(|&p| p != u32::MAX)?;
         let shading = self.w.scene.surface(self.w.scene.primitive_surface(p));
+        if shading.mapped() {
+            // A cut-out's holes let some shadow rays through: unknown.
+            return None;
+        }
         let t_max = match end {
             End::At(t) => t.lo(),
             End::Infinite => f64::INFINITY,

@@ -664,11 +664,15 @@ mod tests {
         assert_eq!(m[0].kd, Vec3::splat(0.5));
         assert_eq!(m[0].ks, Vec3::ZERO, "a spectral colour is ignored");
         assert_eq!(
+            m[0].maps.kd.as_ref().map(|k| k.source.name()),
+            Some("c.png".into()),
+            "the last map_Kd wins"
+        );
+        assert_eq!(
             w,
             [
-                "ignoring `map_Kd` statements (line 2 and 2 more lines): texture maps are not used",
                 "ignoring `Pr` statements (line 3): unknown MTL statement",
-                "ignoring `bump` statements (line 5): texture maps are not used",
+                "ignoring `bump` statements (line 5): bump, displacement, reflection and other maps than map_Kd, map_Ka, map_Ks and map_d are not used",
                 "ignoring `Kd spectral` statements (line 7): spectral colours are not supported",
                 "ignoring `Ks spectral` statements (line 8): spectral colours are not supported",
             ]
@@ -678,10 +682,61 @@ mod tests {
             w,
             [
                 "ignoring `kd` statements (line 2): unknown MTL statement",
-                "ignoring `norm` statements (line 3 and 1 more line): texture maps are not used",
+                "ignoring `norm` statements (line 3 and 1 more line): bump, displacement, reflection and other maps than map_Kd, map_Ka, map_Ks and map_d are not used",
             ],
             "keywords are case-sensitive"
         );
+    }
+
+    #[test]
+    fn texture_maps_and_their_options() {
+        let text = "newmtl a\nKd 0 0 0\nmap_Kd -s 2 2 1 -o 0.5 0 0 -clamp on tex\\wood grain.png\nmap_Ka amb.tga\n\
+                    map_Ks -bm 0.2 spec.jpg\nmap_d -imfchan m leaf.png\nnewmtl b\n";
+        let (m, w) = parse(text);
+        let kd = m[0].maps.kd.as_ref().unwrap();
+        assert_eq!(kd.source.name(), "tex\\wood grain.png");
+        assert_eq!(
+            (kd.scale, kd.offset, kd.clamp),
+            (glam::Vec2::splat(2.0), glam::Vec2::new(0.5, 0.0), true)
+        );
+        assert_eq!(m[0].maps.ka.as_ref().unwrap().source.name(), "amb.tga");
+        assert_eq!(m[0].maps.ks.as_ref().unwrap().source.name(), "spec.jpg");
+        let alpha = m[0].maps.alpha.as_ref().unwrap();
+        assert_eq!(
+            (alpha.map.source.name().as_str(), alpha.factor, alpha.cutoff),
+            ("leaf.png", 1.0, 0.5)
+        );
+        assert!(m[1].maps.is_empty());
+        assert_eq!(
+            w,
+            [
+                "ignoring `map_Ks -bm` statements (line 5): this map option is not used",
+                "ignoring `map_d -imfchan` statements (line 6): this map option is not used",
+            ]
+        );
+        // Resolved against the MTL file's folder, `\\` read as `/`.
+        let mut m = m;
+        resolve_maps(&mut m, Path::new("/scenes/room"));
+        assert_eq!(
+            m[0].maps.kd.as_ref().unwrap().source,
+            TextureSource::File("/scenes/room/tex/wood grain.png".into())
+        );
+        // A bad option is an error naming the line; a map before any
+        // material a warning.
+        assert_eq!(
+            error("newmtl a\nmap_Kd -clamp maybe x.png\n"),
+            "line 2: map_Kd: -clamp 'maybe' is neither on nor off"
+        );
+        assert_eq!(error("newmtl a\nmap_d\n"), "line 2: map_d: names no image file");
+        let (_, w) = parse("map_Kd x.png\nnewmtl a\n");
+        assert_eq!(
+            w,
+            ["ignoring `map_Kd` statements (line 1): a map before any newmtl belongs to no material"]
+        );
+        // Written and read back the same.
+        let (m, _) = parse(text);
+        let mut again = Vec::new();
+        assert_eq!(parse_mtl(&write_mtl(&m, "t"), &mut again).unwrap(), m);
     }
 
     #[test]

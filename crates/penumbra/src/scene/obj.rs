@@ -196,6 +196,9 @@ fn parse(text: &str, extended: bool) -> Result<Parsed> {
     let mut face_texcoords: Vec<u32> = Vec::with_capacity(8);
     let mut texcoords: Vec<Vec2> = Vec::new();
     let mut corner_texcoords: Vec<[u32; 3]> = Vec::new();
+    // The first bad `vt` index (line, problem) and how many there were:
+    // texture coordinates are not geometry, a bad one is dropped.
+    let mut bad_texcoords: Option<(usize, String, usize)> = None;
     let mut faces = 0u32;
     let mut triangle_faces: Vec<u32> = Vec::new();
     let mut normals: Vec<Vec3> = Vec::new();
@@ -261,7 +264,10 @@ fn parse(text: &str, extended: bool) -> Result<Parsed> {
                         // `v//vn`, `v/vt/vn`: parts[2].
                         let texcoord = match parts.next() {
                             None | Some("") => NO_TEXCOORD,
-                            Some(text) => texcoord_index(text, token, texcoords.len(), &at)?,
+                            Some(text) => texcoord_index(text, token, texcoords.len()).unwrap_or_else(|problem| {
+                                bad_texcoords.get_or_insert((line_no, problem, 0)).2 += 1;
+                                NO_TEXCOORD
+                            }),
                         };
                         face_texcoords.push(texcoord);
                         let normal = match parts.next() {
@@ -384,15 +390,14 @@ fn parse(text: &str, extended: bool) -> Result<Parsed> {
         }
     }
     let nt = texcoords.len() as u32;
-    for (corners, &line) in corner_texcoords.iter().zip(&triangle_lines) {
-        if let Some(&bad) = corners.iter().find(|&&n| n != NO_TEXCOORD && n >= nt) {
-            return Err(Error::input(
-                format!("line {line}"),
-                format!(
-                    "face texture coordinate index {} is out of range (the file has {nt} texture coordinates)",
-                    bad + 1
-                ),
-            ));
+    for (corners, &line) in corner_texcoords.iter_mut().zip(&triangle_lines) {
+        for c in corners.iter_mut().filter(|c| **c != NO_TEXCOORD && **c >= nt) {
+            let problem = format!(
+                "face texture coordinate index {} is out of range (the file has {nt} texture coordinates)",
+                *c + 1
+            );
+            bad_texcoords.get_or_insert((line as usize, problem, 0)).2 += 1;
+            *c = NO_TEXCOORD;
         }
     }
     if triangles.is_empty() {
@@ -411,6 +416,16 @@ fn parse(text: &str, extended: bool) -> Result<Parsed> {
     mesh.validate()?;
     let mut warnings = Vec::new();
     ignored.warn(&mut warnings);
+    if let Some((line, problem, count)) = bad_texcoords {
+        let more = match count - 1 {
+            0 => String::new(),
+            1 => " (and 1 more)".into(),
+            n => format!(" (and {n} more)"),
+        };
+        warnings.push(format!(
+            "line {line}: {problem}{more}: those face corners have no texture coordinates"
+        ));
+    }
     Ok(Parsed {
         mesh,
         triangle_faces,
@@ -500,34 +515,23 @@ fn texcoord<'a>(tokens: &mut impl Iterator<Item = &'a str>, at: &dyn Fn() -> Str
 
 /// The `vt` index of face corner `token` (`text`, its second part),
 /// 0-based; negative indices count back from the `count` read so far.
-fn texcoord_index(text: &str, token: &str, count: usize, at: &dyn Fn() -> String) -> Result<u32> {
+/// The error says what is wrong with it.
+fn texcoord_index(text: &str, token: &str, count: usize) -> std::result::Result<u32, String> {
     let index = parse_index(text).ok_or_else(|| {
-        Error::input(
-            at(),
-            format!("face vertex '{token}' has texture coordinate index '{text}', which is not an integer"),
-        )
+        format!("face vertex '{token}' has texture coordinate index '{text}', which is not an integer")
     })?;
     let resolved = match index {
-        0 => {
-            return Err(Error::input(
-                at(),
-                "face texture coordinate index 0 (OBJ indices start at 1)",
-            ));
-        }
+        0 => return Err("face texture coordinate index 0 (OBJ indices start at 1)".into()),
         i if i > 0 => i - 1,
         i => count as i128 + i,
     };
     if resolved < 0 {
-        return Err(Error::input(
-            at(),
-            format!("face texture coordinate index {index} refers before the first texture coordinate"),
+        return Err(format!(
+            "face texture coordinate index {index} refers before the first texture coordinate"
         ));
     }
     if resolved >= NO_TEXCOORD as i128 {
-        return Err(Error::input(
-            at(),
-            format!("face texture coordinate index {index} is out of range"),
-        ));
+        return Err(format!("face texture coordinate index {index} is out of range"));
     }
     Ok(resolved as u32)
 }
@@ -1008,12 +1012,46 @@ mod tests {
         let (a, b) = (a.display(), b.display());
         assert_eq!(
             f.warnings,
-            [
-                format!("{b}: ignoring `map_Kd` statements (line 4): texture maps are not used"),
-                format!("{b}: material 'm' is also defined in {a}; the first definition is used"),
-            ],
+            [format!(
+                "{b}: material 'm' is also defined in {a}; the first definition is used"
+            ),],
             "a file named twice is read once"
         );
+    }
+
+    #[test]
+    fn texture_coordinates_per_corner() {
+        let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0 0\nvt 1 1\nvt 0.25\n\
+                    f 1/1 2/2 3/3 4/-1\nf 1 2 3\nf 1/9 2/1 3/2\nf 1/x 2/1 3/0\n";
+        let f = obj(text);
+        assert_eq!(f.texcoords, [Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::new(0.25, 0.0)]);
+        let no = NO_TEXCOORD;
+        assert_eq!(
+            f.corner_texcoords,
+            [[0, 1, 2], [0, 2, 3], [no, no, no], [no, 0, 1], [no, 0, no]],
+            "fans keep each corner's vt; a bad index drops that corner's"
+        );
+        assert_eq!(
+            f.warnings,
+            [
+                "line 12: face vertex '1/x' has texture coordinate index 'x', which is not an integer (and 2 more): \
+              those face corners have no texture coordinates"
+            ]
+        );
+        assert_eq!(
+            f.mesh,
+            parse_obj(text).unwrap(),
+            "geometry is read as parse_obj reads it"
+        );
+        for (bad, problem) in [
+            ("vt\n", "line 1: texture coordinate has no u"),
+            ("vt 0 inf\n", "line 1: texture coordinate 1 has v 'inf'"),
+        ] {
+            let e = parse_obj_file(&format!("{bad}{TRIANGLE}f 1 2 3\n"), None)
+                .unwrap_err()
+                .to_string();
+            assert!(e.starts_with(problem), "{e}");
+        }
     }
 
     #[test]

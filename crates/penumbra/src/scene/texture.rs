@@ -350,6 +350,45 @@ mod tests {
         assert_eq!(parse("").unwrap_err(), "names no image file");
     }
 
+    #[cfg(feature = "textures")]
+    #[test]
+    fn every_format_decodes_to_the_same_texels() {
+        // A 3x2 image of distinct colours, written in each format.
+        let rgb = image::RgbImage::from_fn(3, 2, |x, y| image::Rgb([(x * 80) as u8, (y * 200) as u8, 30]));
+        let dir = std::env::temp_dir().join(format!("penumbra-textures-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for (ext, exact) in [("png", true), ("bmp", true), ("tga", true), ("jpg", false)] {
+            let path = dir.join(format!("t.{ext}"));
+            rgb.save(&path).unwrap();
+            let t = decode_texture(&TextureSource::File(path.clone())).unwrap_or_else(|e| panic!("{ext}: {e}"));
+            assert_eq!((t.width, t.height, t.name.clone()), (3, 2, path.display().to_string()));
+            for (texel, p) in t.texels.iter().zip(rgb.pixels()) {
+                let worst = (0..3).map(|c| texel[c].abs_diff(p.0[c])).max().unwrap();
+                // JPEG is lossy: close, not equal.
+                assert!(worst == 0 || (!exact && worst < 40), "{ext}: {texel:?} vs {:?}", p.0);
+                assert_eq!(texel[3], 255);
+            }
+            // The same bytes embedded (a glTF image) decode alike.
+            let bytes: Arc<[u8]> = std::fs::read(&path).unwrap().into();
+            let embedded = decode_texture(&TextureSource::Embedded {
+                name: "e".into(),
+                bytes,
+            });
+            if ext != "tga" {
+                assert_eq!(embedded.unwrap().texels, t.texels, "{ext}");
+            }
+        }
+        let missing = decode_texture(&TextureSource::File(dir.join("none.png"))).unwrap_err();
+        assert_eq!(missing, "not found");
+        std::fs::write(dir.join("text.png"), "not an image").unwrap();
+        let junk = decode_texture(&TextureSource::File(dir.join("text.png"))).unwrap_err();
+        assert!(
+            junk.contains("cannot be decoded") || junk.contains("is not an image"),
+            "{junk}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
     #[test]
     fn srgb_table_ends_and_midpoint() {
         let t = srgb_to_linear_table();

@@ -84,14 +84,41 @@ impl TreeKernelSet for WhittedKernels {
 /// The ray-tracing pass: its kernel and the buffers of one scene and batch.
 pub type WhittedPass = TreePass<WhittedKernels>;
 
-/// The scene's records as the kernel reads them: surfaces, lights, spheres.
-pub fn scene_records(scene: &RenderScene) -> (Vec<u8>, u32, u32) {
+/// Where the parts of the scene's records start, in words4.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RecordsAt {
+    /// The lights (the surfaces start at 0).
+    pub lights: u32,
+    /// The spheres.
+    pub spheres: u32,
+    /// The sRGB table, then the texture maps and their texels.
+    pub maps: u32,
+}
+
+/// The scene's records as the kernel reads them: surfaces, lights,
+/// spheres, the sRGB table, the texture maps (their texels' first word
+/// made absolute) and the texels.
+pub fn scene_records(scene: &RenderScene) -> (Vec<u8>, RecordsAt) {
     let mut records: Vec<u8> = bytemuck::cast_slice(&scene.surfaces).to_vec();
-    let lights_at = (records.len() / 16) as u32;
+    let lights = (records.len() / 16) as u32;
     records.extend_from_slice(bytemuck::cast_slice(&scene.lights));
-    let spheres_at = (records.len() / 16) as u32;
+    let spheres = (records.len() / 16) as u32;
     records.extend_from_slice(bytemuck::cast_slice(&scene.spheres));
-    (records, lights_at, spheres_at)
+    let maps = (records.len() / 16) as u32;
+    let table = &scene.textures;
+    records.extend_from_slice(bytemuck::cast_slice(&table.srgb));
+    let texels_at = (records.len() / 4 + table.maps.len() * std::mem::size_of::<super::maps::MapRecord>() / 4) as u32;
+    for m in &table.maps {
+        let m = super::maps::MapRecord {
+            texels_at: texels_at + m.texels_at,
+            ..*m
+        };
+        records.extend_from_slice(bytemuck::bytes_of(&m));
+    }
+    records.extend_from_slice(bytemuck::cast_slice(&table.texels));
+    // Whole words4.
+    records.resize(records.len().div_ceil(16) * 16, 0);
+    (records, RecordsAt { lights, spheres, maps })
 }
 
 /// At least one words4, so an empty array still binds.
@@ -102,7 +129,7 @@ fn non_empty(bytes: &[u8]) -> &[u8] {
 impl TreePass<WhittedKernels> {
     /// Uploads what the kernel reads of `scene` besides its tree.
     pub fn prepare_scene(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &RenderScene) -> Result<()> {
-        let (records, _, _) = scene_records(scene);
+        let (records, _) = scene_records(scene);
         let io = self.io();
         io.write(device, queue, 1, non_empty(bytemuck::cast_slice(&scene.triangles)))?;
         io.write(device, queue, 2, non_empty(bytemuck::cast_slice(&scene.normals)))?;

@@ -288,7 +288,7 @@ fn unit_clamp(u: f32) -> f32 {
 /// The fractional part of `u` in [0, 1); 0 where it is not finite.
 fn unit_fract(u: f32) -> f32 {
     let f = u - floor(u);
-    if f >= 0.0 && f < 1.0 { f } else { 0.0 }
+    if (0.0..1.0).contains(&f) { f } else { 0.0 }
 }
 
 #[cfg(test)]

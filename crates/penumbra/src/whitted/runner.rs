@@ -217,7 +217,7 @@ impl RenderScene {
         for (slot, &m) in ids.iter_mut().zip(&media) {
             *slot = m;
         }
-        let (_, lights_at, spheres_at) = super::gpu::scene_records(self);
+        let (_, at) = super::gpu::scene_records(self);
         Ok(WhittedUniforms {
             eye: camera.eye.to_array(),
             width,
@@ -239,11 +239,11 @@ impl RenderScene {
             first_pixel: 0,
             pixel_count: width * height,
             row_pitch: 0,
-            lights_at,
-            spheres_at,
+            lights_at: at.lights,
+            spheres_at: at.spheres,
             tree_capacity: 0,
             tree_stride: 0,
-            _pad: 0,
+            maps_at: at.maps,
         })
     }
 }

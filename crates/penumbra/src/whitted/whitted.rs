@@ -20,20 +20,21 @@
 
 use std::cell::RefCell;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use super::tree_records::TreeRay;
 use crate::accel::kdtree::KdTree;
 use crate::geom::ray::Hit;
 use crate::geom::sampling::SampleSequence;
 use crate::whitted::lights::{DIRECTIONAL, LightSample};
+use crate::whitted::maps::NO_MAP;
 use crate::whitted::offset::{max_abs, offset_point};
 use crate::whitted::optics::{reflect_dir, refract_dir, schlick, schlick_mirror};
 use crate::whitted::ray_tree::{
     FNV_OFFSET, LightCode, NodeLights, NodeOccluders, RayKind, RayNode, RayTree, TreeHit, children_word, fnv_word,
     light_word, ray_word,
 };
-use crate::whitted::scene::{MISS, NO_NORMAL, RenderScene};
+use crate::whitted::scene::{MISS, NO_NORMAL, NO_TEXCOORDS, RenderScene};
 use crate::whitted::sphere::intersect_sphere;
 use crate::whitted::surface::Surface;
 
@@ -43,6 +44,8 @@ pub const MAX_DEPTH: u32 = 16;
 pub const MAX_MEDIA: usize = 4;
 /// Transmitting surfaces a shadow ray passes before it counts as blocked.
 pub const MAX_SHADOW_CROSSINGS: u32 = 16;
+/// Cut-out holes a ray passes before the next surface counts as hit.
+pub const MAX_HOLE_CROSSINGS: u32 = 16;
 
 /// `WhittedUniforms::flags`: Fresnel-weighted reflection and transmission.
 pub const FRESNEL: u32 = 1;
@@ -113,8 +116,9 @@ pub struct WhittedUniforms {
     pub tree_capacity: u32,
     /// `whitted_trees`: words4 a node takes (`TreeLayout::stride`).
     pub tree_stride: u32,
-    /// Padding to the WGSL struct's 16-byte size multiple.
-    pub _pad: u32,
+    /// Where the texture maps start in the GPU's records, in words4 (after
+    /// the spheres: the sRGB table, then the maps, then their texels).
+    pub maps_at: u32,
 }
 
 /// One pixel's result, as the GPU writes it (32 bytes).
@@ -227,6 +231,8 @@ pub struct SurfaceHit {
     pub face: u32,
     /// Largest coordinate of the primitive, for ray offsets.
     pub magnitude: f32,
+    /// Texture coordinates, where the triangle has them.
+    pub uv: Option<Vec2>,
 }
 
 /// A hit as the ray that found it sees it (`Whitted::facing`).
@@ -258,6 +264,18 @@ pub struct LightGeometry {
     pub from: Vec3,
     pub dir: Vec3,
     pub t_max: f32,
+}
+
+/// What textures make of a surface's colours at a point: factors of its
+/// ambient, diffuse and highlight colours.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TextureFactors {
+    /// On `ka`: the checker's, times the `ka` map's (else the `kd` map's).
+    pub ka: Vec3,
+    /// On `kd`: the checker's, times the `kd` map's.
+    pub kd: Vec3,
+    /// On the highlight (`ks`): the `ks` map's.
+    pub ks: Vec3,
 }
 
 /// A light's terms at a point: what reaches it (transmission times the
@@ -368,12 +386,21 @@ impl Whitted<'_> {
                 t.nodes.len() as u32 - 1
             });
             let mut sig = fnv_word(out.signature, ray_word(ray.kind, ray.depth));
-            let found = match given {
+            let mut found = match given {
                 Some(g) => g.facing,
                 None => self
                     .closest(ray.origin, ray.dir, f32::INFINITY, None)
                     .map(|(t, primitive)| self.facing(ray.origin, ray.dir, t, primitive)),
             };
+            // Cut-out holes: the ray goes on from just past each one.
+            let mut holes = 0;
+            while let Some(f) = found.filter(|f| holes < MAX_HOLE_CROSSINGS && self.is_hole(&f.hit)) {
+                holes += 1;
+                let past = offset_point(f.hit.point, -f.n_g, f.hit.magnitude);
+                found = self
+                    .closest(past, ray.dir, f32::INFINITY, None)
+                    .map(|(t, primitive)| self.facing(past, ray.dir, t, primitive));
+            }
             let Some(Facing {
                 hit,
                 front,
@@ -393,9 +420,9 @@ impl Whitted<'_> {
             let mut codes = NodeLights::new();
             let mut occluders = NodeOccluders::new();
             if surf.lit() {
-                let tex = surf.texture(hit.point);
+                let tex = self.textures(surf, &hit);
                 let (ka, kd) = (Vec3::from_array(surf.ka), Vec3::from_array(surf.kd));
-                local += ka * tex * Vec3::from_array(p.ambient);
+                local += ka * tex.ka * Vec3::from_array(p.ambient);
                 let root = ray.depth == 0;
                 if root {
                     out.diffuse = ka * Vec3::from_array(p.ambient);
@@ -409,13 +436,13 @@ impl Whitted<'_> {
                         codes.push(code);
                         occluders.push(self.occluder(light, lifted, n_g, n_s, code));
                     }
-                    local += term.irradiance * (kd * tex * term.cos + term.specular);
+                    local += term.irradiance * (kd * tex.kd * term.cos + term.specular * tex.ks);
                     if root {
                         out.diffuse += term.irradiance * (kd * term.cos);
                     }
                 }
             } else {
-                local += Vec3::from_array(surf.kd) * surf.texture(hit.point);
+                local += Vec3::from_array(surf.kd) * self.textures(surf, &hit).kd;
                 if ray.depth == 0 {
                     out.diffuse = Vec3::from_array(surf.kd);
                 }
@@ -561,6 +588,7 @@ impl Whitted<'_> {
                 object: s.object,
                 face: 0,
                 magnitude: s.magnitude(),
+                uv: None,
             };
         }
         let [v0, v1, v2] = self.tree.triangles[primitive as usize];
@@ -593,6 +621,12 @@ impl Whitted<'_> {
                 }
             }
         }
+        let uv = (info.texcoords != NO_TEXCOORDS).then(|| {
+            let k = info.texcoords as usize;
+            let [u0, v0, u1, v1] = self.scene.normals[k];
+            let [u2, v2, _, _] = self.scene.normals[k + 1];
+            b0 * Vec2::new(u0, v0) + b1 * Vec2::new(u1, v1) + b2 * Vec2::new(u2, v2)
+        });
         SurfaceHit {
             t,
             primitive,
@@ -603,7 +637,40 @@ impl Whitted<'_> {
             object: info.object,
             face: info.face,
             magnitude: max_abs(v0).max(max_abs(v1)).max(max_abs(v2)),
+            uv,
         }
+    }
+
+    /// The textures' factors at a hit: the checker's and the maps'
+    /// (`textures` in whitted.wgsl).
+    pub fn textures(&self, surf: &Surface, hit: &SurfaceHit) -> TextureFactors {
+        let checker = surf.texture(hit.point);
+        let mut f = TextureFactors {
+            ka: checker,
+            kd: checker,
+            ks: Vec3::ONE,
+        };
+        let Some(uv) = hit.uv else {
+            return f;
+        };
+        let table = &self.scene.textures;
+        if surf.map_kd != NO_MAP {
+            f.kd = checker * table.sample(surf.map_kd, uv);
+            f.ka = f.kd;
+        }
+        if surf.map_ka != NO_MAP {
+            f.ka = checker * table.sample(surf.map_ka, uv);
+        }
+        if surf.map_ks != NO_MAP {
+            f.ks = table.sample(surf.map_ks, uv);
+        }
+        f
+    }
+
+    /// Whether a hit falls in a cut-out's hole (`is_hole` in whitted.wgsl).
+    pub fn is_hole(&self, hit: &SurfaceHit) -> bool {
+        let m = self.scene.surface(hit.surface).map_alpha;
+        m != NO_MAP && hit.uv.is_some_and(|uv| self.scene.textures.is_hole(m, uv))
     }
 
     /// A hit seen from the ray `o + t d`: the normals turned towards the
@@ -742,10 +809,13 @@ impl Whitted<'_> {
             };
             let hit = self.hit_info(origin, dir, t, primitive);
             let surf = self.scene.surface(hit.surface);
-            if !surf.transmits() {
-                return (Vec3::ZERO, LightCode::Blocked);
+            // A cut-out's hole lets the light through unfiltered.
+            if !self.is_hole(&hit) {
+                if !surf.transmits() {
+                    return (Vec3::ZERO, LightCode::Blocked);
+                }
+                filter *= Vec3::from_array(surf.kt);
             }
-            filter *= Vec3::from_array(surf.kt);
             code = LightCode::Filtered;
             let through = if dir.dot(hit.geometric) > 0.0 {
                 hit.geometric
