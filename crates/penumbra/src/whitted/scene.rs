@@ -9,7 +9,8 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use crate::error::{Error, Result};
-use crate::scene::{Light, Material, Mesh, MeshObject, Scene};
+use crate::scene::mtl_rules::{RuleApplied, SceneMaterials};
+use crate::scene::{Light, Material, Mesh, MeshObject, MtlRules, Scene};
 use crate::whitted::lights::{Emitter, LightSample, check_light_count};
 use crate::whitted::sphere::Sphere;
 use crate::whitted::surface::Surface;
@@ -57,6 +58,9 @@ pub struct LightingSettings {
     pub ambient: Option<Vec3>,
     /// Radiance of rays that leave the scene, over the scene's (else black).
     pub background: Option<Vec3>,
+    /// How MTL files' materials are read: as their exporters meant where
+    /// the file shows it, or by the letter of the spec (`scene::mtl_rules`).
+    pub mtl_rules: MtlRules,
 }
 
 impl Default for LightingSettings {
@@ -65,6 +69,7 @@ impl Default for LightingSettings {
             light_samples: 1,
             ambient: None,
             background: None,
+            mtl_rules: MtlRules::default(),
         }
     }
 }
@@ -101,7 +106,11 @@ pub struct RenderScene {
     pub transmissive: bool,
     /// Emissive polygons turned into lights, and their sample points.
     pub emitters: usize,
-    /// Problems that do not stop rendering (clamped weights, emissive spheres...).
+    /// The rules that read MTL materials as their exporters meant, and the
+    /// materials each changed (`LightingSettings::mtl_rules`).
+    pub material_rules: Vec<RuleApplied>,
+    /// Problems that do not stop rendering (MTL rules applied, clamped
+    /// weights, emissive spheres...).
     pub warnings: Vec<String>,
 }
 
@@ -151,12 +160,13 @@ impl RenderScene {
         if options.light_samples == 0 {
             return Err(Error::param("light_samples", "must be at least 1"));
         }
+        let materials = SceneMaterials::new(&scene.meshes, options.mtl_rules);
         let mut table = SurfaceTable {
             surfaces: Vec::new(),
             names: Vec::new(),
             index: HashMap::new(),
             scene_materials: &scene.materials,
-            warnings: Vec::new(),
+            warnings: materials.warnings.clone(),
         };
         let mut mesh = Mesh::default();
         let mut triangles = Vec::new();
@@ -192,7 +202,7 @@ impl RenderScene {
                         (Some(s), _) => s,
                         (None, Some(s)) => {
                             let m = s.triangle_materials[t];
-                            table.get((inst.mesh, m), || s.materials[m as usize].clone())
+                            table.get((inst.mesh, m), || materials.material(inst.mesh, m).clone())
                         }
                         (None, None) => table.default_surface(),
                     };
@@ -294,6 +304,7 @@ impl RenderScene {
             objects,
             transmissive,
             emitters: emitters.len(),
+            material_rules: materials.applied,
             warnings: table.warnings,
         })
     }
