@@ -316,3 +316,49 @@ fn bounded_method_reports_paths_errors_and_checks_and_refuses_bad_knobs() {
         assert!(worst <= Some(1), "worst 8-bit difference {worst:?}");
     }
 }
+
+#[test]
+fn mtl_rules_are_reported_and_spec_keeps_the_letter_of_the_spec() {
+    // A dining room as Maya's OBJ exporter writes it: every material
+    // illum 4, the opaque ones Tf 1 1 1 and Ni 1.
+    let room = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../penumbra/tests/data/mtl/maya_room.obj");
+    let room = room.to_str().unwrap();
+    let view = "--eye 0,1.6,3.5 --target 0,1,0 --fov 70 --device cpu --json";
+    for method in ["whitted", "bounded"] {
+        let base = format!("raytrace --method {method} --width 48 --height 36 --mesh {{m}} {view}");
+        let r = pen(&base, &[("m", room)]);
+        let j = r.ok().json();
+        let rules = j["material_rules"].as_array().unwrap();
+        assert_eq!(rules.len(), 2, "{}", r.describe());
+        assert_eq!(rules[0]["rule"], "invisible-glass");
+        assert_eq!(
+            rules[0]["materials"],
+            serde_json::json!(["lambert2SG", "initialShadingGroup", "blinn1SG"])
+        );
+        assert_eq!(rules[1]["rule"], "maya-opacity");
+        assert_eq!(rules[1]["materials"], serde_json::json!(["lambert4SG", "glassSG"]));
+        assert!(
+            r.stderr.contains("MTL rule 'invisible-glass': 3 materials")
+                && r.stderr.contains("--mtl-rules spec keeps the letter of the spec"),
+            "{}",
+            r.describe()
+        );
+        assert_eq!(j["warnings"], 2, "one per rule\n{}", r.describe());
+        let spec = pen(&format!("{base} --mtl-rules spec"), &[("m", room)]);
+        let s = spec.ok().json();
+        assert_eq!(s["material_rules"], serde_json::json!([]), "{}", spec.describe());
+        assert!(!spec.stderr.contains("MTL rule"), "{}", spec.describe());
+        if method == "whitted" {
+            let refracted = |j: &serde_json::Value| j["rays"]["refraction"].as_u64().unwrap();
+            assert!(refracted(&j) > 0, "the glass vase is in view");
+            assert!(refracted(&s) > 10 * refracted(&j), "every surface is glass by the spec");
+        }
+    }
+    // Shipped scenes: no rule.
+    let r = pen(
+        "raytrace --method whitted --width 48 --height 36 --mesh {m} --device cpu --json",
+        &[("m", &asset_s("raytrace/cornell-mirror-glass.obj"))],
+    );
+    assert_eq!(r.ok().json()["material_rules"], serde_json::json!([]));
+    pen(&format!("{BASE} --mesh {{m}} --mtl-rules letter"), &[("m", room)]).bad_input(&["--mtl-rules"]);
+}

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use penumbra::gpu::device::Device;
 use penumbra::progress::{Bar, Reporter};
-use penumbra::scene::{Camera, Light, Scene, load_obj_file, load_scene_shaded};
+use penumbra::scene::{Camera, Light, MtlRules, Scene, load_obj_file, load_scene_shaded};
 use penumbra::whitted::ray_tree::RayKind;
 use penumbra::whitted::{LightingSettings, Packets, RenderScene, Rendered, WhittedRenderer, WhittedSettings};
 use penumbra_assets::raytrace::shipped_scenes;
@@ -380,4 +380,126 @@ fn emissive_faces_light_the_shared_cornell_box() {
         assert!(brightest > 0.12, "{brightest}");
         assert!(radiance.iter().all(|c| c.is_finite()));
     }
+}
+
+#[test]
+fn shipped_scenes_need_no_mtl_rule() {
+    // Their MTL files are penumbra's generator's, written to the letter of
+    // the spec: no rule reads them otherwise, so they render as before.
+    for shipped_scene in shipped_scenes() {
+        let scene = shipped(shipped_scene.name);
+        let exporters = RenderScene::new(&scene, 0, &LightingSettings::default()).unwrap();
+        let spec = LightingSettings {
+            mtl_rules: MtlRules::Spec,
+            ..LightingSettings::default()
+        };
+        let spec = RenderScene::new(&scene, 0, &spec).unwrap();
+        assert!(exporters.material_rules.is_empty(), "{}", shipped_scene.name);
+        assert_eq!(exporters.surfaces, spec.surfaces, "{}", shipped_scene.name);
+        assert_eq!(exporters.warnings, spec.warnings, "{}", shipped_scene.name);
+    }
+}
+
+/// The Maya-style dining room (`tests/data/mtl/maya_room.obj`: a closed
+/// box room, a table, a chair and a glass vase, every material illum 4),
+/// its MTL replaced by `mtl` where given, lit by a point light under the
+/// ceiling.
+fn maya_room(mtl: Option<&str>) -> Scene {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/mtl");
+    let mut scene = match mtl {
+        None => {
+            let path = data.join("maya_room.obj");
+            Scene::from_obj_file("maya_room", &path, load_obj_file(&path).unwrap())
+        }
+        Some(mtl) => {
+            let obj = std::fs::read_to_string(data.join("maya_room.obj")).unwrap();
+            let obj = obj.replace("mtllib maya_room.mtl\n", "");
+            obj_scene("maya-room-spec", &obj, mtl)
+        }
+    };
+    scene.lights = vec![Light::Point {
+        position: Vec3::new(0.0, 2.8, 1.5),
+        intensity: Vec3::splat(4.0),
+    }];
+    scene
+}
+
+/// The room as Maya meant it, written to the letter of the spec: opaque
+/// walls, floor and table, a half-mirror blinn chair (illum 4 reflects
+/// `Ks`), and glass transmitting 1 - Tf = 0.75 with Kd faded by Tf.
+const MAYA_ROOM_AS_MEANT: &str = "newmtl initialShadingGroup\nKd 0.5 0.5 0.5\nillum 2\n\
+newmtl lambert2SG\nKd 0.70 0.65 0.55\nillum 2\n\
+newmtl lambert4SG\nKd 0.45 0.30 0.15\nNi 1.33\nillum 2\n\
+newmtl blinn1SG\nKd 0.40 0.20 0.10\nKs 0.5 0.5 0.5\nNs 20\nillum 3\n\
+newmtl glassSG\nKd 0.05 0.05 0.05\nKs 0.5 0.5 0.5\nNs 80\nTf 0.75 0.75 0.75\nNi 1.5\nillum 4\n";
+
+#[test]
+fn a_maya_room_renders_opaque_with_only_its_glass_refracting() {
+    let (w, h) = (48, 36);
+    let cam = camera([0.0, 1.6, 3.5], [0.0, 1.0, 0.0], 70.0);
+    // Rays that leave the room come back bright blue.
+    let lighting = |mtl_rules| LightingSettings {
+        background: Some(Vec3::new(0.0, 0.0, 4.0)),
+        mtl_rules,
+        ..LightingSettings::default()
+    };
+    let run = |scene: &Scene, rules| {
+        let rs = RenderScene::new(scene, 0, &lighting(rules)).unwrap();
+        let rules: Vec<(String, Vec<String>)> = rs
+            .material_rules
+            .iter()
+            .map(|a| (a.rule.name().to_string(), a.materials.clone()))
+            .collect();
+        let mut r = WhittedRenderer::new(&Device::cpu(), rs, &Reporter::silent()).unwrap();
+        let img = r
+            .render(&cam, w, h, &WhittedSettings::default(), &Bar::hidden())
+            .unwrap();
+        (img, rules)
+    };
+    let (maya, rules) = run(&maya_room(None), MtlRules::Exporters);
+    let (meant, no_rules) = run(&maya_room(Some(MAYA_ROOM_AS_MEANT)), MtlRules::Exporters);
+    let (glass_room, spec_rules) = run(&maya_room(None), MtlRules::Spec);
+    let refraction = |r: &Rendered| r.stats.rays.refraction;
+    println!(
+        "refraction rays, {w}x{h}: Maya room {} with the rules, {} as meant, {} by the letter of the spec",
+        refraction(&maya),
+        refraction(&meant),
+        refraction(&glass_room)
+    );
+    assert_eq!(
+        rules,
+        [
+            (
+                "invisible-glass".to_string(),
+                vec![
+                    "lambert2SG".to_string(),
+                    "initialShadingGroup".into(),
+                    "blinn1SG".into()
+                ]
+            ),
+            (
+                "maya-opacity".to_string(),
+                vec!["lambert4SG".to_string(), "glassSG".into()]
+            )
+        ]
+    );
+    assert!(no_rules.is_empty() && spec_rules.is_empty());
+    // With the rules, the Maya room is the room as meant, ray for ray.
+    assert_eq!(maya.stats.rays, meant.stats.rays);
+    assert_eq!(maya.radiance(), meant.radiance());
+    // Only the vase refracts, and it is in view.
+    assert!(refraction(&maya) > 0);
+    assert!(
+        refraction(&glass_room) > 10 * refraction(&maya),
+        "by the letter of the spec every surface is glass"
+    );
+    // Opaque walls: no pixel sees out of the room; through the glass room
+    // most do.
+    let sees_out = |r: &Rendered| r.radiance().iter().filter(|c| c.z > 1.0).count();
+    assert_eq!(sees_out(&maya), 0);
+    assert!(
+        sees_out(&glass_room) * 2 > (w * h) as usize,
+        "{}",
+        sees_out(&glass_room)
+    );
 }

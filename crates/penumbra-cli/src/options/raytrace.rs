@@ -7,7 +7,7 @@ use penumbra::whitted::report::RaytraceMethod;
 
 use crate::options::OnOff;
 use penumbra::error::{Error, Result};
-use penumbra::scene::parse_vec3;
+use penumbra::scene::{MtlRules, parse_vec3};
 use penumbra::whitted::{LightingSettings, Packets, WhittedSettings};
 
 #[derive(Args, Clone, Debug)]
@@ -31,6 +31,10 @@ pub struct WhittedOptions {
     /// Radiance "R,G,B" of rays that leave the scene (over the scene file's; default black).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub background: Option<Vec3>,
+    /// How MTL materials are read; each rule applied is a warning and an
+    /// entry of the JSON's "material_rules".
+    #[arg(long, value_enum, default_value_t = MtlRules::Exporters)]
+    pub mtl_rules: MtlRules,
     /// CPU path: primary and shadow rays as MLRTA packets, or every ray
     /// alone (the same image); auto: packets from 8192 triangles up.
     #[arg(long, value_enum, default_value_t = Packets::Auto)]
@@ -56,6 +60,7 @@ impl WhittedOptions {
             light_samples: self.light_samples,
             ambient: self.ambient,
             background: self.background,
+            mtl_rules: self.mtl_rules,
             ..LightingSettings::default()
         }
     }

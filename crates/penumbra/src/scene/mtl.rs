@@ -6,6 +6,9 @@
 //! `map_Ks` and `map_d` name texture maps (`texture`); their images are read
 //! only when the scene is made ready to render. Bump, displacement and
 //! reflection maps are not used (one warning per keyword).
+//! Values are read by the letter of the spec, and each block records which
+//! of the statements exporters disagree on it wrote (`MtlWritten`):
+//! `mtl_rules` reads a file as its exporter meant from them.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -37,9 +40,14 @@ pub struct Material {
     pub ns: f32,
     /// `Ni`, index of refraction (> 0).
     pub ni: f32,
-    /// Dissolve `d` in [0, 1] (1 = opaque); `Tr t` sets d = 1 - t; `d` wins
-    /// when both are given.
+    /// Dissolve `d` in [0, 1] (1 = opaque); `Tr t` sets d = 1 - t (the
+    /// common reading; `mtl_rules` reads it as d where the file writes
+    /// opacity as `Tr`); `d` wins when both are given.
     pub dissolve: f32,
+    /// Which of the statements exporters disagree on the block wrote, and
+    /// `d`'s and `Tr`'s values as written (`scene::mtl_rules` reads them);
+    /// nothing written for a material that is not an MTL file's.
+    pub written: MtlWritten,
     /// `illum` 0..=10.
     pub illum: u32,
     /// Whether the file gave `Tf` (glass uses Tf when given, else 1 - d).
@@ -51,6 +59,25 @@ pub struct Material {
     /// relative to the MTL file's folder until `load_mtl` (or the OBJ
     /// reader) resolves them.
     pub maps: MaterialMaps,
+}
+
+/// What an MTL block wrote of the statements whose meaning depends on the
+/// exporter (`Tf` is `Material::has_tf`): what the rules of
+/// `scene::mtl_rules` take as evidence. `Default`: nothing written.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct MtlWritten {
+    /// An `illum` statement.
+    pub illum: bool,
+    /// A `Ka` statement.
+    pub ka: bool,
+    /// A `Ke` statement.
+    pub ke: bool,
+    /// An `Ni` statement (`Ni 0` included).
+    pub ni: bool,
+    /// The last `d` value.
+    pub d: Option<f32>,
+    /// The last `Tr` value.
+    pub tr: Option<f32>,
 }
 
 /// A solid checker texture (pbrt's 3D checkerboard): space is cut into
@@ -71,7 +98,8 @@ pub struct Checker {
 
 impl Material {
     /// Values for fields a `newmtl` block leaves out: ka 0, kd 0.8, ks 0,
-    /// ke 0, tf 1, ns 1, ni 1, d 1, illum 2, has_tf false.
+    /// ke 0, tf 1, ns 1, ni 1, d 1, illum 2, has_tf false, nothing
+    /// written.
     pub fn named(name: &str) -> Material {
         Material {
             name: name.into(),
@@ -83,6 +111,7 @@ impl Material {
             ns: 1.0,
             ni: 1.0,
             dissolve: 1.0,
+            written: MtlWritten::default(),
             illum: 2,
             has_tf: false,
             checker: None,
@@ -216,10 +245,16 @@ pub fn parse_mtl(text: &str, warnings: &mut Vec<String>) -> Result<Vec<Material>
                 }
                 let c = colour(&args).map_err(problem)?;
                 match keyword {
-                    "Ka" => m.ka = c,
+                    "Ka" => {
+                        m.ka = c;
+                        m.written.ka = true;
+                    }
                     "Kd" => m.kd = c,
                     "Ks" => m.ks = c,
-                    "Ke" => m.ke = c,
+                    "Ke" => {
+                        m.ke = c;
+                        m.written.ke = true;
+                    }
                     _ => {
                         m.tf = c;
                         m.has_tf = true;
@@ -238,6 +273,7 @@ pub fn parse_mtl(text: &str, warnings: &mut Vec<String>) -> Result<Vec<Material>
                 if v < 0.0 {
                     return Err(problem(format!("{v} is negative (an index of refraction is > 0)")));
                 }
+                m.written.ni = true;
                 if v == 0.0 {
                     // Some exporters write `Ni 0` for "not set". One
                     // warning per material (when it ends), not per line:
@@ -257,9 +293,9 @@ pub fn parse_mtl(text: &str, warnings: &mut Vec<String>) -> Result<Vec<Material>
                 }
                 if keyword == "d" {
                     m.dissolve = v;
-                    b.has_d = true;
+                    m.written.d = Some(v);
                 } else {
-                    b.tr = Some((v, line_no));
+                    m.written.tr = Some(v);
                 }
             }
             _ => {
@@ -272,6 +308,7 @@ pub fn parse_mtl(text: &str, warnings: &mut Vec<String>) -> Result<Vec<Material>
                     .ok()
                     .filter(|i| *i <= 10)
                     .ok_or_else(|| problem(format!("'{token}' is not an integer in 0..=10")))?;
+                m.written.illum = true;
             }
         }
     }
@@ -296,9 +333,6 @@ fn is_property(keyword: &str) -> bool {
 struct Block {
     material: Material,
     line: usize,
-    has_d: bool,
-    /// `Tr` and its line.
-    tr: Option<(f32, usize)>,
     /// The first `Ni 0` line and how many more came.
     ni_zero: Option<(usize, usize)>,
 }
@@ -308,8 +342,6 @@ impl Block {
         Block {
             material: Material::named(name),
             line,
-            has_d: false,
-            tr: None,
             ni_zero: None,
         }
     }
@@ -332,14 +364,10 @@ impl Block {
                 m.name, m.ni
             ));
         }
-        if let (false, Some((tr, tr_line))) = (self.has_d, self.tr) {
+        // The common reading of `Tr`; `scene::mtl_rules` reads it as `d`
+        // where the file shows that convention.
+        if let (None, Some(tr)) = (m.written.d, m.written.tr) {
             m.dissolve = 1.0 - tr;
-            if tr > 0.5 && m.illum < 4 {
-                warnings.push(format!(
-                    "material '{}': Tr {tr} (line {tr_line}) with illum {} treated as d = 1 - Tr = {}",
-                    m.name, m.illum, m.dissolve
-                ));
-            }
         }
         match by_name.get(&m.name) {
             Some(&i) => {
@@ -747,10 +775,20 @@ mod tests {
         );
         let d: Vec<f32> = m.iter().map(|m| m.dissolve).collect();
         assert_eq!(d, [0.5, 0.75, 0.9, 0.0, 1.0 - 0.8, 1.0]);
+        // What Tr 1 alone means depends on the exporter: the rules
+        // (`scene::mtl_rules`) decide and warn, not the parser.
+        assert!(w.is_empty(), "{w:?}");
+        let written: Vec<(Option<f32>, Option<f32>)> = m.iter().map(|m| (m.written.d, m.written.tr)).collect();
         assert_eq!(
-            w,
-            ["material 'opaque_tr': Tr 1 (line 10) with illum 2 treated as d = 1 - Tr = 0"],
-            "Tr > 0.5 with illum < 4 warns; with illum 7 it does not"
+            written,
+            [
+                (Some(0.5), Some(0.25)),
+                (None, Some(0.25)),
+                (Some(0.9), Some(0.3)),
+                (None, Some(1.0)),
+                (None, Some(0.8)),
+                (None, None)
+            ]
         );
         assert_eq!((m[4].tf, m[4].has_tf, m[4].illum), (Vec3::new(0.9, 1.0, 0.9), true, 7));
         assert_eq!((m[5].tf, m[5].has_tf), (Vec3::splat(0.5), true));
@@ -819,8 +857,50 @@ mod tests {
         };
         let text = write_mtl(&[glass.clone(), light.clone()], "test\ntwo lines");
         let mut warnings = Vec::new();
-        assert_eq!(parse_mtl(&text, &mut warnings).unwrap(), vec![glass, light]);
+        // Read back, every statement was written.
+        let all = |m: Material| Material {
+            written: MtlWritten {
+                illum: true,
+                ka: true,
+                ke: true,
+                ni: true,
+                d: Some(m.dissolve),
+                tr: None,
+            },
+            ..m
+        };
+        assert_eq!(parse_mtl(&text, &mut warnings).unwrap(), vec![all(glass), all(light)]);
         assert!(warnings.is_empty(), "{warnings:?}");
+    }
+
+    #[test]
+    fn what_was_written_is_recorded() {
+        let (m, _) = parse("newmtl a\nKa 0 0 0\nKe 0\nNi 0\nillum 2\nnewmtl b\nKa xyz 1\nNi 1.5\nd 1\nd 0.5\n");
+        assert_eq!(
+            m[0].written,
+            MtlWritten {
+                illum: true,
+                ka: true,
+                ke: true,
+                ni: true,
+                d: None,
+                tr: None
+            },
+            "values equal to the defaults are still written"
+        );
+        assert_eq!(
+            m[1].written,
+            MtlWritten {
+                ka: true,
+                ni: true,
+                d: Some(0.5),
+                ..MtlWritten::default()
+            }
+        );
+        assert_eq!(
+            parse("newmtl c\nKd 1\nNs 3\nTf 1\n").0[0].written,
+            MtlWritten::default()
+        );
     }
 
     #[test]

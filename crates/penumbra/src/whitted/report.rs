@@ -13,6 +13,7 @@ use crate::error::Result;
 use crate::io::image::write_radiance;
 use crate::io::output::frame_output;
 use crate::scene::Camera;
+use crate::scene::mtl_rules::RuleApplied;
 
 /// Which ray tracer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -61,6 +62,9 @@ pub struct RenderReport {
     pub camera: Camera,
     /// Warnings of the scene's files and of preparing it for rendering.
     pub warnings: usize,
+    /// The MTL rules that read materials as their exporters meant, each
+    /// with the materials it changed (`RenderScene::material_rules`).
+    pub material_rules: Vec<RuleApplied>,
 }
 
 impl RenderReport {
@@ -93,6 +97,7 @@ impl RenderReport {
             // (the renderer works in the scene's recentred frame).
             camera: camera.in_world(scene.mesh.origin),
             warnings: load_warnings + scene.warnings.len(),
+            material_rules: scene.material_rules.clone(),
         }
     }
 }

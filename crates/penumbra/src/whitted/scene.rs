@@ -9,7 +9,8 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use crate::error::{Error, Result};
-use crate::scene::{Light, Material, Mesh, MeshObject, Scene};
+use crate::scene::mtl_rules::{RuleApplied, SceneMaterials};
+use crate::scene::{Light, Material, Mesh, MeshObject, MtlRules, Scene};
 use crate::whitted::lights::{Emitter, LightSample, check_light_count};
 use crate::whitted::maps::{DEFAULT_TEXTURE_BYTES, MapUse, NO_MAP, TextureTable, TextureTableBuilder};
 use crate::whitted::sphere::Sphere;
@@ -67,6 +68,9 @@ pub struct LightingSettings {
     /// Bytes of texels the scene's texture maps may take: larger images
     /// are halved, largest first, with a warning each.
     pub texture_bytes: u64,
+    /// How MTL files' materials are read: as their exporters meant where
+    /// the file shows it, or by the letter of the spec (`scene::mtl_rules`).
+    pub mtl_rules: MtlRules,
 }
 
 impl Default for LightingSettings {
@@ -76,6 +80,7 @@ impl Default for LightingSettings {
             ambient: None,
             background: None,
             texture_bytes: DEFAULT_TEXTURE_BYTES,
+            mtl_rules: MtlRules::default(),
         }
     }
 }
@@ -116,7 +121,11 @@ pub struct RenderScene {
     pub transmissive: bool,
     /// Emissive polygons turned into lights, and their sample points.
     pub emitters: usize,
-    /// Problems that do not stop rendering (clamped weights, emissive spheres...).
+    /// The rules that read MTL materials as their exporters meant, and the
+    /// materials each changed (`LightingSettings::mtl_rules`).
+    pub material_rules: Vec<RuleApplied>,
+    /// Problems that do not stop rendering (MTL rules applied, clamped
+    /// weights, emissive spheres...).
     pub warnings: Vec<String>,
 }
 
@@ -195,13 +204,14 @@ impl RenderScene {
         if options.light_samples == 0 {
             return Err(Error::param("light_samples", "must be at least 1"));
         }
+        let materials = SceneMaterials::new(&scene.meshes, options.mtl_rules);
         let mut table = SurfaceTable {
             surfaces: Vec::new(),
             names: Vec::new(),
             index: HashMap::new(),
             scene_materials: &scene.materials,
             textures: TextureTableBuilder::default(),
-            warnings: Vec::new(),
+            warnings: materials.warnings.clone(),
         };
         // Texture coordinates, two entries per triangle that has them
         // (appended to the normals at the end).
@@ -240,7 +250,7 @@ impl RenderScene {
                         (Some(s), _) => s,
                         (None, Some(s)) => {
                             let m = s.triangle_materials[t];
-                            table.get((inst.mesh, m), || s.materials[m as usize].clone())
+                            table.get((inst.mesh, m), || materials.material(inst.mesh, m).clone())
                         }
                         (None, None) => table.default_surface(),
                     };
@@ -365,6 +375,7 @@ impl RenderScene {
             objects,
             transmissive,
             emitters: emitters.len(),
+            material_rules: materials.applied,
             warnings: table.warnings,
         })
     }

@@ -24,6 +24,11 @@
 //! file gives `d` and no `Tf`); 10 as 2. A material with `d < 1` that is
 //! not glass is dissolved: it lets `1 - d` through unbent and its other
 //! terms are scaled by `d`.
+//!
+//! These are the spec's meanings. An MTL file's materials come here after
+//! `scene::mtl_rules` has read them as their exporter meant where the file
+//! shows it (Maya's opaque `illum 4` made illum 3, `Tr` written as opacity
+//! made `d`, ...; `LightingSettings::mtl_rules`).
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
