@@ -20,7 +20,7 @@ use penumbra::scene::{
     Mesh, MeshFormat, NO_NORMAL, SMOOTH_DEFAULT, load_mesh, load_mesh_file, load_obj, procedural, write_obj,
 };
 use serde_json::json;
-use write::{Gltf, Ply, data_uri, glb, gltf_parts, ply, scene_parts, write_gltf};
+use write::{Gltf, Ply, data_uri, glb, gltf_parts, ply, ply_strips, scene_parts, stripify, write_gltf};
 
 const PLY_FORMS: [(Ply, bool, &str); 5] = [
     (Ply::Ascii, false, "ascii"),
@@ -315,7 +315,7 @@ fn bad_files(dir: &TempDir) -> Vec<(&'static str, Vec<u8>, Vec<&'static str>)> {
             vec!["header line 3", "1000000000 records", "1000 bytes follow the header"],
         ),
         ("garbage.ply", b"\x89PNG\r\n\x1a\n garbage".to_vec(), vec!["header line 1", "magic line 'ply'"]),
-        ("no-faces.ply", b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n".to_vec(), vec!["no 'face' element"]),
+        ("no-faces.ply", b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n".to_vec(), vec!["no 'face' or 'tristrips' element", "element vertex (1 record, properties x y z)", "a point cloud"]),
         ("nan.ply", b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n".to_vec(), vec!["vertex[1].y (line 11)", "NaN", "finite"]),
         ("index.ply", b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n".to_vec(), vec!["face[0]", "vertex index 3 is out of range"]),
         ("bad-chunk.glb", bad_chunk, vec!["GLB chunk 0", "declares 10000 bytes"]),
@@ -370,6 +370,34 @@ fn cli_ao_is_byte_identical_for_obj_ply_and_glb() {
     for (input, csv) in &csvs[1..] {
         assert!(*csv == csvs[0].1, "{input}: the CSV differs from the OBJ's");
     }
+}
+
+/// A PLY of triangle strips (as scanned models have them) and the same
+/// triangles as OBJ: byte-identical per-vertex AO.
+#[test]
+fn cli_ao_is_byte_identical_for_strips_and_obj() {
+    let dir = TempDir::new("formats_cli_strips");
+    let mesh = procedural::sphere_on_plane();
+    let stripped = stripify(&mesh.triangles);
+    assert!(stripped.strips < mesh.triangles.len() / 2, "{} strips", stripped.strips);
+    let as_stripped = Mesh::new(mesh.positions.clone(), stripped.triangles.clone()).unwrap();
+    let obj = dir.write("m.obj", write_obj(&as_stripped, "m"));
+    let strips = dir.write(
+        "strips.ply",
+        ply_strips(&mesh.positions, &[], &stripped.list, Ply::LittleEndian),
+    );
+    let mut csvs = Vec::new();
+    for (i, input) in [&obj, &strips].into_iter().enumerate() {
+        let csv = dir.p(&format!("ao{i}.csv"));
+        pen(
+            "ao --mesh {mesh} --method raycast --rays 16 --per-vertex {csv} --device cpu",
+            &[("mesh", input), ("csv", &csv)],
+        )
+        .ok();
+        csvs.push(std::fs::read(&csv).unwrap());
+    }
+    assert_eq!(csvs[0].iter().filter(|&&b| b == b'\n').count(), mesh.positions.len());
+    assert!(csvs[1] == csvs[0], "the strips' CSV differs from the OBJ's");
 }
 
 fn path_s(p: &Path) -> String {

@@ -77,7 +77,9 @@ pub struct ObjFile {
     /// Per triangle, index into `materials`.
     pub triangle_materials: Vec<u32>,
     /// Per triangle, the index of the OBJ face (polygon, in file order) it
-    /// was fanned from.
+    /// was fanned from. PLY: the `face` record; each triangle of a
+    /// `tristrips` element is a face of its own, numbered on after the
+    /// `face` records.
     pub triangle_faces: Vec<u32>,
     /// `vn` normals as written (not normalised; may be zero).
     pub normals: Vec<Vec3>,

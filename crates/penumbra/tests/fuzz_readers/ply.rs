@@ -13,7 +13,7 @@ use proptest::sample::{Index, select};
 use crate::harness::{Budget, MIB, Reader, agree, call, fail, finite, ok_or_bad_input, write_case};
 use crate::inputs::{SPECIAL_F32, either, pick, wildness};
 use crate::obj::obj_file_ok;
-use crate::write::{Ply, ply};
+use crate::write::{Ply, ply, ply_strips, stripify};
 
 const BUDGET: Budget = Budget::new(64, MIB);
 
@@ -88,10 +88,11 @@ const HAND: &str = "ply\r\nformat ascii 1.0\r\ncomment by hand\r\nobj_info none\
 /// The header of a binary file of `nv` vertices of `uchar x y z` and one
 /// face of `n` uchar indices: the most output per input byte PLY allows
 /// (12 bytes a vertex for 3; a triangle and its shading for each index).
-fn dense(nv: usize, n: usize) -> Vec<u8> {
+/// As many triangles come from a `tristrips` element of one strip.
+fn dense(nv: usize, n: usize, element: &str) -> Vec<u8> {
     let mut b = format!(
         "ply\nformat binary_little_endian 1.0\nelement vertex {nv}\nproperty uchar x\nproperty uchar y\n\
-         property uchar z\nelement face 1\nproperty list uint uchar vertex_indices\nend_header\n"
+         property uchar z\nelement {element} 1\nproperty list uint uchar vertex_indices\nend_header\n"
     )
     .into_bytes();
     for i in 0..nv {
@@ -115,6 +116,15 @@ pub fn seeds(ascii: bool) -> Vec<Vec<u8>> {
         for &format in formats {
             out.push(ply(mesh, format, false));
             out.push(ply(mesh, format, true));
+            // Strips with restarts and repeated vertices, and faces.
+            let half = mesh.triangles.len() / 2;
+            let strips = stripify(&mesh.triangles[half..]);
+            out.push(ply_strips(
+                &mesh.positions,
+                &mesh.triangles[..half],
+                &strips.list,
+                format,
+            ));
         }
     }
     if ascii {
@@ -128,8 +138,9 @@ pub fn seeds(ascii: bool) -> Vec<Vec<u8>> {
             .into_bytes(),
         );
     } else {
-        out.push(dense(200, 20_000));
-        out.push(dense(20_000, 3));
+        out.push(dense(200, 20_000, "face"));
+        out.push(dense(20_000, 3, "face"));
+        out.push(dense(200, 20_000, "tristrips"));
     }
     out
 }
@@ -166,6 +177,7 @@ pub fn structured() -> impl Strategy<Value = Vec<u8>> {
                     pick(&["vertices", "x"]),
                 ),
                 vec((pick(&["flags", "texnumber"]), ty(TYPES)), 0..2),
+                pick(&["face", "face", "tristrips"]),
             );
             let counts = (
                 either(wild, 3u64..12, select(vec![0u64, 1, 2, 255, 65536, 1 << 32, u64::MAX])),
@@ -195,7 +207,7 @@ pub fn structured() -> impl Strategy<Value = Vec<u8>> {
             if let Some(c) = colour {
                 vertex_props.extend(["red", "green", "blue"].iter().map(|n| (n.to_string(), c.clone())));
             }
-            let (count_type, index_type, list_name, face_extras) = face;
+            let (count_type, index_type, list_name, face_extras, face_name) = face;
             let mut face_props: Vec<Prop> = vec![(list_name, format!("list {count_type} {index_type}"))];
             face_props.extend(face_extras);
             let mut elements = vec![("vertex".to_string(), counts.0, vertex_props)];
@@ -206,7 +218,7 @@ pub fn structured() -> impl Strategy<Value = Vec<u8>> {
                 ];
                 elements.push(("edge".to_string(), 2, props));
             }
-            elements.push(("face".to_string(), counts.1, face_props));
+            elements.push((face_name, counts.1, face_props));
             let mut bytes = encode(encoding, &elements, counts.0, wild, seed);
             if cut.0 {
                 bytes.truncate(cut.1.index(bytes.len() + 1));
@@ -257,7 +269,7 @@ fn encode(encoding: usize, elements: &[(String, u64, Vec<Prop>)], nv: u64, wild:
                         put(&mut body, count_type, n, encoding);
                         for _ in 0..(n.max(0.0) as usize).min(8) {
                             let r = next();
-                            let index = if name == "face" && !odd(r) {
+                            let index = if name != "edge" && !odd(r) {
                                 (r % nv.max(1)) as f64
                             } else {
                                 [nv as f64, -1.0, 4294967295.0, 0.5][(r % 4) as usize]

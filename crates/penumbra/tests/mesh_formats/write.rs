@@ -1,6 +1,6 @@
 //! Small writers of the mesh formats penumbra reads, for tests: PLY (ASCII
-//! and binary of either byte order) and glTF (JSON with an external or a
-//! `data:` buffer, and GLB). Shared by `tests/mesh_formats.rs` and the PLY
+//! and binary of either byte order, faces or triangle strips) and glTF
+//! (JSON with an external or a `data:` buffer, and GLB). Shared by `tests/mesh_formats.rs` and the PLY
 //! and GLB fuzz targets' seeds.
 #![allow(dead_code)]
 
@@ -95,6 +95,134 @@ pub fn ply(mesh: &Mesh, format: Ply, extras: bool) -> Vec<u8> {
             out.f32(0.0);
             out.f32(1.0);
             out.u8(9);
+        }
+        out.end();
+    }
+    let mut bytes = h.into_bytes();
+    bytes.extend(out.bytes);
+    bytes
+}
+
+/// Triangle strips that give `triangles` in their order and winding, as a
+/// greedy stripifier writes them: each triangle continues the strip when
+/// one of its rotations starts with the edge the strip's next triangle
+/// needs, else starts a strip (turned so that the triangle after it can
+/// continue, where one rotation allows). Strips are joined alternately by
+/// a `-1` restart and by repeated vertices (triangles a reader drops).
+pub fn stripify(triangles: &[[u32; 3]]) -> Stripped {
+    let rotations = |[a, b, c]: [u32; 3]| [[a, b, c], [b, c, a], [c, a, b]];
+    let mut strips: Vec<Vec<u32>> = Vec::new();
+    let mut decoded = Vec::with_capacity(triangles.len());
+    for (i, &t) in triangles.iter().enumerate() {
+        assert!(
+            t[0] != t[1] && t[1] != t[2] && t[0] != t[2],
+            "triangle {i} repeats a vertex"
+        );
+        if let Some(s) = strips.last_mut() {
+            // Triangle k of a strip: (s[k], s[k+1], s[k+2]) for even k,
+            // (s[k+1], s[k], s[k+2]) for odd k.
+            let k = s.len() - 2;
+            let need = if k % 2 == 0 { (s[k], s[k + 1]) } else { (s[k + 1], s[k]) };
+            if let Some(r) = rotations(t).into_iter().find(|r| (r[0], r[1]) == need) {
+                s.push(r[2]);
+                decoded.push(r);
+                continue;
+            }
+        }
+        // The strip's second triangle is (s[2], s[1], s[3]).
+        let fits = |r: &[u32; 3]| {
+            triangles
+                .get(i + 1)
+                .is_some_and(|&next| rotations(next).iter().any(|n| (n[0], n[1]) == (r[2], r[1])))
+        };
+        let r = rotations(t).into_iter().find(fits).unwrap_or(t);
+        strips.push(r.to_vec());
+        decoded.push(r);
+    }
+    let mut list: Vec<i64> = Vec::new();
+    // Entries since the last restart: a strip must start at an even one.
+    let mut run = 0usize;
+    for (j, s) in strips.iter().enumerate() {
+        if j % 2 == 1 {
+            list.push(-1);
+            run = 0;
+        } else if j > 0 {
+            let last = *list.last().unwrap();
+            list.extend([last, s[0] as i64]);
+            run += 2;
+            if run % 2 == 1 {
+                list.push(s[0] as i64);
+                run += 1;
+            }
+        }
+        list.extend(s.iter().map(|&v| v as i64));
+        run += s.len();
+    }
+    Stripped {
+        list,
+        triangles: decoded,
+        strips: strips.len(),
+    }
+}
+
+/// What `stripify` makes.
+pub struct Stripped {
+    /// The strips' entries, one list.
+    pub list: Vec<i64>,
+    /// The triangles as a reader decodes `list`: the ones stripified, in
+    /// order, each turned where its strip needed.
+    pub triangles: Vec<[u32; 3]>,
+    /// How many strips.
+    pub strips: usize,
+}
+
+/// A PLY of float `x y z` vertices, `faces` (if any) as a `face` element
+/// after a `tristrips` element whose `list int int vertex_indices` holds
+/// `strips` in two records (split at a restart near the middle, if any),
+/// as scanned models have it.
+pub fn ply_strips(positions: &[Vec3], faces: &[[u32; 3]], strips: &[i64], format: Ply) -> Vec<u8> {
+    let encoding = match format {
+        Ply::Ascii => "ascii",
+        Ply::LittleEndian => "binary_little_endian",
+        Ply::BigEndian => "binary_big_endian",
+    };
+    let middle = strips[strips.len() / 2..].iter().position(|&v| v == -1);
+    let records: Vec<&[i64]> = match middle {
+        Some(at) => {
+            let at = strips.len() / 2 + at;
+            vec![&strips[..at], &strips[at + 1..]]
+        }
+        None => vec![strips],
+    };
+    let mut h = format!(
+        "ply\nformat {encoding} 1.0\ncomment triangle strips by tests/mesh_formats\nelement vertex {}\n\
+         property float x\nproperty float y\nproperty float z\nelement tristrips {}\n\
+         property list int int vertex_indices\n",
+        positions.len(),
+        records.len()
+    );
+    if !faces.is_empty() {
+        h += &format!("element face {}\nproperty list uchar int vertex_indices\n", faces.len());
+    }
+    h += "end_header\n";
+    let mut out = Values::new(format);
+    for p in positions {
+        out.f32(p.x);
+        out.f32(p.y);
+        out.f32(p.z);
+        out.end();
+    }
+    for r in records {
+        out.i32(r.len() as i32);
+        for &v in r {
+            out.i32(v as i32);
+        }
+        out.end();
+    }
+    for t in faces {
+        out.u8(3);
+        for &v in t {
+            out.i32(v as i32);
         }
         out.end();
     }
