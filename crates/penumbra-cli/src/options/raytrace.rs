@@ -56,6 +56,7 @@ impl WhittedOptions {
             light_samples: self.light_samples,
             ambient: self.ambient,
             background: self.background,
+            ..LightingSettings::default()
         }
     }
 }
