@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
-use crate::args::{CameraArgs, Common, check_outputs, load_input};
+use crate::args::{CameraArgs, CameraChoice, Common, check_outputs, load_input};
 use crate::io::{merged, note, note_choice};
 use crate::options::GreyImageOptions;
 pub use crate::options::ao::AoMethod as Method;
@@ -50,6 +50,8 @@ pub struct AoArgs {
     #[command(flatten)]
     pub field_options: FieldOptions,
     #[command(flatten)]
+    pub choice: CameraChoice,
+    #[command(flatten)]
     pub camera: CameraArgs,
     #[command(flatten)]
     pub common: Common,
@@ -58,7 +60,8 @@ pub struct AoArgs {
 /// The scene the options describe: `--mesh` alone is caster and receiver;
 /// with `--receiver` the mesh only casts and the receiver only receives.
 fn scene_of(args: &AoArgs) -> Result<Scene> {
-    let scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
+    let mut scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
+    args.choice.choose(&mut scene)?;
     match &args.receiver {
         Some(receiver) => scene.with_receiver_file(receiver),
         None => Ok(scene),

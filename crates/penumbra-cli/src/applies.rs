@@ -12,8 +12,10 @@ use crate::options::field::FieldOptions;
 use crate::options::{Applies as Rule, applies as rule};
 use penumbra::error::Result;
 
-const CAMERA_AND_SIZE: &[&str] = &["width", "height", "eye", "target", "fov"];
-const PRT_IMAGE: &[&str] = &["width", "height", "eye", "target", "fov", "exposure", "albedo"];
+const CAMERA_AND_SIZE: &[&str] = &["width", "height", "camera", "eye", "target", "fov"];
+const PRT_IMAGE: &[&str] = &[
+    "width", "height", "camera", "eye", "target", "fov", "exposure", "albedo",
+];
 
 fn is_png(path: &Option<std::path::PathBuf>) -> bool {
     let png = |p: &std::path::PathBuf| penumbra::io::image::ImageFormat::check(p, "").ok();

@@ -71,7 +71,7 @@ impl Common {
 }
 
 pub use crate::files::{check_output, check_outputs};
-pub use crate::options::{CameraOptions as CameraArgs, init_thread_pool};
+pub use crate::options::{CameraChoice, CameraOptions as CameraArgs, init_thread_pool};
 pub(crate) use penumbra::scene::parse_vec3;
 /// What `$PENUMBRA_DATA` in a scene file stands for: the environment
 /// variable of that name.

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 use serde_json::{Value, json};
 
-use crate::args::{CameraArgs, Common, check_outputs, parse_vec3};
+use crate::args::{CameraArgs, CameraChoice, Common, check_outputs, parse_vec3};
 use crate::options::prt::{AnimationOptions, PlaybackOptions, PrtOptions};
 use penumbra::error::Result;
 use penumbra::gpu::device::Device;
@@ -76,6 +76,8 @@ pub struct PrtArgs {
     #[arg(long, value_parser = parse_vec3, default_value = "0.8,0.8,0.8")]
     pub albedo: Vec3,
     #[command(flatten)]
+    pub choice: CameraChoice,
+    #[command(flatten)]
     pub camera: CameraArgs,
     #[command(flatten)]
     pub common: Common,
@@ -97,10 +99,11 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     settings.validate()?;
     // Inputs: the probe first (a bad file fails before any work).
     let env = EnvironmentMap::load(&args.env)?;
-    let scene = match &args.scene {
+    let mut scene = match &args.scene {
         Some(path) => load_scene_in(path, crate::args::data_dir().as_deref())?,
         None => args.motion.scene(args.mesh.as_deref(), args.animated.as_deref())?,
     };
+    args.choice.choose(&mut scene)?;
     let (frames_given, dt_given) = (args.play.frames.is_some(), args.play.dt.is_some());
     playback.fit_clip(scene.meshes[0].clip(), frames_given, dt_given)?;
     scene.warnings.iter().for_each(|w| crate::io::note(w));

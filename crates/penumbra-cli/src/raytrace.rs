@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use serde_json::{Value, json};
 
-use crate::args::{CameraArgs, Common, check_output, load_shaded_input};
+use crate::args::{CameraArgs, CameraChoice, Common, check_output, load_shaded_input};
 use crate::io::{merged, warn};
 use crate::options::bounded::BoundedOptions;
 use crate::options::raytrace::{RaytraceOptions, WhittedOptions};
@@ -44,6 +44,8 @@ pub struct RaytraceArgs {
     /// `{}` (or `{:04}`, zero-padded).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub choice: CameraChoice,
     #[command(flatten)]
     pub camera: CameraArgs,
     #[command(flatten)]
@@ -90,7 +92,8 @@ fn setup(args: &RaytraceArgs) -> Result<(Setup, WhittedRenderer)> {
         .as_deref()
         .map(|p| ImageFormat::check_png(p, "--error-image"))
         .transpose()?;
-    let scene = load_shaded_input(args.mesh.as_deref(), args.scene.as_deref())?;
+    let mut scene = load_shaded_input(args.mesh.as_deref(), args.scene.as_deref())?;
+    args.choice.choose(&mut scene)?;
     let path = scene.camera_path(args.path.as_deref())?;
     warn(&scene.warnings);
     let render_scene = RenderScene::new(&scene, 0, &args.whitted.lighting())?;

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
-use crate::args::{CameraArgs, Common, check_outputs, load_input, load_shaded_input};
+use crate::args::{CameraArgs, CameraChoice, Common, check_outputs, load_input, load_shaded_input};
 use crate::io::note_choice;
 use crate::options::GreyImageOptions;
 use crate::options::ssao::{SsaoOptions, SsaoRunOptions};
@@ -40,6 +40,8 @@ pub struct SsaoArgs {
     #[command(flatten)]
     pub run: SsaoRunOptions,
     #[command(flatten)]
+    pub choice: CameraChoice,
+    #[command(flatten)]
     pub camera: CameraArgs,
     #[command(flatten)]
     pub common: Common,
@@ -64,10 +66,11 @@ pub fn run(args: &SsaoArgs) -> Result<Value> {
     outputs[0].map(|p| args.grey.style().check(p, "--out")).transpose()?;
     outputs[1].map(|p| ImageFormat::check(p, "--image")).transpose()?;
     let (mesh, scene) = (args.mesh.as_deref(), args.scene.as_deref());
-    let scene = match args.image {
+    let mut scene = match args.image {
         Some(_) => load_shaded_input(mesh, scene)?, // the shaded image needs the materials
         None => load_input(mesh, scene)?,
     };
+    args.choice.choose(&mut scene)?;
     crate::io::warn(&scene.warnings);
     penumbra::ssao::gbuffer::validate_lights(&scene.lights)?;
     let bounds = scene.world_mesh(|_| true).bounds();

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use serde_json::Value;
 
-use crate::args::{CameraArgs, Common, check_outputs, load_input};
+use crate::args::{CameraArgs, CameraChoice, Common, check_outputs, load_input};
 use crate::options::mlrta::TraceOptions;
 use penumbra::error::Result;
 use penumbra::io::image::ImageFormat;
@@ -41,6 +41,8 @@ pub struct TraceArgs {
     #[arg(long)]
     pub dump_rays: Option<PathBuf>,
     #[command(flatten)]
+    pub choice: CameraChoice,
+    #[command(flatten)]
     pub camera: CameraArgs,
     #[command(flatten)]
     pub common: Common,
@@ -59,7 +61,8 @@ pub fn run(args: &TraceArgs) -> Result<Value> {
     o[0].map(|p| ImageFormat::check(p, "--out")).transpose()?;
     o[2].map(|p| ImageFormat::check(p, "--aa-image")).transpose()?;
     o[1].map(|p| ImageFormat::check_png(p, "--tiles-image")).transpose()?;
-    let scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
+    let mut scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
+    args.choice.choose(&mut scene)?;
     let mesh = scene.world_mesh(|_| true);
     request.view.camera = scene.complete_camera(&request.view.camera, &mesh.bounds())?;
     let device = args.common.open_device()?;

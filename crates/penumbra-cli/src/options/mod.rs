@@ -18,8 +18,8 @@ use glam::DVec3;
 use penumbra::error::{Error, Result};
 use penumbra::io::image::{Background, GreyStyle, PngBits};
 use penumbra::report::repeats::{MAX_RUNS, Repeats};
-use penumbra::scene::CameraSpec;
 use penumbra::scene::frame::parse_point;
+use penumbra::scene::{CameraSpec, Scene};
 
 /// On or off, however a flag is spelled.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -31,6 +31,28 @@ pub enum OnOff {
 impl OnOff {
     pub fn on(self) -> bool {
         self == OnOff::On
+    }
+}
+
+/// `--camera`: which of the input's cameras is the scene's camera, for
+/// the commands that read their input themselves (not `sweep`).
+#[derive(Args, Clone, Debug, Default)]
+pub struct CameraChoice {
+    /// The input's camera N (from 0: a glTF file's cameras in scene order,
+    /// a scene file's camera) instead of its first; --eye/--target/--fov
+    /// still override its parts.
+    #[arg(long, value_name = "N")]
+    pub camera: Option<usize>,
+}
+
+impl CameraChoice {
+    /// Makes `--camera`'s camera the scene's (an error names `--camera`
+    /// and how many cameras the input has).
+    pub fn choose(&self, scene: &mut Scene) -> Result<()> {
+        match self.camera {
+            Some(n) => scene.choose_camera(n),
+            None => Ok(()),
+        }
     }
 }
 

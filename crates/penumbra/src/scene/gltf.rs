@@ -1,5 +1,5 @@
 //! glTF 2.0 meshes (`.gltf` with external or `data:` buffers, and `.glb`),
-//! as one mesh in world space.
+//! as one mesh in world space, with their materials and cameras.
 //!
 //! The `gltf` crate (without its default features: no image decoding, no
 //! `import`) parses and validates the JSON into its document model (every
@@ -23,31 +23,41 @@
 //! mesh) that contributes triangles, named after the node, else its mesh.
 //!
 //! Shading: NORMAL attributes become per-corner normals; a primitive
-//! without them is flat, as glTF says. `pbrMetallicRoughness.
-//! baseColorFactor` is a material's diffuse colour, `emissiveFactor` (times
-//! `KHR_materials_emissive_strength`) its emission; textures, metalness,
-//! roughness and transparency are not used (a warning says so). A mesh
-//! read as a mesh is its rest pose (skins and morph targets not applied);
-//! `load_gltf_animation` reads its animation (`rig`: linear blend skinning,
-//! morph targets, node animation).
+//! without them is flat, as glTF says. Materials (`material`): the base
+//! colour and its texture, alpha cut-outs, emission, and glass from
+//! `KHR_materials_transmission`; `TEXCOORD_0` is read where a primitive's
+//! material has a texture, its v flipped to penumbra's convention (v up
+//! the image). A mesh read as a mesh is its rest pose (skins and morph
+//! targets not applied); `load_gltf_animation` reads its animation (`rig`:
+//! linear blend skinning, morph targets, node animation).
+//!
+//! Cameras (`camera`): the perspective cameras the scenes' nodes place, in
+//! traversal order, become `ObjFile::cameras`, in the mesh's frame.
 
 mod accessor;
+mod camera;
 mod container;
+mod material;
 mod nodes;
 mod out;
 mod rig;
+#[cfg(test)]
+mod tests;
 
 use std::path::Path;
 
+use std::collections::HashMap;
+
+use ::gltf::accessor::Dimensions;
 use ::gltf::mesh::Mode;
 use ::gltf::{Document, Semantic};
-use glam::{DMat4, Vec3};
+use glam::{DMat4, Vec2, Vec3};
 
 use super::animated::Animation;
 use super::mesh::MeshObject;
 use super::mesh_file::is_glb;
-use super::mtl::Material;
 use super::obj::ObjFile;
+use super::texture::TextureSource;
 use crate::error::{Error, Result};
 use nodes::{Instance, instances};
 use out::{Out, assemble};
@@ -103,11 +113,14 @@ fn read(path: &Path, bytes: &[u8], glb: bool, rig: Option<Option<&str>>) -> Resu
         out: Out::default(),
         rig: rig.is_some(),
         pieces: Vec::new(),
+        images: HashMap::new(),
     };
     reader.out.warnings.append(&mut warnings);
-    for instance in instances(path, &document)? {
-        reader.instance(&instance)?;
+    let placed = instances(path, &document)?;
+    for instance in &placed.instances {
+        reader.instance(instance)?;
     }
+    reader.out.cameras = camera::world_cameras(path, &document, &placed.cameras, &mut reader.out)?;
     let rig = match rig {
         Some(selector) => reader.rig(selector)?,
         None => None,
@@ -210,6 +223,9 @@ struct Reader<'a> {
     /// each primitive's part of the mesh for them.
     rig: bool,
     pieces: Vec<rig::Piece>,
+    /// Each image's source once read (None where it cannot be used; a
+    /// warning said why).
+    images: HashMap<usize, Option<TextureSource>>,
 }
 
 impl Reader<'_> {
@@ -255,10 +271,14 @@ impl Reader<'_> {
 
     /// The bytes of the buffer accessor `a` reads from, loaded once.
     fn buffer_of(&mut self, a: &::gltf::Accessor) -> std::result::Result<&[u8], String> {
-        let Some(view) = a.view() else {
-            return Ok(&[]);
-        };
-        let buffer = view.buffer();
+        match a.view() {
+            Some(view) => self.buffer(view.buffer()),
+            None => Ok(&[]),
+        }
+    }
+
+    /// The bytes of `buffer`, loaded once.
+    fn buffer(&mut self, buffer: ::gltf::Buffer) -> std::result::Result<&[u8], String> {
         let i = buffer.index();
         if self.buffers[i].is_none() {
             let source = match buffer.source() {
@@ -329,62 +349,39 @@ impl Reader<'_> {
         };
         let triangles = assemble(mode, &indices).map_err(fail)?;
         let material = self.material(p.material())?;
+        // Texture coordinates matter only under a texture.
+        let mapped = !self.out.materials[material as usize].maps.is_empty();
+        let texcoords = match p.get(&Semantic::TexCoords(0)).filter(|_| mapped) {
+            Some(a) => {
+                let buffer = self.buffer_of(&a).map_err(attribute("TEXCOORD_0")).map_err(fail)?;
+                let uv = accessor::floats(&a, buffer, Dimensions::Vec2)
+                    .map_err(attribute("TEXCOORD_0"))
+                    .map_err(fail)?;
+                if uv.len() != 2 * positions.len() {
+                    return Err(fail(format!(
+                        "TEXCOORD_0 accessor {} has {} elements, POSITION accessor {} has {}",
+                        a.index(),
+                        uv.len() / 2,
+                        position.index(),
+                        positions.len()
+                    )));
+                }
+                // glTF's v runs down the image, penumbra's up.
+                Some(
+                    uv.chunks_exact(2)
+                        .map(|c| Vec2::new(c[0], 1.0 - c[1]))
+                        .collect::<Vec<_>>(),
+                )
+            }
+            None => None,
+        };
+        let attributes = out::Attributes {
+            normals: normals.as_deref(),
+            texcoords: texcoords.as_deref(),
+        };
         self.out
-            .append(&positions, normals.as_deref(), &triangles, world, material)
+            .append(&positions, attributes, &triangles, world, material)
             .map_err(fail)?;
         Ok(Some(positions))
-    }
-
-    /// Our index of a primitive's material: 0 for glTF's default material.
-    /// Colours must be finite and not negative (glTF says in [0, 1];
-    /// `KHR_materials_emissive_strength` scales emission beyond).
-    fn material(&mut self, m: ::gltf::Material) -> Result<u32> {
-        let Some(index) = m.index() else {
-            return Ok(0);
-        };
-        if let Some(&ours) = self.out.material_index.get(&index) {
-            return Ok(ours);
-        }
-        let name = m.name().map_or_else(|| format!("material {index}"), str::to_string);
-        let pbr = m.pbr_metallic_roughness();
-        let [r, g, b, alpha] = pbr.base_color_factor();
-        let strength = m.emissive_strength().unwrap_or(1.0);
-        let kd = Vec3::new(r, g, b);
-        let ke = Vec3::from(m.emissive_factor()) * strength;
-        for (field, c) in [("pbrMetallicRoughness.baseColorFactor", kd), ("emissiveFactor", ke)] {
-            if !c.is_finite() || c.min_element() < 0.0 {
-                return Err(Error::file(
-                    self.path,
-                    format!("materials[{index}].{field}"),
-                    format!("{c} (with any emissive strength) is not a finite, non-negative colour"),
-                ));
-            }
-        }
-        let mut unused = Vec::new();
-        if pbr.base_color_texture().is_some() || m.emissive_texture().is_some() {
-            unused.push("textures");
-        }
-        if pbr.metallic_factor() > 0.0 {
-            unused.push("metalness");
-        }
-        if alpha < 1.0 && m.alpha_mode() != ::gltf::material::AlphaMode::Opaque {
-            unused.push("transparency");
-        }
-        if !unused.is_empty() {
-            self.out.warn(format!(
-                "material '{name}': {} not used; its baseColorFactor is the diffuse colour",
-                unused.join(", ")
-            ));
-        }
-        self.out.materials.push(Material {
-            ka: kd,
-            kd,
-            ke,
-            illum: 1,
-            ..Material::named(&name)
-        });
-        let ours = self.out.materials.len() as u32 - 1;
-        self.out.material_index.insert(index, ours);
-        Ok(ours)
     }
 }

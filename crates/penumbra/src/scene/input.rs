@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use super::mesh_file::load_mesh_and_cameras;
 use super::{Scene, SceneMesh, load_mesh, load_mesh_file, load_scene_in, load_scene_shaded_in};
 use crate::error::{Error, Result};
 
@@ -15,7 +16,10 @@ pub fn load_input(mesh: Option<&Path>, scene: Option<&Path>) -> Result<Scene> {
 /// `load_input` with `$PENUMBRA_DATA` in a scene file standing for `data`.
 pub fn load_input_in(mesh: Option<&Path>, scene: Option<&Path>, data: Option<&Path>) -> Result<Scene> {
     match (mesh, scene) {
-        (Some(m), None) => Ok(Scene::from_mesh(&file_stem(m), m, load_mesh(m)?)),
+        (Some(m), None) => {
+            let (mesh, cameras) = load_mesh_and_cameras(m)?;
+            Ok(Scene::from_mesh(&file_stem(m), m, mesh).with_cameras(cameras))
+        }
         (None, Some(s)) => load_scene_in(s, data),
         (Some(_), Some(_)) => Err(Error::param("mesh/scene", "give one of them, not both")),
         (None, None) => Err(Error::param(

@@ -12,6 +12,7 @@
 
 use std::path::Path;
 
+use super::camera::Camera;
 #[cfg(feature = "gltf")]
 use super::gltf::gltf_from_bytes;
 use super::mesh::Mesh;
@@ -106,10 +107,16 @@ impl MeshFormat {
 /// the contract says (vertices in file order; for glTF, primitives in scene
 /// order). Errors name the file, where in it, and the problem.
 pub fn load_mesh(path: &Path) -> Result<Mesh> {
+    load_mesh_and_cameras(path).map(|(mesh, _)| mesh)
+}
+
+/// `load_mesh` and the file's cameras in the mesh's frame (a glTF file's,
+/// `ObjFile::cameras`; none for OBJ and PLY).
+pub fn load_mesh_and_cameras(path: &Path) -> Result<(Mesh, Vec<Camera>)> {
     let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
     match MeshFormat::detect(path, &bytes)? {
-        MeshFormat::Obj => obj_from_bytes(path, &bytes),
-        format => read_other(path, &bytes, format).map(|f| f.mesh),
+        MeshFormat::Obj => obj_from_bytes(path, &bytes).map(|mesh| (mesh, Vec::new())),
+        format => read_other(path, &bytes, format).map(|f| (f.mesh, f.cameras)),
     }
 }
 

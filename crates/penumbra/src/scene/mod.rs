@@ -219,9 +219,13 @@ pub struct Scene {
     /// The instances, in the scene file's order: a merged mesh
     /// (`world_mesh`) numbers its objects, triangles and vertices in it.
     pub instances: Vec<Instance>,
-    /// The scene file's camera, if it has one (the command line's
-    /// `--eye/--target/--fov` override it; `camera_in`).
+    /// The scene file's camera, if it has one, or a mesh file's first
+    /// (the command line's `--eye/--target/--fov` override it;
+    /// `camera_in`).
     pub camera: Option<Camera>,
+    /// Every camera the input offers, in its order (a glTF file's, a scene
+    /// file's one), for `choose_camera`.
+    pub cameras: Vec<Camera>,
     /// Its lights, in file order; with none (and no emissive faces) the
     /// methods that shade use `Light::default_light`.
     pub lights: Vec<Light>,
@@ -326,6 +330,7 @@ impl Scene {
                 material: None,
             }],
             camera: None,
+            cameras: Vec::new(),
             lights: Vec::new(),
             environment: None,
             fields: Default::default(),
@@ -342,9 +347,36 @@ impl Scene {
     pub fn from_obj_file(name: &str, path: &Path, obj: ObjFile) -> Scene {
         let mut mesh = SceneMesh::new(name, path, obj.mesh.clone());
         mesh.shading = Some(MeshShading::from_obj(&obj));
-        let mut scene = Self::of(mesh);
+        let mut scene = Self::of(mesh).with_cameras(obj.cameras);
         scene.warnings = obj.warnings;
         scene
+    }
+
+    /// This scene with `cameras` (in its frame), the first its camera.
+    pub fn with_cameras(mut self, cameras: Vec<Camera>) -> Scene {
+        self.camera = cameras.first().copied();
+        self.cameras = cameras;
+        self
+    }
+
+    /// Makes `cameras[index]` the scene's camera (the command line's
+    /// `--camera`); an error names the parameter and how many cameras
+    /// there are.
+    pub fn choose_camera(&mut self, index: usize) -> crate::error::Result<()> {
+        match self.cameras.get(index) {
+            Some(&camera) => {
+                self.camera = Some(camera);
+                Ok(())
+            }
+            None => {
+                let has = match self.cameras.len() {
+                    0 => "the input has no cameras".to_string(),
+                    1 => "the input has 1 camera (number 0)".to_string(),
+                    n => format!("the input has {n} cameras (numbers 0 to {})", n - 1),
+                };
+                Err(crate::error::Error::param("camera", format!("is {index}, but {has}")))
+            }
+        }
     }
 
     /// All instances whose role passes `keep`, in world space, merged into one

@@ -15,6 +15,7 @@ use std::path::Path;
 
 use glam::{DVec3, Vec2, Vec3};
 
+use super::camera::Camera;
 use super::mesh::{Mesh, MeshObject};
 use super::mtl::{Ignored, Material, parse_mtl};
 use crate::error::{Error, Result};
@@ -98,6 +99,10 @@ pub struct ObjFile {
     /// Per-vertex linear RGB colours, where the file gives them (PLY's
     /// `red green blue`); OBJ files have none.
     pub vertex_colors: Option<Vec<Vec3>>,
+    /// The file's cameras in the mesh's frame (relative to `mesh.origin`):
+    /// a glTF file's perspective cameras in scene traversal order; OBJ and
+    /// PLY files have none.
+    pub cameras: Vec<Camera>,
     /// What was ignored or replaced by a default: missing MTL files, unknown
     /// `usemtl` names, MTL warnings (prefixed with the MTL file's path),
     /// statements not read (one warning per keyword).
@@ -661,6 +666,7 @@ fn with_materials(parsed: Parsed, mtl_dir: Option<&Path>) -> Result<ObjFile> {
         corner_texcoords: parsed.corner_texcoords,
         smoothing: parsed.smoothing,
         vertex_colors: None,
+        cameras: Vec::new(),
         warnings,
     })
 }

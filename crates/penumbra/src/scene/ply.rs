@@ -415,6 +415,7 @@ impl Read {
             corner_texcoords: vec![[super::obj::NO_TEXCOORD; 3]; mesh.triangles.len()],
             smoothing: vec![SMOOTH_DEFAULT; mesh.triangles.len()],
             vertex_colors: self.colours,
+            cameras: Vec::new(),
             warnings: self.warnings,
             mesh,
         })

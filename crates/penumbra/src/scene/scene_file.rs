@@ -526,6 +526,7 @@ fn load(path: &Path, shaded: bool, data: Option<&Path>) -> Result<Scene> {
         origin,
         meshes,
         instances,
+        cameras: camera.into_iter().collect(),
         camera,
         lights,
         environment,

@@ -140,7 +140,7 @@ fn read_file(uri: &str, path: &Path, length: usize) -> std::result::Result<Vec<u
     Ok(data)
 }
 
-fn data_uri(uri: &str) -> std::result::Result<Vec<u8>, String> {
+pub fn data_uri(uri: &str) -> std::result::Result<Vec<u8>, String> {
     let (_, payload) = uri
         .split_once(";base64,")
         .ok_or_else(|| "is a data: URI that is not base64 (';base64,' is missing)".to_string())?;
@@ -151,7 +151,7 @@ fn data_uri(uri: &str) -> std::result::Result<Vec<u8>, String> {
 
 /// A relative URI reference as a path under `dir`. URIs with a scheme
 /// (`http:`, `file:`) are refused: a mesh is read from the asset's folder.
-fn relative_path(uri: &str, dir: &Path) -> std::result::Result<PathBuf, String> {
+pub fn relative_path(uri: &str, dir: &Path) -> std::result::Result<PathBuf, String> {
     let scheme = uri
         .split_once(':')
         .map(|(s, _)| s)

@@ -1,4 +1,4 @@
-//! The scene graph: which meshes a glTF asset places, and where.
+//! The scene graph: which meshes and cameras a glTF asset places, and where.
 
 use std::path::Path;
 
@@ -19,17 +19,36 @@ pub struct Instance {
     pub world: DMat4,
 }
 
-/// The instances of the default scene (or of every scene, or every mesh
-/// once), depth first. A node reached a second time within the trees is an
-/// error (glTF nodes form trees; a shared subtree could otherwise multiply
-/// the geometry exponentially); a root listed by two scenes is placed once.
-pub fn instances(path: &Path, document: &Document) -> Result<Vec<Instance>> {
+/// A camera placed by a node.
+pub struct CameraNode {
+    /// Its index in the JSON's `cameras`.
+    pub camera: usize,
+    /// The node placing it.
+    pub node: usize,
+    /// The node's world transform (the camera looks down its -z, +y up).
+    pub world: DMat4,
+}
+
+/// What the scenes place: mesh instances and cameras, each in traversal
+/// order.
+#[derive(Default)]
+pub struct Placed {
+    pub instances: Vec<Instance>,
+    pub cameras: Vec<CameraNode>,
+}
+
+/// The instances and cameras of the default scene (or of every scene;
+/// without scenes, every mesh once and no camera), depth first. A node
+/// reached a second time within the trees is an error (glTF nodes form
+/// trees; a shared subtree could otherwise multiply the geometry
+/// exponentially); a root listed by two scenes is placed once.
+pub fn instances(path: &Path, document: &Document) -> Result<Placed> {
     let mesh_name = |m: ::gltf::Mesh| m.name().map_or_else(|| format!("mesh {}", m.index()), str::to_string);
     let roots: Vec<::gltf::Node> = match document.default_scene() {
         Some(scene) => scene.nodes().collect(),
         None if document.scenes().len() > 0 => document.scenes().flat_map(|s| s.nodes()).collect(),
         None => {
-            return Ok(document
+            let instances = document
                 .meshes()
                 .map(|m| Instance {
                     mesh: m.index(),
@@ -38,11 +57,15 @@ pub fn instances(path: &Path, document: &Document) -> Result<Vec<Instance>> {
                     name: mesh_name(m),
                     world: DMat4::IDENTITY,
                 })
-                .collect());
+                .collect();
+            return Ok(Placed {
+                instances,
+                cameras: Vec::new(),
+            });
         }
     };
     let mut placed = vec![false; document.nodes().len()];
-    let mut out = Vec::new();
+    let mut out = Placed::default();
     // Iterative, so that a deep hierarchy cannot overflow the stack.
     let mut stack: Vec<(::gltf::Node, DMat4, bool)> =
         roots.into_iter().rev().map(|n| (n, DMat4::IDENTITY, true)).collect();
@@ -62,11 +85,18 @@ pub fn instances(path: &Path, document: &Document) -> Result<Vec<Instance>> {
         let world = parent * local_transform(path, &node)?;
         if let Some(mesh) = node.mesh() {
             let name = node.name().map_or_else(|| mesh_name(mesh.clone()), str::to_string);
-            out.push(Instance {
+            out.instances.push(Instance {
                 mesh: mesh.index(),
                 node: Some(i),
                 skin: node.skin().map(|s| s.index()),
                 name,
+                world,
+            });
+        }
+        if let Some(camera) = node.camera() {
+            out.cameras.push(CameraNode {
+                camera: camera.index(),
+                node: i,
                 world,
             });
         }

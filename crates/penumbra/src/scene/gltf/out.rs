@@ -1,15 +1,17 @@
 //! Assembling the mesh: primitives' triangles by mode, placed by their
-//! node's transform, with what shading adds.
+//! node's transform, with what shading adds and the cameras in the mesh's
+//! frame.
 
 use std::collections::HashMap;
 
 use ::gltf::mesh::Mode;
-use glam::{DMat3, DMat4, DVec3, Vec3};
+use glam::{DMat3, DMat4, DVec3, Vec2, Vec3};
 
+use super::camera::WorldCamera;
 use crate::error::{Error, Result};
 use crate::scene::mesh::{Mesh, MeshObject};
 use crate::scene::mtl::Material;
-use crate::scene::obj::{NO_NORMAL, ObjFile, SMOOTH_DEFAULT};
+use crate::scene::obj::{NO_NORMAL, NO_TEXCOORD, ObjFile, SMOOTH_DEFAULT};
 
 /// Triangles of a primitive's index list by its mode (glTF 2.0 section
 /// 3.7.2.1): strips alternate their winding so that every triangle faces
@@ -46,12 +48,24 @@ pub struct Out {
     /// Per vertex (zero where a primitive has no NORMAL).
     pub normals: Vec<Vec3>,
     pub corner_normals: Vec<[u32; 3]>,
+    /// Texture coordinates (v up) of the primitives that have them.
+    pub texcoords: Vec<Vec2>,
+    pub corner_texcoords: Vec<[u32; 3]>,
     pub smoothing: Vec<u32>,
     pub materials: Vec<Material>,
     /// glTF material index to ours.
     pub material_index: HashMap<usize, u32>,
     pub triangle_materials: Vec<u32>,
+    /// The scenes' perspective cameras, in world space until the frame
+    /// is known.
+    pub cameras: Vec<WorldCamera>,
     pub warnings: Vec<String>,
+}
+
+/// A primitive's attributes besides POSITION, per vertex.
+pub struct Attributes<'a> {
+    pub normals: Option<&'a [Vec3]>,
+    pub texcoords: Option<&'a [Vec2]>,
 }
 
 impl Default for Out {
@@ -62,10 +76,13 @@ impl Default for Out {
             objects: Vec::new(),
             normals: Vec::new(),
             corner_normals: Vec::new(),
+            texcoords: Vec::new(),
+            corner_texcoords: Vec::new(),
             smoothing: Vec::new(),
             materials: vec![Material::default_surface()],
             material_index: HashMap::new(),
             triangle_materials: Vec::new(),
+            cameras: Vec::new(),
             warnings: Vec::new(),
         }
     }
@@ -83,7 +100,7 @@ impl Out {
     pub fn append(
         &mut self,
         positions: &[Vec3],
-        normals: Option<&[Vec3]>,
+        attributes: Attributes,
         triangles: &[[u32; 3]],
         world: DMat4,
         material: u32,
@@ -93,6 +110,11 @@ impl Out {
             return Err("the scene has more than 2^32-1 vertices or triangles".into());
         }
         let base = base as u32;
+        let normals = attributes.normals;
+        let uv_base = self.texcoords.len() as u32;
+        if let Some(uv) = attributes.texcoords {
+            self.texcoords.extend_from_slice(uv);
+        }
         if world == DMat4::IDENTITY {
             // Bit for bit what the file holds (x * 1 + 0 would turn -0 into +0).
             self.positions.extend(positions.iter().map(|p| p.as_dvec3()));
@@ -120,10 +142,15 @@ impl Out {
             }
             None => self.normals.extend(std::iter::repeat_n(Vec3::ZERO, positions.len())),
         }
-        for t in triangles {
-            let [a, b, c] = t.map(|v| v + base);
-            let t = if mirrored { [a, c, b] } else { [a, b, c] };
+        for &[a, b, c] in triangles {
+            // The primitive's own vertex numbers, in the placed winding.
+            let local = if mirrored { [a, c, b] } else { [a, b, c] };
+            let t = local.map(|v| v + base);
             self.triangles.push(t);
+            self.corner_texcoords.push(match attributes.texcoords {
+                Some(_) => local.map(|v| v + uv_base),
+                None => [NO_TEXCOORD; 3],
+            });
             self.corner_normals
                 .push(if normals.is_some() { t } else { [NO_NORMAL; 3] });
             // Without NORMAL, glTF asks for flat shading: smoothing off.
@@ -136,6 +163,7 @@ impl Out {
     pub fn finish(self) -> Result<ObjFile> {
         let n = self.triangles.len() as u32;
         let (origin, positions) = super::super::frame::recentre(&self.positions);
+        let cameras = super::camera::in_frame(&self.cameras, &self.positions, origin);
         let mesh = Mesh {
             positions,
             triangles: self.triangles,
@@ -158,10 +186,11 @@ impl Out {
             triangle_materials: self.triangle_materials,
             normals: self.normals,
             corner_normals: self.corner_normals,
-            texcoords: Vec::new(),
-            corner_texcoords: vec![[super::super::obj::NO_TEXCOORD; 3]; n as usize],
+            texcoords: self.texcoords,
+            corner_texcoords: self.corner_texcoords,
             smoothing: self.smoothing,
             vertex_colors: None,
+            cameras,
             warnings: self.warnings,
             mesh,
         })
