@@ -151,9 +151,7 @@ fn files_without_cameras_keep_the_default_camera() {
     .bad_input(&["--camera", "is 0, but the input has no cameras"]);
 }
 
-// Needs the renderer's texture lookups (whitted::maps in the CPU tracer).
 #[test]
-#[ignore]
 fn a_textured_gltf_quad_shows_its_image() {
     use penumbra::gpu::device::Device;
     use penumbra::progress::{Bar, Reporter};

@@ -45,7 +45,7 @@ pub use gltf::{load_gltf, load_gltf_animation};
 pub use input::{file_stem, load_input, load_input_in, load_shaded_input, load_shaded_input_in};
 pub use mesh::{Mesh, MeshObject, ORIGIN_OFFSET, used_bounds, vertex_normals};
 pub use mesh_file::{MeshFormat, companion_files, is_glb, is_gltf_json, is_ply, load_mesh, load_mesh_file};
-pub use mtl::{Checker, Material, MtlWritten, load_mtl, parse_mtl, write_mtl};
+pub use mtl::{Checker, Material, MtlWritten, load_mtl, parse_mtl, resolve_maps, write_mtl};
 pub use mtl_rules::MtlRules;
 pub use obj::{
     DEFAULT_CREASE_DEGREES, NO_NORMAL, ObjFile, SMOOTH_DEFAULT, load_obj, load_obj_file, parse_obj, parse_obj_file,

@@ -56,8 +56,8 @@ pub struct Material {
     /// MTL has no such field).
     pub checker: Option<Checker>,
     /// Texture maps (`map_Kd`, `map_Ka`, `map_Ks`, `map_d`), their files
-    /// relative to the MTL file's folder until `load_mtl` (or the OBJ
-    /// reader) resolves them.
+    /// relative to the MTL file's folder until `resolve_maps` (which the
+    /// OBJ reader calls) resolves them.
     pub maps: MaterialMaps,
 }
 
@@ -131,12 +131,11 @@ impl Material {
 }
 
 /// Reads an MTL file; errors name the file, the line and the problem.
-/// Texture maps' files are resolved against the file's folder.
+/// Texture maps' files stay as written, relative to the file's folder
+/// (`resolve_maps` makes them paths; the OBJ reader does).
 pub fn load_mtl(path: &Path, warnings: &mut Vec<String>) -> Result<Vec<Material>> {
     let bytes = std::fs::read(path).map_err(|e| Error::read(path, e))?;
-    let mut materials = parse_mtl(&String::from_utf8_lossy(&bytes), warnings).map_err(|e| e.in_file(path))?;
-    resolve_maps(&mut materials, path.parent().unwrap_or(Path::new(".")));
-    Ok(materials)
+    parse_mtl(&String::from_utf8_lossy(&bytes), warnings).map_err(|e| e.in_file(path))
 }
 
 /// Makes the maps' relative file names relative to `dir` (the MTL file's
@@ -145,9 +144,14 @@ pub fn resolve_maps(materials: &mut [Material], dir: &Path) {
     for m in materials {
         let maps = &mut m.maps;
         let alpha = maps.alpha.as_mut().map(|a| &mut a.map);
-        for map in [maps.kd.as_mut(), maps.ka.as_mut(), maps.ks.as_mut(), alpha]
-            .into_iter()
-            .flatten()
+        for map in [
+            maps.kd.as_deref_mut(),
+            maps.ka.as_deref_mut(),
+            maps.ks.as_deref_mut(),
+            alpha,
+        ]
+        .into_iter()
+        .flatten()
         {
             if let TextureSource::File(path) = &mut map.source {
                 let name = path.to_string_lossy().replace('\\', "/");
@@ -205,15 +209,16 @@ pub fn parse_mtl(text: &str, warnings: &mut Vec<String>) -> Result<Vec<Material>
             map.source = TextureSource::File(file.into());
             let maps = &mut b.material.maps;
             match keyword {
-                "map_Kd" => maps.kd = Some(map),
-                "map_Ka" => maps.ka = Some(map),
-                "map_Ks" => maps.ks = Some(map),
+                "map_Kd" => maps.kd = Some(Box::new(map)),
+                "map_Ka" => maps.ka = Some(Box::new(map)),
+                "map_Ks" => maps.ks = Some(Box::new(map)),
                 _ => {
-                    maps.alpha = Some(AlphaMap {
+                    maps.alpha = Some(Box::new(AlphaMap {
                         map,
                         factor: 1.0,
                         cutoff: 0.5,
-                    })
+                        luminance: true,
+                    }))
                 }
             }
             continue;
@@ -508,9 +513,9 @@ pub fn write_mtl(materials: &[Material], header: &str) -> String {
         let maps = &m.maps;
         let alpha = maps.alpha.as_ref().map(|a| &a.map);
         for (keyword, map) in [
-            ("map_Kd", maps.kd.as_ref()),
-            ("map_Ka", maps.ka.as_ref()),
-            ("map_Ks", maps.ks.as_ref()),
+            ("map_Kd", maps.kd.as_deref()),
+            ("map_Ka", maps.ka.as_deref()),
+            ("map_Ks", maps.ks.as_deref()),
             ("map_d", alpha),
         ] {
             let Some(map) = map else { continue };
@@ -692,7 +697,7 @@ mod tests {
         assert_eq!(m[0].kd, Vec3::splat(0.5));
         assert_eq!(m[0].ks, Vec3::ZERO, "a spectral colour is ignored");
         assert_eq!(
-            m[0].maps.kd.as_ref().map(|k| k.source.name()),
+            m[0].maps.kd.as_deref().map(|k| k.source.name()),
             Some("c.png".into()),
             "the last map_Kd wins"
         );
@@ -721,14 +726,14 @@ mod tests {
         let text = "newmtl a\nKd 0 0 0\nmap_Kd -s 2 2 1 -o 0.5 0 0 -clamp on tex\\wood grain.png\nmap_Ka amb.tga\n\
                     map_Ks -bm 0.2 spec.jpg\nmap_d -imfchan m leaf.png\nnewmtl b\n";
         let (m, w) = parse(text);
-        let kd = m[0].maps.kd.as_ref().unwrap();
+        let kd = m[0].maps.kd.as_deref().unwrap();
         assert_eq!(kd.source.name(), "tex\\wood grain.png");
         assert_eq!(
             (kd.scale, kd.offset, kd.clamp),
             (glam::Vec2::splat(2.0), glam::Vec2::new(0.5, 0.0), true)
         );
-        assert_eq!(m[0].maps.ka.as_ref().unwrap().source.name(), "amb.tga");
-        assert_eq!(m[0].maps.ks.as_ref().unwrap().source.name(), "spec.jpg");
+        assert_eq!(m[0].maps.ka.as_deref().unwrap().source.name(), "amb.tga");
+        assert_eq!(m[0].maps.ks.as_deref().unwrap().source.name(), "spec.jpg");
         let alpha = m[0].maps.alpha.as_ref().unwrap();
         assert_eq!(
             (alpha.map.source.name().as_str(), alpha.factor, alpha.cutoff),
@@ -746,7 +751,7 @@ mod tests {
         let mut m = m;
         resolve_maps(&mut m, Path::new("/scenes/room"));
         assert_eq!(
-            m[0].maps.kd.as_ref().unwrap().source,
+            m[0].maps.kd.as_deref().unwrap().source,
             TextureSource::File("/scenes/room/tex/wood grain.png".into())
         );
         // A bad option is an error naming the line; a map before any
@@ -763,8 +768,9 @@ mod tests {
         );
         // Written and read back the same.
         let (m, _) = parse(text);
-        let mut again = Vec::new();
-        assert_eq!(parse_mtl(&write_mtl(&m, "t"), &mut again).unwrap(), m);
+        let again = parse_mtl(&write_mtl(&m, "t"), &mut Vec::new()).unwrap();
+        let maps = |m: &[Material]| m.iter().map(|m| m.maps.clone()).collect::<Vec<_>>();
+        assert_eq!(maps(&again), maps(&m));
     }
 
     #[test]

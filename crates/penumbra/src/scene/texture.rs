@@ -79,8 +79,8 @@ impl TextureMap {
 
 /// A cut-out: where the map's value times `factor` is below `cutoff`, the
 /// surface is a hole every ray passes (MTL's `map_d`, glTF's `alphaMode`
-/// `MASK` and `BLEND`). The value is the image's alpha channel where it has
-/// one that is not opaque everywhere, else its luminance.
+/// `MASK` and `BLEND`). The value is the image's alpha channel, or (with
+/// `luminance`, for MTL) its luminance where the image is opaque everywhere.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct AlphaMap {
     /// The image holding the alpha.
@@ -89,9 +89,14 @@ pub struct AlphaMap {
     pub factor: f32,
     /// Values below it are holes (glTF's `alphaCutoff`, 0.5 by default).
     pub cutoff: f32,
+    /// Whether an image with no transparent texel gives its luminance as
+    /// the value (MTL's `map_d` of a grey mask); glTF reads the alpha
+    /// channel only (an opaque image has no holes).
+    pub luminance: bool,
 }
 
-/// A material's texture maps (none by default).
+/// A material's texture maps (none by default; boxed, so a material
+/// without maps stays small).
 ///
 /// `kd` multiplies the diffuse colour `Kd` and, where the material has no
 /// `ka` map, the ambient colour `Ka` too (the ambient light reflects as the
@@ -102,13 +107,13 @@ pub struct AlphaMap {
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct MaterialMaps {
     /// `map_Kd` / glTF `baseColorTexture`: the diffuse colour.
-    pub kd: Option<TextureMap>,
+    pub kd: Option<Box<TextureMap>>,
     /// `map_Ka`: the ambient colour.
-    pub ka: Option<TextureMap>,
+    pub ka: Option<Box<TextureMap>>,
     /// `map_Ks`: the highlight's colour.
-    pub ks: Option<TextureMap>,
+    pub ks: Option<Box<TextureMap>>,
     /// `map_d` / glTF alpha: a cut-out.
-    pub alpha: Option<AlphaMap>,
+    pub alpha: Option<Box<AlphaMap>>,
 }
 
 impl MaterialMaps {

@@ -61,8 +61,13 @@ pub struct MapRecord {
 pub enum MapUse {
     /// A colour (sRGB-encoded RGB).
     Colour,
-    /// A cut-out's alpha: one linear value per texel, in red.
-    Alpha,
+    /// A cut-out's alpha: one linear value per texel, in red. With
+    /// `luminance`, an image with no transparent texel gives its luminance
+    /// instead (a grey mask, as MTL's `map_d` often is).
+    Alpha {
+        /// Whether an opaque image's luminance is the value.
+        luminance: bool,
+    },
 }
 
 /// The scene's maps and their texels.
@@ -95,9 +100,12 @@ impl Default for TextureTable {
 #[derive(Default)]
 pub struct TextureTableBuilder {
     maps: Vec<(MapRecord, usize)>,
-    /// Decoded images by (name, use); None where decoding failed.
+    /// The images as packed (colours, or alpha values).
     images: Vec<Texture>,
-    index: HashMap<(String, MapUse), Option<usize>>,
+    /// `images`' index by (name, use).
+    index: HashMap<(String, MapUse), usize>,
+    /// Decoded images by name; None where decoding failed (warned once).
+    decoded: HashMap<String, Option<Texture>>,
     flags: Vec<u32>,
 }
 
@@ -107,30 +115,26 @@ impl TextureTableBuilder {
     pub fn add(&mut self, map: &TextureMap, usage: MapUse, material: &str, warnings: &mut Vec<String>) -> Option<u32> {
         let key = (map.source.name(), usage);
         let image = match self.index.get(&key) {
-            Some(&found) => found?,
+            Some(&i) => i,
             None => {
-                let decoded = match self.index.get(&(key.0.clone(), other(usage))) {
-                    // The same image under another use: decoded already.
-                    Some(&Some(i)) => Ok(self.images[i].clone()),
-                    _ => decode_texture(&map.source),
-                };
-                let found = match decoded {
-                    Ok(t) => {
-                        let t = if usage == MapUse::Alpha { alpha_of(t) } else { t };
-                        self.images.push(t);
-                        self.flags.push(if usage == MapUse::Colour { MAP_SRGB } else { 0 });
-                        Some(self.images.len() - 1)
-                    }
-                    Err(why) => {
-                        warnings.push(format!(
-                            "texture '{}' (material '{material}') {why}: the material's colour is used instead",
-                            key.0
-                        ));
-                        None
-                    }
-                };
-                self.index.insert(key, found);
-                found?
+                let decoded = self.decoded.entry(key.0.clone()).or_insert_with(|| {
+                    decode_texture(&map.source)
+                        .map_err(|why| {
+                            warnings.push(format!(
+                                "texture '{}' (material '{material}') {why}: the material's colour is used instead",
+                                key.0
+                            ))
+                        })
+                        .ok()
+                });
+                let t = decoded.clone()?;
+                self.images.push(match usage {
+                    MapUse::Colour => t,
+                    MapUse::Alpha { luminance } => alpha_of(t, luminance),
+                });
+                self.flags.push(if usage == MapUse::Colour { MAP_SRGB } else { 0 });
+                self.index.insert(key, self.images.len() - 1);
+                self.images.len() - 1
             }
         };
         let record = MapRecord {
@@ -201,18 +205,11 @@ impl TextureTableBuilder {
     }
 }
 
-fn other(usage: MapUse) -> MapUse {
-    match usage {
-        MapUse::Colour => MapUse::Alpha,
-        MapUse::Alpha => MapUse::Colour,
-    }
-}
-
-/// The cut-out value of each texel, in red: alpha where the image has
-/// any texel that is not opaque, else luminance (Rec. 709 weights on the
-/// stored values, as a grey mask is written).
-fn alpha_of(t: Texture) -> Texture {
-    let alpha = t.has_alpha();
+/// The cut-out value of each texel, in red: alpha, or with `luminance`
+/// where the image has no texel that is not opaque, luminance (Rec. 709
+/// weights on the stored values, as a grey mask is written).
+fn alpha_of(t: Texture, luminance: bool) -> Texture {
+    let alpha = !luminance || t.has_alpha();
     let texels = t
         .texels
         .iter()
@@ -305,7 +302,10 @@ mod tests {
         };
         let flags = if usage == MapUse::Colour { MAP_SRGB } else { 0 };
         let mut b = TextureTableBuilder {
-            images: vec![if usage == MapUse::Alpha { alpha_of(image) } else { image }],
+            images: vec![match usage {
+                MapUse::Alpha { luminance } => alpha_of(image, luminance),
+                MapUse::Colour => image,
+            }],
             flags: vec![flags],
             ..Default::default()
         };
@@ -370,17 +370,32 @@ mod tests {
             2,
             1,
             true,
-            MapUse::Alpha,
+            MapUse::Alpha { luminance: true },
         );
         assert_eq!(t.sample(0, Vec2::new(0.0, 0.5)).x, 0.0);
         assert_eq!(t.sample(0, Vec2::new(1.0, 0.5)).x, 1.0);
-        let t = table(vec![[0, 0, 0, 255], [255, 255, 255, 255]], 2, 1, true, MapUse::Alpha);
+        let t = table(
+            vec![[0, 0, 0, 255], [255, 255, 255, 255]],
+            2,
+            1,
+            true,
+            MapUse::Alpha { luminance: true },
+        );
         assert_eq!(
             t.sample(0, Vec2::new(1.0, 0.5)).x,
             1.0,
             "opaque image: luminance, linear"
         );
         assert_eq!(t.sample(0, Vec2::new(0.5, 0.5)).x, 0.5);
+        // glTF reads the alpha channel only: an opaque image has no hole.
+        let t = table(
+            vec![[0, 0, 0, 255], [255, 255, 255, 255]],
+            2,
+            1,
+            true,
+            MapUse::Alpha { luminance: false },
+        );
+        assert_eq!(t.sample(0, Vec2::new(0.0, 0.5)).x, 1.0);
     }
 
     #[test]

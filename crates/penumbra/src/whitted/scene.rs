@@ -153,10 +153,13 @@ impl<'a> SurfaceTable<'a> {
                 .unwrap_or(NO_MAP)
         };
         let ids = [
-            add(maps.kd.as_ref(), MapUse::Colour),
-            add(maps.ka.as_ref(), MapUse::Colour),
-            add(maps.ks.as_ref(), MapUse::Colour),
-            add(maps.alpha.as_ref().map(|a| &a.map), MapUse::Alpha),
+            add(maps.kd.as_deref(), MapUse::Colour),
+            add(maps.ka.as_deref(), MapUse::Colour),
+            add(maps.ks.as_deref(), MapUse::Colour),
+            match &maps.alpha {
+                Some(a) => add(Some(&a.map), MapUse::Alpha { luminance: a.luminance }),
+                None => NO_MAP,
+            },
         ];
         if let (Some(a), true) = (&maps.alpha, ids[3] != NO_MAP) {
             self.textures.cut_out(ids[3], a.factor, a.cutoff);

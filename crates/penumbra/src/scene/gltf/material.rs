@@ -92,7 +92,7 @@ impl Reader<'_> {
         };
         // glTF multiplies the factor by the texture; the renderer reads a
         // black Kd beside a map as the map alone, but here black is black.
-        material.maps.kd = base.clone().filter(|_| kd != Vec3::ZERO);
+        material.maps.kd = base.clone().filter(|_| kd != Vec3::ZERO).map(Box::new);
         match m.alpha_mode() {
             AlphaMode::Opaque => {}
             AlphaMode::Mask => {
@@ -171,11 +171,12 @@ impl Reader<'_> {
     fn alpha(&mut self, material: &mut Material, base: Option<TextureMap>, alpha: f32, cutoff: f32) {
         match base {
             Some(map) => {
-                material.maps.alpha = Some(AlphaMap {
+                material.maps.alpha = Some(Box::new(AlphaMap {
                     map,
                     factor: alpha,
                     cutoff,
-                })
+                    luminance: false,
+                }))
             }
             None if alpha < cutoff => {
                 self.out.warn(format!(

@@ -188,7 +188,7 @@ fn base_colour_texture_from_data_uri_buffer_view_and_file() {
     let f = read_gltf(json.clone(), &bin).unwrap();
     let m = textured(&f);
     assert_eq!(m.kd, Vec3::new(1.0, 0.5, 1.0), "the factor stays the diffuse colour");
-    let map = m.maps.kd.as_ref().expect("baseColorTexture is the kd map");
+    let map = m.maps.kd.as_deref().expect("baseColorTexture is the kd map");
     assert_eq!((map.scale, map.offset, map.clamp), (Vec2::ONE, Vec2::ZERO, false));
     match &map.source {
         TextureSource::Embedded { name, bytes } => {
@@ -201,7 +201,7 @@ fn base_colour_texture_from_data_uri_buffer_view_and_file() {
     // GLB: the image is a buffer view of the BIN chunk.
     let (json, bin) = quad(true);
     let f = gltf_from_bytes(Path::new("q.glb"), &glb(&json, &bin), true).unwrap();
-    match &textured(&f).maps.kd.as_ref().unwrap().source {
+    match &textured(&f).maps.kd.as_deref().unwrap().source {
         TextureSource::Embedded { name, bytes } => {
             assert_eq!(name, "q.glb#images[0] 'checker'");
             assert_eq!(&bytes[..], &png()[..]);
@@ -214,7 +214,7 @@ fn base_colour_texture_from_data_uri_buffer_view_and_file() {
     json["images"][0]["uri"] = "tex/my%20wood.png".into();
     let f = read_gltf(json.clone(), &bin).unwrap();
     assert_eq!(
-        textured(&f).maps.kd.as_ref().unwrap().source,
+        textured(&f).maps.kd.as_deref().unwrap().source,
         TextureSource::File("/nowhere/tex/my wood.png".into())
     );
     json["images"][0]["uri"] = "https://example.com/wood.png".into();
@@ -261,7 +261,7 @@ fn sampler_wrap_modes_clamp_or_repeat() {
         json["samplers"] = json!([{ "wrapS": s, "wrapT": t }]);
         json["textures"][0]["sampler"] = 0.into();
         let f = read_gltf(json, &bin).unwrap();
-        assert_eq!(textured(&f).maps.kd.as_ref().unwrap().clamp, clamp, "{s} {t}");
+        assert_eq!(textured(&f).maps.kd.as_deref().unwrap().clamp, clamp, "{s} {t}");
         if let Some(w) = warning {
             assert!(has_warning(&f, &["'textured'", w]), "{:?}", f.warnings);
         } else {
@@ -294,7 +294,7 @@ fn alpha_modes_cut_out_or_dissolve() {
     let m = textured(&f);
     let a = m.maps.alpha.as_ref().expect("MASK with a texture is a cut-out");
     assert_eq!((a.factor, a.cutoff), (0.8, 0.3));
-    assert_eq!(Some(&a.map), m.maps.kd.as_ref(), "the base colour texture's alpha");
+    assert_eq!(Some(&a.map), m.maps.kd.as_deref(), "the base colour texture's alpha");
     assert!(f.warnings.is_empty(), "{:?}", f.warnings);
     assert_eq!(
         textured(&read("MASK", None, 1.0, true))
