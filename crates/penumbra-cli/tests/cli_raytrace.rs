@@ -156,7 +156,7 @@ fn missing_mtl_and_texture_files_are_warnings() {
     let r = pen(&format!("{BASE} --mesh {{m}} --device cpu --json"), &[("m", &obj)]);
     let j = r.ok().json();
     assert_eq!(j["warnings"], 3, "{}", r.describe());
-    for phrase in ["missing.mtl' not found", "map_Kd", "usemtl 'nowhere'"] {
+    for phrase in ["missing.mtl' not found", "red.png' (material 'red') not found", "usemtl 'nowhere'"] {
         assert!(r.stderr.contains(phrase), "{phrase}\n{}", r.describe());
     }
 }
@@ -234,12 +234,23 @@ fn gen_assets_writes_the_committed_scenes() {
     let dir = TempDir::new("rt-assets");
     pen("gen-assets --out {d} --json", &[("d", &dir.p("out"))]).ok();
     let written = dir.0.join("out/raytrace");
-    let mut names: Vec<_> = std::fs::read_dir(&written)
-        .unwrap()
-        .map(|e| e.unwrap().file_name())
-        .collect();
+    // Every file, the textures' folder's included, by its path in the folder.
+    fn files(dir: &std::path::Path, under: &std::path::Path, out: &mut Vec<std::path::PathBuf>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let path = e.unwrap().path();
+            let name = under.join(path.file_name().unwrap());
+            if path.is_dir() {
+                files(&path, &name, out);
+            } else {
+                out.push(name);
+            }
+        }
+    }
+    let mut names = Vec::new();
+    files(&written, std::path::Path::new(""), &mut names);
     names.sort();
-    assert_eq!(names.len(), 16);
+    assert_eq!(names.len(), 22, "{names:?}");
+    assert!(names.contains(&std::path::PathBuf::from("textures/leaf.png")), "{names:?}");
     for name in names {
         let committed = std::path::Path::new(&asset_s("raytrace")).join(&name);
         assert_eq!(
