@@ -101,6 +101,17 @@ fn setup(args: &RaytraceArgs) -> Result<(Setup, WhittedRenderer)> {
     let device = args.common.open_device()?;
     let renderer = WhittedRenderer::new(&device, render_scene, &crate::progress::stderr())?;
     let base = scene.camera_in(&args.camera.spec(), &renderer.bounds())?;
+    let spec = args.camera.spec();
+    if scene.camera.is_none() && spec.eye.is_none() && path.is_none() {
+        // The default camera frames the bounds from outside: right for an
+        // object, not for a room, whose walls it sees from behind.
+        let (hits, backs) = renderer.back_faces(&base, args.size.width, args.size.height)?;
+        if backs * 2 > hits {
+            warn(&[format!(
+                "the default camera frames the scene from outside, and {backs} of {hits} sampled primary rays meet the back of a face (the outside of a room's walls?); place the camera with --eye and --target"
+            )]);
+        }
+    }
     let setup = Setup {
         device,
         threads,

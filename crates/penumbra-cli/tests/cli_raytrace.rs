@@ -156,7 +156,11 @@ fn missing_mtl_and_texture_files_are_warnings() {
     let r = pen(&format!("{BASE} --mesh {{m}} --device cpu --json"), &[("m", &obj)]);
     let j = r.ok().json();
     assert_eq!(j["warnings"], 3, "{}", r.describe());
-    for phrase in ["missing.mtl' not found", "red.png' (material 'red') not found", "usemtl 'nowhere'"] {
+    for phrase in [
+        "missing.mtl' not found",
+        "red.png' (material 'red') not found",
+        "usemtl 'nowhere'",
+    ] {
         assert!(r.stderr.contains(phrase), "{phrase}\n{}", r.describe());
     }
 }
@@ -250,7 +254,10 @@ fn gen_assets_writes_the_committed_scenes() {
     files(&written, std::path::Path::new(""), &mut names);
     names.sort();
     assert_eq!(names.len(), 22, "{names:?}");
-    assert!(names.contains(&std::path::PathBuf::from("textures/leaf.png")), "{names:?}");
+    assert!(
+        names.contains(&std::path::PathBuf::from("textures/leaf.png")),
+        "{names:?}"
+    );
     for name in names {
         let committed = std::path::Path::new(&asset_s("raytrace")).join(&name);
         assert_eq!(
@@ -372,4 +379,31 @@ fn mtl_rules_are_reported_and_spec_keeps_the_letter_of_the_spec() {
     );
     assert_eq!(r.ok().json()["material_rules"], serde_json::json!([]));
     pen(&format!("{BASE} --mesh {{m}} --mtl-rules letter"), &[("m", room)]).bad_input(&["--mtl-rules"]);
+}
+
+#[test]
+fn a_room_seen_from_outside_by_the_default_camera_is_warned_about() {
+    let dir = TempDir::new("rt-room");
+    // A closed box whose faces look inward: a room.
+    let room = dir.write(
+        "room.obj",
+        "v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n\
+         f 2 3 4 1\nf 8 7 6 5\nf 5 6 2 1\nf 3 7 8 4\nf 4 8 5 1\nf 6 7 3 2\n",
+    );
+    let warning = "meet the back of a face";
+    let r = pen(&format!("{BASE} --mesh {{m}} --device cpu --json"), &[("m", &room)]);
+    assert!(r.ok().stderr.contains(warning), "{}", r.describe());
+    // From inside, or for a box whose faces look outward: no warning.
+    let r = pen(
+        &format!("{BASE} --mesh {{m}} --eye 0,0,0.5 --target 0,0,-1 --device cpu --json"),
+        &[("m", &room)],
+    );
+    assert!(!r.ok().stderr.contains(warning), "{}", r.describe());
+    let cube = dir.write(
+        "cube.obj",
+        "v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n\
+         f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 4 8 7 3\nf 1 5 8 4\nf 2 3 7 6\n",
+    );
+    let r = pen(&format!("{BASE} --mesh {{m}} --device cpu --json"), &[("m", &cube)]);
+    assert!(!r.ok().stderr.contains(warning), "{}", r.describe());
 }

@@ -400,11 +400,17 @@ fn shipped_scenes_need_no_mtl_rule_but_the_exporters_room() {
                 .collect();
             assert_eq!(
                 rules,
-                [("invisible-glass".to_string(), vec!["wallBackSG".to_string(), "wallSideSG".to_string()])],
+                [(
+                    "invisible-glass".to_string(),
+                    vec!["wallBackSG".to_string(), "wallSideSG".to_string()]
+                )],
                 "{:?}",
                 rs.material_rules
             );
-            assert!(rs.surfaces.iter().all(|s| s.kt == [0.0; 3]), "nothing in the room is see-through");
+            assert!(
+                rs.surfaces.iter().all(|s| s.kt == [0.0; 3]),
+                "nothing in the room is see-through"
+            );
             continue;
         }
         let exporters = RenderScene::new(&scene, 0, &LightingSettings::default()).unwrap();

@@ -363,6 +363,31 @@ impl WhittedRenderer {
         self.scene.params(camera, width, height, settings)
     }
 
+    /// Of a coarse grid of `camera`'s primary rays (32 x 24 across an
+    /// image of `width` x `height`), how many hit something and how many
+    /// of those meet the back of a face (the side its winding faces away
+    /// from). A camera framing a room from outside sees mostly backs of
+    /// walls: the command line warns then.
+    pub fn back_faces(&self, camera: &Camera, width: u32, height: u32) -> Result<(u32, u32)> {
+        let settings = WhittedSettings::default();
+        let params = self.params(camera, width, height, &settings)?;
+        let twin = self.twin(&params);
+        let (mut hits, mut backs) = (0, 0);
+        for j in 0..24 {
+            for i in 0..32 {
+                let (x, y) = ((2 * i + 1) * width / 64, (2 * j + 1) * height / 48);
+                let (o, d) = super::whitted::pixel_ray(&params, y * width + x, 0);
+                if let Some((t, primitive)) = twin.closest(o, d, f32::INFINITY, None) {
+                    hits += 1;
+                    if primitive < self.scene.triangles.len() as u32 {
+                        backs += (d.dot(twin.hit_info(o, d, t, primitive).geometric) > 0.0) as u32;
+                    }
+                }
+            }
+        }
+        Ok((hits, backs))
+    }
+
     /// The CPU twin over this scene for `params`.
     pub fn twin<'a>(&'a self, params: &'a WhittedUniforms) -> Whitted<'a> {
         Whitted {
