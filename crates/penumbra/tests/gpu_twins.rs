@@ -255,3 +255,129 @@ fn whitted_trees_kernel_records_the_twins_ray_trees() {
     ];
     compare_whitted_trees(&ctx, &scenes, 4000);
 }
+
+/// Twenty-four glass panes (thin boxes, index 1: the spurious glass of an
+/// exported room), each doubled by a coincident copy of another colour, in
+/// front of a checkered wall: every refracted chain meets exact ties in t.
+fn coincident_panes() -> penumbra::scene::Scene {
+    let (mut v, mut f): (Vec<[f32; 3]>, Vec<String>) = (Vec::new(), Vec::new());
+    let quads = [
+        [(0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)],
+        [(1, 0, 0), (0, 0, 0), (0, 1, 0), (1, 1, 0)],
+        [(1, 0, 1), (1, 0, 0), (1, 1, 0), (1, 1, 1)],
+        [(0, 0, 0), (0, 0, 1), (0, 1, 1), (0, 1, 0)],
+        [(0, 1, 1), (1, 1, 1), (1, 1, 0), (0, 1, 0)],
+        [(0, 0, 0), (1, 0, 0), (1, 0, 1), (0, 0, 1)],
+    ];
+    let mut panes = Vec::new();
+    for k in 0..24 {
+        let z = -0.3 * k as f32;
+        let base = v.len() + 1;
+        for x in [-2.0, 2.0] {
+            for y in [-1.5, 1.5] {
+                for dz in [-0.05, 0.05] {
+                    v.push([x, y, z + dz]);
+                }
+            }
+        }
+        for q in quads {
+            let ids: Vec<String> = q
+                .iter()
+                .map(|&(x, y, z)| (base + x * 4 + y * 2 + z).to_string())
+                .collect();
+            panes.push(format!("f {}", ids.join(" ")));
+        }
+    }
+    f.push("usemtl pane".into());
+    f.extend(panes.iter().cloned());
+    f.push("usemtl copy".into());
+    f.extend(panes);
+    for i in 0..8 {
+        for j in 0..8 {
+            let (x0, y0, z) = (-3.0 + 0.75 * i as f32, -3.0 + 0.75 * j as f32, -8.2);
+            let b = v.len() + 1;
+            v.extend([
+                [x0, y0, z],
+                [x0 + 0.75, y0, z],
+                [x0 + 0.75, y0 + 0.75, z],
+                [x0, y0 + 0.75, z],
+            ]);
+            f.push(format!("usemtl {}", if (i + j) % 2 == 1 { "a" } else { "b" }));
+            f.push(format!("f {b} {} {} {}", b + 1, b + 2, b + 3));
+        }
+    }
+    let dir = std::env::temp_dir().join(format!("penumbra-panes-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("panes.mtl"),
+        "newmtl pane\nillum 4\nKa 0.1 0.1 0.1\nKd 0 0 0\nKs 0.04 0.04 0.04\nTf 1 1 1\nNi 1.0\n\
+         newmtl copy\nillum 4\nKa 0.1 0.1 0.1\nKd 0.1 0.5 0.3\nTf 1 1 1\nNi 1.0\n\
+         newmtl a\nKd 0.8 0.8 0.8\nKa 0.8 0.8 0.8\nillum 1\nnewmtl b\nKd 0.1 0.2 0.6\nKa 0.1 0.2 0.6\nillum 1\n",
+    )
+    .unwrap();
+    let text: String = v.iter().map(|p| format!("v {} {} {}\n", p[0], p[1], p[2])).collect();
+    let path = dir.join("panes.obj");
+    std::fs::write(&path, format!("mtllib panes.mtl\n{text}{}\n", f.join("\n"))).unwrap();
+    let obj = penumbra::scene::load_obj_file(&path).unwrap();
+    let scene = penumbra::scene::Scene::from_obj_file("panes", &path, obj);
+    std::fs::remove_dir_all(&dir).unwrap();
+    scene
+}
+
+#[test]
+fn long_chains_through_coincident_glass_stay_within_their_bound() {
+    // Exact ties in t between coincident faces are resolved by the order a
+    // traversal meets them, and the CPU's and the GPU's kd-trees differ
+    // (each device's costs): chains through such glass may part on a few
+    // pixels. Bound: at most 0.5% of the pixels, by at most 0.02 per
+    // channel, ray counts within 5% (measured: 283 to 299 of 76,800 over
+    // runs, 0.0103; shadow rays 3% apart). Without the copies, every pixel
+    // agrees within 1e-3 (measured: 4.1e-4).
+    use penumbra::gpu::device::Device;
+    use penumbra::progress::Reporter;
+    use penumbra::scene::MtlRules;
+    use penumbra::whitted::{LightingSettings, RenderScene, WhittedRenderer, WhittedSettings};
+    let Some(ctx) = gpu() else { return };
+    let scene = coincident_panes();
+    // The letter of the spec: the panes stay glass of index 1.
+    let lighting = LightingSettings {
+        mtl_rules: MtlRules::Spec,
+        ..LightingSettings::default()
+    };
+    let camera = Camera {
+        eye: Vec3::new(2.3, 1.2, 4.0),
+        target: Vec3::new(0.0, 0.0, -5.0),
+        fov_degrees: 45.0,
+    };
+    let render = |device: &Device| {
+        let rs = RenderScene::new(&scene, 0, &lighting).unwrap();
+        let mut r = WhittedRenderer::new(device, rs, &Reporter::silent()).unwrap();
+        r.render(&camera, 320, 240, &WhittedSettings::default(), &Bar::hidden())
+            .unwrap()
+    };
+    let (cpu, gpu) = (render(&Device::cpu()), render(&Device::gpu(ctx)));
+    let (mut worst, mut over) = (0f32, 0);
+    for (a, b) in cpu.pixels.iter().zip(&gpu.pixels) {
+        let d = (Vec3::from_array(a.radiance) - Vec3::from_array(b.radiance))
+            .abs()
+            .max_element();
+        worst = worst.max(d);
+        over += (d > 1e-3) as usize;
+    }
+    println!(
+        "coincident panes, 320x240: worst per-channel difference CPU vs GPU {worst:.2e}, {over} pixels above 1e-3; rays {:?}",
+        cpu.stats.rays
+    );
+    assert!(
+        over * 200 <= cpu.pixels.len() && worst <= 0.02,
+        "{over} pixels over 1e-3, worst {worst}"
+    );
+    let (rc, rg) = (cpu.stats.rays, gpu.stats.rays);
+    for (a, b) in [
+        (rc.shadow, rg.shadow),
+        (rc.reflection, rg.reflection),
+        (rc.refraction, rg.refraction),
+    ] {
+        assert!(a.abs_diff(b) * 20 <= a.max(1), "ray counts {rc:?} and {rg:?}");
+    }
+}
