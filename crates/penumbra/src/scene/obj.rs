@@ -271,15 +271,18 @@ fn parse(text: &str, extended: bool) -> Result<Parsed> {
                         // `v//vn`, `v/vt/vn`: parts[2].
                         let texcoord = match parts.next() {
                             None | Some("") => NO_TEXCOORD,
-                            Some(text) => texcoord_index(text, token, texcoords.len()).unwrap_or_else(|problem| {
-                                bad_texcoords.get_or_insert((line_no, problem, 0)).2 += 1;
-                                NO_TEXCOORD
-                            }),
+                            Some(text) => corner_index(text, token, texcoords.len(), "texture coordinate")
+                                .unwrap_or_else(|problem| {
+                                    bad_texcoords.get_or_insert((line_no, problem, 0)).2 += 1;
+                                    NO_TEXCOORD
+                                }),
                         };
                         face_texcoords.push(texcoord);
                         let normal = match parts.next() {
                             None | Some("") => NO_NORMAL,
-                            Some(text) => normal_index(text, token, normals.len(), &at)?,
+                            Some(text) => {
+                                corner_index(text, token, normals.len(), "normal").map_err(|p| Error::input(at(), p))?
+                            }
                         };
                         face_normals.push(normal);
                     }
@@ -520,51 +523,23 @@ fn texcoord<'a>(tokens: &mut impl Iterator<Item = &'a str>, at: &dyn Fn() -> Str
     Ok(Vec2::from_array(c))
 }
 
-/// The `vt` index of face corner `token` (`text`, its second part),
-/// 0-based; negative indices count back from the `count` read so far.
-/// The error says what is wrong with it.
-fn texcoord_index(text: &str, token: &str, count: usize) -> std::result::Result<u32, String> {
-    let index = parse_index(text).ok_or_else(|| {
-        format!("face vertex '{token}' has texture coordinate index '{text}', which is not an integer")
-    })?;
+/// The index of face corner `token`'s `noun` ("normal" or "texture
+/// coordinate": `text`, one of its parts), 0-based; negative indices count
+/// back from the `count` read so far. The error says what is wrong with it.
+fn corner_index(text: &str, token: &str, count: usize, noun: &str) -> std::result::Result<u32, String> {
+    let index = parse_index(text)
+        .ok_or_else(|| format!("face vertex '{token}' has {noun} index '{text}', which is not an integer"))?;
     let resolved = match index {
-        0 => return Err("face texture coordinate index 0 (OBJ indices start at 1)".into()),
+        0 => return Err(format!("face {noun} index 0 (OBJ indices start at 1)")),
         i if i > 0 => i - 1,
         i => count as i128 + i,
     };
     if resolved < 0 {
-        return Err(format!(
-            "face texture coordinate index {index} refers before the first texture coordinate"
-        ));
+        return Err(format!("face {noun} index {index} refers before the first {noun}"));
     }
-    if resolved >= NO_TEXCOORD as i128 {
-        return Err(format!("face texture coordinate index {index} is out of range"));
-    }
-    Ok(resolved as u32)
-}
-
-/// The `vn` index of face corner `token` (`text`, its third part), 0-based;
-/// negative indices count back from the `count` normals read so far.
-fn normal_index(text: &str, token: &str, count: usize, at: &dyn Fn() -> String) -> Result<u32> {
-    let index = parse_index(text).ok_or_else(|| {
-        Error::input(
-            at(),
-            format!("face vertex '{token}' has normal index '{text}', which is not an integer"),
-        )
-    })?;
-    let resolved = match index {
-        0 => return Err(Error::input(at(), "face normal index 0 (OBJ indices start at 1)")),
-        i if i > 0 => i - 1,
-        i => count as i128 + i,
-    };
-    if resolved < 0 {
-        return Err(Error::input(
-            at(),
-            format!("face normal index {index} refers before the first normal"),
-        ));
-    }
-    if resolved >= NO_NORMAL as i128 {
-        return Err(Error::input(at(), format!("face normal index {index} is out of range")));
+    // u32::MAX is NO_NORMAL and NO_TEXCOORD.
+    if resolved >= u32::MAX as i128 {
+        return Err(format!("face {noun} index {index} is out of range"));
     }
     Ok(resolved as u32)
 }

@@ -11,6 +11,7 @@
 //! image's alpha, or its luminance where the image is opaque) in red.
 
 use std::collections::HashMap;
+use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3};
@@ -100,12 +101,13 @@ impl Default for TextureTable {
 #[derive(Default)]
 pub struct TextureTableBuilder {
     maps: Vec<(MapRecord, usize)>,
-    /// The images as packed (colours, or alpha values).
-    images: Vec<Texture>,
+    /// The images as packed (colours, or alpha values); a colour map
+    /// shares its decoded image.
+    images: Vec<Arc<Texture>>,
     /// `images`' index by (name, use).
     index: HashMap<(String, MapUse), usize>,
     /// Decoded images by name; None where decoding failed (warned once).
-    decoded: HashMap<String, Option<Texture>>,
+    decoded: HashMap<String, Option<Arc<Texture>>>,
     flags: Vec<u32>,
 }
 
@@ -126,11 +128,12 @@ impl TextureTableBuilder {
                             ))
                         })
                         .ok()
+                        .map(Arc::new)
                 });
                 let t = decoded.clone()?;
                 self.images.push(match usage {
                     MapUse::Colour => t,
-                    MapUse::Alpha { luminance } => alpha_of(t, luminance),
+                    MapUse::Alpha { luminance } => Arc::new(alpha_of(&t, luminance)),
                 });
                 self.flags.push(if usage == MapUse::Colour { MAP_SRGB } else { 0 });
                 self.index.insert(key, self.images.len() - 1);
@@ -162,7 +165,7 @@ impl TextureTableBuilder {
     /// The table, its images halved (largest first) until their texels fit
     /// `budget` bytes, a warning for each image reduced.
     pub fn finish(mut self, budget: u64, warnings: &mut Vec<String>) -> TextureTable {
-        let bytes = |images: &[Texture]| images.iter().map(|t| 4 * t.width as u64 * t.height as u64).sum::<u64>();
+        let bytes = |images: &[Arc<Texture>]| images.iter().map(|t| 4 * t.width as u64 * t.height as u64).sum::<u64>();
         let original: Vec<(u32, u32)> = self.images.iter().map(|t| (t.width, t.height)).collect();
         while bytes(&self.images) > budget {
             let Some(largest) = (0..self.images.len())
@@ -171,7 +174,7 @@ impl TextureTableBuilder {
             else {
                 break;
             };
-            self.images[largest] = self.images[largest].halved();
+            self.images[largest] = Arc::new(self.images[largest].halved());
         }
         for (t, &(w, h)) in self.images.iter().zip(&original) {
             if (t.width, t.height) != (w, h) {
@@ -208,7 +211,7 @@ impl TextureTableBuilder {
 /// The cut-out value of each texel, in red: alpha, or with `luminance`
 /// where the image has no texel that is not opaque, luminance (Rec. 709
 /// weights on the stored values, as a grey mask is written).
-fn alpha_of(t: Texture, luminance: bool) -> Texture {
+fn alpha_of(t: &Texture, luminance: bool) -> Texture {
     let alpha = !luminance || t.has_alpha();
     let texels = t
         .texels
@@ -222,7 +225,11 @@ fn alpha_of(t: Texture, luminance: bool) -> Texture {
             [v, v, v, 255]
         })
         .collect();
-    Texture { texels, ..t }
+    Texture {
+        texels,
+        name: t.name.clone(),
+        ..*t
+    }
 }
 
 impl TextureTable {
@@ -302,10 +309,10 @@ mod tests {
         };
         let flags = if usage == MapUse::Colour { MAP_SRGB } else { 0 };
         let mut b = TextureTableBuilder {
-            images: vec![match usage {
-                MapUse::Alpha { luminance } => alpha_of(image, luminance),
+            images: vec![Arc::new(match usage {
+                MapUse::Alpha { luminance } => alpha_of(&image, luminance),
                 MapUse::Colour => image,
-            }],
+            })],
             flags: vec![flags],
             ..Default::default()
         };
@@ -413,7 +420,7 @@ mod tests {
             texels: vec![[7; 4]; 64],
         };
         let mut b = TextureTableBuilder {
-            images: vec![big, small],
+            images: vec![Arc::new(big), Arc::new(small)],
             flags: vec![MAP_SRGB, MAP_SRGB],
             ..Default::default()
         };
