@@ -83,12 +83,7 @@ const LIT: u32 = 1u;
 const REFRACTS: u32 = 2u;
 const DIRECTIONAL: u32 = 1u;
 const NO_NORMAL: u32 = 0xffffffffu;
-const NO_MAP: u32 = 0xffffffffu;
 const NO_TEXCOORDS: u32 = 0xffffffffu;
-const MAP_CLAMP: u32 = 1u;
-const MAP_SRGB: u32 = 2u;
-const MAP_WORDS4: u32 = 3u;
-const SRGB_WORDS4: u32 = 64u;
 const MAX_HOLE_CROSSINGS: u32 = 16u;
 const OFFSET_SCALE: f32 = 1.52587890625e-5; // 2^-16
 const MIN_POSITIVE: f32 = 1.17549435e-38;
@@ -175,77 +170,13 @@ fn record_word(k: u32) -> u32 {
     return records[k >> 2u][k & 3u];
 }
 
-// A texel of map m, decoded (TextureTable::texel).
-fn map_texel(first: u32, flags: u32, k: u32) -> vec3<f32> {
-    let w = record_word(first + k);
-    let c = vec3<u32>(w & 255u, (w >> 8u) & 255u, (w >> 16u) & 255u);
-    if ((flags & MAP_SRGB) != 0u) {
-        let at = params.maps_at * 4u;
-        return vec3<f32>(bitcast<f32>(record_word(at + c.x)), bitcast<f32>(record_word(at + c.y)), bitcast<f32>(record_word(at + c.z)));
-    }
-    return vec3<f32>(c) * (1.0 / 255.0);
+// The texture maps (texture_maps.wgsl) ride in the records.
+fn map_word(k: u32) -> u32 {
+    return record_word(k);
 }
 
-// u clamped to [0, 1]; 0 where it is not a number (maps::unit_clamp).
-fn unit_clamp(u: f32) -> f32 {
-    if (u >= 0.0) {
-        return select(1.0, u, u <= 1.0);
-    }
-    return 0.0;
-}
-
-// The fractional part of u in [0, 1); 0 where u is not finite.
-fn unit_fract(u: f32) -> f32 {
-    let f = u - floor(u);
-    return select(0.0, f, f >= 0.0 && f < 1.0);
-}
-
-fn wrap_index(i: i32, n: i32, clamped: bool) -> i32 {
-    if (clamped) {
-        return clamp(i, 0, n - 1);
-    }
-    return (i + n) % n;
-}
-
-// Map m at texture coordinates uv (v up the image): the bilinear blend of
-// the four texels around the point (TextureTable::sample).
-fn sample_map(m: u32, uv: vec2<f32>) -> vec3<f32> {
-    let b = params.maps_at + SRGB_WORDS4 + m * MAP_WORDS4;
-    let r0 = bitcast<vec4<f32>>(records[b]);
-    let r1 = records[b + 1u];
-    let w = i32(r1.y);
-    let h = i32(r1.z);
-    let clamped = (r1.w & MAP_CLAMP) != 0u;
-    var u = uv.x * r0.x + r0.z;
-    var v = uv.y * r0.y + r0.w;
-    if (clamped) {
-        u = unit_clamp(u);
-        v = unit_clamp(v);
-    } else {
-        u = unit_fract(u);
-        v = unit_fract(v);
-    }
-    let x = u * f32(w) - 0.5;
-    let y = (1.0 - v) * f32(h) - 0.5;
-    let x0 = floor(x);
-    let y0 = floor(y);
-    let fx = x - x0;
-    let fy = y - y0;
-    let i0 = i32(x0);
-    let j0 = i32(y0);
-    let ia = wrap_index(i0, w, clamped);
-    let ib = wrap_index(i0 + 1, w, clamped);
-    let ja = wrap_index(j0, h, clamped);
-    let jb = wrap_index(j0 + 1, h, clamped);
-    let top = map_texel(r1.x, r1.w, u32(ja * w + ia)) * (1.0 - fx) + map_texel(r1.x, r1.w, u32(ja * w + ib)) * fx;
-    let bottom = map_texel(r1.x, r1.w, u32(jb * w + ia)) * (1.0 - fx) + map_texel(r1.x, r1.w, u32(jb * w + ib)) * fx;
-    return top * (1.0 - fy) + bottom * fy;
-}
-
-// Whether cut-out map m has a hole at uv (TextureTable::is_hole).
-fn map_hole(m: u32, uv: vec2<f32>) -> bool {
-    let r2 = bitcast<vec4<f32>>(records[params.maps_at + SRGB_WORDS4 + m * MAP_WORDS4 + 2u]);
-    return sample_map(m, uv).x * r2.x < r2.y;
+fn maps_base() -> u32 {
+    return params.maps_at;
 }
 
 // Whether a hit falls in a cut-out's hole (Whitted::is_hole).

@@ -53,7 +53,7 @@ use crate::bounded::linespace::{CellBox, FacePair};
 use crate::bounded::patch::{NO_PATCH, NormalField, barycentric_blend, clip_to_box, edge_key};
 use crate::bounded::shaft::{End, Exclude, Shafts};
 use crate::whitted::lights::DIRECTIONAL;
-use crate::whitted::offset::OFFSET_SCALE;
+use crate::geom::offset::OFFSET_SCALE;
 use crate::whitted::ray_tree::{LightCode, RayKind, RayNode, RayTree};
 use crate::whitted::surface::Surface as Shading;
 use crate::whitted::whitted::{FRESNEL, Whitted};

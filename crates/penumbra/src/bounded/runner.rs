@@ -42,7 +42,7 @@ use crate::gpu::device::{Device, elapsed_ms};
 use crate::progress::Bar;
 use crate::scene::Camera;
 use crate::whitted::WhittedRenderer;
-use crate::whitted::offset::max_abs;
+use crate::geom::offset::max_abs;
 use crate::whitted::pixel_rays::PixelRays;
 use crate::whitted::tree_records::TreeRay;
 use crate::whitted::whitted::{FirstHit, Media, WhittedUniforms};

@@ -5,6 +5,7 @@
 pub mod aabb;
 pub mod color;
 pub(crate) mod float;
+pub(crate) mod offset;
 pub mod ray;
 pub mod sampling;
 pub mod simd;

@@ -36,6 +36,9 @@ pub const ALBEDO: WgslFile = wgsl_file!("albedo.wgsl");
 /// tree's buffers (bind group 0): the twin of `kdtree::traverse` and
 /// `kdtree::watertight`.
 pub const KDTREE_TRAVERSE: WgslFile = wgsl_file!("kdtree_traverse.wgsl");
+/// Texture maps packed as `scene::texture_table` packs them: bilinear
+/// lookups and cut-out tests, the twin of `TextureTable::sample`.
+pub const TEXTURE_MAPS: WgslFile = wgsl_file!("texture_maps.wgsl");
 /// Kernel: closest or any hit of a batch of rays (`kdtree::gpu`).
 pub const TRACE_RAYS: WgslFile = wgsl_file!("trace_rays.wgsl");
 /// Kernel: ambient-occlusion rays, one invocation per ray, each setting a
@@ -117,6 +120,7 @@ pub const FILES: &[WgslFile] = &[
     FRAME,
     ALBEDO,
     KDTREE_TRAVERSE,
+    TEXTURE_MAPS,
     TRACE_RAYS,
     AO_RAYS,
     PACKET_TRAVERSE,
@@ -265,14 +269,14 @@ pub const TRACE_RAYS_MODULE: Composition = Composition {
 /// `AO_RAYS` over sampling, the tangent frame and the kd-tree traversal.
 pub const AO_RAYS_MODULE: Composition = Composition {
     name: "ao_rays",
-    parts: &[SAMPLING, FRAME, KDTREE_TRAVERSE, AO_RAYS],
+    parts: &[SAMPLING, FRAME, KDTREE_TRAVERSE, TEXTURE_MAPS, AO_RAYS],
     demands: Demands::compute(6),
 };
 
 /// `WHITTED` with its pixel entries (no ray-tree recording).
 pub const WHITTED_MODULE: Composition = Composition {
     name: "whitted",
-    parts: &[SAMPLING, KDTREE_TRAVERSE, WHITTED_PIXELS, WHITTED],
+    parts: &[SAMPLING, KDTREE_TRAVERSE, TEXTURE_MAPS, WHITTED_PIXELS, WHITTED],
     demands: Demands::compute(8),
 };
 
@@ -280,7 +284,7 @@ pub const WHITTED_MODULE: Composition = Composition {
 /// `whitted_trees` entry.
 pub const WHITTED_TREES_MODULE: Composition = Composition {
     name: "whitted_trees",
-    parts: &[SAMPLING, KDTREE_TRAVERSE, WHITTED_TREES, WHITTED],
+    parts: &[SAMPLING, KDTREE_TRAVERSE, TEXTURE_MAPS, WHITTED_TREES, WHITTED],
     demands: Demands::compute(8),
 };
 

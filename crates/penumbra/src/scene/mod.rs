@@ -30,6 +30,7 @@ mod scene_file;
 pub mod sequence;
 mod shading;
 pub mod texture;
+pub mod texture_table;
 mod transform;
 
 use std::path::{Path, PathBuf};

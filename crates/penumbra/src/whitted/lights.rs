@@ -22,7 +22,7 @@ use glam::Vec3;
 
 use crate::error::{Error, Result};
 use crate::geom::sampling::SampleSequence;
-use crate::whitted::offset::{max_abs, offset_point};
+use crate::geom::offset::{max_abs, offset_point};
 
 /// `LightSample::kind`: a point light at `position`.
 pub const POINT: u32 = 0;

@@ -8,8 +8,6 @@
 pub mod gpu;
 pub mod image;
 pub(crate) mod lights;
-pub mod maps;
-pub(crate) mod offset;
 pub(crate) mod optics;
 pub(crate) mod packets;
 pub(crate) mod pixel_rays;

@@ -28,7 +28,7 @@ impl Sphere {
 
     /// Magnitude of its coordinates, for ray offsets.
     pub fn magnitude(&self) -> f32 {
-        crate::whitted::offset::max_abs(self.center()) + self.radius
+        crate::geom::offset::max_abs(self.center()) + self.radius
     }
 
     /// Whether `p` is strictly inside.

@@ -36,7 +36,7 @@ use glam::Vec3;
 use crate::geom::float::floor;
 
 use crate::scene::Material;
-use crate::whitted::maps::NO_MAP;
+use crate::scene::texture_table::NO_MAP;
 
 /// `Surface::flags`: lit by the lights and the ambient term (else the
 /// constant colour `kd`, MTL illum 0).

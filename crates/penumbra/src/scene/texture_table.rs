@@ -1,7 +1,7 @@
-//! Texture maps as the Whitted kernel reads them: every image a scene's
+//! Texture maps as the kernels read them: every image a scene's
 //! materials use, decoded once, packed as RGBA8 words; one record per map
 //! (scale, offset, wrap, where its texels are); and the lookup, bilinear
-//! between texel centres, that `sample_map` in `wgsl/whitted.wgsl` repeats
+//! between texel centres, that `sample_map` in `wgsl/texture_maps.wgsl` repeats
 //! operation for operation (`TextureTable::sample` is its CPU twin).
 //!
 //! Colour maps are sRGB-encoded and decoded per texel through one table
@@ -236,7 +236,7 @@ impl TextureTable {
     /// Map `map` at texture coordinates `uv` (v up the image): the
     /// bilinear blend of the four texels around the point, decoded (sRGB
     /// through the table, else /255). The CPU twin of `sample_map` in
-    /// whitted.wgsl.
+    /// texture_maps.wgsl.
     pub fn sample(&self, map: u32, uv: Vec2) -> Vec3 {
         let m = &self.maps[map as usize];
         let (w, h) = (m.width as i32, m.height as i32);
@@ -268,7 +268,7 @@ impl TextureTable {
     }
 
     /// Whether cut-out map `map` has a hole at `uv` (the CPU twin of
-    /// `cut_out` in whitted.wgsl).
+    /// `map_hole` in texture_maps.wgsl).
     pub fn is_hole(&self, map: u32, uv: Vec2) -> bool {
         let m = &self.maps[map as usize];
         self.sample(map, uv).x * m.factor < m.cutoff
