@@ -10,6 +10,7 @@
 //! `mesh` for everyone.
 
 pub mod animated;
+pub mod cutouts;
 mod camera;
 mod camera_path;
 pub(crate) mod deform;
