@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
-use crate::args::{CameraArgs, CameraChoice, Common, check_outputs, load_input};
+use crate::args::{CameraArgs, CameraChoice, Common, check_outputs, load_shaded_input};
 use crate::io::{merged, note, note_choice};
 use crate::options::GreyImageOptions;
 pub use crate::options::ao::AoMethod as Method;
@@ -59,8 +59,9 @@ pub struct AoArgs {
 
 /// The scene the options describe: `--mesh` alone is caster and receiver;
 /// with `--receiver` the mesh only casts and the receiver only receives.
+/// Materials are kept for their alpha cut-outs, holes for every ray.
 fn scene_of(args: &AoArgs) -> Result<Scene> {
-    let mut scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
+    let mut scene = load_shaded_input(args.mesh.as_deref(), args.scene.as_deref())?;
     args.choice.choose(&mut scene)?;
     match &args.receiver {
         Some(receiver) => scene.with_receiver_file(receiver),
@@ -81,6 +82,7 @@ pub fn run(args: &AoArgs) -> Result<Value> {
     let runs = args.common.runs.runs(1)?;
     let once = || raycast(&device, &scene, &request, &crate::progress::stderr());
     let (ao, times) = runs.run("ao_ms", once, |ao| ao.ao_ms())?;
+    crate::io::warn(&ao.warnings);
     let written = outputs.write(&scene, 0, settings.radius, ao.vertices.as_ref(), ao.image.as_ref())?;
     written.notes.iter().for_each(|n| note(n));
     let report = RaycastReport::new(&ao, &settings, written).with_runs(times);

@@ -114,10 +114,18 @@ fn large_requests_are_split_into_batches_with_the_same_results() {
     };
     let mut batches = AoRaysBatches::new(&ctx);
     let (whole, _) = batches
-        .visibility(&ctx, &gpu_tree, &points, &settings, &Bar::hidden(), RAYS_PER_BATCH)
+        .visibility(
+            &ctx,
+            &gpu_tree,
+            None,
+            &points,
+            &settings,
+            &Bar::hidden(),
+            RAYS_PER_BATCH,
+        )
         .unwrap();
     let (split, _) = batches
-        .visibility(&ctx, &gpu_tree, &points, &settings, &Bar::hidden(), 4000)
+        .visibility(&ctx, &gpu_tree, None, &points, &settings, &Bar::hidden(), 4000)
         .unwrap();
     assert_eq!(
         whole, split,

@@ -21,8 +21,10 @@ fn every_wgsl_file_is_compiled_in() {
 
 /// Library files validate alone, or after the library files that precede
 /// them in a kernel module (the displacement-field map-access files need the
-/// field's parameters); kernel files (the last part of a module) only make
-/// sense after their libraries and are validated as composed.
+/// field's parameters), or in every module they are part of (the texture
+/// maps read their words through `map_word`, which each composing kernel
+/// defines over its own buffer); kernel files (the last part of a module)
+/// only make sense after their libraries and are validated as composed.
 #[test]
 fn every_library_file_validates_alone() {
     let mut failures = Vec::new();
@@ -35,8 +37,16 @@ fn every_library_file_validates_alone() {
                 ..*m
             })
         });
+        let composed = || {
+            let mut within = MODULES.iter().filter(|m| m.parts.contains(file)).peekable();
+            within.peek().ok_or_else(|| format!("{}: in no module", file.path))?;
+            within
+                .map(|m| m.validate())
+                .collect::<Result<Vec<_>, _>>()
+                .map(|mut v| v.remove(0))
+        };
         let result = file.validate().or_else(|alone| match prefix {
-            Some(p) if p.parts.len() > 1 => p.validate(),
+            Some(p) if p.parts.len() > 1 => p.validate().or_else(|_| composed()),
             _ => Err(alone),
         });
         match result {

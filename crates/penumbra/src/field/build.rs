@@ -19,7 +19,9 @@ use crate::geom::aabb::Aabb;
 use crate::geom::sampling::Frame;
 use crate::gpu::device::elapsed_ms;
 use crate::progress::Bar;
+use crate::raycast::holes::closest_past_holes;
 use crate::scene::Mesh;
+use crate::scene::cutouts::Cutouts;
 
 /// A built displacement field: the object's bounding sphere (object space),
 /// the sampling and storage, and the maps.
@@ -136,6 +138,19 @@ impl DisplacementField {
         what: &str,
         progress: &Bar,
     ) -> Result<(DisplacementField, BuildStats)> {
+        DisplacementField::build_through(mesh, None, params, what, progress)
+    }
+
+    /// `build` with the holes of `cutouts` (of `mesh`) let through: a map
+    /// texel stores the first hit that is not in a hole
+    /// (`raycast::holes::closest_past_holes`).
+    pub fn build_through(
+        mesh: &Mesh,
+        cutouts: Option<&Cutouts>,
+        params: &FieldSampling,
+        what: &str,
+        progress: &Bar,
+    ) -> Result<(DisplacementField, BuildStats)> {
         params.validate()?;
         if mesh.triangles.is_empty() {
             return Err(Error::input(what, "has no triangles: nothing to build a field of"));
@@ -159,7 +174,13 @@ impl DisplacementField {
                 let origin = center + radius * params.grid.position(m as u32);
                 let mut hits = 0u64;
                 for (d, &l) in map.iter_mut().zip(&local) {
-                    let hit = tree.closest_hit(origin, frame.to_world(l), f32::INFINITY);
+                    let dir = frame.to_world(l);
+                    let hit = match cutouts {
+                        None => tree.closest_hit(origin, dir, f32::INFINITY),
+                        Some(c) => closest_past_holes(c, &tree.triangles, origin, dir, f32::INFINITY, |o, d, t| {
+                            tree.closest_hit(o, d, t)
+                        }),
+                    };
                     if hit.is_hit() {
                         *d = (hit.t / (2.0 * radius)).min(1.0);
                         hits += 1;

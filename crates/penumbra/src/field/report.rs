@@ -77,6 +77,7 @@ impl FieldRunReport {
             casters: Casters {
                 instances: Some(scene.instances.iter().filter(|i| i.role.casts()).count()),
                 triangles: scene.world_mesh(Role::casts).triangles.len(),
+                cutout_triangles: fields.cutout_triangles(),
             },
             frames: frame_ms.len(),
             ao_ms_mean: frame_ms.iter().sum::<f64>() / frame_ms.len().max(1) as f64,

@@ -27,7 +27,10 @@ use crate::raycast::runner::{AoRequest, PixelAo, VertexAo, casters, visible_poin
 use crate::raycast::tracer::Tracer;
 use crate::raycast::{AoPoint, AoSettings, VisibilityMasks};
 use crate::report::skipped::Skipped;
+use crate::scene::cutouts::Cutouts;
+use crate::scene::texture_table::DEFAULT_TEXTURE_BYTES;
 use crate::scene::{Instance, Mesh, Role, Scene};
+use std::sync::Arc;
 
 /// Most animation frames one run may ask for.
 pub const MAX_FRAMES: u32 = 100_000;
@@ -63,6 +66,7 @@ pub struct FieldAo<'s> {
     /// Where the fields live (the CPU until `upload`).
     device: Device,
     bars: Reporter,
+    cutout_triangles: usize,
 }
 
 /// What the runner keeps on a GPU.
@@ -93,6 +97,7 @@ impl<'s> FieldAo<'s> {
         let skipped = skipped_fields(scene, &reaching, reach);
         let mut fields = BTreeMap::new();
         let mut reports = Vec::new();
+        let mut cutout_triangles = 0;
         for (inst, _) in scene.instances.iter().zip(&reaching).filter(|(_, r)| **r) {
             if fields.contains_key(&inst.mesh) {
                 continue;
@@ -107,7 +112,10 @@ impl<'s> FieldAo<'s> {
                 None => {
                     let progress = bars.bar(params.maps() as u64, &format!("field of {}", mesh.name));
                     let what = mesh.path.display().to_string();
-                    let (field, stats) = DisplacementField::build(&mesh.mesh, params, &what, &progress)?;
+                    let cutouts = Cutouts::of_mesh(mesh, DEFAULT_TEXTURE_BYTES, &mut Vec::new());
+                    cutout_triangles += cutouts.as_ref().map_or(0, |c| c.records.len());
+                    let (field, stats) =
+                        DisplacementField::build_through(&mesh.mesh, cutouts.as_ref(), params, &what, &progress)?;
                     progress.finish();
                     (field, None, Some(stats.build_ms))
                 }
@@ -131,7 +139,14 @@ impl<'s> FieldAo<'s> {
             gpu: OnDevice::Cpu,
             device: Device::cpu(),
             bars: bars.clone(),
+            cutout_triangles,
         })
+    }
+
+    /// Triangles of the built fields' meshes with an alpha cut-out, whose
+    /// holes the fields' rays passed.
+    pub fn cutout_triangles(&self) -> usize {
+        self.cutout_triangles
     }
 
     /// Puts the fields on `device` (3D textures on a GPU); lookups run there.
@@ -355,7 +370,9 @@ impl<'s> FieldAo<'s> {
     fn image(&mut self, frame: u32, view: &crate::scene::View, settings: &AoSettings) -> Result<PixelAo> {
         let scene = self.scene;
         let everything = scene.world_mesh_at(frame, |_| true);
-        let mut tracer = Tracer::build_labelled(&Device::cpu(), &everything, &self.bars, "all instances")?;
+        let cutouts = Cutouts::of_scene(scene, |_| true, DEFAULT_TEXTURE_BYTES, &mut Vec::new());
+        let mut tracer = Tracer::build_labelled(&Device::cpu(), &everything, &self.bars, "all instances")?
+            .with_cutouts(cutouts.map(Arc::new));
         let seen = visible_points(&mut tracer, &everything, scene.camera, view)?;
         // Objects of `everything` are the instances, in order.
         let owners: Vec<u32> = seen
@@ -480,7 +497,9 @@ fn compare_with_raycast(
     lookups: &ErrorInputs,
     bars: &Reporter,
 ) -> Result<FieldReference> {
-    let mut tracer = Tracer::build_labelled(device, &casters(scene, frame)?, bars, "casters")?;
+    let cutouts = Cutouts::of_scene(scene, Role::casts, DEFAULT_TEXTURE_BYTES, &mut Vec::new());
+    let mut tracer =
+        Tracer::build_labelled(device, &casters(scene, frame)?, bars, "casters")?.with_cutouts(cutouts.map(Arc::new));
     let progress = bars.bar(points.len() as u64, "ray-cast reference");
     let truth = tracer.ao_visibility(points, settings, &progress)?;
     progress.finish();
@@ -590,7 +609,16 @@ fn self_occlusion(
         let inst = &scene.instances[k as usize];
         let t = inst.transform_at(frame);
         let own = scene.meshes[inst.mesh].mesh.map_positions(|p| t.apply_point(p));
-        cast_subset(&own, &inst.name, points, |i| owners[i] == k, settings, &mut masks)?;
+        let cutouts = Cutouts::of_instances(scene, |j, _| j as u32 == k, DEFAULT_TEXTURE_BYTES, &mut Vec::new());
+        cast_subset(
+            &own,
+            cutouts,
+            &inst.name,
+            points,
+            |i| owners[i] == k,
+            settings,
+            &mut masks,
+        )?;
     }
     Ok(Some(masks))
 }
@@ -622,7 +650,9 @@ fn without_self(
             }
         }
         if !casters.triangles.is_empty() {
-            cast_subset(&casters, "casters", points, selected, settings, &mut masks)?;
+            let keep = |k: usize, i: &Instance| i.role.casts() && k as u32 != excluded;
+            let cutouts = Cutouts::of_instances(scene, keep, DEFAULT_TEXTURE_BYTES, &mut Vec::new());
+            cast_subset(&casters, cutouts, "casters", points, selected, settings, &mut masks)?;
         }
     }
     Ok(without_extra_bits(masks, settings))
@@ -656,6 +686,7 @@ fn open_masks(points: usize, settings: &AoSettings) -> VisibilityMasks {
 /// writes their masks into `masks`.
 fn cast_subset(
     mesh: &Mesh,
+    cutouts: Option<Cutouts>,
     what: &str,
     points: &[AoPoint],
     selected: impl Fn(usize) -> bool,
@@ -666,7 +697,8 @@ fn cast_subset(
     if chosen.is_empty() {
         return Ok(());
     }
-    let mut tracer = Tracer::build_labelled(&Device::cpu(), mesh, &Reporter::silent(), what)?;
+    let mut tracer =
+        Tracer::build_labelled(&Device::cpu(), mesh, &Reporter::silent(), what)?.with_cutouts(cutouts.map(Arc::new));
     let subset: Vec<AoPoint> = chosen.iter().map(|&i| points[i]).collect();
     let cast = tracer.ao_visibility(&subset, settings, &Bar::hidden())?.value;
     let words = masks.words_per_point as usize;

@@ -16,7 +16,10 @@
 //! field` shows both). The winner's fields are returned ready, so the run
 //! does not build them again.
 
+use crate::scene::cutouts::Cutouts;
+use crate::scene::texture_table::DEFAULT_TEXTURE_BYTES;
 use std::path::Path;
+use std::sync::Arc;
 use std::time::Instant;
 
 use glam::Vec3;
@@ -301,7 +304,14 @@ impl Budgeted for FieldBudget<'_> {
         sample.sort_by_key(|&i| hash_u32(i as u32 ^ settings.seed.rotate_left(16)));
         sample.truncate(SAMPLE_VERTICES);
         let sampled: Vec<_> = sample.iter().map(|&i| points[i]).collect();
-        let mut tracer = Tracer::build_labelled(&self.device, &casters(self.scene, 0)?, bars, "casters")?;
+        let cutouts = Cutouts::of_scene(
+            self.scene,
+            crate::scene::Role::casts,
+            DEFAULT_TEXTURE_BYTES,
+            &mut Vec::new(),
+        );
+        let mut tracer = Tracer::build_labelled(&self.device, &casters(self.scene, 0)?, bars, "casters")?
+            .with_cutouts(cutouts.map(Arc::new));
         self.truth = tracer
             .ao_visibility(&sampled, settings, &Bar::hidden())?
             .value

@@ -270,7 +270,7 @@ pub const TRACE_RAYS_MODULE: Composition = Composition {
 pub const AO_RAYS_MODULE: Composition = Composition {
     name: "ao_rays",
     parts: &[SAMPLING, FRAME, KDTREE_TRAVERSE, TEXTURE_MAPS, AO_RAYS],
-    demands: Demands::compute(6),
+    demands: Demands::compute(7),
 };
 
 /// `WHITTED` with its pixel entries (no ray-tree recording).

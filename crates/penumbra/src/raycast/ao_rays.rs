@@ -9,6 +9,8 @@ use crate::accel::{Accel, Structure};
 use crate::geom::sampling::SampleSequence;
 use crate::geom::simd::Isa;
 use crate::progress::Bar;
+use crate::raycast::holes::closest_past_holes;
+use crate::scene::cutouts::Cutouts;
 
 /// How the CPU casts a point's AO rays; every way gives the same bits.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -38,6 +40,21 @@ pub fn ao_rays_by(
     progress: &Bar,
     casting: Casting,
 ) -> VisibilityMasks {
+    ao_rays_through(accel, None, points, settings, progress, casting)
+}
+
+/// `ao_rays_by` with the holes of `cutouts` (of the traced mesh) let
+/// through: a ray found blocked is cast again, closest hit after closest
+/// hit, past every hole it meets (`holes::closest_past_holes`; the twin of
+/// `ao_rays` in wgsl/ao_rays.wgsl with its cut-outs bound).
+pub fn ao_rays_through(
+    accel: &Accel,
+    cutouts: Option<&Cutouts>,
+    points: &[AoPoint],
+    settings: &AoSettings,
+    progress: &Bar,
+    casting: Casting,
+) -> VisibilityMasks {
     let words = settings.words_per_point() as usize;
     let seq = SampleSequence::new(settings.seed);
     let mut bits = vec![0u32; points.len() * words];
@@ -46,6 +63,9 @@ pub fn ao_rays_by(
         .with_min_len(16)
         .for_each(|(mask, point)| {
             point_visibility(accel, &seq, point, settings, casting, mask);
+            if let Some(cutouts) = cutouts {
+                open_holes(accel, cutouts, &seq, point, settings, casting, mask);
+            }
             progress.inc(1);
         });
     VisibilityMasks {
@@ -83,6 +103,46 @@ fn point_visibility(
                     mask[(j / 32) as usize] |= 1 << (j % 32);
                 }
             }
+        }
+    }
+}
+
+/// Sets the bits of the rays of `point` that `point_visibility` found
+/// blocked but that escape through cut-out holes.
+fn open_holes(
+    accel: &Accel,
+    cutouts: &Cutouts,
+    seq: &SampleSequence,
+    point: &AoPoint,
+    settings: &AoSettings,
+    casting: Casting,
+    mask: &mut [u32],
+) {
+    if !point.has_hemisphere() {
+        return;
+    }
+    let structure = match casting {
+        Casting::Packets(structure, _) => structure,
+        Casting::Single => Structure::Kdtree,
+    };
+    let origin = Vec3::from_array(point.origin);
+    let dirs = PointDirections::new(seq, point.stream, Vec3::from_array(point.normal));
+    let triangles = &accel.kdtree().triangles;
+    for j in 0..settings.rays_per_point {
+        let (word, bit) = ((j / 32) as usize, 1 << (j % 32));
+        if mask[word] & bit != 0 {
+            continue;
+        }
+        let hit = closest_past_holes(
+            cutouts,
+            triangles,
+            origin,
+            dirs.direction(j),
+            settings.radius,
+            |o, d, t| accel.closest_hit(structure, o, d, t),
+        );
+        if !hit.is_hit() {
+            mask[word] |= bit;
         }
     }
 }

@@ -11,7 +11,10 @@ use crate::accel::BvhStats;
 use crate::error::Result;
 use crate::gpu::device::Device;
 use crate::progress::Reporter;
-use crate::scene::{Mesh, Scene, View};
+use crate::scene::cutouts::Cutouts;
+use crate::scene::texture_table::DEFAULT_TEXTURE_BYTES;
+use crate::scene::{Mesh, Role, Scene, View};
+use std::sync::Arc;
 
 /// Ambient occlusion of a mesh or a scene by ray casting: for each point,
 /// the fraction of `rays_per_point` cosine-distributed rays that escape
@@ -43,6 +46,11 @@ pub struct AmbientOcclusion<'s> {
     casters: Option<Tracer>,
     /// Every instance's, for primary visibility, when not all of them cast.
     everything: Option<Tracer>,
+    /// The casters' alpha cut-outs, holes for every AO ray.
+    cutouts: Option<Arc<Cutouts>>,
+    /// Every instance's, holes for primary rays.
+    all_cutouts: Option<Arc<Cutouts>>,
+    warnings: Vec<String>,
     progress: Reporter,
 }
 
@@ -63,12 +71,21 @@ impl<'s> AmbientOcclusion<'s> {
     fn of(device: &Device, scene: Cow<'s, Scene>) -> Result<AmbientOcclusion<'s>> {
         let occluders = casters(&scene, 0)?;
         receivers(&scene, 0)?;
+        let mut warnings = Vec::new();
+        let cutouts = Cutouts::of_scene(&scene, Role::casts, DEFAULT_TEXTURE_BYTES, &mut warnings).map(Arc::new);
+        let all_cutouts = match scene.instances.iter().all(|i| i.role.casts()) {
+            true => cutouts.clone(),
+            false => Cutouts::of_scene(&scene, |_| true, DEFAULT_TEXTURE_BYTES, &mut Vec::new()).map(Arc::new),
+        };
         Ok(AmbientOcclusion {
             device: device.clone(),
             scene,
             occluders,
             casters: None,
             everything: None,
+            cutouts,
+            all_cutouts,
+            warnings,
             progress: Reporter::silent(),
         })
     }
@@ -88,7 +105,7 @@ impl<'s> AmbientOcclusion<'s> {
     fn casters(&mut self) -> Result<&mut Tracer> {
         if self.casters.is_none() {
             let tracer = Tracer::build_labelled(&self.device, &self.occluders, &self.progress, "casters")?;
-            self.casters = Some(tracer);
+            self.casters = Some(tracer.with_cutouts(self.cutouts.clone()));
         }
         Ok(self.casters.as_mut().expect("built above"))
     }
@@ -118,7 +135,7 @@ impl<'s> AmbientOcclusion<'s> {
         let everything = self.scene.world_mesh(|_| true);
         if everything.triangles.len() != self.occluders.triangles.len() && self.everything.is_none() {
             let all = Tracer::build_labelled(&self.device, &everything, &self.progress, "all instances")?;
-            self.everything = Some(all);
+            self.everything = Some(all.with_cutouts(self.all_cutouts.clone()));
         }
         let primary = match self.everything.as_mut() {
             Some(all) => all,
@@ -133,6 +150,18 @@ impl<'s> AmbientOcclusion<'s> {
     /// The casters' triangle count.
     pub fn caster_triangles(&self) -> usize {
         self.occluders.triangles.len()
+    }
+
+    /// The casters' triangles with an alpha cut-out (MTL `map_d`, glTF
+    /// `alphaMode` MASK or BLEND): rays pass their holes.
+    pub fn cutout_triangles(&self) -> usize {
+        self.cutouts.as_ref().map_or(0, |c| c.records.len())
+    }
+
+    /// Problems that did not stop the work (a cut-out's image that cannot
+    /// be read: its triangles are then opaque).
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
     }
 
     /// What building the casters' kd-tree cost, in milliseconds (0 before

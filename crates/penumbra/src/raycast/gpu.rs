@@ -64,16 +64,20 @@ impl AoRays {
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub(crate) struct AoRaysUniforms {
     pub rays: AoRays,
-    pub _pad: [u32; 2],
+    /// 1 where binding 4 holds the traced mesh's cut-outs.
+    pub has_cutouts: u32,
+    pub _pad: u32,
 }
 
 /// The AO pass's io: points (8 words each), visibility masks (read-write
-/// atomics), params, samples (written by the `ao_samples` check only).
+/// atomics), params, samples (written by the `ao_samples` check only), the
+/// traced mesh's cut-outs (`Cutouts::words`).
 const AO_IO: &[Io] = &[
     Io::In(0, "ao points"),
     Io::Out(1, "ao visible"),
     Io::Uniform(2, "ao params", std::mem::size_of::<AoRaysUniforms>() as u64),
     Io::Out(3, "ao samples"),
+    Io::In(4, "ao cutouts"),
 ];
 
 /// The pipelines of `ao_rays.wgsl` for one device (`ao_rays`, `ao_samples`).
@@ -104,9 +108,20 @@ impl TreeKernelSet for AoRaysKernels {
 pub type AoRaysPass = TreePass<AoRaysKernels>;
 
 impl TreePass<AoRaysKernels> {
+    /// Uploads the traced mesh's cut-outs (`Cutouts::words`), or none:
+    /// rays then stop at the first triangle they hit.
+    pub fn prepare_cutouts(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, words: Option<&[u32]>) -> Result<()> {
+        let io = self.io();
+        match words {
+            Some(w) => io.write(device, queue, 4, bytemuck::cast_slice(w)),
+            None => io.reserve(device, 4, 16),
+        }
+    }
+
     /// Uploads `points` (whole points, at most what the bindings hold) for
     /// `settings`; with `samples` the pass writes every ray's sample point
-    /// and direction instead of tracing (the `ao_samples` check).
+    /// and direction instead of tracing (the `ao_samples` check); with
+    /// `cutouts` rays pass the holes `prepare_cutouts` uploaded.
     pub fn prepare(
         &mut self,
         device: &wgpu::Device,
@@ -114,6 +129,7 @@ impl TreePass<AoRaysKernels> {
         points: &[AoPoint],
         settings: &AoSettings,
         samples: bool,
+        cutouts: bool,
     ) -> Result<()> {
         settings.validate()?;
         let words = (points.len() * settings.words_per_point() as usize) as u64;
@@ -123,8 +139,13 @@ impl TreePass<AoRaysKernels> {
         if samples {
             ao.radius = f32::MAX;
         }
-        let params = AoRaysUniforms { rays: ao, _pad: [0; 2] };
+        let params = AoRaysUniforms {
+            rays: ao,
+            has_cutouts: cutouts as u32,
+            _pad: 0,
+        };
         let io = self.io();
+        io.reserve(device, 4, 16)?;
         io.write(device, queue, 0, bytemuck::cast_slice(points))?;
         io.reserve(device, 1, words * 4)?;
         io.write(device, queue, 2, bytemuck::bytes_of(&params))?;
@@ -166,12 +187,15 @@ pub type AoRaysBatches = Batched<AoRaysPass>;
 impl Batched<AoRaysPass> {
     /// Casts the AO rays of `points` (blocking), about `rays_per_batch` rays
     /// per dispatch (whole points, at least one per batch, no more than the
-    /// device's bindings hold); returns the masks and the kernels' time
-    /// where timestamps exist.
+    /// device's bindings hold), through the holes of `cutouts`
+    /// (`Cutouts::words` of the tree's mesh) if given; returns the masks
+    /// and the kernels' time where timestamps exist.
+    #[allow(clippy::too_many_arguments)]
     pub fn visibility(
         &mut self,
         ctx: &GpuContext,
         tree: &GpuKdTree,
+        cutouts: Option<&[u32]>,
         points: &[AoPoint],
         settings: &AoSettings,
         progress: &Bar,
@@ -183,11 +207,19 @@ impl Batched<AoRaysPass> {
         let fit = fit_items(&ctx.device, &[AO_POINT_BYTES, mask_bytes], mask_bytes);
         let per_batch = ((rays_per_batch / settings.rays_per_point as u64).max(1) as usize).min(fit);
         let mut bits = Vec::with_capacity(points.len() * words);
+        self.pass.prepare_cutouts(&ctx.device, &ctx.queue, cutouts)?;
         let mut batch = TreeBatch {
             pass: &mut self.pass,
             tree,
             prepare: |pass: &mut AoRaysPass, ctx: &GpuContext, items: Range<usize>| {
-                pass.prepare(&ctx.device, &ctx.queue, &points[items], settings, false)
+                pass.prepare(
+                    &ctx.device,
+                    &ctx.queue,
+                    &points[items],
+                    settings,
+                    false,
+                    cutouts.is_some(),
+                )
             },
         };
         let plan = BatchPlan::new(points.len(), per_batch, 1);
@@ -213,7 +245,7 @@ pub fn ray_samples_gpu(
     settings: &AoSettings,
 ) -> Result<Vec<([f32; 2], [f32; 3])>> {
     let mut pass = AoRaysPass::for_context(ctx);
-    pass.prepare(&ctx.device, &ctx.queue, points, settings, true)?;
+    pass.prepare(&ctx.device, &ctx.queue, points, settings, true, false)?;
     // `ao_samples` traces nothing, but its pipeline layout includes a tree.
     let tree = placeholder_tree(&ctx.device)?;
     let mut encoder = ctx.device.create_command_encoder(&Default::default());

@@ -11,6 +11,7 @@
 pub mod ao_rays;
 mod entry;
 pub mod gpu;
+pub mod holes;
 pub(crate) mod packets;
 pub mod points;
 pub mod report;

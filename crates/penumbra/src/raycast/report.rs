@@ -240,6 +240,9 @@ pub struct Casters {
     pub instances: Option<usize>,
     /// The casters' triangles, merged.
     pub triangles: usize,
+    /// Those with an alpha cut-out, whose holes every ray passes.
+    #[serde(skip_serializing_if = "crate::report::is_zero")]
+    pub cutout_triangles: usize,
 }
 
 /// `ao --method raycast`'s report.
@@ -270,6 +273,7 @@ impl RaycastReport {
             casters: Casters {
                 instances: None,
                 triangles: ao.caster_triangles,
+                cutout_triangles: ao.cutout_triangles,
             },
             bvh: ao.bvh.clone(),
         }

@@ -74,6 +74,10 @@ impl PixelAo {
 pub struct RaycastAo {
     /// The casters' triangles, merged.
     pub caster_triangles: usize,
+    /// Those with an alpha cut-out, whose holes rays pass.
+    pub cutout_triangles: usize,
+    /// Problems that did not stop the work.
+    pub warnings: Vec<String>,
     /// The casters' kd-tree build.
     pub build_ms: f64,
     /// On the CPU, the wide BVH the AO packets walked (`accel::Structure`).
@@ -111,6 +115,8 @@ pub fn raycast(device: &Device, scene: &Scene, request: &AoRequest, bars: &Repor
     };
     Ok(RaycastAo {
         caster_triangles: ao.caster_triangles(),
+        cutout_triangles: ao.cutout_triangles(),
+        warnings: ao.warnings().to_vec(),
         build_ms: ao.build_ms(),
         bvh: ao.bvh_stats().cloned(),
         vertices,

@@ -18,11 +18,15 @@ use crate::geom::simd::Isa;
 use crate::gpu::GpuContext;
 use crate::gpu::device::{Device, GpuOutput, OnDevice, Timed, Timing};
 use crate::progress::{Bar, Reporter};
-use crate::raycast::ao_rays::{Casting, ao_rays_by};
+use crate::raycast::ao_rays::{Casting, ao_rays_through};
 use crate::raycast::gpu::AoRaysBatches;
+use crate::raycast::holes::closest_past_holes;
 use crate::raycast::{AoPoint, AoSettings, VisibilityMasks};
 use crate::report::repeats::{Repeats, RunTimes};
 use crate::scene::Mesh;
+use crate::scene::cutouts::Cutouts;
+use glam::Vec3;
+use std::sync::Arc;
 
 /// The kd-tree builder's settings for a tree walked on `device`: the CPU's
 /// (`KdTreeSettings::for_cpu`, larger leaves for its vector lanes) or the
@@ -117,6 +121,8 @@ pub struct Tracer {
     gpu: OnDevice<GpuTracer>,
     structure: Structure,
     bvh_stats: Option<BvhStats>,
+    /// The mesh's alpha cut-outs and their words as the kernels read them.
+    cutouts: Option<(Arc<Cutouts>, Vec<u32>)>,
 }
 
 impl Tracer {
@@ -163,7 +169,26 @@ impl Tracer {
             gpu,
             structure: Structure::default(),
             bvh_stats: None,
+            cutouts: None,
         })
+    }
+
+    /// Rays pass the holes of `cutouts` (of this tracer's mesh, triangle
+    /// for triangle): AO rays on either device (`ao_rays_through`, the
+    /// `ao_rays` kernel), and closest hits (`closest`), whose hits in a
+    /// hole are followed on past it on the CPU.
+    #[must_use]
+    pub fn with_cutouts(mut self, cutouts: Option<Arc<Cutouts>>) -> Tracer {
+        self.cutouts = cutouts.map(|c| {
+            let words = c.words();
+            (c, words)
+        });
+        self
+    }
+
+    /// The cut-outs rays pass, if any.
+    pub fn cutouts(&self) -> Option<&Cutouts> {
+        self.cutouts.as_ref().map(|c| &*c.0)
     }
 
     /// The structure of single rays and AO packets on the CPU.
@@ -226,7 +251,7 @@ impl Tracer {
     fn closest_by(&mut self, rays: &[Ray], cpu: fn(&Accel, Structure, &[Ray]) -> Vec<Hit>) -> Result<Timed<Vec<Hit>>> {
         let structure = self.ready_structure().unwrap_or(Structure::Kdtree);
         let accel = &self.accel;
-        self.gpu.run(
+        let mut traced = self.gpu.run(
             |ctx, g| {
                 let traced = g.trace(ctx, rays, TraceMode::Closest)?;
                 Ok(GpuOutput {
@@ -235,7 +260,11 @@ impl Tracer {
                 })
             },
             || Ok(cpu(accel, structure, rays)),
-        )
+        )?;
+        if let Some((cutouts, _)) = &self.cutouts {
+            follow_past_holes(accel, structure, cutouts, rays, &mut traced.value);
+        }
+        Ok(traced)
     }
 
     /// Traversal steps and intersection tests of the closest hits of
@@ -270,19 +299,47 @@ impl Tracer {
         settings.validate()?;
         let structure = self.ready_structure().unwrap_or(Structure::Kdtree);
         let accel = &self.accel;
+        let cutouts = self.cutouts.as_ref();
         self.gpu.run(
             |ctx, g| {
                 let batches = g.ao.get_or_insert_with(|| AoRaysBatches::new(ctx));
                 let rays_per_batch = crate::raycast::gpu::RAYS_PER_BATCH;
-                let (masks, gpu_ms) = batches.visibility(ctx, &g.tree, points, settings, progress, rays_per_batch)?;
+                let words = cutouts.map(|c| c.1.as_slice());
+                let (masks, gpu_ms) =
+                    batches.visibility(ctx, &g.tree, words, points, settings, progress, rays_per_batch)?;
                 Ok(GpuOutput { value: masks, gpu_ms })
             },
             || {
                 let casting = Casting::Packets(structure, Isa::best());
-                Ok(ao_rays_by(accel, points, settings, progress, casting))
+                let cutouts = cutouts.map(|c| &*c.0);
+                Ok(ao_rays_through(accel, cutouts, points, settings, progress, casting))
             },
         )
     }
+}
+
+/// Hits of `rays` that fall in a cut-out's hole, followed on past it (and
+/// any holes after) on the CPU: few rays hit a hole, so the GPU's answer
+/// for the rest stands.
+fn follow_past_holes(accel: &Accel, structure: Structure, cutouts: &Cutouts, rays: &[Ray], hits: &mut [Hit]) {
+    use rayon::prelude::*;
+    let triangles = &accel.kdtree().triangles;
+    hits.par_iter_mut()
+        .zip(rays.par_iter())
+        .with_min_len(256)
+        .for_each(|(hit, ray)| {
+            if !hit.is_hit() {
+                return;
+            }
+            let (o, d) = (Vec3::from_array(ray.origin), Vec3::from_array(ray.dir));
+            let v = triangles[hit.triangle as usize];
+            if !cutouts.is_hole(hit.triangle, v, o + d * hit.t) {
+                return;
+            }
+            *hit = closest_past_holes(cutouts, triangles, o, d, f32::INFINITY, |o, d, t| {
+                accel.closest_hit(structure, o, d, t)
+            });
+        });
 }
 
 impl GpuTracer {

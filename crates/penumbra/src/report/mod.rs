@@ -8,3 +8,9 @@ pub(crate) mod skipped;
 pub fn mrays_per_s(rays: usize, ms: f64) -> f64 {
     if ms > 0.0 { rays as f64 / (ms * 1e3) } else { 0.0 }
 }
+
+/// Whether a count is zero (serde's `skip_serializing_if` for counts a
+/// report states only when something was counted).
+pub fn is_zero(n: &usize) -> bool {
+    *n == 0
+}

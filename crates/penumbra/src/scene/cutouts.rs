@@ -14,7 +14,7 @@ use std::collections::HashMap;
 use glam::{Vec2, Vec3};
 
 use super::texture_table::{MapRecord, MapUse, NO_MAP, TextureTable, TextureTableBuilder};
-use super::{Role, Scene};
+use super::{Instance, MeshShading, Role, Scene, SceneMesh};
 use crate::geom::offset::{max_abs, offset_point};
 
 /// Holes a ray passes before the next surface counts as hit, whatever it
@@ -50,59 +50,38 @@ impl Cutouts {
     /// such triangle has a cut-out map that can be read (one warning in
     /// `warnings` per image that cannot, as the renderer gives). Texels are
     /// kept within `budget` bytes (`TextureTableBuilder::finish`).
-    pub fn of_scene(scene: &Scene, keep: impl Fn(Role) -> bool, budget: u64, warnings: &mut Vec<String>) -> Option<Cutouts> {
-        let mut builder = TextureTableBuilder::default();
-        let mut map_ids: HashMap<(usize, u32), Option<u32>> = HashMap::new();
-        let mut triangles = Vec::new();
-        let mut records = Vec::new();
-        for inst in scene.instances.iter().filter(|i| keep(i.role)) {
+    pub fn of_scene(
+        scene: &Scene,
+        keep: impl Fn(Role) -> bool,
+        budget: u64,
+        warnings: &mut Vec<String>,
+    ) -> Option<Cutouts> {
+        Cutouts::of_instances(scene, |_, i| keep(i.role), budget, warnings)
+    }
+
+    /// `of_scene` for the instances (index, instance) that `keep` picks.
+    pub fn of_instances(
+        scene: &Scene,
+        keep: impl Fn(usize, &Instance) -> bool,
+        budget: u64,
+        warnings: &mut Vec<String>,
+    ) -> Option<Cutouts> {
+        let mut parts = Parts::default();
+        for (_, inst) in scene.instances.iter().enumerate().filter(|(k, i)| keep(*k, i)) {
             let source = &scene.meshes[inst.mesh];
-            let count = source.mesh.triangles.len();
-            let scene_material = inst
-                .material
-                .as_ref()
-                .and_then(|name| scene.materials.iter().position(|m| &m.name == name));
-            let Some(shading) = source.shading.as_ref().filter(|_| scene_material.is_none()) else {
-                // A scene material has no texture coordinates to read a map
-                // through; a bare mesh has no maps.
-                triangles.extend(std::iter::repeat_n(NO_MAP, count));
-                continue;
-            };
-            for t in 0..count {
-                let m = shading.triangle_materials[t];
-                let map = *map_ids.entry((inst.mesh, m)).or_insert_with(|| {
-                    let material = shading.materials.get(m as usize)?;
-                    let alpha = material.maps.alpha.as_deref()?;
-                    let usage = MapUse::Alpha {
-                        luminance: alpha.luminance,
-                    };
-                    let id = builder.add(&alpha.map, usage, &material.name, warnings)?;
-                    builder.cut_out(id, alpha.factor, alpha.cutoff);
-                    Some(id)
-                });
-                let uv = shading
-                    .corner_texcoords
-                    .get(t)
-                    .copied()
-                    .flatten()
-                    .map(|c| c.map(|i| shading.texcoords[i as usize]));
-                match (map, uv) {
-                    (Some(map), Some(uv)) => {
-                        triangles.push(records.len() as u32);
-                        records.push(CutoutTriangle { map, uv });
-                    }
-                    _ => triangles.push(NO_MAP),
-                }
-            }
+            // A scene material has no texture coordinates to read a map
+            // through; a bare mesh has no maps.
+            let shading = source.shading.as_ref().filter(|_| inst.material.is_none());
+            parts.add(inst.mesh, source.mesh.triangles.len(), shading, warnings);
         }
-        if records.is_empty() {
-            return None;
-        }
-        Some(Cutouts {
-            table: builder.finish(budget, warnings),
-            triangles,
-            records,
-        })
+        parts.finish(budget, warnings)
+    }
+
+    /// The cut-outs of one mesh (in its own triangle order), as `of_scene`.
+    pub fn of_mesh(mesh: &SceneMesh, budget: u64, warnings: &mut Vec<String>) -> Option<Cutouts> {
+        let mut parts = Parts::default();
+        parts.add(0, mesh.mesh.triangles.len(), mesh.shading.as_ref(), warnings);
+        parts.finish(budget, warnings)
     }
 
     /// Whether triangle `tri` (corners `v`) has a hole at `p`, a point on
@@ -154,6 +133,64 @@ impl Cutouts {
     }
 }
 
+/// Cut-outs gathered mesh after mesh.
+#[derive(Default)]
+struct Parts {
+    builder: TextureTableBuilder,
+    /// Each (mesh, material)'s map, None where it has none.
+    map_ids: HashMap<(usize, u32), Option<u32>>,
+    triangles: Vec<u32>,
+    records: Vec<CutoutTriangle>,
+}
+
+impl Parts {
+    /// The `count` triangles of mesh `mesh` (`shading` its materials).
+    fn add(&mut self, mesh: usize, count: usize, shading: Option<&MeshShading>, warnings: &mut Vec<String>) {
+        let Some(shading) = shading else {
+            self.triangles.extend(std::iter::repeat_n(NO_MAP, count));
+            return;
+        };
+        for t in 0..count {
+            let m = shading.triangle_materials[t];
+            let builder = &mut self.builder;
+            let map = *self.map_ids.entry((mesh, m)).or_insert_with(|| {
+                let material = shading.materials.get(m as usize)?;
+                let alpha = material.maps.alpha.as_deref()?;
+                let usage = MapUse::Alpha {
+                    luminance: alpha.luminance,
+                };
+                let id = builder.add(&alpha.map, usage, &material.name, warnings)?;
+                builder.cut_out(id, alpha.factor, alpha.cutoff);
+                Some(id)
+            });
+            let uv = shading
+                .corner_texcoords
+                .get(t)
+                .copied()
+                .flatten()
+                .map(|c| c.map(|i| shading.texcoords[i as usize]));
+            match (map, uv) {
+                (Some(map), Some(uv)) => {
+                    self.triangles.push(self.records.len() as u32);
+                    self.records.push(CutoutTriangle { map, uv });
+                }
+                _ => self.triangles.push(NO_MAP),
+            }
+        }
+    }
+
+    fn finish(self, budget: u64, warnings: &mut Vec<String>) -> Option<Cutouts> {
+        if self.records.is_empty() {
+            return None;
+        }
+        Some(Cutouts {
+            table: self.builder.finish(budget, warnings),
+            triangles: self.triangles,
+            records: self.records,
+        })
+    }
+}
+
 /// The barycentric coordinates (of corners 1 and 2) of `p` in the plane of
 /// triangle `v`, by the normal equations of `p - v0 = b1 e1 + b2 e2`
 /// (0, 0 for a degenerate triangle). The twin of `cutout_barycentrics` in
@@ -172,7 +209,13 @@ pub fn barycentrics(v: [Vec3; 3], p: Vec3) -> (f32, f32) {
 /// Where a ray along `d` goes on after the hole it hit at `p` on triangle
 /// `v`: just past the triangle's plane on the far side.
 pub fn past_hole(v: [Vec3; 3], p: Vec3, d: Vec3) -> Vec3 {
-    let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+    let c = (v[1] - v[0]).cross(v[2] - v[0]);
+    let len2 = c.dot(c);
+    let n = if len2 > 0.0 {
+        c * (1.0 / len2.sqrt())
+    } else {
+        Vec3::ZERO
+    };
     let through = if n.dot(d) > 0.0 { n } else { -n };
     let magnitude = max_abs(v[0]).max(max_abs(v[1])).max(max_abs(v[2]));
     offset_point(p, through, magnitude)

@@ -10,9 +10,9 @@
 //! `mesh` for everyone.
 
 pub mod animated;
-pub mod cutouts;
 mod camera;
 mod camera_path;
+pub mod cutouts;
 pub(crate) mod deform;
 pub mod environment;
 pub mod frame;

@@ -107,7 +107,9 @@ pub fn scene_records(scene: &RenderScene) -> (Vec<u8>, RecordsAt) {
     let maps = (records.len() / 16) as u32;
     let table = &scene.textures;
     records.extend_from_slice(bytemuck::cast_slice(&table.srgb));
-    let texels_at = (records.len() / 4 + table.maps.len() * std::mem::size_of::<crate::scene::texture_table::MapRecord>() / 4) as u32;
+    let texels_at = (records.len() / 4
+        + table.maps.len() * std::mem::size_of::<crate::scene::texture_table::MapRecord>() / 4)
+        as u32;
     for m in &table.maps {
         let m = crate::scene::texture_table::MapRecord {
             texels_at: texels_at + m.texels_at,

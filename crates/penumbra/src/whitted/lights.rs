@@ -21,8 +21,8 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use crate::error::{Error, Result};
-use crate::geom::sampling::SampleSequence;
 use crate::geom::offset::{max_abs, offset_point};
+use crate::geom::sampling::SampleSequence;
 
 /// `LightSample::kind`: a point light at `position`.
 pub const POINT: u32 = 0;

@@ -10,9 +10,9 @@ use glam::Vec3;
 
 use crate::error::{Error, Result};
 use crate::scene::mtl_rules::{RuleApplied, SceneMaterials};
+use crate::scene::texture_table::{DEFAULT_TEXTURE_BYTES, MapUse, NO_MAP, TextureTable, TextureTableBuilder};
 use crate::scene::{Light, Material, Mesh, MeshObject, MtlRules, Scene};
 use crate::whitted::lights::{Emitter, LightSample, check_light_count};
-use crate::scene::texture_table::{DEFAULT_TEXTURE_BYTES, MapUse, NO_MAP, TextureTable, TextureTableBuilder};
 use crate::whitted::sphere::Sphere;
 use crate::whitted::surface::Surface;
 

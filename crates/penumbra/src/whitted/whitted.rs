@@ -24,11 +24,11 @@ use glam::{Vec2, Vec3};
 
 use super::tree_records::TreeRay;
 use crate::accel::kdtree::KdTree;
+use crate::geom::offset::{max_abs, offset_point};
 use crate::geom::ray::Hit;
 use crate::geom::sampling::SampleSequence;
-use crate::whitted::lights::{DIRECTIONAL, LightSample};
 use crate::scene::texture_table::NO_MAP;
-use crate::geom::offset::{max_abs, offset_point};
+use crate::whitted::lights::{DIRECTIONAL, LightSample};
 use crate::whitted::optics::{reflect_dir, refract_dir, schlick, schlick_mirror};
 use crate::whitted::ray_tree::{
     FNV_OFFSET, LightCode, NodeLights, NodeOccluders, RayKind, RayNode, RayTree, TreeHit, children_word, fnv_word,

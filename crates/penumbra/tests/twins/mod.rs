@@ -157,7 +157,7 @@ pub fn compare_ao(ctx: &GpuContext, name: &str, mesh: &Mesh, rays_per_point: u32
     };
     let cpu = ao_rays(&accel, &points, &settings, &Bar::hidden());
     let (gpu, _) = AoRaysBatches::new(ctx)
-        .visibility(ctx, &gpu_tree, &points, &settings, &Bar::hidden(), RAYS_PER_BATCH)
+        .visibility(ctx, &gpu_tree, None, &points, &settings, &Bar::hidden(), RAYS_PER_BATCH)
         .unwrap();
     let total = points.len() as u64 * rays_per_point as u64;
     let differing = cpu.differing_rays(&gpu);
