@@ -1073,8 +1073,9 @@ impl Predicate<'_> {
     ) -> Option<f64> {
         let p = occluder.filter(|&p| p != u32::MAX)?;
         let shading = self.w.scene.surface(self.w.scene.primitive_surface(p));
-        if shading.mapped() {
+        if shading.map_alpha != crate::scene::texture_table::NO_MAP {
             // A cut-out's holes let some shadow rays through: unknown.
+            // Colour maps do not change what an opaque occluder blocks.
             return None;
         }
         let t_max = match end {
