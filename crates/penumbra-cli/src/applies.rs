@@ -31,7 +31,9 @@ pub fn rules(command: &Command) -> Vec<Rule> {
         Command::Ssao(a) => ssao_rules(a),
         Command::Prt(a) => prt_rules(a),
         Command::Sweep(a) => sweep_rules(a),
-        Command::Info(_) | Command::TraceRays(_) | Command::Field(_) | Command::GenAssets(_) => Vec::new(),
+        Command::Info(_) | Command::TraceRays(_) | Command::Field(_) | Command::GenAssets(_) | Command::Bake(_) => {
+            Vec::new()
+        }
     }
 }
 

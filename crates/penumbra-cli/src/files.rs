@@ -21,6 +21,11 @@ pub fn of(command: &Command) -> Files {
             f.input("--rays", &Some(a.rays.clone()));
             f.output("--out", &Some(a.out.clone()));
         }
+        Command::Bake(a) => {
+            f.mesh("--mesh", &Some(a.mesh.clone()));
+            f.output("--out", &Some(a.out.clone()));
+            f.output("--texture", &a.texture);
+        }
         Command::Ao(a) => {
             f.mesh("--mesh", &a.mesh);
             f.mesh("--receiver", &a.receiver);

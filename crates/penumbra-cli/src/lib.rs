@@ -12,6 +12,7 @@
 mod ao;
 mod applies;
 mod args;
+mod bake;
 mod field;
 mod files;
 mod gen_assets;
@@ -56,6 +57,8 @@ enum Command {
     TraceRays(trace_rays::TraceRaysArgs),
     /// Ambient occlusion per vertex (CSV) and/or per pixel (PNG).
     Ao(ao::AoArgs),
+    /// Bake ambient occlusion into an asset: a GLB with an AO texture and per-vertex AO.
+    Bake(bake::BakeArgs),
     /// Primary rays from a camera, with traversal statistics.
     Trace(trace::TraceArgs),
     /// Self-shadowed rendering under an environment map, transfer recomputed every frame.
@@ -142,6 +145,7 @@ fn dispatch(command: Command) -> Result<()> {
         Command::Info(a) => emit(a.json, info::run(&a)?),
         Command::TraceRays(a) => emit(a.common.json, trace_rays::run(&a)?),
         Command::Ao(a) => emit(a.common.json, ao::run(&a)?),
+        Command::Bake(a) => emit(a.common.json, bake::run(&a)?),
         Command::Trace(a) => emit(a.common.json, trace::run(&a)?),
         Command::Prt(a) => emit(a.common.json, prt::run(&a)?),
         Command::Field(a) => emit(field::json_flag(&a), field::run(&a)?),

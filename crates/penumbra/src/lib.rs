@@ -44,6 +44,8 @@
 #![warn(missing_docs)]
 
 pub mod accel;
+#[cfg(all(feature = "gltf", feature = "png"))]
+pub mod bake;
 pub mod bounded;
 pub(crate) mod choice;
 pub mod error;

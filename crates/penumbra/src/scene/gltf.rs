@@ -36,13 +36,14 @@
 
 mod accessor;
 mod camera;
-mod container;
+pub(crate) mod container;
 mod material;
 mod nodes;
 mod out;
 mod rig;
 #[cfg(test)]
 mod tests;
+pub mod write;
 
 use std::path::Path;
 
@@ -56,7 +57,7 @@ use glam::{DMat4, Vec2, Vec3};
 use super::animated::Animation;
 use super::mesh::MeshObject;
 use super::mesh_file::is_glb;
-use super::obj::ObjFile;
+use super::obj::{ObjFile, PrimitiveSpan};
 use super::texture::TextureSource;
 use crate::error::{Error, Result};
 use nodes::{Instance, instances};
@@ -242,9 +243,16 @@ impl Reader<'_> {
                 primitive.index()
             );
             let first = self.out.positions.len();
-            if let Some(base) = self.primitive(&field, &primitive, instance.world)?
-                && self.rig
-            {
+            let Some(base) = self.primitive(&field, &primitive, instance.world)? else {
+                continue;
+            };
+            self.out.primitives.push(PrimitiveSpan {
+                mesh: mesh.index(),
+                primitive: primitive.index(),
+                first_vertex: first as u32,
+                vertices: base.len() as u32,
+            });
+            if self.rig {
                 let piece = self.piece(&field, instance, &primitive, first, base)?;
                 self.pieces.push(piece);
             }
@@ -349,9 +357,8 @@ impl Reader<'_> {
         };
         let triangles = assemble(mode, &indices).map_err(fail)?;
         let material = self.material(p.material())?;
-        // Texture coordinates matter only under a texture.
-        let mapped = !self.out.materials[material as usize].maps.is_empty();
-        let texcoords = match p.get(&Semantic::TexCoords(0)).filter(|_| mapped) {
+        // Read wherever present: textures need them, and so does baking.
+        let texcoords = match p.get(&Semantic::TexCoords(0)) {
             Some(a) => {
                 let buffer = self.buffer_of(&a).map_err(attribute("TEXCOORD_0")).map_err(fail)?;
                 let uv = accessor::floats(&a, buffer, Dimensions::Vec2)

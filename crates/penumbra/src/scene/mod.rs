@@ -43,6 +43,8 @@ pub use camera::{Camera, CameraRays, CameraSpec, MAX_PIXELS, PixelDirections, Vi
 pub use camera_path::CameraPath;
 pub use environment::EnvironmentMap;
 #[cfg(feature = "gltf")]
+pub use gltf::write::{BakedAo, GlbOut, glb_with_ao};
+#[cfg(feature = "gltf")]
 pub use gltf::{load_gltf, load_gltf_animation};
 pub use input::{file_stem, load_input, load_input_in, load_shaded_input, load_shaded_input_in};
 pub use mesh::{Mesh, MeshObject, ORIGIN_OFFSET, used_bounds, vertex_normals};
@@ -50,8 +52,8 @@ pub use mesh_file::{MeshFormat, companion_files, is_glb, is_gltf_json, is_ply, l
 pub use mtl::{Checker, Material, MtlWritten, load_mtl, parse_mtl, resolve_maps, write_mtl};
 pub use mtl_rules::MtlRules;
 pub use obj::{
-    DEFAULT_CREASE_DEGREES, NO_NORMAL, ObjFile, SMOOTH_DEFAULT, load_obj, load_obj_file, parse_obj, parse_obj_file,
-    write_obj,
+    DEFAULT_CREASE_DEGREES, NO_NORMAL, ObjFile, PrimitiveSpan, SMOOTH_DEFAULT, load_obj, load_obj_file, parse_obj,
+    parse_obj_file, write_obj,
 };
 #[cfg(feature = "ply")]
 pub use ply::{load_ply, parse_ply};

@@ -107,6 +107,24 @@ pub struct ObjFile {
     /// `usemtl` names, MTL warnings (prefixed with the MTL file's path),
     /// statements not read (one warning per keyword).
     pub warnings: Vec<String>,
+    /// A glTF file's primitives as placed, in mesh order: which of the
+    /// file's primitives each run of `mesh`'s vertices comes from (a mesh
+    /// that several nodes place appears once per node). Empty for OBJ and
+    /// PLY, whose vertices are the file's.
+    pub primitives: Vec<PrimitiveSpan>,
+}
+
+/// The vertices of one placed glTF primitive in a mesh read from the file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PrimitiveSpan {
+    /// The index of its mesh in the file's `meshes`.
+    pub mesh: usize,
+    /// Its index in that mesh's `primitives`.
+    pub primitive: usize,
+    /// The mesh vertex its POSITION accessor's first element became.
+    pub first_vertex: u32,
+    /// Its POSITION accessor's count.
+    pub vertices: u32,
 }
 
 /// Reads an OBJ file: all objects merged, faces fan-triangulated in file order.
@@ -631,6 +649,7 @@ fn with_materials(parsed: Parsed, mtl_dir: Option<&Path>) -> Result<ObjFile> {
         })
         .collect();
     Ok(ObjFile {
+        primitives: Vec::new(),
         mesh: parsed.mesh,
         materials,
         triangle_materials,

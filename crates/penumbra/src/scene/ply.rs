@@ -406,6 +406,7 @@ impl Read {
             None => (Vec::new(), vec![[NO_NORMAL; 3]; mesh.triangles.len()]),
         };
         Ok(ObjFile {
+            primitives: Vec::new(),
             materials: vec![Material::default_surface()],
             triangle_materials: vec![0; mesh.triangles.len()],
             triangle_faces: self.triangle_faces,

@@ -11,7 +11,7 @@ use super::camera::WorldCamera;
 use crate::error::{Error, Result};
 use crate::scene::mesh::{Mesh, MeshObject};
 use crate::scene::mtl::Material;
-use crate::scene::obj::{NO_NORMAL, NO_TEXCOORD, ObjFile, SMOOTH_DEFAULT};
+use crate::scene::obj::{NO_NORMAL, NO_TEXCOORD, ObjFile, PrimitiveSpan, SMOOTH_DEFAULT};
 
 /// Triangles of a primitive's index list by its mode (glTF 2.0 section
 /// 3.7.2.1): strips alternate their winding so that every triangle faces
@@ -56,6 +56,8 @@ pub struct Out {
     /// glTF material index to ours.
     pub material_index: HashMap<usize, u32>,
     pub triangle_materials: Vec<u32>,
+    /// Each placed primitive's vertices.
+    pub primitives: Vec<PrimitiveSpan>,
     /// The scenes' perspective cameras, in world space until the frame
     /// is known.
     pub cameras: Vec<WorldCamera>,
@@ -82,6 +84,7 @@ impl Default for Out {
             materials: vec![Material::default_surface()],
             material_index: HashMap::new(),
             triangle_materials: Vec::new(),
+            primitives: Vec::new(),
             cameras: Vec::new(),
             warnings: Vec::new(),
         }
@@ -181,6 +184,7 @@ impl Out {
         }
         mesh.validate()?;
         Ok(ObjFile {
+            primitives: self.primitives,
             triangle_faces: (0..n).collect(),
             materials: self.materials,
             triangle_materials: self.triangle_materials,

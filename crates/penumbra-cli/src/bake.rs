@@ -1,0 +1,130 @@
+//! `penumbra bake`: AO baked into a copy of an asset, as a GLB with an AO
+//! texture (each material's `occlusionTexture`) and per-vertex AO (`_AO`).
+
+use std::path::PathBuf;
+
+use serde_json::{Value, json};
+
+use crate::args::{Common, check_outputs};
+use crate::io::{merged, warn};
+use penumbra::bake::{BakeSettings, bake};
+use penumbra::error::{Error, Result};
+use penumbra::raycast::AoSettings;
+
+#[derive(clap::Args)]
+pub struct BakeArgs {
+    /// The asset: glTF 2.0 (.gltf/.glb), OBJ (its MTL and `vt`) or PLY.
+    #[arg(long)]
+    pub mesh: PathBuf,
+    /// The baked asset (GLB): the input with the AO texture and `_AO`.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also write the AO texture as its own PNG.
+    #[arg(long)]
+    pub texture: Option<PathBuf>,
+    /// Texels per side of the AO texture; 0 bakes per-vertex AO alone.
+    #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
+    pub resolution: i64,
+    /// Rings of texels filled around each UV chart, so that bilinear and
+    /// mip-mapped lookups see no dark seams.
+    #[arg(long, default_value_t = 4, allow_negative_numbers = true)]
+    pub padding: i64,
+    /// AO points per texel: 1 (its centre) or more (jittered), averaged.
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    pub texel_samples: i64,
+    /// Bits per channel of the texture: 8 or 16.
+    #[arg(long, default_value_t = 8, allow_negative_numbers = true)]
+    pub png_bits: i64,
+    /// Per-vertex AO as the attribute `_AO`.
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    pub vertex: OnOff,
+    /// The per-vertex AO also as `COLOR_0` (grey, linear).
+    #[arg(long)]
+    pub vertex_colors: bool,
+    /// Replace a material's own occlusionTexture (else it is kept).
+    #[arg(long)]
+    pub replace: bool,
+    /// Rays per texel sample and per vertex.
+    #[arg(long, default_value_t = 256, allow_negative_numbers = true)]
+    pub rays: i64,
+    /// Occluders beyond this distance do not count, as Blender's AO
+    /// "distance" (default: infinite).
+    #[arg(long, allow_negative_numbers = true)]
+    pub radius: Option<f32>,
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// A switch given as a word.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OnOff {
+    On,
+    Off,
+}
+
+fn in_range(value: i64, option: &str, lo: i64, hi: i64) -> Result<u32> {
+    if (lo..=hi).contains(&value) {
+        Ok(value as u32)
+    } else {
+        Err(Error::param(
+            option,
+            format!("must be between {lo} and {hi}, got {value}"),
+        ))
+    }
+}
+
+pub fn run(args: &BakeArgs) -> Result<Value> {
+    let threads = args.common.init_threads()?;
+    let out = Some(args.out.clone());
+    check_outputs(&[(&out, "--out"), (&args.texture, "--texture")])?;
+    let settings = BakeSettings {
+        resolution: in_range(
+            args.resolution,
+            "--resolution",
+            0,
+            penumbra::bake::MAX_RESOLUTION as i64,
+        )?,
+        padding: in_range(args.padding, "--padding", 0, 64)?,
+        texel_samples: in_range(args.texel_samples, "--texel-samples", 1, 64)?,
+        png_bits: match args.png_bits {
+            8 => 8,
+            16 => 16,
+            b => return Err(Error::param("--png-bits", format!("must be 8 or 16, got {b}"))),
+        },
+        vertex: args.vertex == OnOff::On,
+        vertex_colors: args.vertex_colors,
+        replace: args.replace,
+        ao: AoSettings {
+            rays_per_point: in_range(args.rays, "--rays", 1, penumbra::raycast::MAX_RAYS_PER_POINT as i64)?,
+            radius: args.radius.unwrap_or(f32::INFINITY),
+            seed: args.common.seed,
+        },
+    };
+    if args.texture.is_some() && settings.resolution == 0 {
+        return Err(Error::param("--texture", "needs a texture: --resolution is 0"));
+    }
+    if args.vertex_colors && !settings.vertex {
+        return Err(Error::param(
+            "--vertex-colors",
+            "needs the per-vertex AO: --vertex is off",
+        ));
+    }
+    settings.validate()?;
+    let device = args.common.open_device()?;
+    let baked = bake(&device, &args.mesh, &settings, &crate::progress::stderr())?;
+    warn(&baked.warnings);
+    penumbra::io::output::write_bytes(&args.out, &baked.glb)?;
+    let mut written = vec![args.out.display().to_string()];
+    if let (Some(path), Some(png)) = (&args.texture, &baked.png) {
+        penumbra::io::output::write_bytes(path, png)?;
+        written.push(path.display().to_string());
+    }
+    let report = json!({
+        "method": "bake",
+        "rays_per_point": settings.ao.rays_per_point,
+        "bake": baked.report,
+        "warnings": baked.warnings.len(),
+        "files": written,
+    });
+    merged(args.common.report(&device, threads), report)
+}
