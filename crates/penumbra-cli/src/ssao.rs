@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
-use crate::args::{CameraArgs, CameraChoice, Common, check_outputs, load_input, load_shaded_input};
+use crate::args::{CameraArgs, CameraChoice, Common, check_outputs, load_shaded_input};
 use crate::io::note_choice;
 use crate::options::GreyImageOptions;
 use crate::options::ssao::{SsaoOptions, SsaoRunOptions};
@@ -66,10 +66,9 @@ pub fn run(args: &SsaoArgs) -> Result<Value> {
     outputs[0].map(|p| args.grey.style().check(p, "--out")).transpose()?;
     outputs[1].map(|p| ImageFormat::check(p, "--image")).transpose()?;
     let (mesh, scene) = (args.mesh.as_deref(), args.scene.as_deref());
-    let mut scene = match args.image {
-        Some(_) => load_shaded_input(mesh, scene)?, // the shaded image needs the materials
-        None => load_input(mesh, scene)?,
-    };
+    // The materials give the shaded image its colours and maps, and every
+    // G-buffer the cut-outs' holes.
+    let mut scene = load_shaded_input(mesh, scene)?;
     args.choice.choose(&mut scene)?;
     crate::io::warn(&scene.warnings);
     penumbra::ssao::gbuffer::validate_lights(&scene.lights)?;
@@ -94,6 +93,7 @@ pub fn run(args: &SsaoArgs) -> Result<Value> {
         None => None,
     };
     let ssao = run_ssao(&device, &scene, &request, &crate::progress::stderr())?;
+    crate::io::warn(&ssao.warnings);
     ssao.write_images(outputs[0], outputs[1], args.grey.style())?;
     let report = crate::io::merged(args.common.report(&device, threads), &ssao.report)?;
     crate::io::merged(report, serde_json::json!({ "max_error": choice }))

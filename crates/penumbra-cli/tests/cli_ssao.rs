@@ -334,3 +334,46 @@ fn progress_lines_name_the_truth_and_the_reference_when_asked() {
     let quiet = run("");
     assert!(!quiet.contains("progress:"), "progress without --progress:\n{quiet}");
 }
+
+/// A cut-out card alone: its holes are background for the G-buffer of
+/// every output, the AO image's (`--out` alone) as the shaded image's.
+#[test]
+fn cut_out_holes_are_background_with_or_without_the_image() {
+    let d = TempDir::new("ssao-cutout");
+    let holes = image::RgbaImage::from_fn(8, 8, |x, _| image::Rgba([255, 255, 255, if x < 4 { 0 } else { 255 }]));
+    holes.save(d.0.join("holes.png")).unwrap();
+    let obj = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+               usemtl card\nf 1/1 2/2 3/3 4/4\n";
+    d.write("solid.mtl", "newmtl card\nKd 0.8 0.8 0.8\n");
+    d.write("holed.mtl", "newmtl card\nKd 0.8 0.8 0.8\nmap_d holes.png\n");
+    d.write("solid.obj", format!("mtllib solid.mtl\n{obj}"));
+    d.write("holed.obj", format!("mtllib holed.mtl\n{obj}"));
+    let surface = |mesh: &str, image: bool, device: &str| {
+        let extra = if image {
+            format!(" --image {}", d.p("img.png"))
+        } else {
+            String::new()
+        };
+        let r = pen(
+            &format!(
+                "ssao --mesh {{mesh}} --estimator importance --spp 4 --radius 0.2 --width 64 --height 48 \
+                 --reference-rays 0 --screen-reference-spp 0 --eye 0,0,3 --target 0,0,0 --device {device} \
+                 --out {{out}}{extra} --json"
+            ),
+            &[("mesh", &d.p(mesh)), ("out", &d.p("ao.png"))],
+        );
+        r.ok().json()["surface_pixels"].as_u64().unwrap()
+    };
+    let devices: &[&str] = if gpu_available() { &["cpu", "gpu"] } else { &["cpu"] };
+    for device in devices {
+        let solid = surface("solid.obj", false, device);
+        for image in [false, true] {
+            let holed = surface("holed.obj", image, device);
+            // The left half of the card is a hole: about half its pixels.
+            assert!(
+                (holed as f64 - 0.5 * solid as f64).abs() <= 0.05 * solid as f64,
+                "{device}, image {image}: {holed} surface pixels with the hole, {solid} without"
+            );
+        }
+    }
+}

@@ -110,7 +110,7 @@ fn main() {
             mesh: &mesh,
             camera: &camera,
             lights: &[],
-            albedos: None,
+            surfaces: None,
         };
         let base = SsaoSettings::new(Estimator::Importance, 16, config.radius);
         let gb = run_frame(&ctx, source(), &view, &base, None, 1).unwrap().gbuffer;

@@ -10,7 +10,9 @@
 // clear 0). Outputs per pixel:
 //   geometry = (camera-space normal turned towards the camera, camera-space z)
 //   shade    = (albedo x direct light, packed albedo r + 256 g + 65536 b)
-// Background stays cleared to zero (z = 0).
+// Background stays cleared to zero (z = 0). Scenes with colour maps or
+// cut-outs are drawn by the entry points of gbuffer_textured.wgsl, composed
+// after this file.
 
 struct View {
     eye: vec3<f32>,
@@ -46,8 +48,8 @@ struct GBufferOut {
     @location(1) shade: vec4<f32>,
 }
 
-@vertex
-fn gbuffer_vs(v: VertexIn) -> VertexOut {
+// A vertex projected (reversed-Z, infinite far plane), its attributes passed on.
+fn gbuffer_vertex(v: VertexIn) -> VertexOut {
     let rel = v.position - view.eye;
     let c = vec3<f32>(dot(rel, view.right), dot(rel, view.up), dot(rel, view.forward));
     var out: VertexOut;
@@ -56,6 +58,11 @@ fn gbuffer_vs(v: VertexIn) -> VertexOut {
     out.normal = v.normal;
     out.albedo = v.albedo;
     return out;
+}
+
+@vertex
+fn gbuffer_vs(v: VertexIn) -> VertexOut {
+    return gbuffer_vertex(v);
 }
 
 // Twin of gbuffer::direct_light (no shadows).
@@ -76,16 +83,22 @@ fn direct_light(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     return e;
 }
 
-@fragment
-fn gbuffer_fs(in: VertexOut) -> GBufferOut {
-    let rel = in.world - view.eye;
-    var n = in.normal;
+// The targets' texels of a surface point (world position, unit face
+// normal, packed albedo): the twin of gbuffer::texel.
+fn gbuffer_texel(world: vec3<f32>, normal: vec3<f32>, albedo: f32) -> GBufferOut {
+    let rel = world - view.eye;
+    var n = normal;
     if (dot(n, rel) > 0.0) {
         n = -n;
     }
     var out: GBufferOut;
     let z = dot(rel, view.forward);
     out.geometry = vec4<f32>(dot(n, view.right), dot(n, view.up), dot(n, view.forward), z);
-    out.shade = vec4<f32>(unpack_albedo(in.albedo) * direct_light(in.world, n), in.albedo);
+    out.shade = vec4<f32>(unpack_albedo(albedo) * direct_light(world, n), albedo);
     return out;
+}
+
+@fragment
+fn gbuffer_fs(in: VertexOut) -> GBufferOut {
+    return gbuffer_texel(in.world, in.normal, in.albedo);
 }

@@ -73,6 +73,10 @@ pub const FIELD_PROBE: WgslFile = wgsl_file!("field_probe.wgsl");
 /// Render pipeline: the SSAO G-buffer (camera-space normal and z, direct
 /// light and packed albedo), reversed-Z with an infinite far plane.
 pub const GBUFFER: WgslFile = wgsl_file!("gbuffer.wgsl");
+/// Render pipeline: `GBUFFER` for scenes with colour maps or alpha
+/// cut-outs (albedo read at each pixel's point, holes discarded); composed
+/// after `TEXTURE_MAPS` and `GBUFFER`.
+pub const GBUFFER_TEXTURED: WgslFile = wgsl_file!("gbuffer_textured.wgsl");
 /// What the SSAO kernels share: parameters, bindings, camera-space
 /// reconstruction and projection, the depth-buffer visibility test and the
 /// pixel's sample set.
@@ -132,6 +136,7 @@ pub const FILES: &[WgslFile] = &[
     FIELD_AO,
     FIELD_PROBE,
     GBUFFER,
+    GBUFFER_TEXTURED,
     SSAO_COMMON,
     SSAO_ESTIMATE,
     SSAO_FILTER,
@@ -349,6 +354,17 @@ pub const GBUFFER_MODULE: Composition = Composition {
     },
 };
 
+/// The G-buffer render pipeline of scenes with colour maps or cut-outs
+/// (vertex and fragment stages; one storage buffer: the surfaces' words).
+pub const GBUFFER_TEXTURED_MODULE: Composition = Composition {
+    name: "gbuffer_textured",
+    parts: &[ALBEDO, TEXTURE_MAPS, GBUFFER, GBUFFER_TEXTURED],
+    demands: Demands {
+        workgroup_size: [0; 3],
+        ..Demands::compute(1)
+    },
+};
+
 /// `SSAO_ESTIMATE` over the tangent frame and `SSAO_COMMON`.
 pub const SSAO_ESTIMATE_MODULE: Composition = Composition {
     name: "ssao_estimate",
@@ -407,6 +423,7 @@ pub const MODULES: &[Composition] = &[
     FIELD_PROBE_LOADED_MODULE,
     FIELD_PROBE_BITS_MODULE,
     GBUFFER_MODULE,
+    GBUFFER_TEXTURED_MODULE,
     SSAO_ESTIMATE_MODULE,
     SSAO_FILTER_MODULE,
     SSAO_INDIRECT_MODULE,

@@ -11,14 +11,18 @@
 //!   L = a * sum over lights of E cos+ (no shadows), and the albedo a
 //!   packed exactly into one float as r + 256 g + 65536 b (8 bits each).
 //!
-//! Albedo: the shared models have no materials, so each object of the mesh
-//! (an OBJ `o`/`g` block, or a scene instance) gets a colour from a fixed
-//! palette; colour bleeding in the indirect term needs some variety.
+//! Albedo: a material's diffuse colour, times its colour map where it has
+//! one (`surfaces`: the map is read at the pixel's surface point). The
+//! shared models have no materials, so each object of such a mesh (an OBJ
+//! `o`/`g` block, or a scene instance) gets a colour from a fixed palette;
+//! colour bleeding in the indirect term needs some variety. Alpha cut-outs'
+//! holes are no surface: a pixel shows what lies behind them.
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::surfaces::GBufferSurfaces;
 use crate::accel::kdtree::KdTree;
 use crate::error::{Error, Result};
 use crate::scene::{Camera, Light, Mesh};
@@ -329,14 +333,23 @@ pub fn texel(camera: &Camera, lights: &[Light], p: Vec3, n: Vec3, albedo: f32) -
 /// CPU twin of the G-buffer pass: the closest hit of each pixel's primary
 /// ray through its centre (the rasteriser samples pixel centres too).
 pub fn gbuffer(tree: &KdTree, mesh: &Mesh, camera: &Camera, lights: &[Light], width: u32, height: u32) -> GBuffer {
-    gbuffer_with(tree, mesh, &triangle_albedos(mesh), camera, lights, (width, height))
+    gbuffer_with(
+        tree,
+        mesh,
+        &GBufferSurfaces::palette(mesh),
+        camera,
+        lights,
+        (width, height),
+    )
 }
 
-/// `gbuffer` with the packed albedo of each triangle given (`scene_albedos`).
+/// `gbuffer` with the surfaces given (`GBufferSurfaces::of_scene`): each
+/// pixel shows the first surface past the cut-outs' holes, with its albedo
+/// at the point.
 pub fn gbuffer_with(
     tree: &KdTree,
     mesh: &Mesh,
-    albedos: &[f32],
+    surfaces: &GBufferSurfaces,
     camera: &Camera,
     lights: &[Light],
     (width, height): (u32, u32),
@@ -347,14 +360,11 @@ pub fn gbuffer_with(
         .par_iter()
         .with_min_len(256)
         .map(|r| {
-            let h = tree.closest_hit(r.o(), r.d(), f32::INFINITY);
-            if !h.is_hit() {
+            let Some((t, p)) = surfaces.first_surface(tree, mesh, r.o(), r.d()) else {
                 return ([0.0; 4], [0.0; 4]);
-            }
-            let t = h.triangle as usize;
-            let p = r.o() + h.t * r.d();
+            };
             let n = mesh.unit_face_normal(t);
-            let (g, s) = texel(camera, &lights, p, n, albedos[t]);
+            let (g, s) = texel(camera, &lights, p, n, surfaces.albedo(mesh, t, p));
             // A hit exactly at the eye has no depth: keep it background.
             if g[3] > 0.0 { (g, s) } else { ([0.0; 4], [0.0; 4]) }
         })

@@ -14,18 +14,20 @@ use std::time::Instant;
 use bytemuck::{Pod, Zeroable};
 
 use super::estimators::{Family, SampleTable, SsaoUniforms};
-use super::gbuffer::{GBuffer, ScreenView, ViewUniform, triangle_albedos};
+use super::gbuffer::{GBuffer, ScreenView, ViewUniform};
+use super::surfaces::GBufferSurfaces;
 use super::{ShadeSettings, SsaoFrame, SsaoSettings, Timings, final_ao};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::gpu::batch::Pass;
 use crate::gpu::buffers::{
-    KeptGroup, check_buffer_size, check_storage_size, read_back, read_buffer, uniform_buffer, zeroed_buffer,
+    KeptGroup, check_buffer_size, check_storage_size, read_back, read_buffer, storage_buffer, uniform_buffer,
+    zeroed_buffer,
 };
 use crate::gpu::device::Timing;
 use crate::gpu::device::elapsed_ms;
 use crate::gpu::kernels::{Kernels, PipelineLog, Pipelines, compute_pipelines, record_dispatch};
-use crate::gpu::layout::{Io, io_layout, layout, texture_entry, uniform_entry_for};
+use crate::gpu::layout::{Io, io_layout, layout, storage_entry, texture_entry, uniform_entry_for};
 use crate::gpu::timer::PassTimer;
 use crate::scene::{Camera, Light, Mesh};
 
@@ -58,7 +60,7 @@ pub struct SceneVertices {
 
 impl SceneVertices {
     /// Uploads `mesh` (world space) with one packed albedo per triangle
-    /// (`gbuffer::triangle_albedos`, `gbuffer::scene_albedos`); fails on an
+    /// (`GBufferSurfaces::albedos`); fails on an
     /// invalid mesh or one beyond the device's largest buffer.
     pub fn upload(device: &wgpu::Device, mesh: &Mesh, albedos: &[f32]) -> Result<SceneVertices> {
         mesh.validate()?;
@@ -234,22 +236,51 @@ impl GBufferTargets {
     }
 }
 
-/// The G-buffer render pipeline.
+/// The G-buffer render pipeline: `new`, colours per triangle
+/// (`wgsl/gbuffer.wgsl`); `textured`, colour maps and cut-outs read per
+/// pixel (`wgsl/gbuffer_textured.wgsl`, which also binds the surfaces'
+/// words).
 pub struct GBufferPass {
-    /// Bind group 0 of the render pipeline: one `ViewUniform` buffer.
+    /// Bind group 0 of the render pipeline: one `ViewUniform` buffer, and
+    /// for the textured pipeline the words of `GBufferSurfaces::words`.
     pub view_layout: wgpu::BindGroupLayout,
     pipeline: wgpu::RenderPipeline,
+    textured: bool,
 }
+
+/// The textured `GBufferPass`, cached on a context apart from the plain one.
+struct TexturedGBufferPass(GBufferPass);
 
 impl GBufferPass {
     /// Builds the render pipeline of `wgsl/gbuffer.wgsl` for `device`.
     pub fn new(device: &wgpu::Device) -> GBufferPass {
-        let view_layout = layout(
-            device,
-            "g-buffer view",
-            &[uniform_entry_for(0, wgpu::ShaderStages::VERTEX_FRAGMENT)],
-        );
-        let module = &crate::gpu::wgsl::GBUFFER_MODULE;
+        GBufferPass::build(device, false)
+    }
+
+    /// Builds the render pipeline of `wgsl/gbuffer_textured.wgsl` for
+    /// `device`: what scenes with colour maps or cut-outs are drawn with.
+    pub fn textured(device: &wgpu::Device) -> GBufferPass {
+        GBufferPass::build(device, true)
+    }
+
+    fn build(device: &wgpu::Device, textured: bool) -> GBufferPass {
+        let mut entries = vec![uniform_entry_for(0, wgpu::ShaderStages::VERTEX_FRAGMENT)];
+        if textured {
+            entries.push(wgpu::BindGroupLayoutEntry {
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ..storage_entry(1, true)
+            });
+        }
+        let view_layout = layout(device, "g-buffer view", &entries);
+        let (module, vs, fs) = if textured {
+            (
+                &crate::gpu::wgsl::GBUFFER_TEXTURED_MODULE,
+                "gbuffer_textured_vs",
+                "gbuffer_textured_fs",
+            )
+        } else {
+            (&crate::gpu::wgsl::GBUFFER_MODULE, "gbuffer_vs", "gbuffer_fs")
+        };
         let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some(module.name),
             source: wgpu::ShaderSource::Wgsl(module.source().into()),
@@ -270,7 +301,7 @@ impl GBufferPass {
             layout: Some(&layout),
             vertex: wgpu::VertexState {
                 module: &shader,
-                entry_point: Some("gbuffer_vs"),
+                entry_point: Some(vs),
                 compilation_options: Default::default(),
                 buffers: &[Some(wgpu::VertexBufferLayout {
                     array_stride: std::mem::size_of::<GBufferVertex>() as u64,
@@ -294,26 +325,55 @@ impl GBufferPass {
             multisample: Default::default(),
             fragment: Some(wgpu::FragmentState {
                 module: &shader,
-                entry_point: Some("gbuffer_fs"),
+                entry_point: Some(fs),
                 compilation_options: Default::default(),
                 targets: &[target.clone(), target],
             }),
             multiview_mask: None,
             cache: None,
         });
-        GBufferPass { view_layout, pipeline }
+        GBufferPass {
+            view_layout,
+            pipeline,
+            textured,
+        }
     }
 
-    /// Bind group of a `ViewUniform` buffer.
-    pub fn view_bind_group(&self, device: &wgpu::Device, view: &wgpu::Buffer) -> wgpu::BindGroup {
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
+    /// Whether this is the textured pipeline (`textured`).
+    pub fn is_textured(&self) -> bool {
+        self.textured
+    }
+
+    /// Bind group of a `ViewUniform` buffer, and for the textured pipeline
+    /// of a storage buffer of `GBufferSurfaces::words` (`surfaces`; the
+    /// plain pipeline binds none).
+    pub fn view_bind_group(
+        &self,
+        device: &wgpu::Device,
+        view: &wgpu::Buffer,
+        surfaces: Option<&wgpu::Buffer>,
+    ) -> Result<wgpu::BindGroup> {
+        let mut entries = vec![wgpu::BindGroupEntry {
+            binding: 0,
+            resource: view.as_entire_binding(),
+        }];
+        match (self.textured, surfaces) {
+            (true, Some(words)) => entries.push(wgpu::BindGroupEntry {
+                binding: 1,
+                resource: words.as_entire_binding(),
+            }),
+            (false, None) => {}
+            _ => {
+                return Err(Error::internal(
+                    "the textured G-buffer pipeline, and only it, binds the surfaces",
+                ));
+            }
+        }
+        Ok(device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("g-buffer view"),
             layout: &self.view_layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: view.as_entire_binding(),
-            }],
-        })
+            entries: &entries,
+        }))
     }
 
     /// Records the render pass: clears the targets and draws the mesh.
@@ -686,12 +746,28 @@ pub enum GBufferSource<'a> {
         /// The direct term's lights (at most `gbuffer::MAX_LIGHTS`; none: a
         /// default directional light).
         lights: &'a [Light],
-        /// Packed albedo per triangle (`gbuffer::scene_albedos`); `None`:
-        /// the palette (`gbuffer::triangle_albedos`).
-        albedos: Option<&'a [f32]>,
+        /// What the mesh's surfaces show (`GBufferSurfaces::of_scene`):
+        /// colours, colour maps, cut-outs; `None`: the palette
+        /// (`GBufferSurfaces::palette`).
+        surfaces: Option<&'a GBufferSurfaces>,
     },
     /// Upload a G-buffer made elsewhere (the CPU twin's, for the twin tests).
     Upload(&'a GBuffer),
+}
+
+/// A cached G-buffer pipeline, plain or textured.
+enum GBufferPassRef {
+    Plain(Arc<GBufferPass>),
+    Textured(Arc<TexturedGBufferPass>),
+}
+
+impl GBufferPassRef {
+    fn get(&self) -> &GBufferPass {
+        match self {
+            GBufferPassRef::Plain(p) => p,
+            GBufferPassRef::Textured(p) => &p.0,
+        }
+    }
 }
 
 /// Result of `run_frame`: the G-buffer the kernels saw (read back) and the frame.
@@ -731,24 +807,39 @@ pub fn run_frame(
             mesh,
             camera,
             lights,
-            albedos,
+            surfaces,
         } => {
             super::gbuffer::validate_lights(lights)?;
-            let pass = ctx.kernels.get_or_insert(|| GBufferPass::new(device));
             let palette;
-            let albedos = match albedos {
-                Some(a) => a,
+            let surfaces = match surfaces {
+                Some(s) => s,
                 None => {
-                    palette = triangle_albedos(mesh);
+                    palette = GBufferSurfaces::palette(mesh);
                     &palette
                 }
             };
-            let vertices = SceneVertices::upload(device, mesh, albedos)?;
+            let (pass, words) = if surfaces.is_textured() {
+                let pass = ctx
+                    .kernels
+                    .get_or_insert(|| TexturedGBufferPass(GBufferPass::textured(device)));
+                let words = storage_buffer(
+                    device,
+                    "the G-buffer's texture maps",
+                    bytemuck::cast_slice(&surfaces.words()),
+                )?;
+                (GBufferPassRef::Textured(pass), Some(words))
+            } else {
+                (
+                    GBufferPassRef::Plain(ctx.kernels.get_or_insert(|| GBufferPass::new(device))),
+                    None,
+                )
+            };
+            let vertices = SceneVertices::upload(device, mesh, &surfaces.albedos)?;
             let b = mesh.bounds();
             let near = 1e-6 * ((camera.eye - b.center()).length() + b.diagonal());
             let uniform = uniform_buffer(device, "g-buffer view", &ViewUniform::new(camera, view, lights, near));
-            let group = pass.view_bind_group(device, &uniform);
-            Some((pass, vertices, group, uniform))
+            let group = pass.get().view_bind_group(device, &uniform, words.as_ref())?;
+            Some((pass, vertices, group, (uniform, words)))
         }
         GBufferSource::Upload(gb) => {
             if gb.width != w || gb.height != h {
@@ -770,7 +861,7 @@ pub fn run_frame(
         let mut encoder = device.create_command_encoder(&Default::default());
         let mut kinds = Vec::new();
         if let Some((pass, vertices, group, _)) = &render {
-            pass.record(
+            pass.get().record(
                 &mut encoder,
                 timer.as_mut().and_then(|t| t.next_render_pass()),
                 vertices,

@@ -25,6 +25,7 @@ pub(crate) mod indirect;
 pub(crate) mod interleave;
 pub(crate) mod measure;
 pub mod runner;
+pub mod surfaces;
 pub mod truth;
 pub mod tune;
 

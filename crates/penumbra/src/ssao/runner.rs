@@ -6,8 +6,9 @@
 
 use serde::Serialize;
 
-use super::gbuffer::{GBuffer, ScreenView, gbuffer_with, scene_albedos, validate_lights};
+use super::gbuffer::{GBuffer, ScreenView, gbuffer_with, validate_lights};
 use super::gpu::{GBufferSource, run_frame};
+use super::surfaces::GBufferSurfaces;
 use super::truth::{Estimate, raytraced, screen_reference};
 use super::{Estimator, Measure, ShadeSettings, SsaoFrame, SsaoSettings, Timings, rmse, run_cpu};
 use crate::accel::Accel;
@@ -18,6 +19,7 @@ use crate::progress::Reporter;
 use crate::raycast::tracer::build_tree;
 use crate::report::repeats::{MAX_RUNS, Repeats, RunTimes};
 use crate::report::skipped::Skipped;
+use crate::scene::texture_table::DEFAULT_TEXTURE_BYTES;
 use crate::scene::{Camera, Scene, View};
 use std::cell::OnceCell;
 
@@ -82,6 +84,9 @@ pub struct SsaoRun {
     pub reference: Option<Estimate>,
     /// What `ssao --json` reports of it.
     pub report: SsaoReport,
+    /// The scene's texture images that could not be read or were reduced
+    /// (`GBufferSurfaces::of_scene`).
+    pub warnings: Vec<String>,
 }
 
 /// What `ssao --json` reports.
@@ -187,14 +192,15 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: &Reporte
         }
         Ok(tree.get().expect("set above"))
     };
-    let albedos = scene_albedos(scene);
+    let mut warnings = Vec::new();
+    let surfaces = GBufferSurfaces::of_scene(scene, DEFAULT_TEXTURE_BYTES, &mut warnings);
     let framed = device.run(
         |ctx| {
             let source = || GBufferSource::Render {
                 mesh: &mesh,
                 camera: &camera,
                 lights: &scene.lights,
-                albedos: Some(&albedos),
+                surfaces: Some(&surfaces),
             };
             for _ in 0..request.runs.warmup {
                 run_frame(ctx, source(), &view, settings, shade, 1)?;
@@ -209,7 +215,7 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: &Reporte
             let tree = whole_tree()?;
             let once = || {
                 let start = std::time::Instant::now();
-                let gb = gbuffer_with(tree.kdtree(), &mesh, &albedos, &camera, &scene.lights, (w, h));
+                let gb = gbuffer_with(tree.kdtree(), &mesh, &surfaces, &camera, &scene.lights, (w, h));
                 let gbuffer_ms = elapsed_ms(start);
                 let mut frame = run_cpu(&gb, &view, settings, shade)?;
                 frame.timings.gbuffer_ms = gbuffer_ms;
@@ -255,6 +261,7 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: &Reporte
         truth,
         reference,
         report,
+        warnings,
     })
 }
 

@@ -16,9 +16,10 @@
 
 use serde_json::{Value, json};
 
-use super::gbuffer::{GBuffer, ScreenView, gbuffer};
+use super::gbuffer::{GBuffer, ScreenView, gbuffer_with};
 use super::gpu::{GBufferSource, run_frame};
 use super::runner::{SsaoRequest, run};
+use super::surfaces::GBufferSurfaces;
 use super::truth::{Estimate, raytraced_at};
 use super::{Estimator, Measure, MeasureKind, Resolution, SsaoSettings, rmse, run_cpu};
 use crate::accel::Accel;
@@ -28,6 +29,7 @@ use crate::geom::sampling::hash_u32;
 use crate::gpu::device::{Device, GpuOutput};
 use crate::progress::Reporter;
 use crate::raycast::tracer::build_tree;
+use crate::scene::texture_table::DEFAULT_TEXTURE_BYTES;
 use crate::scene::{Scene, View};
 use crate::tune::{self, Budgeted, ErrorBudget, Knob, Pick, Run, SampleError, Setting, Sweep, Tunable};
 
@@ -353,7 +355,10 @@ impl Budgeted for SsaoBudget<'_> {
         let (w, h) = (self.request.view.width, self.request.view.height);
         let view = ScreenView::new(&camera, w, h);
         let tree = Accel::new(build_tree(&mesh, &KdTreeSettings::for_cpu(), bars, "ssao")?);
-        let gb = gbuffer(tree.kdtree(), &mesh, &camera, &scene.lights, w, h);
+        // The run's G-buffer: cut-outs' holes show what lies behind (its
+        // warnings are the run's too, given there).
+        let surfaces = GBufferSurfaces::of_scene(scene, DEFAULT_TEXTURE_BYTES, &mut Vec::new());
+        let gb = gbuffer_with(tree.kdtree(), &mesh, &surfaces, &camera, &scene.lights, (w, h));
         // The truth: only casters occlude, as in the full run.
         let occluders = scene.occluders();
         let caster_tree = if occluders.triangles.len() == mesh.triangles.len() {

@@ -798,7 +798,7 @@ pub fn compare_gbuffers(ctx: &GpuContext, name: &str, mesh: &Mesh, camera: &Came
         mesh,
         camera,
         lights: &[],
-        albedos: None,
+        surfaces: None,
     };
     let gpu = run_frame(ctx, source, &view, &settings, None, 1).unwrap().gbuffer;
     let (mut agree, mut not_silhouette, mut worst_z, mut worst_dot) = (0usize, 0usize, 0f32, 1f32);
