@@ -12,6 +12,7 @@ const COMMANDS: &[&str] = &[
     "info",
     "trace-rays",
     "ao",
+    "bake",
     "trace",
     "prt",
     "field build",

@@ -18,7 +18,7 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("acceleration", &["accel"]),
     ("tuning", &["tune"]),
     ("ray casting and AO", &["raycast"]),
-    ("methods on ray casting", &["mlrta", "field", "ssao", "prt"]),
+    ("methods on ray casting", &["mlrta", "field", "ssao", "prt", "bake"]),
     ("Whitted ray tracing", &["whitted"]),
     ("bounded-error ray tracing", &["bounded"]),
     ("sweeps over every method", &["sweep"]),
