@@ -7,7 +7,7 @@ use serde_json::{Value, json};
 
 use crate::args::{Common, check_outputs};
 use crate::io::{merged, warn};
-use penumbra::bake::{BakeSettings, bake};
+use penumbra::bake::{BakeSettings, bake, bake_scene};
 use penumbra::error::{Error, Result};
 use penumbra::raycast::AoSettings;
 
@@ -15,8 +15,14 @@ use penumbra::raycast::AoSettings;
 pub struct BakeArgs {
     /// The asset: glTF 2.0 (.gltf/.glb), OBJ (its MTL and `vt`) or PLY.
     #[arg(long)]
-    pub mesh: PathBuf,
-    /// The baked asset (GLB): the input with the AO texture and `_AO`.
+    pub mesh: Option<PathBuf>,
+    /// A scene file instead: each mesh is baked where its first instance
+    /// stands, every caster occluding it; --out is then a folder that gets
+    /// one NAME.glb per mesh.
+    #[arg(long, conflicts_with = "mesh")]
+    pub scene: Option<PathBuf>,
+    /// The baked asset (GLB): the input with the AO texture and `_AO`
+    /// (with --scene: the folder of the baked assets).
     #[arg(long)]
     pub out: PathBuf,
     /// Also write the AO texture as its own PNG.
@@ -51,6 +57,10 @@ pub struct BakeArgs {
     /// "distance" (default: infinite).
     #[arg(long, allow_negative_numbers = true)]
     pub radius: Option<f32>,
+    /// The fewest rays whose RMS error over the texels is, at 95%
+    /// confidence, within this, estimated on a probe cast with --rays.
+    #[arg(long, allow_negative_numbers = true)]
+    pub max_error: Option<f64>,
     #[command(flatten)]
     pub common: Common,
 }
@@ -75,8 +85,23 @@ fn in_range(value: i64, option: &str, lo: i64, hi: i64) -> Result<u32> {
 
 pub fn run(args: &BakeArgs) -> Result<Value> {
     let threads = args.common.init_threads()?;
-    let out = Some(args.out.clone());
-    check_outputs(&[(&out, "--out"), (&args.texture, "--texture")])?;
+    if args.scene.is_some() {
+        if args.texture.is_some() {
+            return Err(Error::param(
+                "--texture",
+                "goes with --mesh; with --scene each texture is inside its asset's GLB",
+            ));
+        }
+        if !args.out.is_dir() {
+            return Err(Error::param(
+                "--out",
+                format!("{}: with --scene, a folder that exists", args.out.display()),
+            ));
+        }
+    } else {
+        let out = Some(args.out.clone());
+        check_outputs(&[(&out, "--out"), (&args.texture, "--texture")])?;
+    }
     let settings = BakeSettings {
         resolution: in_range(
             args.resolution,
@@ -99,6 +124,7 @@ pub fn run(args: &BakeArgs) -> Result<Value> {
             radius: args.radius.unwrap_or(f32::INFINITY),
             seed: args.common.seed,
         },
+        max_error: args.max_error,
     };
     if args.texture.is_some() && settings.resolution == 0 {
         return Err(Error::param("--texture", "needs a texture: --resolution is 0"));
@@ -109,9 +135,39 @@ pub fn run(args: &BakeArgs) -> Result<Value> {
             "needs the per-vertex AO: --vertex is off",
         ));
     }
-    settings.validate()?;
+    settings.validate().map_err(|e| e.with_names(crate::args::flag))?;
     let device = args.common.open_device()?;
-    let baked = bake(&device, &args.mesh, &settings, &crate::progress::stderr())?;
+    if let Some(scene) = &args.scene {
+        let scene = crate::args::load_shaded_input(None, Some(scene))?;
+        warn(&scene.warnings);
+        let baked = bake_scene(&device, &scene, &settings, &crate::progress::stderr())?;
+        let mut assets = Vec::new();
+        for b in &baked {
+            warn(&b.baked.warnings);
+            let path = args.out.join(format!("{}.glb", b.name));
+            let same = |a: &std::path::Path, b: &std::path::Path| matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y);
+            if scene.meshes.iter().any(|m| same(&m.path, &path)) {
+                return Err(Error::param(
+                    "--out",
+                    format!("{} is a mesh of the scene: baking would overwrite it", path.display()),
+                ));
+            }
+            penumbra::io::output::write_bytes(&path, &b.baked.glb)?;
+            assets.push(json!({
+                "mesh": b.name,
+                "instance": b.instance,
+                "file": path.display().to_string(),
+                "bake": b.baked.report,
+            }));
+        }
+        let report = json!({"method": "bake", "assets": assets});
+        return merged(args.common.report(&device, threads), report);
+    }
+    let mesh = args
+        .mesh
+        .as_ref()
+        .ok_or_else(|| Error::param("mesh", "a mesh (--mesh FILE) or a scene (--scene FILE) is required"))?;
+    let baked = bake(&device, mesh, &settings, &crate::progress::stderr())?;
     warn(&baked.warnings);
     penumbra::io::output::write_bytes(&args.out, &baked.glb)?;
     let mut written = vec![args.out.display().to_string()];
@@ -121,7 +177,7 @@ pub fn run(args: &BakeArgs) -> Result<Value> {
     }
     let report = json!({
         "method": "bake",
-        "rays_per_point": settings.ao.rays_per_point,
+        "rays_per_point": baked.report.rays_per_point,
         "bake": baked.report,
         "warnings": baked.warnings.len(),
         "files": written,

@@ -22,8 +22,11 @@ pub fn of(command: &Command) -> Files {
             f.output("--out", &Some(a.out.clone()));
         }
         Command::Bake(a) => {
-            f.mesh("--mesh", &Some(a.mesh.clone()));
-            f.output("--out", &Some(a.out.clone()));
+            f.mesh("--mesh", &a.mesh);
+            f.scene(&a.scene);
+            if a.scene.is_none() {
+                f.output("--out", &Some(a.out.clone()));
+            }
             f.output("--texture", &a.texture);
         }
         Command::Ao(a) => {

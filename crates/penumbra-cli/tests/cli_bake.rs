@@ -63,3 +63,43 @@ fn bad_bakes_exit_2_naming_the_problem_and_write_nothing() {
     .ok();
     assert!(std::path::Path::new(&glb).exists());
 }
+
+#[test]
+fn a_scene_bakes_one_glb_per_mesh_into_the_out_folder() {
+    let d = TempDir::new("bake_scene");
+    std::fs::write(
+        d.p("floor.obj"),
+        "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 4/4 3/3 2/2\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.p("card.obj"),
+        "v -0.3 0 -0.3\nv 0.3 0 -0.3\nv 0.3 0 0.3\nv -0.3 0 0.3\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 4/4 3/3 2/2\n",
+    )
+    .unwrap();
+    let scene = d.p("scene.json");
+    std::fs::write(
+        &scene,
+        r#"{"meshes": {"floor": "floor.obj", "card": "card.obj"},
+            "instances": [{"mesh": "floor"}, {"mesh": "card", "translate": [0, 0.2, 0]}]}"#,
+    )
+    .unwrap();
+    let out = d.p("baked");
+    std::fs::create_dir_all(&out).unwrap();
+    let j = pen(
+        "bake --scene {s} --out {o} --resolution 32 --rays 32 --device cpu --json",
+        &[("s", &scene), ("o", &out)],
+    )
+    .ok()
+    .json();
+    let assets = j["assets"].as_array().unwrap();
+    assert_eq!(assets.len(), 2);
+    for name in ["floor", "card"] {
+        assert!(std::path::Path::new(&out).join(format!("{name}.glb")).exists());
+    }
+    pen(
+        "bake --scene {s} --out {o} --texture {t} --rays 8",
+        &[("s", &scene), ("o", &out), ("t", &d.p("x.png"))],
+    )
+    .bad_input(&["--texture", "--scene"]);
+}

@@ -245,3 +245,83 @@ fn the_gpu_bakes_the_texture_as_the_cpu() {
     );
     assert!(worst <= 2.0 / 128.0);
 }
+
+/// A floor and a box of their own files, placed by a scene file: each
+/// baked with the other occluding it.
+#[test]
+fn a_scene_bakes_each_mesh_with_the_others_as_occluders() {
+    let dir = folder("scene");
+    std::fs::write(
+        dir.join("floor.obj"),
+        "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 4/4 3/3 2/2\n",
+    )
+    .unwrap();
+    // A unit cube (outward faces), its own UVs per face.
+    let mut cube = String::new();
+    for z in [-0.5f32, 0.5] {
+        for y in [-0.5f32, 0.5] {
+            for x in [-0.5f32, 0.5] {
+                writeln!(cube, "v {x} {y} {z}").unwrap();
+            }
+        }
+    }
+    cube.push_str("vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n");
+    for f in [
+        [1, 3, 4, 2],
+        [5, 6, 8, 7],
+        [1, 2, 6, 5],
+        [3, 7, 8, 4],
+        [1, 5, 7, 3],
+        [2, 4, 8, 6],
+    ] {
+        writeln!(cube, "f {}/1 {}/2 {}/3 {}/4", f[0], f[1], f[2], f[3]).unwrap();
+    }
+    std::fs::write(dir.join("box.obj"), cube).unwrap();
+    let scene_file = dir.join("scene.json");
+    std::fs::write(
+        &scene_file,
+        r#"{"meshes": {"floor": "floor.obj", "box": "box.obj"},
+            "instances": [{"mesh": "floor"}, {"mesh": "box", "translate": [0, 0.27, 0], "scale": 0.5}]}"#,
+    )
+    .unwrap();
+    let scene = penumbra::scene::load_scene_shaded(&scene_file).unwrap();
+    let baked = penumbra::bake::bake_scene(&Device::cpu(), &scene, &settings(64, 128), &Reporter::silent()).unwrap();
+    assert_eq!(baked.len(), 2);
+    let floor = baked.iter().find(|b| b.name == "floor").unwrap();
+    let texture = floor.baked.texture.as_ref().unwrap();
+    let (centre, edge) = (lookup(texture, 64, 0.5, 0.5), lookup(texture, 64, 0.02, 0.02));
+    println!("floor AO under the box {centre}, at the edge {edge}");
+    assert!(centre < 0.2 && edge > 0.9, "the box shades the floor under it");
+    // Baked alone, the floor is open everywhere.
+    let alone = bake(
+        &Device::cpu(),
+        &dir.join("floor.obj"),
+        &settings(64, 128),
+        &Reporter::silent(),
+    )
+    .unwrap();
+    assert!(alone.texture.unwrap().iter().flatten().all(|&a| a == 1.0));
+}
+
+#[test]
+fn max_error_picks_fewer_rays_for_a_looser_budget() {
+    let dir = folder("budget");
+    let path = scene_obj(&dir, true);
+    let with = |e: f64| {
+        let s = BakeSettings {
+            max_error: Some(e),
+            ..settings(64, 256)
+        };
+        bake(&Device::cpu(), &path, &s, &Reporter::silent()).unwrap().report
+    };
+    let (tight, loose) = (with(0.02), with(0.05));
+    let (t, l) = (tight.budget.unwrap(), loose.budget.unwrap());
+    println!(
+        "budget 0.02: {} rays (estimate {}), 0.05: {} rays (estimate {})",
+        t.rays, t.estimated_error, l.rays, l.estimated_error
+    );
+    assert!(t.rays > l.rays);
+    assert!(t.estimated_error <= 0.02 && l.estimated_error <= 0.05);
+    assert_eq!(tight.rays_per_point, t.rays);
+    assert!(t.probe_points > 100);
+}

@@ -30,7 +30,7 @@ use crate::raycast::tracer::Tracer;
 use crate::scene::cutouts::Cutouts;
 use crate::scene::texture_table::DEFAULT_TEXTURE_BYTES;
 use crate::scene::{BakedAo, Scene, load_mesh_file};
-use texels::{TexelPoints, dilate, texel_points, texel_values};
+use texels::{add_texel_values, dilate, texel_points_in};
 
 /// Largest texture side baked (a 16384² texture is 256 M texels).
 pub const MAX_RESOLUTION: u32 = 16384;
@@ -54,6 +54,11 @@ pub struct BakeSettings {
     pub replace: bool,
     /// The AO rays: count per point, radius, seed.
     pub ao: AoSettings,
+    /// With a value, the fewest rays (a power of two, 8 to 4096) whose
+    /// RMS Monte Carlo error over the texels is, at 95% confidence, at most
+    /// this, estimated on a probe of texel points (`ao.rays_per_point` is
+    /// then the probe's rays).
+    pub max_error: Option<f64>,
 }
 
 impl Default for BakeSettings {
@@ -67,6 +72,7 @@ impl Default for BakeSettings {
             vertex_colors: false,
             replace: false,
             ao: AoSettings::default(),
+            max_error: None,
         }
     }
 }
@@ -88,6 +94,20 @@ impl BakeSettings {
         }
         if !matches!(self.png_bits, 8 | 16) {
             return Err(Error::param("png_bits", "must be 8 or 16"));
+        }
+        if self.resolution as u64 * self.resolution as u64 * self.texel_samples as u64 > u32::MAX as u64 {
+            return Err(Error::param(
+                "texel_samples",
+                format!(
+                    "{} samples on {}² texels are more than 2^32 sample streams",
+                    self.texel_samples, self.resolution
+                ),
+            ));
+        }
+        if let Some(e) = self.max_error
+            && !(e > 0.0 && e < 1.0)
+        {
+            return Err(Error::param("max_error", format!("must be in (0, 1), got {e}")));
         }
         if self.resolution == 0 && !self.vertex {
             return Err(Error::param(
@@ -135,6 +155,46 @@ pub struct BakeReport {
     pub materials_with_ao: usize,
     /// Primitives given `_AO`.
     pub primitives_with_ao: usize,
+    /// The rays per point the bake cast.
+    pub rays_per_point: u32,
+    /// How `max_error` chose them, when it was given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub budget: Option<RaysChosen>,
+}
+
+/// The rays a `max_error` budget chose, and the estimate behind them.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct RaysChosen {
+    /// The budget: RMS error of the texels' AO at 95% confidence.
+    pub max_error: f64,
+    /// Texel points (or vertices, without a texture) the probe cast.
+    pub probe_points: usize,
+    /// Rays per probe point.
+    pub probe_rays: u32,
+    /// The mean of a(1 - a) over the probe: the variance of one ray.
+    pub ray_variance: f64,
+    /// The rays chosen.
+    pub rays: u32,
+    /// 1.96 sqrt(ray_variance / rays): the error expected of them.
+    pub estimated_error: f64,
+}
+
+/// Probe points most.
+const PROBE_POINTS: usize = 4096;
+
+/// The fewest rays (8 to 4096, powers of two) whose RMS error over points
+/// of mean single-ray variance `variance` is, at 95% confidence, within
+/// `max_error`: the standard error of a fraction of n rays is
+/// sqrt(a (1 - a) / n).
+pub fn rays_for(variance: f64, max_error: f64) -> (u32, f64) {
+    let mut n = 8u32;
+    loop {
+        let e = 1.96 * (variance / n as f64).sqrt();
+        if e <= max_error || n >= 4096 {
+            return (n, e);
+        }
+        n *= 2;
+    }
 }
 
 /// A baked asset.
@@ -154,49 +214,151 @@ pub struct Baked {
     pub warnings: Vec<String>,
 }
 
+/// Texel samples traced at once: large textures are baked in bands of rows
+/// (about 32 MiB of points a band), which also keeps every GPU batch
+/// within the device's bindings.
+pub const BAND_SAMPLES: u64 = 1 << 20;
+
 /// Bakes AO into the asset at `input` (glTF, GLB, OBJ or PLY) on `device`.
 pub fn bake(device: &Device, input: &Path, settings: &BakeSettings, bars: &Reporter) -> Result<Baked> {
     settings.validate()?;
     let file = load_mesh_file(input)?;
     let mut warnings = file.warnings.clone();
     let scene = Scene::from_obj_file("asset", input, file.clone());
-    let shading = scene.meshes[0]
-        .shading
-        .as_ref()
-        .expect("a mesh file's scene has its shading");
-    let mesh = &file.mesh;
-    let mut report = BakeReport::default();
-    let texels = if settings.resolution > 0 {
-        if shading.corner_texcoords.iter().all(Option::is_none) {
+    let cutouts = Cutouts::of_scene(&scene, |_| true, DEFAULT_TEXTURE_BYTES, &mut warnings);
+    let mesh = &scene.meshes[0];
+    let mut tracer = Tracer::build(device, &mesh.mesh, bars)?.with_cutouts(cutouts.map(Arc::new));
+    let placed = Placed {
+        mesh: &mesh.mesh,
+        shading: mesh.shading.as_ref().expect("a mesh file's scene has its shading"),
+        input,
+    };
+    let mut baked = bake_placed(&mut tracer, &placed, settings, bars)?;
+    write_asset(input, &file, settings, &mut baked)?;
+    warnings.append(&mut baked.warnings);
+    baked.warnings = warnings;
+    Ok(baked)
+}
+
+/// One asset of a scene baked (`bake_scene`): its mesh's name and file.
+#[derive(Debug, Clone)]
+pub struct BakedMesh {
+    /// The mesh's name in the scene file.
+    pub name: String,
+    /// Its file.
+    pub path: std::path::PathBuf,
+    /// The instance whose placement it was baked in.
+    pub instance: String,
+    /// The bake.
+    pub baked: Baked,
+}
+
+/// Bakes each mesh of `scene` (loaded with its materials) where its first
+/// instance stands, with every caster of the scene occluding it (its own
+/// instance included), as Blender bakes an object among others.
+pub fn bake_scene(device: &Device, scene: &Scene, settings: &BakeSettings, bars: &Reporter) -> Result<Vec<BakedMesh>> {
+    settings.validate()?;
+    let occluders = scene.world_mesh(crate::scene::Role::casts);
+    if occluders.triangles.is_empty() {
+        return Err(Error::param("scene", "no instance is a caster: nothing occludes"));
+    }
+    let mut scene_warnings = Vec::new();
+    let cutouts = Cutouts::of_scene(
+        scene,
+        crate::scene::Role::casts,
+        DEFAULT_TEXTURE_BYTES,
+        &mut scene_warnings,
+    );
+    let mut tracer = Tracer::build(device, &occluders, bars)?.with_cutouts(cutouts.map(Arc::new));
+    let mut out = Vec::new();
+    for (m, mesh) in scene.meshes.iter().enumerate() {
+        let Some(inst) = scene.instances.iter().find(|i| i.mesh == m) else {
+            continue;
+        };
+        let t = inst.transform_at(0);
+        let mut world = mesh.mesh.map_positions(|p| t.apply_point(p));
+        world.origin = scene.origin;
+        let Some(shading) = mesh.shading.as_ref() else {
+            continue;
+        };
+        let placed = Placed {
+            mesh: &world,
+            shading,
+            input: &mesh.path,
+        };
+        let mut baked = bake_placed(&mut tracer, &placed, settings, bars)?;
+        let file = load_mesh_file(&mesh.path)?;
+        write_asset(&mesh.path, &file, settings, &mut baked)?;
+        out.push(BakedMesh {
+            name: mesh.name.clone(),
+            path: mesh.path.clone(),
+            instance: inst.name.clone(),
+            baked,
+        });
+    }
+    if let Some(first) = out.first_mut() {
+        first.baked.warnings.splice(0..0, scene_warnings);
+    }
+    Ok(out)
+}
+
+/// A mesh where it is baked: its positions placed in the traced frame,
+/// its UV layout, and the file it came from (for errors).
+struct Placed<'a> {
+    mesh: &'a crate::scene::Mesh,
+    shading: &'a crate::scene::MeshShading,
+    input: &'a Path,
+}
+
+/// The texture and vertex AO of `placed` through `tracer` (the scene it
+/// stands in), without the asset.
+fn bake_placed(tracer: &mut Tracer, placed: &Placed, settings: &BakeSettings, bars: &Reporter) -> Result<Baked> {
+    let mut warnings = Vec::new();
+    let mesh = placed.mesh;
+    let mut settings = *settings;
+    let budget = match settings.max_error {
+        Some(e) => Some(choose_rays(tracer, placed, &settings, e)?),
+        None => None,
+    };
+    if let Some(b) = budget {
+        settings.ao.rays_per_point = b.rays;
+        if b.estimated_error > b.max_error {
+            warnings.push(format!(
+                "--max-error {}: {} rays (the most a budget chooses) give an estimated error of {:.4}",
+                b.max_error, b.rays, b.estimated_error
+            ));
+        }
+    }
+    let settings = &settings;
+    let mut report = BakeReport {
+        rays_per_point: settings.ao.rays_per_point,
+        budget,
+        resolution: settings.resolution,
+        build_ms: tracer.accel().kdtree().stats.build_ms,
+        cutout_triangles: tracer.cutouts().map_or(0, |c| c.records.len()),
+        ..Default::default()
+    };
+    let texture = if settings.resolution > 0 {
+        if placed.shading.corner_texcoords.iter().all(Option::is_none) {
             return Err(Error::file(
-                input,
+                placed.input,
                 "texture coordinates",
                 "the mesh has none (OBJ `vt`, glTF TEXCOORD_0): there is no UV layout to bake a texture on \
                  (--resolution 0 bakes per-vertex AO alone)",
             ));
         }
-        Some(texel_points(mesh, shading, settings.resolution, settings.texel_samples))
+        let mut values = bake_texture(tracer, placed, settings, bars, &mut report)?;
+        note_layout(&report, &mut warnings);
+        report.mean_texel_ao = mean(values.iter().flatten().copied());
+        dilate(&mut values, settings.resolution, settings.padding);
+        report.texels_padded = values.iter().flatten().count() - report.texels_covered;
+        Some(values)
     } else {
         None
     };
-    let cutouts = Cutouts::of_scene(&scene, |_| true, DEFAULT_TEXTURE_BYTES, &mut warnings);
-    report.cutout_triangles = cutouts.as_ref().map_or(0, |c| c.records.len());
-    let mut tracer = Tracer::build(device, mesh, bars)?.with_cutouts(cutouts.map(Arc::new));
-    report.build_ms = tracer.accel().kdtree().stats.build_ms;
-    let (texture, png) = match &texels {
-        Some(t) => {
-            let (values, ms) = bake_texture(&mut tracer, t, settings, bars)?;
-            report.texture_ms = ms;
-            note_layout(&mut report, t, &mut warnings);
-            let mean = mean(values.iter().flatten().copied());
-            report.mean_texel_ao = mean;
-            let mut filled = values;
-            dilate(&mut filled, settings.resolution, settings.padding);
-            report.texels_padded = filled.iter().flatten().count() - t.covered;
-            let png = encode_png(&filled, settings.resolution, settings.png_bits)?;
-            (Some(filled), Some(png))
-        }
-        None => (None, None),
+    let png = match &texture {
+        Some(values) => Some(encode_png(values, settings.resolution, settings.png_bits)?),
+        None => None,
     };
     let vertex_ao = if settings.vertex {
         let points = vertex_points(mesh);
@@ -211,19 +373,8 @@ pub fn bake(device: &Device, input: &Path, settings: &BakeSettings, bars: &Repor
     } else {
         None
     };
-    let baked = BakedAo {
-        texture_png: png.as_deref(),
-        vertex_ao: vertex_ao.as_deref(),
-        vertex_colors: settings.vertex_colors,
-        replace: settings.replace,
-    };
-    let out = crate::scene::glb_with_ao(input, &file, &baked)?;
-    warnings.extend(out.warnings);
-    report.resolution = settings.resolution;
-    report.materials_with_ao = out.materials_with_ao;
-    report.primitives_with_ao = out.primitives_with_ao;
     Ok(Baked {
-        glb: out.bytes,
+        glb: Vec::new(),
         png,
         texture,
         vertex_ao,
@@ -232,25 +383,100 @@ pub fn bake(device: &Device, input: &Path, settings: &BakeSettings, bars: &Repor
     })
 }
 
-/// The texture's AO per texel (before padding) and the rays' milliseconds.
-fn bake_texture(
-    tracer: &mut Tracer,
-    texels: &TexelPoints,
-    settings: &BakeSettings,
-    bars: &Reporter,
-) -> Result<(Vec<Option<f32>>, f64)> {
-    let bar = bars.bar(texels.points.len() as u64, "AO texels");
-    let masks = tracer.ao_visibility(&texels.points, &settings.ao, &bar)?;
-    bar.finish();
-    Ok((texel_values(texels, &masks.value.accessibility()), masks.ms))
+/// The rays `max_error` asks for, from a probe: texel points of rows
+/// spread over the texture (vertices without a texture), up to
+/// `PROBE_POINTS`, cast with `settings.ao`'s rays.
+fn choose_rays(tracer: &mut Tracer, placed: &Placed, settings: &BakeSettings, max_error: f64) -> Result<RaysChosen> {
+    let n = settings.resolution;
+    let mut points = Vec::new();
+    if n > 0 {
+        let normals = placed.mesh.vertex_normals();
+        let step = (n / 64).max(1);
+        for y in (step / 2..n).step_by(step as usize) {
+            let row = texel_points_in(placed.mesh, &normals, placed.shading, n, 1, y..y + 1);
+            points.extend(row.points);
+        }
+    }
+    if points.is_empty() {
+        points = vertex_points(placed.mesh);
+    }
+    if points.len() > PROBE_POINTS {
+        let stride = points.len().div_ceil(PROBE_POINTS);
+        points = points.into_iter().step_by(stride).collect();
+    }
+    let masks = tracer.ao_visibility(&points, &settings.ao, &crate::progress::Bar::hidden())?;
+    let ao = masks.value.accessibility();
+    let variance = ao.iter().map(|&a| (a * (1.0 - a)) as f64).sum::<f64>() / ao.len().max(1) as f64;
+    let (rays, estimated_error) = rays_for(variance, max_error);
+    Ok(RaysChosen {
+        max_error,
+        probe_points: points.len(),
+        probe_rays: settings.ao.rays_per_point,
+        ray_variance: variance,
+        rays,
+        estimated_error,
+    })
 }
 
-fn note_layout(report: &mut BakeReport, t: &TexelPoints, warnings: &mut Vec<String>) {
-    report.texels_covered = t.covered;
-    report.overlapping_samples = t.overlapping_samples;
-    report.triangles_outside_unit_square = t.triangles_outside_unit_square;
-    report.triangles_without_uv = t.triangles_without_uv;
-    report.texel_points = t.points.len();
+/// The asset at `input` (read as `file`) with `baked`'s AO, as a GLB.
+fn write_asset(input: &Path, file: &crate::scene::ObjFile, settings: &BakeSettings, baked: &mut Baked) -> Result<()> {
+    let ao = BakedAo {
+        texture_png: baked.png.as_deref(),
+        vertex_ao: baked.vertex_ao.as_deref(),
+        vertex_colors: settings.vertex_colors,
+        replace: settings.replace,
+    };
+    let out = crate::scene::glb_with_ao(input, file, &ao)?;
+    baked.glb = out.bytes;
+    baked.warnings.extend(out.warnings);
+    baked.report.materials_with_ao = out.materials_with_ao;
+    baked.report.primitives_with_ao = out.primitives_with_ao;
+    Ok(())
+}
+
+/// The texture's AO per texel (before padding), band by band of rows;
+/// the layout's counts and the rays' milliseconds into `report`.
+fn bake_texture(
+    tracer: &mut Tracer,
+    placed: &Placed,
+    settings: &BakeSettings,
+    bars: &Reporter,
+    report: &mut BakeReport,
+) -> Result<Vec<Option<f32>>> {
+    let n = settings.resolution;
+    let normals = placed.mesh.vertex_normals();
+    let mut values = vec![None; n as usize * n as usize];
+    let per_row = n as u64 * settings.texel_samples as u64;
+    let rows_per_band = (BAND_SAMPLES / per_row).clamp(1, n as u64) as u32;
+    let bar = bars.bar(n as u64, "AO texel rows");
+    let mut start = 0;
+    while start < n {
+        let rows = start..(start + rows_per_band).min(n);
+        let band = texel_points_in(
+            placed.mesh,
+            &normals,
+            placed.shading,
+            n,
+            settings.texel_samples,
+            rows.clone(),
+        );
+        let masks = tracer.ao_visibility(&band.points, &settings.ao, &crate::progress::Bar::hidden())?;
+        add_texel_values(&band, &masks.value.accessibility(), &mut values);
+        report.texture_ms += masks.ms;
+        report.texel_points += band.points.len();
+        report.texels_covered += band.covered;
+        report.overlapping_samples += band.overlapping_samples;
+        // Per triangle: the same in every band.
+        report.triangles_outside_unit_square = band.triangles_outside_unit_square;
+        report.triangles_without_uv = band.triangles_without_uv;
+        bar.inc((rows.end - rows.start) as u64);
+        start = rows.end;
+    }
+    bar.finish();
+    Ok(values)
+}
+
+fn note_layout(t: &BakeReport, warnings: &mut Vec<String>) {
     if t.overlapping_samples > 0 {
         warnings.push(format!(
             "{} texel samples fall on more than one triangle (overlapping UVs: mirrored halves or stacked shells): \

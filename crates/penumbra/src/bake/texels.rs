@@ -53,18 +53,40 @@ fn sample_offset(texel: u32, s: u32, samples: u32) -> Vec2 {
 /// The AO points of `mesh`'s UV layout (`shading`) at `resolution` texels a
 /// side, `samples` a texel.
 pub fn texel_points(mesh: &Mesh, shading: &MeshShading, resolution: u32, samples: u32) -> TexelPoints {
+    texel_points_in(
+        mesh,
+        &mesh.vertex_normals(),
+        shading,
+        resolution,
+        samples,
+        0..resolution,
+    )
+}
+
+/// `texel_points` of the texel rows `rows` only (a band of the texture:
+/// large textures are baked band by band), `normals` the mesh's vertex
+/// normals. Texel indices are the whole texture's.
+pub fn texel_points_in(
+    mesh: &Mesh,
+    normals: &[Vec3],
+    shading: &MeshShading,
+    resolution: u32,
+    samples: u32,
+    rows: std::ops::Range<u32>,
+) -> TexelPoints {
     let n = resolution as usize;
-    let normals = mesh.vertex_normals();
     let offset = mesh.origin_offset();
     let per_texel = samples as usize;
-    // Per sample, the triangle that has it.
-    let mut owner = vec![EMPTY; n * n * per_texel];
+    let first_texel = rows.start as usize * n;
+    // Per sample of the band, the triangle that has it.
+    let mut owner = vec![EMPTY; (rows.end - rows.start) as usize * n * per_texel];
     let mut out = TexelPoints {
         resolution,
         samples,
         ..Default::default()
     };
     let size = resolution as f32;
+    let band = (rows.start as f32, rows.end as f32);
     for (t, corners) in shading.corner_texcoords.iter().enumerate() {
         let Some(c) = corners else {
             out.triangles_without_uv += 1;
@@ -83,8 +105,8 @@ pub fn texel_points(mesh: &Mesh, shading: &MeshShading, resolution: u32, samples
         if area == 0.0 || !area.is_finite() {
             continue;
         }
-        let lo = q[0].min(q[1]).min(q[2]).floor().max(Vec2::ZERO);
-        let hi = q[0].max(q[1]).max(q[2]).ceil().min(Vec2::splat(size));
+        let lo = q[0].min(q[1]).min(q[2]).floor().max(Vec2::new(0.0, band.0));
+        let hi = q[0].max(q[1]).max(q[2]).ceil().min(Vec2::new(size, band.1));
         for y in lo.y as u32..hi.y as u32 {
             for x in lo.x as u32..hi.x as u32 {
                 let texel = y * resolution + x;
@@ -94,7 +116,7 @@ pub fn texel_points(mesh: &Mesh, shading: &MeshShading, resolution: u32, samples
                     if w.iter().any(|&b| b < 0.0) {
                         continue;
                     }
-                    let slot = texel as usize * per_texel + s as usize;
+                    let slot = (texel as usize - first_texel) * per_texel + s as usize;
                     if owner[slot] != EMPTY {
                         out.overlapping_samples += 1;
                         continue;
@@ -114,9 +136,9 @@ pub fn texel_points(mesh: &Mesh, shading: &MeshShading, resolution: u32, samples
             }
         }
     }
-    let mut seen = vec![false; n * n];
+    let mut seen = vec![false; (rows.end - rows.start) as usize * n];
     for &t in &out.texel {
-        seen[t as usize] = true;
+        seen[t as usize - first_texel] = true;
     }
     out.covered = seen.iter().filter(|&&c| c).count();
     out
@@ -130,17 +152,25 @@ fn edge(a: Vec2, b: Vec2, p: Vec2) -> f32 {
 /// Per texel, the mean AO of its covered samples (`ao` per point of
 /// `points`); `None` for an empty texel.
 pub fn texel_values(points: &TexelPoints, ao: &[f32]) -> Vec<Option<f32>> {
-    let n = (points.resolution * points.resolution) as usize;
-    let mut sum = vec![0.0f64; n];
-    let mut count = vec![0u32; n];
+    let mut values = vec![None; (points.resolution * points.resolution) as usize];
+    add_texel_values(points, ao, &mut values);
+    values
+}
+
+/// `texel_values` of a band written into the whole texture's `values`.
+pub fn add_texel_values(points: &TexelPoints, ao: &[f32], values: &mut [Option<f32>]) {
+    let (Some(&lo), Some(&hi)) = (points.texel.iter().min(), points.texel.iter().max()) else {
+        return;
+    };
+    let mut sums = vec![(0.0f64, 0u32); (hi - lo + 1) as usize];
     for (&t, &a) in points.texel.iter().zip(ao) {
-        sum[t as usize] += a as f64;
-        count[t as usize] += 1;
+        let e = &mut sums[(t - lo) as usize];
+        e.0 += a as f64;
+        e.1 += 1;
     }
-    sum.iter()
-        .zip(&count)
-        .map(|(&s, &c)| (c > 0).then(|| (s / c as f64) as f32))
-        .collect()
+    for (k, &(s, c)) in sums.iter().enumerate().filter(|(_, e)| e.1 > 0) {
+        values[lo as usize + k] = Some((s / c as f64) as f32);
+    }
 }
 
 /// Fills empty texels next to filled ones, `padding` rings deep: each ring
