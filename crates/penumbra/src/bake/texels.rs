@@ -118,7 +118,11 @@ pub fn texel_points_in(
                     }
                     let slot = (texel as usize - first_texel) * per_texel + s as usize;
                     if owner[slot] != EMPTY {
-                        out.overlapping_samples += 1;
+                        // On an edge two neighbours share, the first has it;
+                        // strictly inside another triangle, the UVs overlap.
+                        if w.iter().all(|&b| b > 0.0) {
+                            out.overlapping_samples += 1;
+                        }
                         continue;
                     }
                     owner[slot] = t as u32;

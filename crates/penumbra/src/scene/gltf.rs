@@ -25,9 +25,10 @@
 //! Shading: NORMAL attributes become per-corner normals; a primitive
 //! without them is flat, as glTF says. Materials (`material`): the base
 //! colour and its texture, alpha cut-outs, emission, and glass from
-//! `KHR_materials_transmission`; `TEXCOORD_0` is read where a primitive's
-//! material has a texture, its v flipped to penumbra's convention (v up
-//! the image). A mesh read as a mesh is its rest pose (skins and morph
+//! `KHR_materials_transmission`; `TEXCOORD_0` is read wherever a primitive
+//! has it (textures and bakes use it), its v flipped to penumbra's
+//! convention (v up the image). Application attributes (`_NAME`) are
+//! accepted and not read. A mesh read as a mesh is its rest pose (skins and morph
 //! targets not applied); `load_gltf_animation` reads its animation (`rig`:
 //! linear blend skinning, morph targets, node animation).
 //!

@@ -167,14 +167,15 @@ fn texcoords_normalized_integers_and_unmapped_primitives() {
                                    "type": "VEC2" });
     let f = read_gltf(json.clone(), &bin).unwrap();
     assert_corners_match(&f, |p| Vec2::new(p.x as f32, p.y as f32));
-    // Without a texture, texture coordinates are not read.
+    // Without a texture, texture coordinates are read all the same (a
+    // bake lays its AO texture over them).
     json["materials"][0]["pbrMetallicRoughness"]
         .as_object_mut()
         .unwrap()
         .remove("baseColorTexture");
     let f = read_gltf(json.clone(), &bin).unwrap();
-    assert!(f.texcoords.is_empty());
-    assert_eq!(f.corner_texcoords, [[NO_TEXCOORD; 3]; 2]);
+    assert_corners_match(&f, |p| Vec2::new(p.x as f32, p.y as f32));
+    assert!(f.corner_texcoords.iter().all(|c| !c.contains(&NO_TEXCOORD)));
     // A TEXCOORD_0 that does not match POSITION is an error naming it.
     json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": 0 });
     json["accessors"][1]["count"] = 3.into();
@@ -237,7 +238,7 @@ fn texture_sets_other_than_0_are_not_used() {
     json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["texCoord"] = 1.into();
     let f = read_gltf(json, &bin).unwrap();
     assert!(textured(&f).maps.kd.is_none());
-    assert!(f.texcoords.is_empty());
+    assert_eq!(f.texcoords.len(), 4, "TEXCOORD_0 is read, set 1 is not");
     assert!(
         has_warning(&f, &["'textured'", "baseColorTexture uses TEXCOORD_1"]),
         "{:?}",
