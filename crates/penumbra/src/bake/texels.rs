@@ -260,6 +260,36 @@ mod tests {
     }
 
     #[test]
+    fn bands_of_rows_give_the_whole_texture_s_points() {
+        let mesh = Mesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::new(0.3, 1.0, 0.2)],
+            triangles: vec![[0, 1, 2]],
+            ..Default::default()
+        };
+        let shading = MeshShading {
+            materials: Vec::new(),
+            triangle_materials: vec![0],
+            triangle_faces: vec![0],
+            normals: Vec::new(),
+            corner_normals: vec![None],
+            texcoords: vec![Vec2::new(0.1, 0.1), Vec2::new(0.9, 0.2), Vec2::new(0.4, 0.95)],
+            corner_texcoords: vec![Some([0, 1, 2])],
+        };
+        let whole = texel_points(&mesh, &shading, 32, 2);
+        let normals = mesh.vertex_normals();
+        let mut banded = Vec::new();
+        for rows in [0..5, 5..17, 17..32] {
+            banded.extend(texel_points_in(&mesh, &normals, &shading, 32, 2, rows).points);
+        }
+        let key = |p: &AoPoint| p.stream;
+        let (mut a, mut b) = (whole.points.clone(), banded);
+        a.sort_by_key(key);
+        b.sort_by_key(key);
+        assert!(!a.is_empty());
+        assert_eq!(a, b);
+    }
+
+    #[test]
     fn stacked_shells_are_counted_not_averaged() {
         let mesh = Mesh {
             positions: vec![
