@@ -267,6 +267,23 @@ impl TextureTable {
         top * (1.0 - fy) + bottom * fy
     }
 
+    /// Appends the table as the kernels read it through `texture_maps.wgsl`
+    /// to `words`: the sRGB table, the map records (their `texels_at` made
+    /// absolute: counted from `words`' first word) and the texels.
+    pub fn append_words(&self, words: &mut Vec<u32>) {
+        words.extend(self.srgb.iter().map(|f| f.to_bits()));
+        let record_words = std::mem::size_of::<MapRecord>() / 4;
+        let texels_at = (words.len() + self.maps.len() * record_words) as u32;
+        for m in &self.maps {
+            let m = MapRecord {
+                texels_at: texels_at + m.texels_at,
+                ..*m
+            };
+            words.extend_from_slice(bytemuck::cast_slice(bytemuck::bytes_of(&m)));
+        }
+        words.extend_from_slice(&self.texels);
+    }
+
     /// Whether cut-out map `map` has a hole at `uv` (the CPU twin of
     /// `map_hole` in texture_maps.wgsl).
     pub fn is_hole(&self, map: u32, uv: Vec2) -> bool {

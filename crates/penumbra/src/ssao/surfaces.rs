@@ -17,7 +17,7 @@ use glam::{Vec2, Vec3};
 use super::gbuffer::{pack_albedo, scene_albedos, triangle_albedos};
 use crate::geom::float::floor;
 use crate::scene::cutouts::{Cutouts, MAX_HOLE_CROSSINGS, barycentrics, past_hole};
-use crate::scene::texture_table::{MapRecord, MapUse, NO_MAP, TextureTable, TextureTableBuilder};
+use crate::scene::texture_table::{MapUse, NO_MAP, TextureTable, TextureTableBuilder};
 use crate::scene::{Mesh, Scene};
 
 /// Words before the texture table in a section of `GBufferSurfaces::words`
@@ -226,19 +226,9 @@ impl AlbedoMaps {
     pub fn words(&self) -> Vec<u32> {
         let mut words = vec![0u32; SECTION_HEADER_WORDS];
         words[0] = (SECTION_HEADER_WORDS / 4) as u32;
-        words.extend(self.table.srgb.iter().map(|f| f.to_bits()));
-        let record_words = std::mem::size_of::<MapRecord>() / 4;
-        let texels_at = words.len() + self.table.maps.len() * record_words;
-        let triangles_at = texels_at + self.table.texels.len();
+        self.table.append_words(&mut words);
+        let triangles_at = words.len();
         let records_at = triangles_at + self.triangles.len();
-        for m in &self.table.maps {
-            let m = MapRecord {
-                texels_at: texels_at as u32 + m.texels_at,
-                ..*m
-            };
-            words.extend_from_slice(bytemuck::cast_slice(bytemuck::bytes_of(&m)));
-        }
-        words.extend_from_slice(&self.table.texels);
         words.extend_from_slice(&self.triangles);
         for r in &self.records {
             words.push(r.map);

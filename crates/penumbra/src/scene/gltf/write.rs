@@ -77,6 +77,17 @@ impl Bin<'_> {
         push(self.root, "bufferViews", view)
     }
 
+    /// Appends a PNG as an image and a texture of it; returns the texture.
+    fn texture(&mut self, png: &[u8]) -> usize {
+        let view = self.view(png, None);
+        let image = push(
+            self.root,
+            "images",
+            json!({"bufferView": view, "mimeType": "image/png", "name": "penumbra-ao"}),
+        );
+        push(self.root, "textures", json!({"source": image, "name": "penumbra-ao"}))
+    }
+
     /// Appends floats as an accessor of `kind` ("SCALAR", "VEC3"...).
     fn floats(&mut self, values: &[f32], kind: &str, per: usize, bounds: bool) -> usize {
         let view = self.view(bytemuck::cast_slice(values), Some(ARRAY_BUFFER));
@@ -159,13 +170,7 @@ fn from_gltf(input: &Path, bytes: &[u8], file: &ObjFile, baked: &BakedAo) -> Res
     let mut out = GlbOut::default();
     let mut bin = Bin { data, root: &mut root };
     if let Some(png) = baked.texture_png {
-        let view = bin.view(png, None);
-        let image = push(
-            bin.root,
-            "images",
-            json!({"bufferView": view, "mimeType": "image/png", "name": "penumbra-ao"}),
-        );
-        let texture = push(bin.root, "textures", json!({"source": image, "name": "penumbra-ao"}));
+        let texture = bin.texture(png);
         let occlusion = json!({"index": texture});
         let mut unassigned = false;
         if let Some(meshes) = bin.root.get("meshes").and_then(Value::as_array) {
@@ -330,13 +335,7 @@ fn from_mesh(file: &ObjFile, baked: &BakedAo) -> GlbOut {
         "pbrMetallicRoughness": {"baseColorFactor": [kd.x, kd.y, kd.z, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0},
     });
     if let Some(png) = baked.texture_png {
-        let view = bin.view(png, None);
-        let image = push(
-            bin.root,
-            "images",
-            json!({"bufferView": view, "mimeType": "image/png", "name": "penumbra-ao"}),
-        );
-        let texture = push(bin.root, "textures", json!({"source": image, "name": "penumbra-ao"}));
+        let texture = bin.texture(png);
         material["occlusionTexture"] = json!({"index": texture});
         out.materials_with_ao = 1;
     }
