@@ -156,7 +156,9 @@ fn intersect_triangle(r: ShearedRay, tri: u32, t_max: f32) -> f32 {
 }
 
 // KdTree::traverse. `any_hit` returns the first hit found.
-fn kd_traverse(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
+fn kd_traverse(o: vec3<f32>, d_in: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
+    // geom::ray::flush_subnormal: subnormal direction components are zeros.
+    let d = select(d_in, d_in * 0.0, abs(d_in) < vec3<f32>(1.17549435e-38));
     kd_count_cells = 0u;
     kd_count_isects = 0u;
     var best: Hit;

@@ -17,6 +17,27 @@ pub struct Ray {
     pub dir: [f32; 3],
 }
 
+/// `d` with its subnormal components (below `f32::MIN_POSITIVE` in
+/// magnitude, not zero) made zeros of their sign. Their reciprocals
+/// overflow to infinity, so a walk's slab and split-plane distances take
+/// the ray as parallel to a plane that its triangle test, dividing by the
+/// largest component instead, sees it cross: the kd-tree and the BVH
+/// would disagree. Every walk takes its directions through this first, so
+/// all read such a component as the zero it nearly is.
+#[inline(always)]
+pub fn flush_subnormal(d: Vec3) -> Vec3 {
+    Vec3::select(d.abs().cmplt(Vec3::splat(f32::MIN_POSITIVE)), d * 0.0, d)
+}
+
+/// `flush_subnormal` of up to 16 directions, copied where one needs it.
+#[inline(always)]
+pub fn flush_subnormals(dirs: &[Vec3], out: &mut [Vec3; 16]) -> usize {
+    for (o, &d) in out.iter_mut().zip(dirs) {
+        *o = flush_subnormal(d);
+    }
+    dirs.len().min(16)
+}
+
 impl Ray {
     /// The ray from `origin` along `dir` (not normalised).
     pub fn new(origin: Vec3, dir: Vec3) -> Self {

@@ -5,7 +5,7 @@ use glam::{DVec3, Vec3};
 
 use crate::error::{Error, Result};
 use crate::geom::aabb::Aabb;
-use crate::geom::ray::Ray;
+use crate::geom::ray::{Ray, flush_subnormal};
 
 /// A pinhole camera looking from `eye` at `target`, in the scene's frame,
 /// with +y up (+z for a vertical view, `basis`) and square pixels.
@@ -61,6 +61,17 @@ impl CameraSpec {
             target: Some(super::frame::to_world(origin, c.target)),
             fov_degrees: Some(c.fov_degrees),
         }
+    }
+}
+
+/// `v` (finite, not zero) at unit length. Where its squared length
+/// overflows (components beyond about 1.8e19) or underflows, `normalize`
+/// gives zeros or NaN: `v` is then scaled by its largest component first.
+fn unit(v: Vec3) -> Vec3 {
+    if v.length_squared().is_normal() {
+        v.normalize()
+    } else {
+        (v / v.abs().max_element()).normalize()
     }
 }
 
@@ -198,6 +209,12 @@ impl Camera {
         if self.eye == self.target {
             return Err(Error::param("eye/target", "eye and target are the same point"));
         }
+        if !(self.target - self.eye).is_finite() {
+            return Err(Error::param(
+                "eye/target",
+                "eye and target are too far apart: their difference overflows f32",
+            ));
+        }
         if !(self.fov_degrees > 0.0 && self.fov_degrees < 180.0) {
             return Err(Error::param(
                 "fov_degrees",
@@ -210,7 +227,7 @@ impl Camera {
     /// Right, up and forward unit vectors; up is +y unless the view is
     /// vertical, then +z.
     pub fn basis(&self) -> (Vec3, Vec3, Vec3) {
-        let forward = (self.target - self.eye).normalize();
+        let forward = unit(self.target - self.eye);
         let world_up = if forward.cross(Vec3::Y).length_squared() < 1e-12 {
             Vec3::Z
         } else {
@@ -282,7 +299,7 @@ fn screen_y(y: f32, height: u32, tan_half: f32) -> f32 {
 /// The unit direction through the image plane's point `(px, py)`.
 #[inline(always)]
 fn pixel_direction(forward: Vec3, right: Vec3, up: Vec3, px: f32, py: f32) -> Vec3 {
-    (forward + px * right + py * up).normalize()
+    flush_subnormal((forward + px * right + py * up).normalize())
 }
 
 /// A pinhole camera's pixel directions for one image size: the image

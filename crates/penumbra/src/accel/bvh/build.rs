@@ -378,5 +378,6 @@ impl Widen<'_> {
             n.planes[axis + 3][slot] = bounds.max[axis] + self.pad;
         }
         n.child[slot] = child;
+        n.used |= 1 << slot;
     }
 }

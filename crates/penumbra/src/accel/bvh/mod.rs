@@ -64,6 +64,12 @@ pub struct Node8 {
     /// Per slot: an interior child's node index, or `LEAF_BIT` with the
     /// index of its leaf block in `Bvh8::blocks`, or `EMPTY_CHILD`.
     pub child: [u32; WIDTH],
+    /// Bit i set where slot i holds a child. The walks keep only these
+    /// bits of a box test's mask: an empty slot's box stops a ray only
+    /// through its arithmetic, and a NaN slab (a NaN direction, or an
+    /// infinite origin against an infinite plane) keeps every interval,
+    /// which would enter the slot and read `EMPTY_CHILD` as a leaf.
+    pub used: u32,
 }
 
 impl Node8 {
@@ -79,6 +85,7 @@ impl Node8 {
             [f32::NEG_INFINITY; WIDTH],
         ],
         child: [EMPTY_CHILD; WIDTH],
+        used: 0,
     };
 }
 

@@ -25,6 +25,7 @@ use super::{Bvh8, EMPTY_CHILD, LEAF_BIT, SLACK, WIDTH};
 use crate::accel::kdtree::KdTree;
 use crate::accel::kdtree::leaf_blocks::LeafBlock;
 use crate::accel::kdtree::occlusion::{LANES, Rays, common_axes};
+use crate::geom::ray::flush_subnormals;
 use crate::geom::simd::{Isa, Kernel, Lanes, Mask, dispatch};
 
 /// Stack entries: as the single-ray walk's, at most seven per level.
@@ -70,7 +71,10 @@ pub(crate) fn occluded_in<V: Lanes>(bvh: &Bvh8, tree: &KdTree, origin: Vec3, dir
     if dirs.is_empty() {
         return 0;
     }
-    match Rays::<V>::new(&bvh.bounds, bvh.frame_scale, origin, dirs, t_max) {
+    let mut flushed = [Vec3::ZERO; LANES];
+    let n = flush_subnormals(dirs, &mut flushed);
+    let dirs = &flushed[..n];
+    match Rays::<V>::new(&tree.bounds, bvh.frame_scale, origin, dirs, t_max) {
         Some(rays) if rays.live == 0 => 0,
         Some(rays) => traverse(bvh, tree, &rays, dirs),
         // A zero direction component: its slabs need the NaN rules of the

@@ -28,10 +28,10 @@ use rayon::prelude::*;
 
 use super::occlusion::corner;
 use super::traverse::{entered, is_contact, narrow};
-use super::{Bvh8, EMPTY_CHILD, LEAF_BIT, Node8, SLACK, WIDTH};
+use super::{Bvh8, LEAF_BIT, Node8, SLACK, WIDTH};
 use crate::accel::kdtree::KdTree;
 use crate::accel::kdtree::occlusion::{LANES, Rays, common_axes};
-use crate::geom::ray::{Hit, Ray};
+use crate::geom::ray::{Hit, Ray, flush_subnormal};
 use crate::geom::simd::{Isa, Kernel, Lanes, Mask, dispatch, set_lanes};
 
 /// Stack entries: as the single-ray walk's, at most seven per level.
@@ -85,7 +85,7 @@ pub fn closest_in<V: Lanes>(
     }
     let mut columns = Columns::new();
     for d in dirs {
-        columns.push(d.to_array());
+        columns.push(flush_subnormal(*d).to_array());
     }
     columns.repeat_last();
     closest_columns::<V>(bvh, tree, origin, &columns, t_max, counts)
@@ -179,14 +179,19 @@ fn closest_columns<V: Lanes>(
         counts.nodes += 1;
         return hits;
     }
-    let mut rays = Rays::<V>::from_columns(&bvh.bounds, bvh.frame_scale, origin, d, n, t_max)
+    let mut rays = Rays::<V>::from_columns(&tree.bounds, bvh.frame_scale, origin, d, n, t_max)
         .expect("no direction component is zero");
     // Every lane walks from the root, as its single ray does: the root's
-    // boxes (padded) decide, not the scene's unpadded bounds.
+    // boxes (padded) decide, not the scene's unpadded bounds; a lane those
+    // bounds reject (`Rays`'s clip, the kd-tree's) misses, as its single
+    // ray does (`traverse::dispatch`).
+    let clipped = rays.live;
     rays.live = ((1u32 << n) - 1) as u16;
     walk(bvh, &rays, &frustum, root, &mut hits, counts);
     for (r, h) in hits[..n].iter_mut().enumerate() {
-        if h.is_hit() && is_contact(bvh, h.t, columns.dir(r)) {
+        if clipped & (1 << r) == 0 {
+            *h = Hit::MISS;
+        } else if h.is_hit() && is_contact(bvh, h.t, columns.dir(r)) {
             *h = tree.closest_hit(origin, columns.dir(r), t_max);
             counts.single_rays += 1;
         }
@@ -370,8 +375,6 @@ pub(super) struct Frustum {
     /// Per axis: every lane's direction has one sign (the axis is not
     /// open), so each lane enters a box by row `near` and leaves by `far`.
     signed: [bool; 3],
-    /// Every axis open: the box tests reject nothing, empty slots included.
-    open: bool,
 }
 
 impl Frustum {
@@ -389,7 +392,6 @@ impl Frustum {
             near: [0, 1, 2],
             far: [3, 4, 5],
             signed: [true; 3],
-            open: false,
         };
         for (a, c) in d.iter().enumerate() {
             let (d_min, d_max) = (c.min_lane(), c.max_lane());
@@ -403,7 +405,6 @@ impl Frustum {
                 f.signed[a] = false;
             }
         }
-        f.open = !f.signed.contains(&true);
         f
     }
 
@@ -426,23 +427,16 @@ impl Frustum {
     fn enters<V: Lanes>(&self, node: &Node8, latest: f32) -> (u32, [f32; WIDTH]) {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: `V::AVX2` says the CPU has AVX2 here.
-        let (mut mask, near) = if V::AVX2 {
+        let (mask, near) = if V::AVX2 {
             unsafe { self.enters_avx(node, latest) }
         } else {
             self.enters_lanes(node, latest)
         };
         #[cfg(not(target_arch = "x86_64"))]
-        let (mut mask, near) = self.enters_lanes(node, latest);
-        if self.open {
-            // Unused slots' empty boxes stop no lane when every axis is
-            // open (one closed axis puts them at infinity).
-            for (l, &child) in node.child.iter().enumerate() {
-                if child == EMPTY_CHILD {
-                    mask &= !(1 << l);
-                }
-            }
-        }
-        (mask, near)
+        let (mask, near) = self.enters_lanes(node, latest);
+        // Unused slots' empty boxes stop no lane when every axis is open
+        // or a slab is NaN (`Node8::used`).
+        (mask & node.used, near)
     }
 
     #[inline(always)]
@@ -611,7 +605,7 @@ impl Kernel for Band<'_> {
                 for ray in &band[row(y)] {
                     let [ox, oy, oz] = ray.origin.map(f32::to_bits);
                     differ |= (ox ^ bits[0]) | (oy ^ bits[1]) | (oz ^ bits[2]);
-                    columns.push(ray.dir);
+                    columns.push(flush_subnormal(Vec3::from_array(ray.dir)).to_array());
                 }
             }
             if differ == 0 && !origin.iter().any(|x| x.is_nan()) {

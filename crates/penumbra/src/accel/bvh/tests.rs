@@ -373,6 +373,7 @@ fn random_node(rng: &mut Rng, slots: usize) -> Node8 {
             node.planes[axis + 3][slot] = a[axis].max(b[axis]);
         }
         node.child[slot] = slot as u32;
+        node.used |= 1 << slot;
     }
     node
 }

@@ -18,7 +18,7 @@ use glam::Vec3;
 use super::{Bvh8, LEAF_BIT, Node8, SLACK, WIDTH};
 use crate::accel::kdtree::KdTree;
 use crate::accel::kdtree::watertight::ShearedRay;
-use crate::geom::ray::{Hit, Ray};
+use crate::geom::ray::{Hit, Ray, flush_subnormal};
 
 /// Stack entries: the builder bounds the binary tree's depth by 48 + 32
 /// levels, and each level pushes at most seven children.
@@ -165,7 +165,19 @@ pub(super) fn dispatch<const ANY: bool>(bvh: &Bvh8, tree: &KdTree, rays: &[Ray],
     #[cfg(not(target_arch = "x86_64"))]
     trace::<ANY, Lanes8>(bvh, rays, t_max, hits);
     for (r, h) in rays.iter().zip(hits) {
-        if h.is_hit() && is_contact(bvh, h.t, r.d()) {
+        // The kd-tree clips a ray to the scene's bounds first, unpadded and
+        // without slack: a ray that touches them only at a corner or an
+        // edge, where rounding puts its entry past its exit, is a miss
+        // there even if a triangle on that boundary would accept it; the
+        // BVH's padded boxes let it through. Its answer is the kd-tree's.
+        if h.is_hit()
+            && tree
+                .bounds
+                .clip_ray(r.o(), flush_subnormal(r.d()), 0.0, t_max)
+                .is_none()
+        {
+            *h = Hit::MISS;
+        } else if h.is_hit() && is_contact(bvh, h.t, r.d()) {
             *h = if ANY {
                 match tree.any_hit(r.o(), r.d(), t_max) {
                     true => *h,
@@ -193,7 +205,7 @@ fn trace_avx2<const ANY: bool>(bvh: &Bvh8, rays: &[Ray], t_max: f32, hits: &mut 
 #[inline(always)]
 fn trace<const ANY: bool, T: BoxTest>(bvh: &Bvh8, rays: &[Ray], t_max: f32, hits: &mut [Hit]) {
     for (r, h) in rays.iter().zip(hits) {
-        *h = walk::<ANY, T>(bvh, r.o(), r.d(), t_max);
+        *h = walk::<ANY, T>(bvh, r.o(), flush_subnormal(r.d()), t_max);
     }
 }
 
@@ -216,6 +228,7 @@ fn walk<const ANY: bool, T: BoxTest>(bvh: &Bvh8, origin: Vec3, dir: Vec3, t_max:
         if current & LEAF_BIT == 0 {
             let node = &bvh.nodes[current as usize];
             let (mask, near) = T::test(node, &ray, best.t);
+            let mask = mask & node.used;
             if mask != 0 {
                 let first = mask.trailing_zeros() as usize;
                 let rest = mask & (mask - 1);

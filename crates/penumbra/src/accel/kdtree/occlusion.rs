@@ -27,6 +27,7 @@ use super::node::MAX_TREE_DEPTH;
 use super::traverse::{NoCounts, SingleRay, TRAVERSAL_SLACK};
 use super::watertight::ShearedRay;
 use crate::geom::aabb::Aabb;
+use crate::geom::ray::flush_subnormals;
 use crate::geom::simd::{Isa, Kernel, Lanes, Mask, dispatch};
 
 /// Rays per packet.
@@ -69,6 +70,9 @@ pub fn occluded_in<V: Lanes>(tree: &KdTree, origin: Vec3, dirs: &[Vec3], t_max: 
     if dirs.is_empty() {
         return 0;
     }
+    let mut flushed = [Vec3::ZERO; LANES];
+    let n = flush_subnormals(dirs, &mut flushed);
+    let dirs = &flushed[..n];
     let rays = match Rays::<V>::new(&tree.bounds, tree.frame_scale, origin, dirs, t_max) {
         Some(rays) => rays,
         None => SharedOrigin::new(tree, origin, dirs, t_max).lanes(),

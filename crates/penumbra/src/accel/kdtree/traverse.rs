@@ -15,7 +15,7 @@ use glam::Vec3;
 use super::KdTree;
 use super::node::{KdNode, MAX_TREE_DEPTH};
 use super::watertight::ShearedRay;
-use crate::geom::ray::Hit;
+use crate::geom::ray::{Hit, flush_subnormal};
 
 /// Receives traversal events; the statistics of `penumbra trace` count them,
 /// the fast path compiles them away.
@@ -122,6 +122,7 @@ impl KdTree {
 
     #[inline(always)]
     fn traverse<const ANY: bool, C: Counters>(&self, origin: Vec3, dir: Vec3, t_max: f32, counts: &mut C) -> Hit {
+        let dir = flush_subnormal(dir);
         let Some((t0, t1)) = self.bounds.clip_ray(origin, dir, 0.0, t_max) else {
             return Hit::MISS;
         };
