@@ -100,10 +100,127 @@ pub fn rule_options(args: &[&str]) -> Vec<(&'static str, bool)> {
         .collect()
 }
 
+/// What a number-valued option's values are: one number, or a list or
+/// point of numbers (`X,Y,Z`, `X,Y`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Numeric {
+    /// One number.
+    Number,
+    /// Numbers separated by commas.
+    List,
+}
+
+/// The kind of number `arg` takes, from its value parser's type.
+fn numeric(arg: &clap::Arg) -> Option<Numeric> {
+    use std::any::TypeId;
+    if !arg.get_action().takes_values() {
+        return None;
+    }
+    let t = arg.get_value_parser().type_id();
+    let numbers = [
+        TypeId::of::<u8>(),
+        TypeId::of::<u16>(),
+        TypeId::of::<u32>(),
+        TypeId::of::<u64>(),
+        TypeId::of::<usize>(),
+        TypeId::of::<i32>(),
+        TypeId::of::<i64>(),
+        TypeId::of::<f32>(),
+        TypeId::of::<f64>(),
+    ];
+    let lists = [
+        TypeId::of::<glam::Vec3>(),
+        TypeId::of::<glam::DVec3>(),
+        TypeId::of::<(u32, u32)>(),
+    ];
+    if numbers.iter().any(|id| t == *id) {
+        Some(Numeric::Number)
+    } else if lists.iter().any(|id| t == *id) {
+        Some(Numeric::List)
+    } else {
+        None
+    }
+}
+
+/// Every number-valued option: (subcommand, long name, kind).
+pub fn numeric_options() -> Vec<(String, String, Numeric)> {
+    let command = Cli::command();
+    let mut out = Vec::new();
+    for sub in command.get_subcommands() {
+        for arg in sub.get_arguments() {
+            if let (Some(kind), Some(long)) = (numeric(arg), arg.get_long()) {
+                out.push((sub.get_name().to_string(), long.to_string(), kind));
+            }
+        }
+    }
+    out
+}
+
+/// `Cli`'s parser, with every number-valued option taking a leading minus
+/// as its value: a number (`allow_negative_numbers`) or a list
+/// (`allow_hyphen_values`, "-1,0,0" is no number to clap). The option's
+/// own range then refuses it by name, rather than clap calling "-1" an
+/// unexpected argument.
+fn command() -> clap::Command {
+    fn allow(mut cmd: clap::Command) -> clap::Command {
+        let args: Vec<(clap::Id, Numeric)> = cmd
+            .get_arguments()
+            .filter_map(|a| numeric(a).map(|k| (a.get_id().clone(), k)))
+            .collect();
+        for (id, kind) in args {
+            cmd = cmd.mut_arg(id, |a| match kind {
+                Numeric::Number => a.allow_negative_numbers(true),
+                Numeric::List => a.allow_hyphen_values(true),
+            });
+        }
+        let subs: Vec<String> = cmd.get_subcommands().map(|s| s.get_name().to_string()).collect();
+        for sub in subs {
+            cmd = cmd.mut_subcommand(sub, allow);
+        }
+        cmd
+    }
+    allow(Cli::command())
+}
+
+/// The parse of `args` (the program's name first): `Ok` or clap's error
+/// message. For tests.
+pub fn parse_error(args: &[&str]) -> Option<String> {
+    command().try_get_matches_from(args).err().map(|e| e.to_string())
+}
+
+/// The aliases of options that `args` spells: (`--long`, `--alias` as
+/// typed), so that a message about the option names what the user wrote
+/// (`--check-rays`, not `--reference-rays`).
+fn typed_aliases(args: &[OsString]) -> Vec<(String, String)> {
+    let given: Vec<&str> = args
+        .iter()
+        .filter_map(|a| a.to_str())
+        .filter_map(|a| a.strip_prefix("--"))
+        .map(|a| a.split('=').next().unwrap_or(a))
+        .collect();
+    let command = Cli::command();
+    let mut out = Vec::new();
+    for sub in command.get_subcommands() {
+        for arg in sub.get_arguments() {
+            let (Some(long), Some(aliases)) = (arg.get_long(), arg.get_all_aliases()) else {
+                continue;
+            };
+            for alias in aliases {
+                if given.contains(&alias) {
+                    out.push((format!("--{long}"), format!("--{alias}")));
+                }
+            }
+        }
+    }
+    out
+}
+
 /// Runs the command line; returns the process exit code.
 pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
-    let parsed = Cli::command()
-        .try_get_matches_from(args)
+    let args: Vec<OsString> = args.into_iter().collect();
+    let typed = typed_aliases(&args);
+    let parsed = command()
+        .try_get_matches_from(&args)
         .and_then(|m| Cli::from_arg_matches(&m).map(|cli| (cli, m)));
     let (cli, matches) = match parsed {
         Ok(parsed) => parsed,
@@ -124,7 +241,16 @@ pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
     match outcome {
         Ok(Ok(())) => 0,
         Ok(Err(e)) => {
-            eprintln!("penumbra: error: {}", e.clone().with_names(args::flag));
+            let rename = |name: &str| {
+                let flag = args::flag(name)?;
+                Some(
+                    typed
+                        .iter()
+                        .find(|(long, _)| long == flag)
+                        .map_or(flag, |(_, t)| t.as_str()),
+                )
+            };
+            eprintln!("penumbra: error: {}", e.clone().with_names(rename));
             e.exit_code()
         }
         Err(panic) => {

@@ -52,11 +52,13 @@ use std::path::{Path, PathBuf};
 use glam::{DVec3, Quat, Vec3};
 use serde::Deserialize;
 
+use super::mesh::MAX_EXTENT;
 use super::{
     Camera, Instance, Light, Material, MeshShading, Motion, Role, Scene, SceneMesh, SceneSphere, Transform, load_mesh,
     load_mesh_file,
 };
 use crate::error::{Error, Result};
+use crate::geom::aabb::Aabb;
 use crate::scene::environment::EnvironmentMap;
 
 #[derive(Deserialize)]
@@ -321,6 +323,39 @@ pub fn load_scene_shaded_in(path: &Path, data: Option<&Path>) -> Result<Scene> {
     load(path, true, data)
 }
 
+/// Refuses instances whose placement takes the scene past the extent f32
+/// arithmetic handles (`mesh::MAX_EXTENT`), naming the first instance that
+/// does (its mesh alone may be small: the placement is the scene file's),
+/// before anything is built from the scene.
+fn check_placed_extent(path: &Path, meshes: &[SceneMesh], instances: &[Instance]) -> Result<()> {
+    let mut bounds = Aabb::EMPTY;
+    for (i, inst) in instances.iter().enumerate() {
+        let b = meshes[inst.mesh].mesh.bounds();
+        for k in 0..8 {
+            let pick = |bit: usize, lo: f32, hi: f32| if k & bit == 0 { lo } else { hi };
+            let corner = Vec3::new(
+                pick(1, b.min.x, b.max.x),
+                pick(2, b.min.y, b.max.y),
+                pick(4, b.min.z, b.max.z),
+            );
+            bounds = bounds.grow(inst.transform.apply_point(corner));
+        }
+        let extent = (bounds.max.as_dvec3() - bounds.min.as_dvec3()).max_element();
+        if extent.is_nan() || extent > MAX_EXTENT as f64 {
+            return Err(Error::file(
+                path,
+                format!("instances[{i}]"),
+                format!(
+                    "its translate, scale and rotate take the scene's extent to {extent:.3e}, beyond \
+                     {MAX_EXTENT:.1e}, the largest f32 arithmetic handles; place the instances closer \
+                     together or scale them down"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn load(path: &Path, shaded: bool, data: Option<&Path>) -> Result<Scene> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::read(path, e))?;
     let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
@@ -431,6 +466,7 @@ fn load(path: &Path, shaded: bool, data: Option<&Path>) -> Result<Scene> {
             material: inst.material.clone(),
         });
     }
+    check_placed_extent(path, &meshes, &instances)?;
     let mut spheres = Vec::new();
     for (i, sphere) in file.spheres.iter().enumerate() {
         let field = format!("spheres[{i}]");
