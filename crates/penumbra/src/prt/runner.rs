@@ -984,7 +984,12 @@ impl PrtReport {
 
     /// The self-check's warning, if it has one.
     pub fn warnings(&self) -> Vec<String> {
-        self.self_check.iter().flat_map(|c| c.warning()).collect()
+        let lighting = self.lighting.iter().flat_map(|l| l.warning());
+        self.self_check
+            .iter()
+            .flat_map(|c| c.warning())
+            .chain(lighting)
+            .collect()
     }
 
     /// With what was decided and measured before the first frame.

@@ -532,7 +532,8 @@ pub fn play_scene_runs(
 }
 
 impl SceneReport {
-    /// The objects' self-check warnings, each naming its object.
+    /// The objects' self-check warnings, each naming its object, and the
+    /// lighting's (`Deringing::warning`).
     pub fn warnings(&self) -> Vec<String> {
         self.objects
             .iter()
@@ -540,6 +541,7 @@ impl SceneReport {
                 let w = o.self_check.as_ref()?.warning()?;
                 Some(format!("{}: {w}", o.name))
             })
+            .chain(self.lighting.warning())
             .collect()
     }
 }

@@ -112,23 +112,43 @@ fn least(sums: &[Vec<[f64; 3]>], window: &[f64]) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// What `nonnegative` did: the kernel's exponent s and its window (None: no
-/// window needed), and the least reconstructed radiance before and after,
-/// relative to the mean radiance (`lighting` in the PRT report).
+/// What `nonnegative` did: whether it windowed the lighting, the kernel's
+/// exponent s and the window applied, and the least reconstructed radiance
+/// before and after, relative to the mean radiance (`lighting` in the PRT
+/// report). Every field is a value: no window is `windowed` false, an
+/// exponent of 0 and a window of ones (what was applied), so that a
+/// script never reads "not computed" where nothing was needed.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Deringing {
+    /// Whether a window was applied: false when the lighting was already
+    /// non-negative, has one band (`--order 1`), or is black.
+    pub windowed: bool,
     /// The exponent s of the kernel `((1 + cos γ) / 2)^s`, at least
-    /// `bands - 1`; `None` when the lighting was already non-negative.
-    pub exponent: Option<f64>,
+    /// `bands - 1`; 0 when no window was applied.
+    pub exponent: f64,
     /// The per-band factors `σ_l(s)` applied, band 0 first (`σ_0` = 1);
-    /// `None` when no window was needed.
-    pub window: Option<Vec<f64>>,
+    /// all 1 when no window was applied.
+    pub window: Vec<f64>,
+    /// The lighting is zero (a black probe): every image is black, and no
+    /// window is needed (`warning` says so).
+    pub black: bool,
     /// The least reconstructed radiance of any channel over the grid of
     /// directions, divided by the mean radiance, before windowing
     /// (negative: the lighting rang).
     pub least_before: f64,
     /// The same after windowing (equal to `least_before` when unwindowed).
     pub least_after: f64,
+}
+
+impl Deringing {
+    /// What a user should know: a black probe lights nothing.
+    pub fn warning(&self) -> Option<String> {
+        self.black.then(|| {
+            "the environment map is black (all its SH coefficients are 0): every image is black; \
+             no window is needed (lighting.windowed false)"
+                .to_string()
+        })
+    }
 }
 
 /// The lighting windowed as little as keeps its reconstruction
@@ -140,10 +160,13 @@ pub fn nonnegative(light: &ShRgb) -> (ShRgb, Deringing) {
     let mean = light.rgb[0].iter().sum::<f64>() / 3.0 / (4.0 * std::f64::consts::PI).sqrt();
     let scale = mean.abs().max(f64::MIN_POSITIVE);
     let before = least(&sums, &vec![1.0; bands]);
+    let black = light.rgb.iter().all(|c| c.iter().all(|&x| x == 0.0));
     if before >= 0.0 || bands == 1 {
         let d = Deringing {
-            exponent: None,
-            window: None,
+            windowed: false,
+            exponent: 0.0,
+            window: vec![1.0; bands],
+            black,
             least_before: before / scale,
             least_after: before / scale,
         };
@@ -165,8 +188,10 @@ pub fn nonnegative(light: &ShRgb) -> (ShRgb, Deringing) {
     let window = cosine_power(bands, 1.0 / hi);
     let after = least(&sums, &window);
     let d = Deringing {
-        exponent: Some(1.0 / hi),
-        window: Some(window.clone()),
+        windowed: true,
+        exponent: 1.0 / hi,
+        window: window.clone(),
+        black,
         least_before: before / scale,
         least_after: after / scale,
     };
@@ -203,7 +228,7 @@ mod tests {
         };
         let (fixed, d) = nonnegative(&light);
         assert!(d.least_before < -0.1, "{d:?}");
-        assert!(d.exponent.is_some());
+        assert!(d.windowed && d.exponent >= (bands - 1) as f64, "{d:?}");
         assert!(least(&band_sums(&fixed), &vec![1.0; bands]) >= 0.0);
         assert_eq!(fixed.rgb[0], light.rgb[0], "the mean is kept");
         // A constant plus a weak first band is non-negative: untouched.
@@ -213,6 +238,10 @@ mod tests {
         assert_eq!(calm.rgb.len(), coefficient_count(bands));
         let (same, d) = nonnegative(&calm);
         assert_eq!(same, calm);
-        assert_eq!(d.exponent, None);
+        assert!(!d.windowed && !d.black, "{d:?}");
+        assert_eq!((d.exponent, d.window), (0.0, vec![1.0; bands]));
+        let (dark, d) = nonnegative(&ShRgb::zeros(bands));
+        assert_eq!(dark, ShRgb::zeros(bands));
+        assert!(d.black && !d.windowed && d.warning().is_some(), "{d:?}");
     }
 }
