@@ -46,7 +46,8 @@ struct Hit {
 var<private> kd_count_cells: u32;
 var<private> kd_count_isects: u32;
 
-// Ray interval inside the scene box; x > y when the ray misses it.
+// Ray interval inside the scene box, widened by TRAVERSAL_SLACK before it is
+// tested (Aabb::clip_ray_widened); x > y when the ray misses it.
 fn kd_clip_ray(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> vec2<f32> {
     var t0 = 0.0;
     var t1 = t_max;
@@ -67,11 +68,8 @@ fn kd_clip_ray(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> vec2<f32> {
         }
         t0 = max(t0, near);
         t1 = min(t1, far);
-        if (t0 > t1) {
-            return vec2<f32>(1.0, 0.0);
-        }
     }
-    return vec2<f32>(t0, t1);
+    return vec2<f32>(t0 * (1.0 - TRAVERSAL_SLACK), t1 * (1.0 + TRAVERSAL_SLACK));
 }
 
 struct ShearedRay {
@@ -168,8 +166,8 @@ fn kd_traverse(o: vec3<f32>, d_in: vec3<f32>, t_max: f32, any_hit: bool) -> Hit 
     if (clipped.x > clipped.y) {
         return best;
     }
-    var t_min = clipped.x * (1.0 - TRAVERSAL_SLACK);
-    var t_cell_max = clipped.y * (1.0 + TRAVERSAL_SLACK);
+    var t_min = clipped.x;
+    var t_cell_max = clipped.y;
     let ray = make_sheared_ray(o, d);
     // Same rounding as the CPU's (split - o) * (1 / d); unused where d = 0.
     let inv_d = 1.0 / select(d, vec3<f32>(1.0), d == vec3<f32>(0.0));

@@ -122,6 +122,47 @@ impl Aabb {
         self.clip_ray_axis_parallel(o, d, t_min, t_max)
     }
 
+    /// `clip_ray` with the interval widened by a relative `slack` before it
+    /// is tested: `[t0 (1 - slack), t1 (1 + slack)]`. A ray that grazes an
+    /// edge or corner of the box, where rounding puts its entry a few ulps
+    /// past its exit, is then inside, as it is for boxes padded by the same
+    /// slack (the wide BVH's) and for the triangles on that boundary.
+    #[inline]
+    pub fn clip_ray_widened(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32, slack: f32) -> Option<(f32, f32)> {
+        let (t0, t1) = if d.cmpne(Vec3::ZERO).all() {
+            let inv = d.recip();
+            let a = (self.min - o) * inv;
+            let b = (self.max - o) * inv;
+            (a.min(b).max_element().max(t_min), a.max(b).min_element().min(t_max))
+        } else {
+            self.slabs_axis_parallel(o, d, t_min, t_max)?
+        };
+        let (t0, t1) = (t0 * (1.0 - slack), t1 * (1.0 + slack));
+        (t0 <= t1).then_some((t0, t1))
+    }
+
+    /// The slabs' interval for directions with zero components, possibly
+    /// empty (`t0 > t1`); `None` where the ray lies outside a slab it is
+    /// parallel to.
+    fn slabs_axis_parallel(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<(f32, f32)> {
+        let mut t0 = t_min;
+        let mut t1 = t_max;
+        for a in 0..3 {
+            if d[a] == 0.0 {
+                if o[a] < self.min[a] || o[a] > self.max[a] {
+                    return None;
+                }
+                continue;
+            }
+            let inv = 1.0 / d[a];
+            let near = (self.min[a] - o[a]) * inv;
+            let far = (self.max[a] - o[a]) * inv;
+            t0 = t0.max(near.min(far));
+            t1 = t1.min(near.max(far));
+        }
+        Some((t0, t1))
+    }
+
     /// `clip_ray` for directions with zero components.
     fn clip_ray_axis_parallel(&self, o: Vec3, d: Vec3, t_min: f32, t_max: f32) -> Option<(f32, f32)> {
         let mut t0 = t_min;

@@ -165,19 +165,7 @@ pub(super) fn dispatch<const ANY: bool>(bvh: &Bvh8, tree: &KdTree, rays: &[Ray],
     #[cfg(not(target_arch = "x86_64"))]
     trace::<ANY, Lanes8>(bvh, rays, t_max, hits);
     for (r, h) in rays.iter().zip(hits) {
-        // The kd-tree clips a ray to the scene's bounds first, unpadded and
-        // without slack: a ray that touches them only at a corner or an
-        // edge, where rounding puts its entry past its exit, is a miss
-        // there even if a triangle on that boundary would accept it; the
-        // BVH's padded boxes let it through. Its answer is the kd-tree's.
-        if h.is_hit()
-            && tree
-                .bounds
-                .clip_ray(r.o(), flush_subnormal(r.d()), 0.0, t_max)
-                .is_none()
-        {
-            *h = Hit::MISS;
-        } else if h.is_hit() && is_contact(bvh, h.t, r.d()) {
+        if h.is_hit() && is_contact(bvh, h.t, r.d()) {
             *h = if ANY {
                 match tree.any_hit(r.o(), r.d(), t_max) {
                     true => *h,

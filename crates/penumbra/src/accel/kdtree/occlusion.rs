@@ -166,8 +166,13 @@ impl<V: Lanes> Rays<V> {
             slab(lo.y, hi.y, inv[1]),
             slab(lo.z, hi.z, inv[2]),
         );
-        let t0 = x.0.max(y.0).max(z.0).max(zero);
-        let t1 = x.1.min(y.1).min(z.1).min(V::splat(t_max));
+        // Widened before the test, as Aabb::clip_ray_widened.
+        let t0 = x.0.max(y.0).max(z.0).max(zero).mul(V::splat(1.0 - TRAVERSAL_SLACK));
+        let t1 =
+            x.1.min(y.1)
+                .min(z.1)
+                .min(V::splat(t_max))
+                .mul(V::splat(1.0 + TRAVERSAL_SLACK));
         let live = t0.le(t1).bits() & (((1u32 << n) - 1) as u16);
         // shear_axes: kz the largest |component| (x, then y on ties), kx and
         // ky the next two, swapped where d[kz] < 0.
@@ -197,8 +202,8 @@ impl<V: Lanes> Rays<V> {
             origin,
             t_max,
             live,
-            t_min: t0.mul(V::splat(1.0 - TRAVERSAL_SLACK)),
-            t_cell_max: t1.mul(V::splat(1.0 + TRAVERSAL_SLACK)),
+            t_min: t0,
+            t_cell_max: t1,
             inv,
             below_on_plane: [d[0].le(zero), d[1].le(zero), d[2].le(zero)],
             shear,
@@ -253,13 +258,13 @@ impl SharedOrigin {
         let mut first_live = None;
         for (r, &dir) in dirs.iter().enumerate() {
             // The single ray's set-up (`KdTree::traverse`), lane by lane.
-            let Some((t0, t1)) = tree.bounds.clip_ray(origin, dir, 0.0, t_max) else {
+            let Some((t0, t1)) = tree.bounds.clip_ray_widened(origin, dir, 0.0, t_max, TRAVERSAL_SLACK) else {
                 continue;
             };
             s.live |= 1 << r;
             first_live.get_or_insert(r);
-            s.t_min[r] = t0 * (1.0 - TRAVERSAL_SLACK);
-            s.t_cell_max[r] = t1 * (1.0 + TRAVERSAL_SLACK);
+            s.t_min[r] = t0;
+            s.t_cell_max[r] = t1;
             let inv = dir.recip();
             for a in 0..3 {
                 s.inv[a][r] = inv[a];

@@ -123,18 +123,11 @@ impl KdTree {
     #[inline(always)]
     fn traverse<const ANY: bool, C: Counters>(&self, origin: Vec3, dir: Vec3, t_max: f32, counts: &mut C) -> Hit {
         let dir = flush_subnormal(dir);
-        let Some((t0, t1)) = self.bounds.clip_ray(origin, dir, 0.0, t_max) else {
+        let Some((t0, t1)) = self.bounds.clip_ray_widened(origin, dir, 0.0, t_max, TRAVERSAL_SLACK) else {
             return Hit::MISS;
         };
         let ray = SingleRay::new(origin, dir, self.frame_scale);
-        self.walk::<ANY, true, C>(
-            &ray,
-            0,
-            t0 * (1.0 - TRAVERSAL_SLACK),
-            t1 * (1.0 + TRAVERSAL_SLACK),
-            t_max,
-            counts,
-        )
+        self.walk::<ANY, true, C>(&ray, 0, t0, t1, t_max, counts)
     }
 
     /// The traversal of node `node_index`'s subtree with the ray's interval
