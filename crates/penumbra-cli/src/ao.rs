@@ -19,6 +19,9 @@ use penumbra::field::tune::{Fixed, fields_for};
 use penumbra::raycast::report::{AoOutputs, RaycastReport};
 use penumbra::raycast::runner::{AoRequest, raycast};
 use penumbra::scene::{Scene, View};
+use penumbra::{AmbientOcclusion, Device};
+
+use crate::shard::Mode;
 
 #[derive(clap::Args)]
 pub struct AoArgs {
@@ -55,6 +58,8 @@ pub struct AoArgs {
     pub camera: CameraArgs,
     #[command(flatten)]
     pub common: Common,
+    #[command(flatten)]
+    pub shard: crate::shard::ShardArgs,
 }
 
 /// The scene the options describe: `--mesh` alone is caster and receiver;
@@ -74,11 +79,20 @@ pub fn run(args: &AoArgs) -> Result<Value> {
     let settings = args.knobs.settings(args.common.seed)?;
     let (outputs, request) = request(args, settings)?;
     if args.knobs.method == Method::Field {
+        if args.shard.shard.is_some() || args.shard.merging.is_some() {
+            let problem = "splits --method raycast's vertices or pixels; the field's frames are not split yet";
+            return Err(Error::param("--shard", problem));
+        }
         let (report, device) = field(args, outputs, &request)?;
         return merged(args.common.report(&device, threads), report);
     }
     let scene = scene_of(args)?;
     let device = args.common.open_device()?;
+    match args.shard.mode()? {
+        Mode::Whole => {}
+        Mode::Part(shard) => return part(args, (&scene, &device), outputs, &request, shard, threads),
+        Mode::Merge(parts) => return merge(args, (&scene, &device), outputs, &request, &parts, threads),
+    }
     let runs = args.common.runs.runs(1)?;
     let once = || raycast(&device, &scene, &request, &crate::progress::stderr());
     let (ao, times) = runs.run("ao_ms", once, |ao| ao.ao_ms())?;
@@ -185,4 +199,123 @@ fn field(
     report.max_error = choice;
     report.ao.runs = Some(times);
     Ok((report, device))
+}
+
+/// Vertices (or pixels) per record of a part: what a shard killed part-way
+/// computes again at most.
+const PIECE: usize = 4096;
+
+/// The one output a sharded run splits, and its items: the receivers'
+/// vertices, or the image's pixels row by row.
+fn split<'a>(outputs: &AoOutputs<'a>, request: &AoRequest, ao: &AmbientOcclusion) -> Result<(&'a Path, usize)> {
+    crate::shard::one_output(&[("--per-vertex", request.vertices), ("--image", request.image.is_some())])?;
+    match (outputs.per_vertex, &request.image) {
+        (Some(p), _) => Ok((p, ao.vertex_count()?)),
+        (None, Some(view)) => Ok((
+            outputs.image.expect("checked with the view"),
+            (view.width * view.height) as usize,
+        )),
+        (None, None) => unreachable!("request checks that an output is given"),
+    }
+}
+
+/// A record: the vertices without a hemisphere (u32), then each item's AO
+/// (f32, NaN for a pixel whose primary ray missed).
+fn encode(without_normal: usize, values: impl Iterator<Item = Option<f32>>) -> Vec<u8> {
+    let mut bytes = (without_normal as u32).to_le_bytes().to_vec();
+    values.for_each(|v| bytes.extend_from_slice(&v.unwrap_or(f32::NAN).to_le_bytes()));
+    bytes
+}
+
+/// `--shard I/N`: AO of this shard's items, recorded piece by piece in the
+/// part of the output.
+fn part(
+    args: &AoArgs,
+    (scene, device): (&Scene, &Device),
+    outputs: AoOutputs,
+    request: &AoRequest,
+    shard: penumbra::io::shard::Shard,
+    threads: usize,
+) -> Result<Value> {
+    let mut ao = AmbientOcclusion::for_scene(device, scene)?.with_progress(crate::progress::stderr());
+    let (target, total) = split(&outputs, request, &ao)?;
+    let mut writer = crate::shard::open_part(target, shard, total)?;
+    let kept: usize = writer.done().iter().map(|(r, _)| r.len()).sum();
+    let mut ms = 0.0;
+    for piece in writer.todo(PIECE) {
+        let bytes = match &request.image {
+            Some(view) if !request.vertices => {
+                let image = ao.image_in(view, &request.settings, piece.clone())?;
+                ms += image.ms;
+                encode(0, image.values[piece.clone()].iter().copied())
+            }
+            _ => {
+                let v = ao.vertices_in(piece.clone(), &request.settings)?;
+                ms += v.ms;
+                encode(v.without_normal, v.ao.iter().map(|&a| Some(a)))
+            }
+        };
+        writer.record(piece, &bytes)?;
+    }
+    crate::io::warn(ao.warnings());
+    let report = merged(
+        args.common.report(device, threads),
+        serde_json::json!({ "ao_ms": ms, "caster_triangles": ao.caster_triangles() }),
+    )?;
+    crate::shard::finish_part(writer, kept, report)
+}
+
+/// `penumbra merge`: the items read from the parts, written and reported as
+/// one process does.
+fn merge(
+    args: &AoArgs,
+    (scene, device): (&Scene, &Device),
+    outputs: AoOutputs,
+    request: &AoRequest,
+    parts: &penumbra::io::shard::Parts,
+    threads: usize,
+) -> Result<Value> {
+    let mut ao = AmbientOcclusion::for_scene(device, scene)?;
+    let (target, total) = split(&outputs, request, &ao)?;
+    if total != parts.total_items() {
+        let problem = format!("the parts hold {} items, the inputs give {total}", parts.total_items());
+        return Err(Error::file(target, "", problem));
+    }
+    let mut without_normal = 0;
+    let mut values = Vec::with_capacity(total);
+    for (_, bytes) in parts.records()? {
+        let words = penumbra::io::shard::f32s(&bytes, target)?;
+        without_normal += words.first().map_or(0, |w| w.to_bits() as usize);
+        values.extend(words[1..].iter().map(|v| (!v.is_nan()).then_some(*v)));
+    }
+    let ms: f64 = parts.sidecars.iter().filter_map(|s| s.report["ao_ms"].as_f64()).sum();
+    let (vertices, image) = match &request.image {
+        Some(view) if !request.vertices => {
+            let mut image = ao.image_in(view, &request.settings, 0..0)?;
+            image.values = values;
+            image.ms = ms;
+            (None, Some(image))
+        }
+        _ => {
+            ao.prepare()?;
+            let ao = values.into_iter().map(|v| v.unwrap_or(f32::NAN)).collect();
+            let v = penumbra::raycast::runner::VertexAo { ao, without_normal, ms };
+            (Some(v), None)
+        }
+    };
+    let result = penumbra::raycast::runner::RaycastAo {
+        caster_triangles: ao.caster_triangles(),
+        cutout_triangles: ao.cutout_triangles(),
+        warnings: ao.warnings().to_vec(),
+        build_ms: ao.build_ms(),
+        bvh: ao.bvh_stats().cloned(),
+        vertices,
+        image,
+    };
+    crate::io::warn(&result.warnings);
+    let radius = request.settings.radius;
+    let written = outputs.write(scene, 0, radius, result.vertices.as_ref(), result.image.as_ref())?;
+    written.notes.iter().for_each(|n| note(n));
+    let report = RaycastReport::new(&result, &request.settings, written);
+    merged(args.common.report(device, threads), report)
 }

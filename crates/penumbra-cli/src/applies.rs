@@ -31,9 +31,12 @@ pub fn rules(command: &Command) -> Vec<Rule> {
         Command::Ssao(a) => ssao_rules(a),
         Command::Prt(a) => prt_rules(a),
         Command::Sweep(a) => sweep_rules(a),
-        Command::Info(_) | Command::TraceRays(_) | Command::Field(_) | Command::GenAssets(_) | Command::Bake(_) => {
-            Vec::new()
-        }
+        Command::Info(_)
+        | Command::TraceRays(_)
+        | Command::Field(_)
+        | Command::GenAssets(_)
+        | Command::Bake(_)
+        | Command::Merge(_) => Vec::new(),
     }
 }
 

@@ -63,6 +63,8 @@ pub struct BakeArgs {
     pub max_error: Option<f64>,
     #[command(flatten)]
     pub common: Common,
+    #[command(flatten)]
+    pub shard: crate::shard::ShardArgs,
 }
 
 /// A switch given as a word.

@@ -15,7 +15,7 @@ use crate::Command;
 pub fn of(command: &Command) -> Files {
     let mut f = Files::default();
     match command {
-        Command::Info(_) | Command::GenAssets(_) => {}
+        Command::Info(_) | Command::GenAssets(_) | Command::Merge(_) => {}
         Command::TraceRays(a) => {
             f.mesh("--mesh", &Some(a.mesh.clone()));
             f.input("--rays", &Some(a.rays.clone()));

@@ -24,6 +24,7 @@ mod progress;
 mod prt;
 mod raytrace;
 mod raytrace_bounded;
+mod shard;
 mod ssao;
 mod sweep;
 mod trace;
@@ -71,8 +72,19 @@ enum Command {
     Raytrace(raytrace::RaytraceArgs),
     /// Time and error of every setting of a grid of a method's knobs on your scene.
     Sweep(sweep::SweepArgs),
+    /// Write OUTPUT from the parts of a run split with --shard, as one process writes it.
+    Merge(MergeArgs),
     /// Write the procedural scenes (corner, closed box, well, ...) as OBJ files, the ray tracer's scenes into OUT/raytrace, example animations into OUT/animations and the chess-like scene into OUT/chess and OUT/scenes/chess.json.
     GenAssets(GenAssetsArgs),
+}
+
+#[derive(clap::Args)]
+struct MergeArgs {
+    /// The output the shards were given (their parts are OUTPUT.part-I-of-N).
+    output: std::path::PathBuf,
+    /// Print exactly one JSON object on stdout.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(clap::Args)]
@@ -219,6 +231,7 @@ fn typed_aliases(args: &[OsString]) -> Vec<(String, String)> {
 pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
     let args: Vec<OsString> = args.into_iter().collect();
     let typed = typed_aliases(&args);
+    let texts: Vec<String> = args.iter().map(|a| a.to_string_lossy().into_owned()).collect();
     let parsed = command()
         .try_get_matches_from(&args)
         .and_then(|m| Cli::from_arg_matches(&m).map(|cli| (cli, m)));
@@ -236,7 +249,7 @@ pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
         if let Some(sub) = sub {
             applies::refuse_unused(&cli.command, sub)?;
         }
-        dispatch(cli.command)
+        dispatch(cli.command, &texts)
     }));
     match outcome {
         Ok(Ok(())) => 0,
@@ -265,9 +278,13 @@ pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
     }
 }
 
-fn dispatch(command: Command) -> Result<()> {
-    files::of(&command).check()?;
+fn dispatch(command: Command, args: &[String]) -> Result<()> {
+    let files = files::of(&command);
+    files.check()?;
+    let inputs = files.inputs.iter().map(|(_, p)| p.clone()).collect();
+    shard::record_invocation(args, inputs);
     match command {
+        Command::Merge(a) => emit(a.json, merge(&a.output)?),
         Command::Info(a) => emit(a.json, info::run(&a)?),
         Command::TraceRays(a) => emit(a.common.json, trace_rays::run(&a)?),
         Command::Ao(a) => emit(a.common.json, ao::run(&a)?),
@@ -284,6 +301,54 @@ fn dispatch(command: Command) -> Result<()> {
             emit(a.json, serde_json::json!({ "files": files }))
         }
     }
+}
+
+impl Command {
+    /// The `--shard` options of a command that has them.
+    fn shard_args(&mut self) -> Option<&mut shard::ShardArgs> {
+        match self {
+            Command::Ao(a) => Some(&mut a.shard),
+            Command::Raytrace(a) => Some(&mut a.shard),
+            Command::Sweep(a) => Some(&mut a.shard),
+            Command::Bake(a) => Some(&mut a.shard),
+            Command::Prt(a) => Some(&mut a.shard),
+            _ => None,
+        }
+    }
+}
+
+/// `penumbra merge OUTPUT`: the parts' command run again with its items
+/// read from the parts; its report gets each shard's items and time.
+fn merge(output: &std::path::Path) -> Result<Value> {
+    let parts = penumbra::io::shard::Parts::find(output)?;
+    shard::check_program(&parts)?;
+    let argv: Vec<String> = std::iter::once("penumbra".to_string())
+        .chain(parts.command().iter().cloned())
+        .collect();
+    let mut command = command()
+        .try_get_matches_from(&argv)
+        .and_then(|m| Cli::from_arg_matches(&m))
+        .map_err(|e| {
+            let problem = format!("the parts' command '{}' does not parse: {e}", parts.command().join(" "));
+            penumbra::error::Error::file(output, "", problem)
+        })?
+        .command;
+    let Some(shard_args) = command.shard_args() else {
+        let problem = format!("the parts' command '{}' cannot be split", parts.command().join(" "));
+        return Err(penumbra::error::Error::file(output, "", problem));
+    };
+    shard_args.merging = Some(std::sync::Arc::new(parts.clone()));
+    files::of(&command).check()?;
+    let mut value = match command {
+        Command::Ao(a) => ao::run(&a)?,
+        Command::Raytrace(a) => raytrace::run(&a)?,
+        Command::Sweep(a) => sweep::run(&a)?,
+        Command::Bake(a) => bake::run(&a)?,
+        Command::Prt(a) => prt::run(&a)?,
+        _ => unreachable!("shard_args is Some"),
+    };
+    value["merged"] = shard::merge_report(&parts);
+    Ok(value)
 }
 
 /// Prints the result (`io::print_report`).

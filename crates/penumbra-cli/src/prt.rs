@@ -81,6 +81,8 @@ pub struct PrtArgs {
     pub camera: CameraArgs,
     #[command(flatten)]
     pub common: Common,
+    #[command(flatten)]
+    pub shard: crate::shard::ShardArgs,
 }
 
 /// The checked knobs: the method's settings, how the animation is played,

@@ -50,6 +50,8 @@ pub struct RaytraceArgs {
     pub camera: CameraArgs,
     #[command(flatten)]
     pub common: Common,
+    #[command(flatten)]
+    pub shard: crate::shard::ShardArgs,
 }
 
 /// What both methods start from.

@@ -51,6 +51,8 @@ pub struct SweepArgs {
     pub camera: CameraArgs,
     #[command(flatten)]
     pub common: Common,
+    #[command(flatten)]
+    pub shard: crate::shard::ShardArgs,
 }
 
 impl SweepArgs {

@@ -4,4 +4,5 @@
 pub mod image;
 pub mod output;
 pub mod rays;
+pub mod shard;
 pub mod vertex;

@@ -113,9 +113,25 @@ impl<'s> AmbientOcclusion<'s> {
     /// AO at the receivers' vertices (for a mesh, its vertices), in the
     /// mesh's order.
     pub fn vertices(&mut self, settings: &AoSettings) -> Result<VertexAo> {
+        self.vertices_in(0..usize::MAX, settings)
+    }
+
+    /// The receivers' vertex count: the items of [`AmbientOcclusion::vertices_in`].
+    pub fn vertex_count(&self) -> Result<usize> {
+        Ok(receivers(&self.scene, 0)?.positions.len())
+    }
+
+    /// AO at the receivers' vertices `items` (clamped to their count): the
+    /// values `vertices` gives those vertices, bit for bit, as each
+    /// vertex's rays depend on its index alone. `without_normal` counts
+    /// those vertices only.
+    pub fn vertices_in(&mut self, items: std::ops::Range<usize>, settings: &AoSettings) -> Result<VertexAo> {
         settings.validate()?;
         self.prepare()?;
-        let points = vertex_points(&receivers(&self.scene, 0)?);
+        let mut points = vertex_points(&receivers(&self.scene, 0)?);
+        let end = items.end.min(points.len());
+        points.truncate(end);
+        points.drain(..items.start.min(end));
         let bar = self.progress.bar(points.len() as u64, "AO vertices");
         let masks = self.casters()?.ao_visibility(&points, settings, &bar)?;
         Ok(VertexAo {
@@ -130,6 +146,14 @@ impl<'s> AmbientOcclusion<'s> {
     /// view's camera is completed from the scene's, else it frames the
     /// scene.
     pub fn image(&mut self, view: &View, settings: &AoSettings) -> Result<PixelAo> {
+        self.image_in(view, settings, 0..usize::MAX)
+    }
+
+    /// `image` with AO rays cast from the pixels `pixels` only (row by
+    /// row from the top, clamped to the image): the values `image` gives
+    /// those pixels, bit for bit (a pixel's rays depend on its index
+    /// alone); the others are `None`, hit or not.
+    pub fn image_in(&mut self, view: &View, settings: &AoSettings, pixels: std::ops::Range<usize>) -> Result<PixelAo> {
         settings.validate()?;
         self.prepare()?;
         let everything = self.scene.world_mesh(|_| true);
@@ -141,7 +165,8 @@ impl<'s> AmbientOcclusion<'s> {
             Some(all) => all,
             None => self.casters.as_mut().expect("prepared"),
         };
-        let seen = visible_points(primary, &everything, self.scene.camera, view)?;
+        let mut seen = visible_points(primary, &everything, self.scene.camera, view)?;
+        seen.points.retain(|p| pixels.contains(&(p.stream as usize)));
         let bar = self.progress.bar(seen.points.len() as u64, "AO pixels");
         let masks = self.casters()?.ao_visibility(&seen.points, settings, &bar)?;
         Ok(seen.image(&masks.value.accessibility(), masks.ms))
