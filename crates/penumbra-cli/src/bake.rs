@@ -7,7 +7,10 @@ use serde_json::{Value, json};
 
 use crate::args::{Common, check_outputs};
 use crate::io::{merged, warn};
-use penumbra::bake::{BakeSettings, bake, bake_scene};
+use penumbra::bake::{BakeJob, BakePiece, BakeSettings, bake, bake_scene};
+use penumbra::io::shard::{Parts, Shard};
+
+use crate::shard::Mode;
 use penumbra::error::{Error, Result};
 use penumbra::raycast::AoSettings;
 
@@ -140,6 +143,10 @@ pub fn run(args: &BakeArgs) -> Result<Value> {
     settings.validate().map_err(|e| e.with_names(crate::args::flag))?;
     let device = args.common.open_device()?;
     if let Some(scene) = &args.scene {
+        if args.shard.shard.is_some() {
+            let problem = "splits one asset's texels and vertices (--mesh); a scene's assets are not split";
+            return Err(Error::param("--shard", problem));
+        }
         let scene = crate::args::load_shaded_input(None, Some(scene))?;
         warn(&scene.warnings);
         let baked = bake_scene(&device, &scene, &settings, &crate::progress::stderr())?;
@@ -169,7 +176,14 @@ pub fn run(args: &BakeArgs) -> Result<Value> {
         .mesh
         .as_ref()
         .ok_or_else(|| Error::param("mesh", "a mesh (--mesh FILE) or a scene (--scene FILE) is required"))?;
-    let baked = bake(&device, mesh, &settings, &crate::progress::stderr())?;
+    let baked = match args.shard.mode()? {
+        Mode::Whole => bake(&device, mesh, &settings, &crate::progress::stderr())?,
+        Mode::Part(shard) => {
+            let report = args.common.report(&device, threads);
+            return part(args, &device, mesh, &settings, shard, report);
+        }
+        Mode::Merge(parts) => merge(&device, mesh, &settings, &parts)?,
+    };
     warn(&baked.warnings);
     penumbra::io::output::write_bytes(&args.out, &baked.glb)?;
     let mut written = vec![args.out.display().to_string()];
@@ -185,4 +199,72 @@ pub fn run(args: &BakeArgs) -> Result<Value> {
         "files": written,
     });
     merged(args.common.report(&device, threads), report)
+}
+
+/// `--shard I/N`: this shard's texel rows and vertices, recorded piece by
+/// piece in `OUT.part-I-of-N`.
+fn part(
+    args: &BakeArgs,
+    device: &penumbra::Device,
+    mesh: &std::path::Path,
+    settings: &BakeSettings,
+    shard: Shard,
+    report: Value,
+) -> Result<Value> {
+    let progress = crate::progress::stderr();
+    let mut job = BakeJob::new(device, mesh, settings, &progress)?;
+    let mut writer = crate::shard::open_part(&args.out, shard, job.items())?;
+    let kept: usize = writer.done().iter().map(|(r, _)| r.len()).sum();
+    // Pieces of at most a sixteenth of the shard: a shard killed part-way
+    // computes again at most that much.
+    let step = writer.items().len().div_ceil(16).max(1);
+    let pieces = job
+        .pieces()
+        .into_iter()
+        .flat_map(|p| (p.start..p.end).step_by(step).map(move |s| s..(s + step).min(p.end)));
+    let left = writer.left(pieces);
+    let bar = progress.bar(left.iter().map(|p| p.len() as u64).sum(), "AO texel rows and vertices");
+    let (mut points, mut ms) = (0, 0.0);
+    for piece in left {
+        let done = job.compute(piece.clone())?;
+        (points, ms) = (points + done.points, ms + done.ms);
+        writer.record(piece.clone(), &done.to_bytes())?;
+        bar.inc(piece.len() as u64);
+    }
+    bar.finish();
+    let fields = json!({ "method": "bake", "points": points, "ao_ms": ms });
+    crate::shard::finish_part(writer, kept, merged(report, fields)?)
+}
+
+/// `penumbra merge OUT`: the asset from every shard's pieces, as one process
+/// bakes it.
+fn merge(
+    device: &penumbra::Device,
+    mesh: &std::path::Path,
+    settings: &BakeSettings,
+    parts: &Parts,
+) -> Result<penumbra::bake::Baked> {
+    let job = BakeJob::new(device, mesh, settings, &penumbra::Reporter::silent())?;
+    if job.items() != parts.total_items() {
+        let problem = format!(
+            "the parts hold {} items, the asset gives {}",
+            parts.total_items(),
+            job.items()
+        );
+        return Err(Error::file(&parts.output, "", problem));
+    }
+    let mut pieces = Vec::new();
+    for (items, bytes) in parts.records()? {
+        let piece = BakePiece::from_bytes(&bytes)
+            .filter(|p| p.items == items)
+            .ok_or_else(|| {
+                Error::file(
+                    &parts.output,
+                    "",
+                    format!("the record of items {items:?} is not a bake's"),
+                )
+            })?;
+        pieces.push(piece);
+    }
+    job.finish(pieces)
 }

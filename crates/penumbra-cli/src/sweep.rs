@@ -8,10 +8,14 @@ use serde_json::Value;
 
 use crate::args::{CameraArgs, Common};
 use penumbra::error::{Error, Result};
+use penumbra::io::shard::{PartWriter, Parts, Shard};
+use penumbra::report::repeats::Repeats;
 use penumbra::scene::View;
 pub use penumbra::sweep::SweepKind as Method;
 use penumbra::sweep::{SweepInputs, with_method};
-use penumbra::tune::{self, Grid, SweepReport};
+use penumbra::tune::{self, Grid, Sweep, SweepReport, SweepTotals};
+
+use crate::shard::Mode;
 
 #[derive(clap::Args)]
 pub struct SweepArgs {
@@ -84,10 +88,22 @@ pub fn run(args: &SweepArgs) -> Result<Value> {
     };
     let device = args.common.open_device_for(args.method.gpu_needs())?;
     let progress = crate::progress::stderr();
-    let mut report = with_method(args.method, &inputs, &device, &progress, |method| {
+    let mode = args.shard.mode()?;
+    let report = with_method(args.method, &inputs, &device, &progress, |method| {
         let grid = Grid::parse(&args.grid, method.knobs())?;
-        tune::sweep(method, &grid, runs, &progress)
+        match &mode {
+            Mode::Whole => tune::sweep(method, &grid, runs, &progress).map(Ok),
+            Mode::Part(shard) => part(args, method, &grid, runs, *shard).map(Err),
+            Mode::Merge(parts) => merge(method, &grid, runs, parts).map(Ok),
+        }
     })?;
+    let mut report = match report {
+        Ok(report) => report,
+        Err(shard) => {
+            let report = crate::io::merged(args.common.report(&device, threads), shard.report)?;
+            return crate::shard::finish_part(shard.writer, shard.kept, report);
+        }
+    };
     write_outputs(&mut report, &args.out)?;
     crate::io::merged(args.common.report(&device, threads), &report)
 }
@@ -104,4 +120,97 @@ pub fn write_outputs(report: &mut SweepReport, dir: &Path) -> Result<()> {
     crate::plot::write_png(&png, report)?;
     let text = serde_json::to_string_pretty(report).map_err(|e| Error::internal(e.to_string()))?;
     penumbra::io::output::write_bytes(&json, text.as_bytes())
+}
+
+/// A finished shard's part, handed out of the method's closure.
+struct Finished {
+    writer: PartWriter,
+    kept: usize,
+    report: Value,
+}
+
+/// The file a sweep's parts are named after: `DIR/sweep.csv`.
+fn target(args: &SweepArgs) -> PathBuf {
+    args.outputs()[0].clone()
+}
+
+/// A row's measurements as a part records them (its knobs are the grid's
+/// setting of that index).
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Measured {
+    time_ms: f64,
+    times_ms: Vec<f64>,
+    error: f64,
+    memory_bytes: Option<u64>,
+    phases: serde_json::Map<String, Value>,
+}
+
+/// `--shard I/N`: this shard's settings of the grid, each row recorded as
+/// it is measured; the truth is computed in every shard.
+fn part(args: &SweepArgs, method: &mut dyn Sweep, grid: &Grid, runs: Repeats, shard: Shard) -> Result<Finished> {
+    if !args.out.is_dir() {
+        std::fs::create_dir(&args.out)
+            .map_err(|e| Error::file(&args.out, "", format!("cannot create the folder: {e}")))?;
+    }
+    let total = grid.settings().len();
+    let mut writer = crate::shard::open_part(&target(args), shard, total)?;
+    let kept: usize = writer.done().iter().map(|(r, _)| r.len()).sum();
+    let which: Vec<usize> = writer.todo(1).into_iter().map(|r| r.start).collect();
+    let progress = crate::progress::stderr();
+    let measured = tune::sweep_settings(method, grid, runs, &which, &progress, |i, row| {
+        let m = Measured {
+            time_ms: row.time_ms,
+            times_ms: row.times_ms.clone(),
+            error: row.error,
+            memory_bytes: row.memory_bytes,
+            phases: row.phases.clone(),
+        };
+        let bytes = serde_json::to_vec(&m).map_err(|e| Error::internal(e.to_string()))?;
+        writer.record(i..i + 1, &bytes)
+    })?;
+    let report = serde_json::json!({
+        "method": method.name(),
+        "truth": measured.truth,
+        "truth_ms": measured.truth_ms,
+        "estimated_s": measured.estimated_s,
+        "sweep_ms": measured.sweep_ms,
+    });
+    Ok(Finished { writer, kept, report })
+}
+
+/// `penumbra merge DIR/sweep.csv`: every shard's rows, the front marked on
+/// all of them; times are the shards' own, summed.
+fn merge(method: &mut dyn Sweep, grid: &Grid, runs: Repeats, parts: &Parts) -> Result<SweepReport> {
+    let settings = grid.settings();
+    if settings.len() != parts.total_items() {
+        let problem = format!(
+            "the parts hold {} settings, the grid gives {}",
+            parts.total_items(),
+            settings.len()
+        );
+        return Err(Error::file(&parts.output, "", problem));
+    }
+    let mut rows = Vec::with_capacity(settings.len());
+    for (items, bytes) in parts.records()? {
+        let m: Measured = serde_json::from_slice(&bytes)
+            .map_err(|e| Error::file(&parts.output, "", format!("a record of settings {items:?}: {e}")))?;
+        rows.push(tune::Row {
+            knobs: settings[items.start].clone(),
+            time_ms: m.time_ms,
+            times_ms: m.times_ms,
+            error: m.error,
+            memory_bytes: m.memory_bytes,
+            phases: m.phases,
+            pareto: false,
+        });
+    }
+    let first = &parts.sidecars[0].report;
+    let sum = |k: &str| parts.sidecars.iter().filter_map(|s| s.report[k].as_f64()).sum::<f64>();
+    let totals = SweepTotals {
+        truth: first["truth"].clone(),
+        truth_ms: first["truth_ms"].as_f64().unwrap_or(0.0),
+        estimated_s: sum("estimated_s"),
+        sweep_ms: sum("sweep_ms"),
+    };
+    Ok(tune::sweep_report(method, grid, runs.repeat, totals, rows))
 }

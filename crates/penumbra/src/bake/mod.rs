@@ -219,25 +219,197 @@ pub struct Baked {
 /// within the device's bindings.
 pub const BAND_SAMPLES: u64 = 1 << 20;
 
-/// Bakes AO into the asset at `input` (glTF, GLB, OBJ or PLY) on `device`.
+/// Bakes AO into the asset at `input` (glTF, GLB, OBJ or PLY) on `device`:
+/// a [`BakeJob`]'s pieces computed in order and finished.
 pub fn bake(device: &Device, input: &Path, settings: &BakeSettings, bars: &Reporter) -> Result<Baked> {
-    settings.validate()?;
-    let file = load_mesh_file(input)?;
-    let mut warnings = file.warnings.clone();
-    let scene = Scene::from_obj_file("asset", input, file.clone());
-    let cutouts = Cutouts::of_scene(&scene, |_| true, DEFAULT_TEXTURE_BYTES, &mut warnings);
-    let mesh = &scene.meshes[0];
-    let mut tracer = Tracer::build(device, &mesh.mesh, bars)?.with_cutouts(cutouts.map(Arc::new));
-    let placed = Placed {
-        mesh: &mesh.mesh,
-        shading: mesh.shading.as_ref().expect("a mesh file's scene has its shading"),
-        input,
-    };
-    let mut baked = bake_placed(&mut tracer, &placed, settings, bars)?;
-    write_asset(input, &file, settings, &mut baked)?;
-    warnings.append(&mut baked.warnings);
-    baked.warnings = warnings;
-    Ok(baked)
+    let mut job = BakeJob::new(device, input, settings, bars)?;
+    let pieces = job.pieces();
+    let bar = bars.bar(job.items() as u64, "AO texel rows and vertices");
+    let mut done = Vec::with_capacity(pieces.len());
+    for piece in pieces {
+        let n = piece.len() as u64;
+        done.push(job.compute(piece)?);
+        bar.inc(n);
+    }
+    bar.finish();
+    job.finish(done)
+}
+
+/// Vertices per piece of a [`BakeJob`].
+pub const VERTEX_PIECE: usize = 1 << 16;
+
+/// One asset's bake as a list of items that any process computes alike
+/// (each point's rays depend on its texel sample or vertex index alone):
+/// the texture's rows, then the vertices. A shard of a bake computes some
+/// of its pieces; [`BakeJob::finish`] takes every piece, whoever computed
+/// it, pads the texture and writes the asset as [`bake`] does.
+pub struct BakeJob {
+    input: std::path::PathBuf,
+    file: crate::scene::ObjFile,
+    scene: Scene,
+    tracer: Tracer,
+    settings: BakeSettings,
+    budget: Option<RaysChosen>,
+    warnings: Vec<String>,
+    normals: Vec<glam::Vec3>,
+}
+
+/// What a piece of a [`BakeJob`] measured.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BakePiece {
+    /// Its items: texture rows below the resolution, blocks of vertices
+    /// after.
+    pub items: std::ops::Range<usize>,
+    /// AO per texel of its rows (NaN where no sample falls on a triangle),
+    /// or per vertex.
+    pub values: Vec<f32>,
+    /// AO points cast.
+    pub points: usize,
+    /// Texels with a covered sample.
+    pub texels_covered: usize,
+    /// Samples on more than one triangle.
+    pub overlapping_samples: usize,
+    /// Triangles with a texture coordinate outside [0, 1] (the mesh's, the
+    /// same in every row piece).
+    pub triangles_outside_unit_square: usize,
+    /// Triangles without texture coordinates (likewise).
+    pub triangles_without_uv: usize,
+    /// Milliseconds of its AO rays.
+    pub ms: f64,
+}
+
+impl BakePiece {
+    /// The piece as bytes: its counts, then its values (little-endian).
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut b = Vec::with_capacity(56 + 4 * self.values.len());
+        for n in [
+            self.items.start,
+            self.items.end,
+            self.points,
+            self.texels_covered,
+            self.overlapping_samples,
+            self.triangles_outside_unit_square,
+            self.triangles_without_uv,
+        ] {
+            b.extend_from_slice(&(n as u64).to_le_bytes());
+        }
+        b.extend_from_slice(&self.ms.to_le_bytes());
+        self.values.iter().for_each(|v| b.extend_from_slice(&v.to_le_bytes()));
+        b
+    }
+
+    /// A piece from `to_bytes`; `None` for bytes that are not one.
+    pub fn from_bytes(b: &[u8]) -> Option<BakePiece> {
+        if b.len() < 64 || (b.len() - 64) % 4 != 0 {
+            return None;
+        }
+        let n = |k: usize| u64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes")) as usize;
+        let values: Vec<f32> = b[64..]
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
+            .collect();
+        let piece = BakePiece {
+            items: n(0)..n(1),
+            values,
+            points: n(2),
+            texels_covered: n(3),
+            overlapping_samples: n(4),
+            triangles_outside_unit_square: n(5),
+            triangles_without_uv: n(6),
+            ms: f64::from_le_bytes(b[56..64].try_into().expect("8 bytes")),
+        };
+        Some(piece)
+    }
+}
+
+impl BakeJob {
+    /// Reads the asset, builds its structure and, with `max_error`,
+    /// chooses the rays from a probe (the same probe in every process).
+    pub fn new(device: &Device, input: &Path, settings: &BakeSettings, bars: &Reporter) -> Result<BakeJob> {
+        settings.validate()?;
+        let file = load_mesh_file(input)?;
+        let mut warnings = file.warnings.clone();
+        let scene = Scene::from_obj_file("asset", input, file.clone());
+        let cutouts = Cutouts::of_scene(&scene, |_| true, DEFAULT_TEXTURE_BYTES, &mut warnings);
+        let mut tracer = Tracer::build(device, &scene.meshes[0].mesh, bars)?.with_cutouts(cutouts.map(Arc::new));
+        let mesh = &scene.meshes[0];
+        let placed = Placed {
+            mesh: &mesh.mesh,
+            shading: mesh.shading.as_ref().expect("a mesh file's scene has its shading"),
+            input,
+        };
+        let (settings, budget) = rays_of(&mut tracer, &placed, settings, &mut warnings)?;
+        let normals = mesh.mesh.vertex_normals();
+        Ok(BakeJob {
+            input: input.to_path_buf(),
+            file,
+            scene,
+            tracer,
+            settings,
+            budget,
+            warnings,
+            normals,
+        })
+    }
+
+    /// Texture rows, then blocks of vertices, each block as many vertices
+    /// as a row has samples (so that items cost alike).
+    pub fn items(&self) -> usize {
+        self.layout().items()
+    }
+
+    fn layout(&self) -> Items {
+        Items::of(&self.settings, self.scene.meshes[0].mesh.positions.len())
+    }
+
+    /// The pieces the items are computed in, in order: bands of rows
+    /// ([`BAND_SAMPLES`] samples a band), then blocks of vertices, about
+    /// as many points a piece.
+    pub fn pieces(&self) -> Vec<std::ops::Range<usize>> {
+        self.layout().pieces()
+    }
+
+    /// Computes one of `pieces`.
+    pub fn compute(&mut self, piece: std::ops::Range<usize>) -> Result<BakePiece> {
+        let mesh = &self.scene.meshes[0];
+        let placed = Placed {
+            mesh: &mesh.mesh,
+            shading: mesh.shading.as_ref().expect("a mesh file's scene has its shading"),
+            input: &self.input,
+        };
+        let items = self.layout();
+        compute_piece(
+            &mut self.tracer,
+            &placed,
+            &self.normals,
+            &self.settings,
+            (&items, piece),
+        )
+    }
+
+    /// The asset from every piece (in any order): the texture padded and
+    /// encoded, the GLB written, the counts summed.
+    pub fn finish(self, pieces: Vec<BakePiece>) -> Result<Baked> {
+        let mesh = &self.scene.meshes[0];
+        let placed = Placed {
+            mesh: &mesh.mesh,
+            shading: mesh.shading.as_ref().expect("a mesh file's scene has its shading"),
+            input: &self.input,
+        };
+        let build_ms = self.tracer.accel().kdtree().stats.build_ms;
+        let cutout_triangles = self.tracer.cutouts().map_or(0, |c| c.records.len());
+        let mut baked = assemble(
+            &placed,
+            &self.settings,
+            (self.budget, build_ms, cutout_triangles),
+            pieces,
+        )?;
+        write_asset(&self.input, &self.file, &self.settings, &mut baked)?;
+        let mut warnings = self.warnings;
+        warnings.append(&mut baked.warnings);
+        baked.warnings = warnings;
+        Ok(baked)
+    }
 }
 
 /// One asset of a scene baked (`bake_scene`): its mesh's name and file.
@@ -311,11 +483,46 @@ struct Placed<'a> {
 }
 
 /// The texture and vertex AO of `placed` through `tracer` (the scene it
-/// stands in), without the asset.
+/// stands in), without the asset: every piece of the bake, assembled.
 fn bake_placed(tracer: &mut Tracer, placed: &Placed, settings: &BakeSettings, bars: &Reporter) -> Result<Baked> {
     let mut warnings = Vec::new();
-    let mesh = placed.mesh;
+    let (settings, budget) = rays_of(tracer, placed, settings, &mut warnings)?;
+    let normals = placed.mesh.vertex_normals();
+    let items = Items::of(&settings, placed.mesh.positions.len());
+    let pieces = items.pieces();
+    let bar = bars.bar(items.items() as u64, "AO texel rows and vertices");
+    let mut done = Vec::with_capacity(pieces.len());
+    for piece in pieces {
+        let len = piece.len() as u64;
+        done.push(compute_piece(tracer, placed, &normals, &settings, (&items, piece))?);
+        bar.inc(len);
+    }
+    bar.finish();
+    let build_ms = tracer.accel().kdtree().stats.build_ms;
+    let cutout_triangles = tracer.cutouts().map_or(0, |c| c.records.len());
+    let mut baked = assemble(placed, &settings, (budget, build_ms, cutout_triangles), done)?;
+    warnings.append(&mut baked.warnings);
+    baked.warnings = warnings;
+    Ok(baked)
+}
+
+/// `settings` with the rays `max_error` chooses (a warning where even the
+/// most it chooses misses the budget), and the choice.
+fn rays_of(
+    tracer: &mut Tracer,
+    placed: &Placed,
+    settings: &BakeSettings,
+    warnings: &mut Vec<String>,
+) -> Result<(BakeSettings, Option<RaysChosen>)> {
     let mut settings = *settings;
+    if settings.resolution > 0 && placed.shading.corner_texcoords.iter().all(Option::is_none) {
+        return Err(Error::file(
+            placed.input,
+            "texture coordinates",
+            "the mesh has none (OBJ `vt`, glTF TEXCOORD_0): there is no UV layout to bake a texture on \
+             (--resolution 0 bakes per-vertex AO alone)",
+        ));
+    }
     let budget = match settings.max_error {
         Some(e) => Some(choose_rays(tracer, placed, &settings, e)?),
         None => None,
@@ -329,49 +536,168 @@ fn bake_placed(tracer: &mut Tracer, placed: &Placed, settings: &BakeSettings, ba
             ));
         }
     }
-    let settings = &settings;
+    Ok((settings, budget))
+}
+
+/// A bake's items: the texture's rows, then blocks of `block` vertices.
+struct Items {
+    rows: usize,
+    block: usize,
+    vertices: usize,
+    band: usize,
+}
+
+impl Items {
+    fn of(settings: &BakeSettings, vertices: usize) -> Items {
+        let per_row = settings.resolution as usize * settings.texel_samples as usize;
+        Items {
+            rows: settings.resolution as usize,
+            block: if per_row > 0 { per_row } else { 4096 },
+            vertices: if settings.vertex { vertices } else { 0 },
+            band: band_rows(settings).max(1) as usize,
+        }
+    }
+
+    fn items(&self) -> usize {
+        self.rows + self.vertices.div_ceil(self.block)
+    }
+
+    /// Item `i` past the rows as its vertices.
+    fn vertex_range(&self, items: std::ops::Range<usize>) -> std::ops::Range<usize> {
+        let at = |i: usize| ((i - self.rows) * self.block).min(self.vertices);
+        at(items.start)..at(items.end)
+    }
+
+    fn pieces(&self) -> Vec<std::ops::Range<usize>> {
+        let (n, all) = (self.rows, self.items());
+        let blocks = (VERTEX_PIECE / self.block).max(1);
+        (0..n)
+            .step_by(self.band)
+            .map(|s| s..(s + self.band).min(n))
+            .chain((n..all).step_by(blocks).map(|s| s..(s + blocks).min(all)))
+            .collect()
+    }
+}
+
+/// Rows of a band: about [`BAND_SAMPLES`] samples.
+fn band_rows(settings: &BakeSettings) -> u32 {
+    let n = settings.resolution.max(1);
+    let per_row = n as u64 * settings.texel_samples as u64;
+    (BAND_SAMPLES / per_row).clamp(1, n as u64) as u32
+}
+
+/// A piece of a bake: texture rows below `settings.resolution`, vertices
+/// after.
+fn compute_piece(
+    tracer: &mut Tracer,
+    placed: &Placed,
+    normals: &[glam::Vec3],
+    settings: &BakeSettings,
+    (items, piece): (&Items, std::ops::Range<usize>),
+) -> Result<BakePiece> {
+    let n = settings.resolution as usize;
+    let hidden = crate::progress::Bar::hidden();
+    if piece.start < n {
+        let rows = piece.start as u32..piece.end.min(n) as u32;
+        let band = texel_points_in(
+            placed.mesh,
+            normals,
+            placed.shading,
+            n as u32,
+            settings.texel_samples,
+            rows.clone(),
+        );
+        let masks = tracer.ao_visibility(&band.points, &settings.ao, &hidden)?;
+        let first = rows.start as usize * n;
+        let mut values = vec![None; (rows.end - rows.start) as usize * n];
+        add_texel_values(&band, &masks.value.accessibility(), &mut values, first);
+        return Ok(BakePiece {
+            items: piece,
+            values: values.iter().map(|v| v.unwrap_or(f32::NAN)).collect(),
+            points: band.points.len(),
+            texels_covered: band.covered,
+            overlapping_samples: band.overlapping_samples,
+            triangles_outside_unit_square: band.triangles_outside_unit_square,
+            triangles_without_uv: band.triangles_without_uv,
+            ms: masks.ms,
+        });
+    }
+    let all = vertex_points(placed.mesh);
+    let points = &all[items.vertex_range(piece.clone())];
+    let masks = tracer.ao_visibility(points, &settings.ao, &hidden)?;
+    Ok(BakePiece {
+        items: piece,
+        values: masks.value.accessibility(),
+        points: points.len(),
+        ms: masks.ms,
+        ..Default::default()
+    })
+}
+
+/// The texture and vertex AO of a bake from its pieces: the texture
+/// padded, the PNG encoded, the counts summed; the asset not yet written.
+fn assemble(
+    placed: &Placed,
+    settings: &BakeSettings,
+    (budget, build_ms, cutout_triangles): (Option<RaysChosen>, f64, usize),
+    mut pieces: Vec<BakePiece>,
+) -> Result<Baked> {
+    pieces.sort_by_key(|p| p.items.start);
+    let n = settings.resolution as usize;
+    let mut warnings = Vec::new();
     let mut report = BakeReport {
         rays_per_point: settings.ao.rays_per_point,
         budget,
         resolution: settings.resolution,
-        build_ms: tracer.accel().kdtree().stats.build_ms,
-        cutout_triangles: tracer.cutouts().map_or(0, |c| c.records.len()),
+        build_ms,
+        cutout_triangles,
         ..Default::default()
     };
-    let texture = if settings.resolution > 0 {
-        if placed.shading.corner_texcoords.iter().all(Option::is_none) {
-            return Err(Error::file(
-                placed.input,
-                "texture coordinates",
-                "the mesh has none (OBJ `vt`, glTF TEXCOORD_0): there is no UV layout to bake a texture on \
-                 (--resolution 0 bakes per-vertex AO alone)",
-            ));
+    let mut texture = (n > 0).then(|| Vec::with_capacity(n * n));
+    let mut vertex_ao = settings.vertex.then(Vec::new);
+    for p in &pieces {
+        if p.items.start < n {
+            let t = texture.as_mut().expect("rows come with a texture");
+            t.extend(p.values.iter().map(|&v| (!v.is_nan()).then_some(v)));
+            report.texture_ms += p.ms;
+            report.texel_points += p.points;
+            report.texels_covered += p.texels_covered;
+            report.overlapping_samples += p.overlapping_samples;
+            report.triangles_outside_unit_square = p.triangles_outside_unit_square;
+            report.triangles_without_uv = p.triangles_without_uv;
+        } else if let Some(v) = vertex_ao.as_mut() {
+            v.extend_from_slice(&p.values);
+            report.vertex_ms += p.ms;
         }
-        let mut values = bake_texture(tracer, placed, settings, bars, &mut report)?;
+    }
+    if let Some(values) = texture.as_mut() {
+        if values.len() != n * n {
+            return Err(Error::internal(format!(
+                "a bake's rows give {} of {} texels",
+                values.len(),
+                n * n
+            )));
+        }
         note_layout(&report, &mut warnings);
         report.mean_texel_ao = mean(values.iter().flatten().copied());
-        dilate(&mut values, settings.resolution, settings.padding);
+        dilate(values, settings.resolution, settings.padding);
         report.texels_padded = values.iter().flatten().count() - report.texels_covered;
-        Some(values)
-    } else {
-        None
-    };
+    }
+    if let Some(v) = &vertex_ao {
+        if v.len() != placed.mesh.positions.len() {
+            let problem = format!(
+                "a bake's pieces give {} of {} vertices",
+                v.len(),
+                placed.mesh.positions.len()
+            );
+            return Err(Error::internal(problem));
+        }
+        report.vertices = v.len();
+        report.mean_vertex_ao = mean(v.iter().copied());
+    }
     let png = match &texture {
         Some(values) => Some(encode_png(values, settings.resolution, settings.png_bits)?),
         None => None,
-    };
-    let vertex_ao = if settings.vertex {
-        let points = vertex_points(mesh);
-        let bar = bars.bar(points.len() as u64, "AO vertices");
-        let masks = tracer.ao_visibility(&points, &settings.ao, &bar)?;
-        bar.finish();
-        report.vertex_ms = masks.ms;
-        report.vertices = points.len();
-        let ao = masks.value.accessibility();
-        report.mean_vertex_ao = mean(ao.iter().copied());
-        Some(ao)
-    } else {
-        None
     };
     Ok(Baked {
         glb: Vec::new(),
@@ -432,48 +758,6 @@ fn write_asset(input: &Path, file: &crate::scene::ObjFile, settings: &BakeSettin
     baked.report.materials_with_ao = out.materials_with_ao;
     baked.report.primitives_with_ao = out.primitives_with_ao;
     Ok(())
-}
-
-/// The texture's AO per texel (before padding), band by band of rows;
-/// the layout's counts and the rays' milliseconds into `report`.
-fn bake_texture(
-    tracer: &mut Tracer,
-    placed: &Placed,
-    settings: &BakeSettings,
-    bars: &Reporter,
-    report: &mut BakeReport,
-) -> Result<Vec<Option<f32>>> {
-    let n = settings.resolution;
-    let normals = placed.mesh.vertex_normals();
-    let mut values = vec![None; n as usize * n as usize];
-    let per_row = n as u64 * settings.texel_samples as u64;
-    let rows_per_band = (BAND_SAMPLES / per_row).clamp(1, n as u64) as u32;
-    let bar = bars.bar(n as u64, "AO texel rows");
-    let mut start = 0;
-    while start < n {
-        let rows = start..(start + rows_per_band).min(n);
-        let band = texel_points_in(
-            placed.mesh,
-            &normals,
-            placed.shading,
-            n,
-            settings.texel_samples,
-            rows.clone(),
-        );
-        let masks = tracer.ao_visibility(&band.points, &settings.ao, &crate::progress::Bar::hidden())?;
-        add_texel_values(&band, &masks.value.accessibility(), &mut values);
-        report.texture_ms += masks.ms;
-        report.texel_points += band.points.len();
-        report.texels_covered += band.covered;
-        report.overlapping_samples += band.overlapping_samples;
-        // Per triangle: the same in every band.
-        report.triangles_outside_unit_square = band.triangles_outside_unit_square;
-        report.triangles_without_uv = band.triangles_without_uv;
-        bar.inc((rows.end - rows.start) as u64);
-        start = rows.end;
-    }
-    bar.finish();
-    Ok(values)
 }
 
 fn note_layout(t: &BakeReport, warnings: &mut Vec<String>) {

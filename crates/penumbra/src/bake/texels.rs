@@ -157,12 +157,13 @@ fn edge(a: Vec2, b: Vec2, p: Vec2) -> f32 {
 /// `points`); `None` for an empty texel.
 pub fn texel_values(points: &TexelPoints, ao: &[f32]) -> Vec<Option<f32>> {
     let mut values = vec![None; (points.resolution * points.resolution) as usize];
-    add_texel_values(points, ao, &mut values);
+    add_texel_values(points, ao, &mut values, 0);
     values
 }
 
-/// `texel_values` of a band written into the whole texture's `values`.
-pub fn add_texel_values(points: &TexelPoints, ao: &[f32], values: &mut [Option<f32>]) {
+/// `texel_values` of a band written into `values`, which holds the texels
+/// from index `first` on (the whole texture for 0).
+pub fn add_texel_values(points: &TexelPoints, ao: &[f32], values: &mut [Option<f32>], first: usize) {
     let (Some(&lo), Some(&hi)) = (points.texel.iter().min(), points.texel.iter().max()) else {
         return;
     };
@@ -173,7 +174,7 @@ pub fn add_texel_values(points: &TexelPoints, ao: &[f32], values: &mut [Option<f
         e.1 += 1;
     }
     for (k, &(s, c)) in sums.iter().enumerate().filter(|(_, e)| e.1 > 0) {
-        values[lo as usize + k] = Some((s / c as f64) as f32);
+        values[lo as usize + k - first] = Some((s / c as f64) as f32);
     }
 }
 

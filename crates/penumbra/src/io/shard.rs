@@ -253,18 +253,24 @@ impl PartWriter {
     /// This shard's items in pieces of at most `piece` items, without the
     /// pieces a record already holds.
     pub fn todo(&self, piece: usize) -> Vec<Range<usize>> {
-        let mut left = Vec::new();
         let range = self.items();
-        let mut start = range.start;
-        while start < range.end {
-            let end = (start + piece.max(1)).min(range.end);
-            let piece = start..end;
-            if !self.done.iter().any(|(r, _)| *r == piece) {
-                left.push(piece);
-            }
-            start = end;
-        }
-        left
+        let piece = piece.max(1);
+        self.left(
+            (range.start..range.end)
+                .step_by(piece)
+                .map(|s| s..(s + piece).min(range.end)),
+        )
+    }
+
+    /// `pieces` (the command's own partition of the job's items) cut to
+    /// this shard's items, without the pieces a record already holds.
+    pub fn left(&self, pieces: impl IntoIterator<Item = Range<usize>>) -> Vec<Range<usize>> {
+        let range = self.items();
+        pieces
+            .into_iter()
+            .map(|p| p.start.max(range.start)..p.end.min(range.end))
+            .filter(|p| !p.is_empty() && !self.done.iter().any(|(r, _)| r == p))
+            .collect()
     }
 
     /// Appends the result of `items` and syncs it to disk.

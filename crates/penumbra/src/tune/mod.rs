@@ -22,7 +22,10 @@ pub use budget::{
 };
 pub use grid::{Grid, MAX_SETTINGS};
 pub use knob::{Given, Knob, KnobKind, KnobType, KnobValue, Setting};
-pub use sweep::{Row, Run, Sweep, SweepReport, csv_text, output_files, pareto_front, sweep};
+pub use sweep::{
+    Row, Run, Sweep, SweepPart, SweepReport, SweepTotals, csv_text, output_files, pareto_front, sweep, sweep_report,
+    sweep_settings,
+};
 
 /// A method with knobs to tune: its name and the knobs it declares.
 pub trait Tunable {

@@ -97,8 +97,63 @@ pub struct SweepReport {
 }
 
 /// Runs every setting of `grid` `runs.repeat` times against the truth,
-/// each first `runs.warmup` untimed times.
+/// after `runs.warmup` untimed runs each; rows in the grid's order, the
+/// Pareto front marked.
 pub fn sweep(method: &mut dyn Sweep, grid: &Grid, runs: Repeats, bars: &Reporter) -> Result<SweepReport> {
+    let all: Vec<usize> = (0..grid.settings().len()).collect();
+    let part = sweep_settings(method, grid, runs, &all, bars, |_, _| Ok(()))?;
+    let rows = part.rows.into_iter().map(|(_, r)| r).collect();
+    let totals = SweepTotals {
+        truth: part.truth,
+        truth_ms: part.truth_ms,
+        estimated_s: part.estimated_s,
+        sweep_ms: part.sweep_ms,
+    };
+    Ok(sweep_report(method, grid, runs.repeat, totals, rows))
+}
+
+/// What the settings `sweep_settings` ran measured, with the truth they
+/// were measured against.
+#[derive(Debug, Clone)]
+pub struct SweepPart {
+    /// What describes the truth.
+    pub truth: Value,
+    /// What the truth cost, ms.
+    pub truth_ms: f64,
+    /// The first setting's time times the runs left, seconds.
+    pub estimated_s: f64,
+    /// What the settings' runs cost, ms.
+    pub sweep_ms: f64,
+    /// Each setting's index in `Grid::settings` and its row, Pareto
+    /// front not marked.
+    pub rows: Vec<(usize, Row)>,
+}
+
+/// The report-wide figures of a sweep (`SweepReport`'s fields that are
+/// not rows).
+#[derive(Debug, Clone)]
+pub struct SweepTotals {
+    /// See [`SweepReport::truth`].
+    pub truth: Value,
+    /// See [`SweepReport::truth_ms`].
+    pub truth_ms: f64,
+    /// See [`SweepReport::estimated_s`].
+    pub estimated_s: f64,
+    /// See [`SweepReport::sweep_ms`].
+    pub sweep_ms: f64,
+}
+
+/// Runs the settings `which` (indices into `grid.settings()`, each checked
+/// first) against the truth, computed once here: a shard of a sweep runs
+/// its settings this way, `done` recording each row as it is measured.
+pub fn sweep_settings(
+    method: &mut dyn Sweep,
+    grid: &Grid,
+    runs: Repeats,
+    which: &[usize],
+    bars: &Reporter,
+    mut done: impl FnMut(usize, &Row) -> Result<()>,
+) -> Result<SweepPart> {
     let repeats = runs.repeat;
     if repeats == 0 || repeats > 100 {
         return Err(Error::param(
@@ -110,14 +165,18 @@ pub fn sweep(method: &mut dyn Sweep, grid: &Grid, runs: Repeats, bars: &Reporter
     for s in &settings {
         method.check(s)?;
     }
+    if let Some(&i) = which.iter().find(|&&i| i >= settings.len()) {
+        return Err(Error::internal(format!("setting {i} of {}", settings.len())));
+    }
     let start = Instant::now();
     let truth = method.truth(bars)?;
     let truth_ms = elapsed_ms(start);
     let sweep_start = Instant::now();
-    let mut rows: Vec<Row> = Vec::with_capacity(settings.len());
+    let mut rows: Vec<(usize, Row)> = Vec::with_capacity(which.len());
     let mut estimated_s = 0.0;
-    let progress = bars.bar(settings.len() as u64 * repeats as u64, "sweep");
-    for (i, setting) in settings.iter().enumerate() {
+    let progress = bars.bar(which.len() as u64 * repeats as u64, "sweep");
+    for (k, &i) in which.iter().enumerate() {
+        let setting = &settings[i];
         for _ in 0..runs.warmup {
             method.run(setting)?;
         }
@@ -126,37 +185,61 @@ pub fn sweep(method: &mut dyn Sweep, grid: &Grid, runs: Repeats, bars: &Reporter
             let run_start = Instant::now();
             runs.push(method.run(setting)?);
             progress.inc(1);
-            if i == 0 && runs.len() == 1 {
-                let runs_left = (settings.len() * repeats as usize - 1) as f64;
+            if k == 0 && runs.len() == 1 {
+                let runs_left = (which.len() * repeats as usize - 1) as f64;
                 estimated_s = elapsed_ms(run_start) * runs_left / 1e3;
                 bars.note(&format!(
                     "sweep: {} settings x {repeats} repeats; about {estimated_s:.0} s more (as the first run took)",
-                    settings.len()
+                    which.len()
                 ));
             }
         }
-        rows.push(row(setting, runs));
+        let row = row(setting, runs);
+        done(i, &row)?;
+        rows.push((i, row));
     }
     progress.finish();
+    Ok(SweepPart {
+        truth,
+        truth_ms,
+        estimated_s,
+        sweep_ms: elapsed_ms(sweep_start),
+        rows,
+    })
+}
+
+/// The report of `rows` (one per setting of `grid`, in its order), the
+/// Pareto front marked: what `sweep` returns, and what the rows of a
+/// sweep's shards merge into.
+pub fn sweep_report(
+    method: &dyn Sweep,
+    grid: &Grid,
+    repeats: u32,
+    totals: SweepTotals,
+    mut rows: Vec<Row>,
+) -> SweepReport {
+    for r in &mut rows {
+        r.pareto = false;
+    }
     let front = pareto_front(&rows);
     for &i in &front {
         rows[i].pareto = true;
     }
-    Ok(SweepReport {
+    SweepReport {
         method: method.name(),
         time_measure: method.time_measure(),
         error_measure: method.error_measure(),
         repeats,
         axes: grid.axes.iter().map(|(name, _)| name.to_string()).collect(),
         settings: rows.len(),
-        truth,
-        truth_ms,
-        estimated_s,
-        sweep_ms: elapsed_ms(sweep_start),
+        truth: totals.truth,
+        truth_ms: totals.truth_ms,
+        estimated_s: totals.estimated_s,
+        sweep_ms: totals.sweep_ms,
         front,
         rows,
         files: Vec::new(),
-    })
+    }
 }
 
 /// A setting's row from its repeats: the fastest time and its phases; the
