@@ -24,6 +24,7 @@ mod progress;
 mod prt;
 mod raytrace;
 mod raytrace_bounded;
+mod raytrace_frames;
 mod shard;
 mod ssao;
 mod sweep;
