@@ -10,6 +10,7 @@
 //! maps them to this command line's options.
 
 mod ao;
+mod ao_frames;
 mod applies;
 mod args;
 mod bake;

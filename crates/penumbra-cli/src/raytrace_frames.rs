@@ -62,15 +62,7 @@ pub(super) fn merge(args: &RaytraceArgs, setup: Setup, renderer: WhittedRenderer
     for f in 0..frames {
         let path = frame_output(out, f, f + 1 == frames).expect("the template holds {}");
         if !path.is_file() {
-            let side = parts.sidecars.iter().find(|s| s.items.contains(&(f as usize)));
-            let shard = side.map_or_else(|| "?".into(), |s| s.shard.to_string());
-            let problem = format!(
-                "frame {f} is missing, though shard {shard}'s part records it: remove that shard's part \
-                 ({}.part-{}) and its .json, run the shard again, then merge",
-                out.display(),
-                shard.replace('/', "-of-")
-            );
-            return Err(Error::file(&path, "", problem));
+            return Err(missing_frame(parts, out, &path, f));
         }
     }
     let mut report = report(args, &setup, &renderer, &records, frames - 1)?;
@@ -80,6 +72,20 @@ pub(super) fn merge(args: &RaytraceArgs, setup: Setup, renderer: WhittedRenderer
         report["ray_tree"] = json!(renderer.pixel_tree_report(&setup.base, size, &setup.settings, pixel)?);
     }
     Ok(report)
+}
+
+/// Frame `f`'s file `path` is missing though a part of `out` records it:
+/// the error names the frame, the file and the shard to run again.
+pub(super) fn missing_frame(parts: &Parts, out: &Path, path: &Path, f: u32) -> Error {
+    let side = parts.sidecars.iter().find(|s| s.items.contains(&(f as usize)));
+    let shard = side.map_or_else(|| "?".into(), |s| s.shard.to_string());
+    let problem = format!(
+        "frame {f} is missing, though shard {shard}'s part records it: remove that shard's part \
+         ({}.part-{}) and its .json, run the shard again, then merge",
+        out.display(),
+        shard.replace('/', "-of-")
+    );
+    Error::file(path, "", problem)
 }
 
 /// The report of the frames `records` hold, in order, `last` the last of

@@ -2,8 +2,9 @@
 //! --frames N --out 'walk-{}.png'` split 3 ways as separate processes, one
 //! shard killed after its first frame's record and run again, then
 //! `penumbra merge`: every frame byte-identical to one process's and the
-//! report's sums the same. `merge` refuses a missing frame file, and what
-//! is not split (one image, --method bounded, prt's frames, the field's
+//! report's sums the same; the same for `ao --method field --frames N`
+//! split 2 ways (per-vertex CSVs and images). `merge` refuses a missing
+//! frame file, and what is not split (one image, --method bounded, prt's
 //! frames) is refused naming --shard.
 
 mod common;
@@ -178,9 +179,82 @@ fn what_is_not_split_is_refused_naming_shard() {
         ],
     )
     .bad_input(&["--shard", "does not split prt's frames"]);
-    pen(
-        "ao --method field --rays 16 --mesh {m} --receiver {m} --frames 2 --per-vertex {o} --shard 0/2 --json",
-        &[("m", &asset_s("raytrace/checker-spheres.obj")), ("o", &dir.p("v.csv"))],
+    let field = "ao --method field --rays 16 --mesh {m} --receiver {m} --frames 2 --per-vertex {o} --shard 0/2 --json";
+    let mesh = asset_s("raytrace/checker-spheres.obj");
+    pen(field, &[("m", &mesh), ("o", &dir.p("v.csv"))]).bad_input(&["--shard", "--frames N (N > 1)"]);
+}
+
+/// A receiver, an object that casts and receives while it moves (its own
+/// self-occlusion is recast every frame) and a still caster.
+fn moving_scene(dir: &TempDir) -> String {
+    dir.write(
+        "scene.json",
+        format!(
+            r#"{{
+  "meshes": {{ "corner": "{}", "cube": "{}" }},
+  "instances": [
+    {{ "mesh": "corner", "role": "receiver" }},
+    {{ "mesh": "cube", "role": "both", "scale": 0.15, "translate": [0.4, 0.2, 0.4],
+       "motion": {{ "degrees_per_frame": 20, "translate_per_frame": [0.05, 0, 0] }} }},
+    {{ "mesh": "cube", "role": "caster", "scale": 0.1, "translate": [0.2, 0.3, 0.7] }}
+  ]
+}}"#,
+            asset_s("corner.obj").replace('\\', "/"),
+            asset_s("cube-with-hole.obj").replace('\\', "/")
+        ),
     )
-    .bad_input(&["--shard", "field's frames are not split"]);
+}
+
+#[test]
+fn field_frames_split_two_ways_merge_to_one_process() {
+    let dir = TempDir::new("shard-frames-field");
+    let frames = 5;
+    let args = cmd(
+        &format!(
+            "ao --scene {{s}} --method field --rays 16 --positions 100 --res 8 --frames {frames} \
+             --device cpu --json"
+        ),
+        &[("s", &moving_scene(&dir))],
+    );
+    for (name, option) in [("v-{}.csv", "--per-vertex"), ("i-{:04}.png", "--image")] {
+        let args = match option {
+            "--image" => with(args.clone(), &["--width", "48", "--height", "32"]),
+            _ => args.clone(),
+        };
+        let one = run(&with(args.clone(), &[option, &dir.p(&format!("one-{name}"))]))
+            .ok()
+            .json();
+        let out = dir.p(name);
+        for index in 0..2 {
+            let j = run(&with(args.clone(), &[option, &out, "--shard", &format!("{index}/2")]))
+                .ok()
+                .json();
+            let (start, end) = (index * frames / 2, (index + 1) * frames / 2);
+            assert_eq!(j["shard"]["items"], serde_json::json!([start, end]));
+            assert_eq!(j["frame_ao_ms"].as_array().unwrap().len(), (end - start) as usize);
+        }
+        let merged = run(&merge(&out, true)).ok().json();
+        for f in 0..frames {
+            let file = |prefix: &str| {
+                let name = name.replace("{:04}", &format!("{f:04}")).replace("{}", &f.to_string());
+                std::fs::read(dir.p(&format!("{prefix}{name}"))).unwrap()
+            };
+            assert!(
+                file("one-") == file(""),
+                "{option} frame {f} differs from one process's"
+            );
+        }
+        for field in ["frames", "points", "rays_inside_sphere", "rays_hidden", "casters"] {
+            assert_eq!(merged[field], one[field], "{option}: {field}");
+        }
+        assert_eq!(merged["frame_ao_ms"].as_array().unwrap().len(), frames as usize);
+        // Frame 0's self-occlusion, then every later frame's moving object's.
+        assert_eq!(merged["self_occlusion_ms"].as_array().unwrap().len(), frames as usize);
+        let summary = if option == "--image" { "image" } else { "per_vertex" };
+        assert_eq!(merged[summary]["mean_ao"], one[summary]["mean_ao"], "{option}");
+        assert_eq!(merged["merged"]["parts"], 2);
+    }
+    // A frame file lost: merge names it.
+    std::fs::remove_file(dir.p("v-1.csv")).unwrap();
+    run(&merge(&dir.p("v-{}.csv"), true)).bad_input(&["v-1.csv", "frame 1 is missing", "0/2"]);
 }
