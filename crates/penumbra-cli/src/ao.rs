@@ -79,12 +79,7 @@ pub fn run(args: &AoArgs) -> Result<Value> {
     let settings = args.knobs.settings(args.common.seed)?;
     let (outputs, request) = request(args, settings)?;
     if args.knobs.method == Method::Field {
-        if args.shard.shard.is_some() || args.shard.merging.is_some() {
-            let problem = "splits --method raycast's vertices or pixels; the field's frames are not split yet";
-            return Err(Error::param("--shard", problem));
-        }
-        let (report, device) = field(args, outputs, &request)?;
-        return merged(args.common.report(&device, threads), report);
+        return field(args, outputs, &request, threads);
     }
     let scene = scene_of(args)?;
     let device = args.common.open_device()?;
@@ -133,11 +128,11 @@ fn request(args: &AoArgs, settings: penumbra::raycast::AoSettings) -> Result<(Ao
 }
 
 /// `--method field`: Algorithm 2 of the displacement-field paper.
-fn field(
-    args: &AoArgs,
-    outputs: AoOutputs,
-    request: &AoRequest,
-) -> Result<(FieldRunReport, penumbra::gpu::device::Device)> {
+fn field(args: &AoArgs, outputs: AoOutputs, request: &AoRequest, threads: usize) -> Result<Value> {
+    let mode = args.shard.mode()?;
+    if !matches!(mode, Mode::Whole) {
+        crate::ao_frames::check_split(args, &outputs)?;
+    }
     if args.mesh.is_some() && args.receiver.is_none() {
         return Err(Error::param(
             "--method field",
@@ -180,6 +175,18 @@ fn field(
         &crate::progress::stderr(),
     )?;
     choice.iter().for_each(note_choice);
+    let run = (&scene, &mut fields, frames);
+    match mode {
+        Mode::Whole => {}
+        Mode::Part(shard) => {
+            return crate::ao_frames::part(args, (outputs, request), run, shard, (&device, threads));
+        }
+        Mode::Merge(parts) => {
+            let mut report = crate::ao_frames::merge(args, (outputs, request), run, &parts)?;
+            report.max_error = choice;
+            return merged(args.common.report(&device, threads), report);
+        }
+    }
     let runs = args.common.runs.runs(1)?;
     let radius = request.settings.radius;
     let mut write = |f, v: Option<&_>, i: Option<&_>| outputs.write_frame(&scene, (f, false), radius, v, i).map(drop);
@@ -198,7 +205,7 @@ fn field(
     let mut report = FieldRunReport::new(&fields, run, &request.settings, written);
     report.max_error = choice;
     report.ao.runs = Some(times);
-    Ok((report, device))
+    merged(args.common.report(&device, threads), report)
 }
 
 /// Vertices (or pixels) per record of a part: what a shard killed part-way

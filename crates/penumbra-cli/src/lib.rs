@@ -10,6 +10,7 @@
 //! maps them to this command line's options.
 
 mod ao;
+mod ao_frames;
 mod applies;
 mod args;
 mod bake;
@@ -24,6 +25,7 @@ mod progress;
 mod prt;
 mod raytrace;
 mod raytrace_bounded;
+mod raytrace_frames;
 mod shard;
 mod ssao;
 mod sweep;

@@ -94,6 +94,12 @@ fn knobs(a: &PrtArgs) -> Result<(PrtSettings, Playback, RayTraced)> {
 }
 
 pub fn run(args: &PrtArgs) -> Result<Value> {
+    if args.shard.shard.is_some() || args.shard.merging.is_some() {
+        let problem = "does not split prt's frames: an animation is played from its first frame (the PVS and \
+                       the self-check are gathered over all of it, and the first frame sets the exposure), \
+                       so run it as one process";
+        return Err(penumbra::error::Error::param("--shard", problem));
+    }
     let threads = args.common.init_threads()?;
     let (mut settings, mut playback, reference) = knobs(args)?;
     let view = View::new(args.camera.spec(), args.size.width, args.size.height)?;

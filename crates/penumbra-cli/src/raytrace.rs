@@ -10,8 +10,10 @@ use crate::args::{CameraArgs, CameraChoice, Common, check_output, load_shaded_in
 use crate::io::{merged, warn};
 use crate::options::bounded::BoundedOptions;
 use crate::options::raytrace::{RaytraceOptions, WhittedOptions};
-use penumbra::error::Result;
+use crate::shard::Mode;
+use penumbra::error::{Error, Result};
 use penumbra::io::image::ImageFormat;
+use penumbra::io::output::frame_path;
 use penumbra::scene::{Camera, CameraPath};
 pub use penumbra::whitted::report::RaytraceMethod as Method;
 use penumbra::whitted::report::{FrameImages, RenderReport};
@@ -131,11 +133,38 @@ fn setup(args: &RaytraceArgs) -> Result<(Setup, WhittedRenderer)> {
 }
 
 pub fn run(args: &RaytraceArgs) -> Result<Value> {
-    let (setup, renderer) = setup(args)?;
-    match args.knobs.method {
-        Method::Whitted => whitted(args, setup, renderer),
-        Method::Bounded => crate::raytrace_bounded::run(args, setup, renderer),
+    let mode = args.shard.mode()?;
+    if !matches!(mode, Mode::Whole) {
+        check_split(args)?;
     }
+    let (setup, renderer) = setup(args)?;
+    match (args.knobs.method, mode) {
+        (Method::Whitted, Mode::Whole) => whitted(args, setup, renderer),
+        (Method::Whitted, Mode::Part(shard)) => crate::raytrace_frames::part(args, setup, renderer, shard),
+        (Method::Whitted, Mode::Merge(parts)) => crate::raytrace_frames::merge(args, setup, renderer, &parts),
+        (Method::Bounded, _) => crate::raytrace_bounded::run(args, setup, renderer),
+    }
+}
+
+/// What a sharded run needs: the frames of a whitted walk, each written to
+/// its own file, each rendered once.
+fn check_split(args: &RaytraceArgs) -> Result<()> {
+    if args.knobs.method == Method::Bounded {
+        let problem = "splits --method whitted's frames; --method bounded is not split (give --method whitted, or run it as one process)";
+        return Err(Error::param("--shard", problem));
+    }
+    let pattern = args.out.as_deref().is_some_and(|p| frame_path(p, 0).is_some());
+    if args.knobs.frames < 2 || !pattern {
+        let problem = "splits the frames of a walk: give --frames N (N > 1) and an --out name holding {} (or {:04}), \
+                       every frame its own file; one image's tiles are not split";
+        return Err(Error::param("--shard", problem));
+    }
+    let runs = args.common.runs.runs(1)?;
+    if runs.warmup + runs.repeat > 1 {
+        let problem = "renders each frame once; leave out --warmup and --repeat";
+        return Err(Error::param("--shard", problem));
+    }
+    Ok(())
 }
 
 fn whitted(args: &RaytraceArgs, setup: Setup, mut renderer: WhittedRenderer) -> Result<Value> {

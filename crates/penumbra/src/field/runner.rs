@@ -260,6 +260,25 @@ impl<'s> FieldAo<'s> {
         request: &AoRequest,
         frames: u32,
         reference: bool,
+        each: Option<FrameSink<'_>>,
+    ) -> Result<FieldAoRun> {
+        self.run_range(request, (frames, 0..frames), reference, each)
+    }
+
+    /// Frames `range` of an animation of `frames` frames, each computed as
+    /// `run_frames` computes it: a frame's AO depends on that frame alone
+    /// (frame 0's self-occlusion, the moving objects' own recast at the
+    /// frame, the fields at the frame), so a range gives the bits of the
+    /// same frames of the whole run. `each` sees every frame of the range
+    /// but its last, whose outputs the run holds (and where the reference
+    /// is compared); `frame_ao_ms` has the range's frames, and
+    /// `self_occlusion_ms` frame 0's time then those of the range's frames
+    /// after 0 where objects moved. What one shard of the frames computes.
+    pub fn run_range(
+        &mut self,
+        request: &AoRequest,
+        (frames, range): (u32, std::ops::Range<u32>),
+        reference: bool,
         mut each: Option<FrameSink<'_>>,
     ) -> Result<FieldAoRun> {
         let settings = &request.settings;
@@ -269,6 +288,10 @@ impl<'s> FieldAo<'s> {
                 "frames",
                 format!("must be between 1 and {MAX_FRAMES}, got {frames}"),
             ));
+        }
+        if range.is_empty() || range.end > frames {
+            let problem = format!("frames {}..{} are not some of 0..{frames}", range.start, range.end);
+            return Err(Error::param("frames", problem));
         }
         if !self.reach.covers(settings.radius, frames) {
             let problem = format!(
@@ -291,7 +314,7 @@ impl<'s> FieldAo<'s> {
         let mut self_ms = vec![elapsed_ms(start)];
         let mut frame_ms = Vec::new();
         let mut last = None;
-        for frame in 0..frames {
+        for frame in range.clone() {
             let points = vertex_points(&scene.world_mesh_at(frame, Role::receives));
             if frame > 0 && moving_self {
                 let start = Instant::now();
@@ -306,7 +329,7 @@ impl<'s> FieldAo<'s> {
             progress.finish();
             frame_ms.push(traced.ms);
             if let Some(each) = each.as_mut()
-                && frame + 1 < frames
+                && frame + 1 < range.end
             {
                 let masks = combined(&traced.value.0, own.as_ref());
                 let (vertices, image) = self.outputs(request, frame, &points, &masks, settings)?;
@@ -316,7 +339,7 @@ impl<'s> FieldAo<'s> {
         }
         let (points, (field_masks, classes)) = last.expect("at least one frame");
         let masks = combined(&field_masks, own.as_ref());
-        let last_frame = frames - 1;
+        let last_frame = range.end - 1;
         let reference = if reference {
             let device = self.device.clone();
             let lookups = ErrorInputs {

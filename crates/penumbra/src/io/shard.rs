@@ -173,6 +173,9 @@ pub struct Job {
     pub inputs: Vec<InputFile>,
 }
 
+/// Records read back: each one's items and payload.
+type Records = Vec<(Range<usize>, Vec<u8>)>;
+
 /// Magic line of a partial file; the job's JSON follows on the next line.
 const PARTIAL_MAGIC: &[u8] = b"penumbra part 1\n";
 
@@ -359,7 +362,7 @@ fn record(items: &Range<usize>, payload: &[u8], seconds: f64) -> Vec<u8> {
 
 /// The whole records of a partial or part file written for `job` (none if
 /// it was written for another), and the seconds its runs took.
-fn read_partial(bytes: &[u8], job: &Job) -> Option<(Vec<(Range<usize>, Vec<u8>)>, f64)> {
+fn read_partial(bytes: &[u8], job: &Job) -> Option<(Records, f64)> {
     let rest = bytes.strip_prefix(PARTIAL_MAGIC)?;
     let line = rest.iter().position(|&b| b == b'\n')?;
     let written: Job = serde_json::from_slice(&rest[..line]).ok()?;
@@ -371,7 +374,7 @@ fn read_partial(bytes: &[u8], job: &Job) -> Option<(Vec<(Range<usize>, Vec<u8>)>
 }
 
 /// Records up to the first that is cut short or corrupt.
-fn read_records(mut bytes: &[u8]) -> (Vec<(Range<usize>, Vec<u8>)>, f64) {
+fn read_records(mut bytes: &[u8]) -> (Records, f64) {
     let mut records = Vec::new();
     let mut seconds = 0.0f64;
     let u64_at = |b: &[u8], at: usize| u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"));
@@ -611,7 +614,7 @@ pub fn f32_bytes(values: &[f32]) -> Vec<u8> {
 /// The values of `f32_bytes`; an error naming `what` for a length that is
 /// not a whole number of values.
 pub fn f32s(bytes: &[u8], what: &Path) -> Result<Vec<f32>> {
-    if bytes.len() % 4 != 0 {
+    if !bytes.len().is_multiple_of(4) {
         return Err(Error::file(what, "", "a record is not a whole number of values"));
     }
     Ok(bytes
