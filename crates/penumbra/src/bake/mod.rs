@@ -300,7 +300,7 @@ impl BakePiece {
 
     /// A piece from `to_bytes`; `None` for bytes that are not one.
     pub fn from_bytes(b: &[u8]) -> Option<BakePiece> {
-        if b.len() < 64 || (b.len() - 64) % 4 != 0 {
+        if b.len() < 64 || !(b.len() - 64).is_multiple_of(4) {
             return None;
         }
         let n = |k: usize| u64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes")) as usize;
