@@ -19,6 +19,10 @@ pub struct BakeArgs {
     /// The asset: glTF 2.0 (.gltf/.glb), OBJ (its MTL and `vt`) or PLY.
     #[arg(long)]
     pub mesh: Option<PathBuf>,
+    /// A manifest instead: one asset a line with its options
+    /// (`ASSET [--resolution N ...]`), each baked into the folder --out.
+    #[arg(long, conflicts_with_all = ["mesh", "scene"])]
+    pub manifest: Option<PathBuf>,
     /// A scene file instead: each mesh is baked where its first instance
     /// stands, every caster occluding it; --out is then a folder that gets
     /// one NAME.glb per mesh.
@@ -90,6 +94,11 @@ fn in_range(value: i64, option: &str, lo: i64, hi: i64) -> Result<u32> {
 
 pub fn run(args: &BakeArgs) -> Result<Value> {
     let threads = args.common.init_threads()?;
+    if let Some(manifest) = &args.manifest {
+        let report = crate::bake_manifest::run(args, manifest, &crate::shard::invocation_args())?;
+        let device = args.common.open_device()?;
+        return merged(args.common.report(&device, threads), report);
+    }
     if args.scene.is_some() {
         if args.texture.is_some() {
             return Err(Error::param(
@@ -107,40 +116,7 @@ pub fn run(args: &BakeArgs) -> Result<Value> {
         let out = Some(args.out.clone());
         check_outputs(&[(&out, "--out"), (&args.texture, "--texture")])?;
     }
-    let settings = BakeSettings {
-        resolution: in_range(
-            args.resolution,
-            "--resolution",
-            0,
-            penumbra::bake::MAX_RESOLUTION as i64,
-        )?,
-        padding: in_range(args.padding, "--padding", 0, 64)?,
-        texel_samples: in_range(args.texel_samples, "--texel-samples", 1, 64)?,
-        png_bits: match args.png_bits {
-            8 => 8,
-            16 => 16,
-            b => return Err(Error::param("--png-bits", format!("must be 8 or 16, got {b}"))),
-        },
-        vertex: args.vertex == OnOff::On,
-        vertex_colors: args.vertex_colors,
-        replace: args.replace,
-        ao: AoSettings {
-            rays_per_point: in_range(args.rays, "--rays", 1, penumbra::raycast::MAX_RAYS_PER_POINT as i64)?,
-            radius: args.radius.unwrap_or(f32::INFINITY),
-            seed: args.common.seed,
-        },
-        max_error: args.max_error,
-    };
-    if args.texture.is_some() && settings.resolution == 0 {
-        return Err(Error::param("--texture", "needs a texture: --resolution is 0"));
-    }
-    if args.vertex_colors && !settings.vertex {
-        return Err(Error::param(
-            "--vertex-colors",
-            "needs the per-vertex AO: --vertex is off",
-        ));
-    }
-    settings.validate().map_err(|e| e.with_names(crate::args::flag))?;
+    let settings = settings(args)?;
     let device = args.common.open_device()?;
     if let Some(scene) = &args.scene {
         if args.shard.shard.is_some() {
@@ -267,4 +243,43 @@ fn merge(
         pieces.push(piece);
     }
     job.finish(pieces)
+}
+
+/// The bake the options ask for, each checked against its range.
+pub fn settings(args: &BakeArgs) -> Result<BakeSettings> {
+    let settings = BakeSettings {
+        resolution: in_range(
+            args.resolution,
+            "--resolution",
+            0,
+            penumbra::bake::MAX_RESOLUTION as i64,
+        )?,
+        padding: in_range(args.padding, "--padding", 0, 64)?,
+        texel_samples: in_range(args.texel_samples, "--texel-samples", 1, 64)?,
+        png_bits: match args.png_bits {
+            8 => 8,
+            16 => 16,
+            b => return Err(Error::param("--png-bits", format!("must be 8 or 16, got {b}"))),
+        },
+        vertex: args.vertex == OnOff::On,
+        vertex_colors: args.vertex_colors,
+        replace: args.replace,
+        ao: AoSettings {
+            rays_per_point: in_range(args.rays, "--rays", 1, penumbra::raycast::MAX_RAYS_PER_POINT as i64)?,
+            radius: args.radius.unwrap_or(f32::INFINITY),
+            seed: args.common.seed,
+        },
+        max_error: args.max_error,
+    };
+    if args.texture.is_some() && settings.resolution == 0 {
+        return Err(Error::param("--texture", "needs a texture: --resolution is 0"));
+    }
+    if args.vertex_colors && !settings.vertex {
+        return Err(Error::param(
+            "--vertex-colors",
+            "needs the per-vertex AO: --vertex is off",
+        ));
+    }
+    settings.validate().map_err(|e| e.with_names(crate::args::flag))?;
+    Ok(settings)
 }

@@ -21,6 +21,11 @@ pub fn of(command: &Command) -> Files {
             f.input("--rays", &Some(a.rays.clone()));
             f.output("--out", &Some(a.out.clone()));
         }
+        Command::Bake(a) if a.manifest.is_some() => {
+            f.input("--manifest", &a.manifest);
+            let assets = crate::bake_manifest::asset_paths(a.manifest.as_deref().expect("matched"));
+            assets.into_iter().for_each(|p| f.mesh("--manifest", &Some(p)));
+        }
         Command::Bake(a) => {
             f.mesh("--mesh", &a.mesh);
             f.scene(&a.scene);

@@ -14,6 +14,7 @@ mod ao_frames;
 mod applies;
 mod args;
 mod bake;
+mod bake_manifest;
 mod field;
 mod files;
 mod gen_assets;
@@ -196,6 +197,16 @@ fn command() -> clap::Command {
     allow(Cli::command())
 }
 
+/// The subcommand `args` (the program's name first) spell, or clap's
+/// message.
+pub(crate) fn parse_command(args: &[String]) -> std::result::Result<Command, String> {
+    command()
+        .try_get_matches_from(args)
+        .and_then(|m| Cli::from_arg_matches(&m))
+        .map(|cli| cli.command)
+        .map_err(|e| e.to_string())
+}
+
 /// The parse of `args` (the program's name first): `Ok` or clap's error
 /// message. For tests.
 pub fn parse_error(args: &[&str]) -> Option<String> {
@@ -340,7 +351,9 @@ fn merge(output: &std::path::Path) -> Result<Value> {
         return Err(penumbra::error::Error::file(output, "", problem));
     };
     shard_args.merging = Some(std::sync::Arc::new(parts.clone()));
-    files::of(&command).check()?;
+    let files = files::of(&command);
+    files.check()?;
+    shard::record_invocation(&argv, files.inputs.iter().map(|(_, p)| p.clone()).collect());
     let mut value = match command {
         Command::Ao(a) => ao::run(&a)?,
         Command::Raytrace(a) => raytrace::run(&a)?,

@@ -129,6 +129,12 @@ pub fn record_invocation(args: &[String], inputs: Vec<PathBuf>) {
     });
 }
 
+/// The command line of this run, program name first.
+pub fn invocation_args() -> Vec<String> {
+    let guard = INVOCATION.lock().expect("not poisoned");
+    guard.as_ref().map(|i| i.args.clone()).unwrap_or_default()
+}
+
 /// The arguments that make the job: the subcommand and its options, without
 /// those that change how it runs but not what it computes.
 fn job_command(args: &[String]) -> Vec<String> {

@@ -316,3 +316,43 @@ fn shard_auto_reads_slurm_and_kubernetes_and_names_them_when_unset() {
     ))
     .bad_input(&["--shard", "one output"]);
 }
+
+#[test]
+fn a_two_asset_manifest_in_two_shards_is_one_process_byte_for_byte() {
+    let d = TempDir::new("shard_manifest");
+    let textured = data_model("spot.obj").unwrap_or_else(|| common::asset("raytrace/textured-room.obj"));
+    std::fs::copy(&textured, d.p("a.obj")).unwrap();
+    std::fs::copy(model("cow.obj"), d.p("b b.obj")).unwrap();
+    let manifest = d.write(
+        "assets.txt",
+        "# two assets, one per line\na.obj --resolution 128 --texture a-ao.png\n\n\"b b.obj\" --resolution 0 --out b.glb\n",
+    );
+    let (one, split) = (d.p("one"), d.p("split"));
+    std::fs::create_dir(&one).unwrap();
+    std::fs::create_dir(&split).unwrap();
+    let template = "bake --manifest {m} --rays 32 --device cpu --out {out} --json";
+    let j = run(&cmd(template, &[("m", &manifest), ("out", &one)])).ok().json();
+    assert_eq!(j["assets"].as_array().map(Vec::len), Some(2), "{j}");
+    for i in 0..2 {
+        let s = run(&args(
+            template,
+            &[("m", &manifest), ("out", &split)],
+            &["--shard", &format!("{i}/2")],
+        ))
+        .ok()
+        .json();
+        assert_eq!(s["shard"]["items_computed"], 1, "{s}");
+    }
+    let j = merge(Path::new(&split)).ok().json();
+    assert_eq!(j["assets"][1]["line"], 4, "{j}");
+    for f in ["a.glb", "a-ao.png", "b.glb"] {
+        same_bytes(&Path::new(&one).join(f), &Path::new(&split).join(f));
+    }
+    // A missing baked asset is refused by name; a bad line names the line.
+    std::fs::remove_file(Path::new(&split).join("b.glb")).unwrap();
+    merge(Path::new(&split)).bad_input(&["b.glb", "manifest line 4", "shard 1"]);
+    let bad = d.write("bad.txt", "a.obj\na.obj --resolution -3 --out c.glb\n");
+    run(&cmd(template, &[("m", &bad), ("out", &one)])).bad_input(&["bad.txt", "line 2", "--resolution"]);
+    let twice = d.write("twice.txt", "a.obj\na.obj\n");
+    run(&cmd(template, &[("m", &twice), ("out", &one)])).bad_input(&["twice.txt", "line 2", "as line 1 does"]);
+}
