@@ -27,6 +27,7 @@ mod prt;
 mod raytrace;
 mod raytrace_bounded;
 mod raytrace_frames;
+mod raytrace_tiles;
 mod shard;
 mod ssao;
 mod sweep;

@@ -140,23 +140,30 @@ pub fn run(args: &RaytraceArgs) -> Result<Value> {
     let (setup, renderer) = setup(args)?;
     match (args.knobs.method, mode) {
         (Method::Whitted, Mode::Whole) => whitted(args, setup, renderer),
+        (Method::Whitted, Mode::Part(shard)) if args.knobs.frames == 1 => {
+            crate::raytrace_tiles::part(args, setup, renderer, shard)
+        }
+        (Method::Whitted, Mode::Merge(parts)) if args.knobs.frames == 1 => {
+            crate::raytrace_tiles::merge(args, setup, renderer, &parts)
+        }
         (Method::Whitted, Mode::Part(shard)) => crate::raytrace_frames::part(args, setup, renderer, shard),
         (Method::Whitted, Mode::Merge(parts)) => crate::raytrace_frames::merge(args, setup, renderer, &parts),
         (Method::Bounded, _) => crate::raytrace_bounded::run(args, setup, renderer),
     }
 }
 
-/// What a sharded run needs: the frames of a whitted walk, each written to
-/// its own file, each rendered once.
+/// What a sharded run needs: one image (its rows are split), or the
+/// frames of a whitted walk, each written to its own file; each rendered
+/// once.
 fn check_split(args: &RaytraceArgs) -> Result<()> {
     if args.knobs.method == Method::Bounded {
         let problem = "splits --method whitted's frames; --method bounded is not split (give --method whitted, or run it as one process)";
         return Err(Error::param("--shard", problem));
     }
     let pattern = args.out.as_deref().is_some_and(|p| frame_path(p, 0).is_some());
-    if args.knobs.frames < 2 || !pattern {
-        let problem = "splits the frames of a walk: give --frames N (N > 1) and an --out name holding {} (or {:04}), \
-                       every frame its own file; one image's tiles are not split";
+    if args.out.is_none() || (args.knobs.frames > 1 && !pattern) {
+        let problem = "splits one image's rows (--out IMG) or the frames of a walk (--frames N and an --out name \
+                       holding {} or {:04}, every frame its own file)";
         return Err(Error::param("--shard", problem));
     }
     let runs = args.common.runs.runs(1)?;

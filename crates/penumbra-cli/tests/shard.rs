@@ -356,3 +356,19 @@ fn a_two_asset_manifest_in_two_shards_is_one_process_byte_for_byte() {
     let twice = d.write("twice.txt", "a.obj\na.obj\n");
     run(&cmd(template, &[("m", &twice), ("out", &one)])).bad_input(&["twice.txt", "line 2", "as line 1 does"]);
 }
+
+#[test]
+fn one_large_image_in_three_shards_one_killed_is_one_process_byte_for_byte() {
+    let d = TempDir::new("shard_image");
+    let mesh = model("stanford-bunny.obj");
+    let m = mesh.to_str().unwrap();
+    // The CPU's packets path (the bunny's triangles are above its threshold).
+    let template = "raytrace --method whitted --mesh {m} --width 320 --height 240 --spp 4 --device cpu --out {out}";
+    let (one, split) = (d.p("one.png"), d.p("split.png"));
+    run(&cmd(template, &[("m", m), ("out", &one)])).ok();
+    let split_path = PathBuf::from(&split);
+    shards(template, &[("m", m), ("out", &split)], &split_path, 3, 1);
+    let j = merge(&split_path).ok().json();
+    assert_eq!(j["merged"]["items"], 240, "rows are the items: {j}");
+    same_bytes(Path::new(&one), &split_path);
+}

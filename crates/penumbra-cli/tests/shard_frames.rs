@@ -157,13 +157,18 @@ fn a_walk_split_three_ways_with_a_killed_shard_merges_to_one_process() {
 fn what_is_not_split_is_refused_naming_shard() {
     let dir = TempDir::new("shard-frames-refused");
     let args = walk(&dir, 3);
-    let one_image = "one image's tiles are not split";
-    run(&with(args.clone(), &["--out", &dir.p("last.png"), "--shard", "0/2"])).bad_input(&["--shard", one_image]);
+    // A walk written as its last frame alone: neither one image nor a frame each.
+    let walk_frames = "the frames of a walk (--frames N and an --out name holding {}";
+    run(&with(args.clone(), &["--out", &dir.p("last.png"), "--shard", "0/2"])).bad_input(&["--shard", walk_frames]);
     let single = cmd(
         "raytrace --method whitted --width 32 --height 24 --scene {s} --device cpu --json",
         &[("s", &asset_s("raytrace/checker-spheres.json"))],
     );
-    run(&with(single, &["--out", &dir.p("f-{}.png"), "--shard", "0/2"])).bad_input(&["--shard", "--frames N"]);
+    // One frame is one image, its rows split.
+    let j = run(&with(single, &["--out", &dir.p("f-{}.png"), "--shard", "0/2"]))
+        .ok()
+        .json();
+    assert_eq!(j["shard"]["items"][1], 12, "{j}");
     let mut bounded = with(args, &["--out", &dir.p("b-{}.png"), "--shard", "0/2"]);
     bounded[2] = "bounded".into();
     run(&bounded).bad_input(&["--shard", "--method bounded is not split"]);

@@ -231,7 +231,8 @@ impl TreePass<WhittedKernels> {
 pub type WhittedBatches = Batched<WhittedPass>;
 
 impl Batched<WhittedPass> {
-    /// Renders every pixel of `params` (blocking), in batches: the pixels
+    /// Renders the pixels `params.first_pixel ..+ params.pixel_count`
+    /// (blocking; every pixel of the image for 0 and all), in batches: the pixels
     /// and the kernels' time where the device has timestamps. The scene
     /// must have been prepared (`prepare_scene`).
     pub fn render(
@@ -241,10 +242,10 @@ impl Batched<WhittedPass> {
         params: &WhittedUniforms,
         progress: &Bar,
     ) -> Result<(Vec<PixelOut>, Option<f64>)> {
-        let total = params.width as usize * params.height as usize;
+        let total = params.pixel_count as usize;
         self.render_batches(ctx, tree, total, progress, |pass, ctx, items| {
             let batch = WhittedUniforms {
-                first_pixel: items.start as u32,
+                first_pixel: params.first_pixel + items.start as u32,
                 pixel_count: items.len() as u32,
                 ..*params
             };

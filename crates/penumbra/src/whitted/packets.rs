@@ -30,19 +30,26 @@ const SHADOW_TILE: u32 = 16;
 /// description); MLRTA statistics of the primary and shadow packets.
 pub fn render_packets(w: &Whitted, prepared: &Prepared, mlrta: &MlrtaSettings) -> Result<(Vec<PixelOut>, MlrtaCounts)> {
     let p = w.params;
-    let n = p.width as usize * p.height as usize;
+    // The rows `first_pixel ..+ pixel_count` hold (the whole image, or a
+    // band of it), traced as an image of their own: tiles and packets
+    // group the rays, each pixel's answer is its own.
+    if p.first_pixel % p.width != 0 || p.pixel_count % p.width != 0 {
+        return Err(crate::error::Error::internal("packets render whole rows"));
+    }
+    let (first, rows) = (p.first_pixel, p.pixel_count / p.width);
+    let n = p.pixel_count as usize;
     let media = Media::from_ids(&p.media[..p.media_len as usize]);
     let mut out = vec![PixelOut::default(); n];
     let mut sums = vec![Vec3::ZERO; n];
     let mut counts = MlrtaCounts::default();
-    let tiles: Vec<Rect> = (0..p.height)
+    let tiles: Vec<Rect> = (0..rows)
         .step_by(SHADOW_TILE as usize)
         .flat_map(|y| {
             (0..p.width).step_by(SHADOW_TILE as usize).map(move |x| Rect {
                 x,
                 y,
                 w: SHADOW_TILE.min(p.width - x),
-                h: SHADOW_TILE.min(p.height - y),
+                h: SHADOW_TILE.min(rows - y),
             })
         })
         .collect();
@@ -57,14 +64,14 @@ pub fn render_packets(w: &Whitted, prepared: &Prepared, mlrta: &MlrtaSettings) -
         })
         .collect();
     for s in 0..p.spp {
-        let rays: Vec<Ray> = (0..n as u32)
+        let rays: Vec<Ray> = (first..first + p.pixel_count)
             .into_par_iter()
             .map(|i| {
                 let (o, d) = pixel_ray(p, i, s);
                 Ray::new(o, d)
             })
             .collect();
-        let image = trace_image(prepared, &rays, p.width, p.height, mlrta, None)?;
+        let image = trace_image(prepared, &rays, p.width, rows, mlrta, None)?;
         counts += image.counts;
         let shaded: Vec<(Rect, Vec<PixelOut>, MlrtaCounts)> = tiles
             .par_iter()

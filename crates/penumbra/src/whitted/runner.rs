@@ -136,7 +136,8 @@ impl RayCounts {
         self.primary + self.shadow + self.reflection + self.refraction
     }
 
-    fn of(pixels: &[PixelOut]) -> RayCounts {
+    /// The rays of `pixels`, summed by kind.
+    pub fn of(pixels: &[PixelOut]) -> RayCounts {
         let mut c = [0u64; 4];
         for p in pixels {
             for (sum, &r) in c.iter_mut().zip(&p.rays) {
@@ -414,7 +415,28 @@ impl WhittedRenderer {
         settings: &WhittedSettings,
         progress: &Bar,
     ) -> Result<Rendered> {
-        let params = self.params(camera, width, height, settings)?;
+        self.render_rows(camera, (width, height), 0..height, settings, progress)
+    }
+
+    /// The rows `rows` of the image `render` gives (a band of a large
+    /// image, as a shard renders it): each pixel bit for bit the one of the
+    /// whole image, on the same path. `pixels` holds the band's rows only;
+    /// `width` and `height` are the whole image's.
+    pub fn render_rows(
+        &mut self,
+        camera: &Camera,
+        (width, height): (u32, u32),
+        rows: std::ops::Range<u32>,
+        settings: &WhittedSettings,
+        progress: &Bar,
+    ) -> Result<Rendered> {
+        let mut params = self.params(camera, width, height, settings)?;
+        if rows.start > rows.end || rows.end > height {
+            let problem = format!("rows {rows:?} of an image {height} rows high");
+            return Err(crate::error::Error::param("rows", problem));
+        }
+        params.first_pixel = rows.start * width;
+        params.pixel_count = (rows.end - rows.start) * width;
         let (scene, tree, tables) = (&self.scene, &self.tree, &mut self.prepared);
         let twin = Whitted {
             scene,
@@ -446,7 +468,7 @@ impl WhittedRenderer {
                     Ok(pixels?.0)
                 } else {
                     use rayon::prelude::*;
-                    Ok((0..width * height)
+                    Ok((params.first_pixel..params.first_pixel + params.pixel_count)
                         .into_par_iter()
                         .with_min_len(64)
                         .map(|i| twin.whitted(i))
