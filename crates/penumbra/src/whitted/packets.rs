@@ -33,7 +33,7 @@ pub fn render_packets(w: &Whitted, prepared: &Prepared, mlrta: &MlrtaSettings) -
     // The rows `first_pixel ..+ pixel_count` hold (the whole image, or a
     // band of it), traced as an image of their own: tiles and packets
     // group the rays, each pixel's answer is its own.
-    if p.first_pixel % p.width != 0 || p.pixel_count % p.width != 0 {
+    if !p.first_pixel.is_multiple_of(p.width) || !p.pixel_count.is_multiple_of(p.width) {
         return Err(crate::error::Error::internal("packets render whole rows"));
     }
     let (first, rows) = (p.first_pixel, p.pixel_count / p.width);
