@@ -51,6 +51,9 @@ impl CameraSpec {
             fov_degrees: self.fov_degrees.unwrap_or(base.fov_degrees),
         };
         camera.validate()?;
+        let given = self.eye.is_some() || self.target.is_some();
+        let name = if given { "eye/target" } else { "the scene's \"camera\"" };
+        camera.sees(bounds).map_err(|problem| Error::param(name, problem))?;
         Ok(camera)
     }
 
@@ -219,6 +222,40 @@ impl Camera {
             return Err(Error::param(
                 "fov_degrees",
                 format!("must be in (0, 180) degrees, got {}", self.fov_degrees),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Checks the view against the scene's `bounds` (its bounding sphere):
+    /// the problem where the scene lies wholly behind the eye, or spans
+    /// less than a millionth of a radian from it (no image has a pixel
+    /// that small: the eye is at the float limits, or the scene is a
+    /// speck). An eye inside the sphere (a room's camera) always passes.
+    pub fn sees(&self, bounds: &Aabb) -> std::result::Result<(), String> {
+        if bounds.is_empty() || !bounds.min.is_finite() || !bounds.max.is_finite() {
+            return Ok(());
+        }
+        let (centre, radius) = (bounds.center().as_dvec3(), 0.5 * bounds.diagonal() as f64);
+        let to_centre = centre - self.eye.as_dvec3();
+        let distance = to_centre.length();
+        if distance <= radius {
+            return Ok(());
+        }
+        let forward = (self.target.as_dvec3() - self.eye.as_dvec3()).normalize();
+        if to_centre.dot(forward) < -radius {
+            return Err(format!(
+                "the scene is wholly behind the camera: its bounds' centre is at {:?}, {distance:.4e} from the eye, \
+                 and the camera looks the other way (towards {:?})",
+                bounds.center().to_array(),
+                self.target.to_array()
+            ));
+        }
+        let span = 2.0 * (radius / distance).asin();
+        if span < 1e-6 {
+            return Err(format!(
+                "the scene (radius {radius:.4e}) is {distance:.4e} from the eye: it spans {span:.2e} radians, \
+                 less than a pixel of any image; bring the eye closer"
             ));
         }
         Ok(())
@@ -406,6 +443,40 @@ pub fn parse_vec3(s: &str) -> std::result::Result<Vec3, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_view_that_cannot_show_the_scene_is_refused_naming_what_was_given() {
+        let b = Aabb::new(Vec3::ZERO, Vec3::ONE);
+        let at = |eye: [f64; 3], target: [f64; 3]| CameraSpec {
+            eye: Some(DVec3::from_array(eye)),
+            target: Some(DVec3::from_array(target)),
+            fov_degrees: None,
+        };
+        let resolve = |spec: CameraSpec| spec.resolve(None, &b, DVec3::ZERO).map(drop).map_err(|e| e.to_string());
+        // Behind, and a speck at the float limits: refused, naming eye/target.
+        let behind = resolve(at([3.0, 3.0, 3.0], [9.0, 9.0, 9.0])).unwrap_err();
+        assert!(
+            behind.contains("eye/target") && behind.contains("wholly behind"),
+            "{behind}"
+        );
+        let far = resolve(at([1e30, 1e30, 1e30], [0.5, 0.5, 0.5])).unwrap_err();
+        assert!(far.contains("less than a pixel"), "{far}");
+        // Looking past the scene from beside it, from inside it, or at it.
+        resolve(at([3.0, 0.5, 0.5], [3.0, 0.5, 9.0])).unwrap();
+        resolve(at([0.5, 0.5, 0.5], [9.0, 9.0, 9.0])).unwrap();
+        resolve(at([1e6, 1e6, 1e6], [0.5, 0.5, 0.5])).unwrap();
+        // A scene's own camera that looks away is named as the scene's.
+        let away = Camera {
+            eye: Vec3::splat(3.0),
+            target: Vec3::splat(9.0),
+            fov_degrees: 45.0,
+        };
+        let e = CameraSpec::default()
+            .resolve(Some(away), &b, DVec3::ZERO)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("the scene's \"camera\""), "{e}");
+    }
 
     #[test]
     fn default_camera_looks_at_the_centre() {
