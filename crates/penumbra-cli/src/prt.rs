@@ -150,20 +150,33 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
                 "sh_out": args.sh_out, "per_vertex": args.per_vertex, "runs": times })
     };
     if !matches!(mode, Mode::Whole) {
-        let poses = playback.poses(mesh, settings.hierarchy.poses);
-        let mut r = PrtRunner::new_posed(&device, &poses, &triangles, &settings, visibility.0, reference)?;
-        crate::io::notes(r.notes());
-        let used = r.device().clone();
+        let (mut mesh_runner, mut scene_runner);
+        let runner = match &args.scene {
+            Some(_) => {
+                scene_runner = ObjectsRunner::for_scene(&device, &scene, &settings, visibility, args.inter_object)?;
+                crate::io::notes(&scene_runner.notes());
+                crate::prt_frames::Runner::Scene(&mut scene_runner, &scene)
+            }
+            None => {
+                let poses = playback.poses(mesh, settings.hierarchy.poses);
+                mesh_runner = PrtRunner::new_posed(&device, &poses, &triangles, &settings, visibility.0, reference)?;
+                crate::io::notes(mesh_runner.notes());
+                crate::prt_frames::Runner::Mesh(&mut mesh_runner, mesh)
+            }
+        };
+        let used = match &runner {
+            crate::prt_frames::Runner::Mesh(r, _) => r.device().clone(),
+            crate::prt_frames::Runner::Scene(r, _) => r.device().clone(),
+        };
         let play = crate::prt_frames::Play {
-            runner: &mut r,
-            mesh,
+            runner,
             env: &env,
             eye,
             playback: &playback,
             triangles: &triangles,
         };
         let report_of = |p: &crate::prt_frames::Played| -> Result<Value> {
-            crate::io::notes(&p.report.warnings());
+            crate::io::notes(&p.warnings);
             let report = crate::io::merged(head(p.images, p.exposure, p.runs.clone()), &p.report)?;
             crate::io::merged(report, args.common.report(&used, threads))
         };

@@ -1,7 +1,8 @@
 //! `prt --frames N --out 'f-{}.png' --shard I/N` (or `--out-frames DIR`):
-//! a shard plays its contiguous range of the frames (`prt::runner::Animation`:
+//! a shard plays its contiguous range of the frames of a mesh
+//! (`prt::runner::Animation`) or of a `--scene` (`prt::scene_play::ScenePlay`):
 //! every frame depends on its index and on what is made before the first
-//! frame, the lighting and the PVS, which every shard makes alike), writing
+//! frame, the lighting and the PVS, which every shard makes alike; writing
 //! each frame's image under its final name, then recording what the frame
 //! measured in the part of the output (the `--out` name as typed, pattern
 //! included, or the `--out-frames` folder). Without `--exposure` the first
@@ -21,23 +22,20 @@ use penumbra::error::{Error, Result};
 use penumbra::io::output::{frame_output, frame_path};
 use penumbra::io::shard::{PartWriter, Parts, Shard};
 use penumbra::prt::images::FrameImages;
+use penumbra::prt::objects::ObjectsRunner;
 use penumbra::prt::pipeline::FrameOutput;
 use penumbra::prt::render::auto_exposure;
-use penumbra::prt::runner::{Animation, FrameRecord, Playback, PrtReport, PrtRunner};
+use penumbra::prt::runner::{Animation, FrameRecord, Playback, PrtRunner};
+use penumbra::prt::scene_play::{SceneFrameRecord, ScenePlay};
 use penumbra::report::repeats::RunTimes;
-use penumbra::scene::{EnvironmentMap, SceneMesh};
+use penumbra::scene::{EnvironmentMap, Scene, SceneMesh};
+use serde_json::{Value, json};
 
-/// What a sharded run needs, known from the options alone: one mesh's
-/// frames, each image its own file, each frame played once, and nothing
+/// What a sharded run needs, known from the options alone: each frame's
+/// image its own file, each frame played once, and nothing
 /// chosen by timing this machine.
 pub fn check_split(args: &PrtArgs) -> Result<()> {
     let refuse = |problem: &str| Err(Error::param("--shard", problem));
-    if args.scene.is_some() {
-        return refuse(
-            "splits the frames of one mesh (--mesh, --animated, --mesh-sequence); a --scene of several objects \
-             is played as one process",
-        );
-    }
     if args.max_error.is_some() {
         return refuse(
             "cannot split --max-error: it picks the fastest settings by timing them on each machine, so shards \
@@ -84,28 +82,140 @@ fn frame_file(args: &PrtArgs, f: usize, frames: usize) -> PathBuf {
     }
 }
 
-/// The mesh played, how, and where its frames go.
+/// What is played: one mesh, or a scene of several objects.
+pub enum Runner<'a, 'r> {
+    /// `--mesh`, `--animated` or `--mesh-sequence`.
+    Mesh(&'r mut PrtRunner, &'a SceneMesh),
+    /// `--scene`.
+    Scene(&'r mut ObjectsRunner, &'a Scene),
+}
+
+/// What is played, how, and the triangles its images are drawn with.
 pub struct Play<'a, 'r> {
-    pub runner: &'r mut PrtRunner,
-    pub mesh: &'a SceneMesh,
+    pub runner: Runner<'a, 'r>,
     pub env: &'a EnvironmentMap,
     pub eye: Option<Vec3>,
     pub playback: &'a Playback,
     pub triangles: &'a [[u32; 3]],
 }
 
+/// The animation or scene ready to play.
+enum Prepared<'a> {
+    Mesh(Animation<'a>),
+    Scene(ScenePlay<'a>),
+}
+
+/// What a frame measured, of a mesh or of a scene.
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum Measured {
+    Mesh(FrameRecord),
+    Scene(SceneFrameRecord),
+}
+
+impl Measured {
+    fn ms(&self) -> f64 {
+        match self {
+            Measured::Mesh(r) => r.ms,
+            Measured::Scene(r) => r.ms,
+        }
+    }
+}
+
+impl<'a> Play<'a, '_> {
+    /// What every frame depends on; `self_check`: with the self-check,
+    /// which only reports.
+    fn prepare(&mut self, self_check: bool) -> Result<Prepared<'a>> {
+        let lit = (self.env, self.eye);
+        Ok(match &mut self.runner {
+            Runner::Mesh(r, mesh) => {
+                Prepared::Mesh(Animation::prepare(r, (*mesh, lit.0, lit.1), self.playback, self_check)?)
+            }
+            Runner::Scene(r, scene) => Prepared::Scene(ScenePlay::prepare(r, scene, lit, self.playback, self_check)?),
+        })
+    }
+
+    /// Frame 0's radiance (merged over a scene's shaded objects).
+    fn first_radiance(&mut self, prepared: &Prepared) -> Result<Vec<[f32; 3]>> {
+        let (mut positions, mut out) = (Vec::new(), FrameOutput::default());
+        match (&mut self.runner, prepared) {
+            (Runner::Mesh(r, _), Prepared::Mesh(a)) => a.frame(r, 0, &mut positions, &mut out).map(|_| ())?,
+            (Runner::Scene(r, _), Prepared::Scene(p)) => p.frame(r, 0, &mut positions, &mut out)?,
+            _ => unreachable!("prepared for its runner"),
+        }
+        Ok(out.radiance)
+    }
+
+    /// The frames `range` played, `on_frame` then `on_record` each.
+    fn play(
+        &mut self,
+        prepared: &Prepared,
+        range: Range<usize>,
+        on_frame: impl FnMut(usize, &[Vec3], &FrameOutput) -> Result<()>,
+        mut on_record: impl FnMut(Measured) -> Result<()>,
+    ) -> Result<()> {
+        match (&mut self.runner, prepared) {
+            (Runner::Mesh(r, _), Prepared::Mesh(a)) => {
+                a.play(r, range, on_frame, |m| on_record(Measured::Mesh(m.clone())))
+            }
+            (Runner::Scene(r, _), Prepared::Scene(p)) => {
+                p.play(r, range, on_frame, |m| on_record(Measured::Scene(m.clone())))
+            }
+            _ => unreachable!("prepared for its runner"),
+        }
+    }
+
+    /// The report of `records`' frames and its warnings.
+    fn report(&self, prepared: &Prepared, records: &[Measured], out: &Path) -> Result<(Value, Vec<String>)> {
+        let wrong = || {
+            Error::file(
+                out,
+                "",
+                "its parts' records are of another kind of run (a mesh's, a scene's)",
+            )
+        };
+        match (&self.runner, prepared) {
+            (Runner::Mesh(r, _), Prepared::Mesh(a)) => {
+                let frames: Vec<FrameRecord> = records
+                    .iter()
+                    .map(|m| match m {
+                        Measured::Mesh(f) => Ok(f.clone()),
+                        Measured::Scene(_) => Err(wrong()),
+                    })
+                    .collect::<Result<_>>()?;
+                let report = a.report(r, &frames);
+                Ok((crate::io::merged(json!({}), &report)?, report.warnings()))
+            }
+            (Runner::Scene(r, _), Prepared::Scene(p)) => {
+                let frames: Vec<SceneFrameRecord> = records
+                    .iter()
+                    .map(|m| match m {
+                        Measured::Scene(f) => Ok(f.clone()),
+                        Measured::Mesh(_) => Err(wrong()),
+                    })
+                    .collect::<Result<_>>()?;
+                let report = p.report(r, &frames);
+                Ok((crate::io::merged(json!({}), &report)?, report.warnings()))
+            }
+            _ => unreachable!("prepared for its runner"),
+        }
+    }
+}
+
 /// One frame's record in a part: what the frame measured, the exposure its
 /// images were written with and how many were.
 #[derive(serde::Serialize, serde::Deserialize)]
 struct Record {
-    frame: FrameRecord,
+    measured: Measured,
     exposure: Option<f32>,
     images: usize,
 }
 
 /// What the report says of the frames, as one process's `prt` report does.
 pub struct Played {
-    pub report: PrtReport,
+    /// The method's report (`PrtReport` or `SceneReport`).
+    pub report: Value,
+    pub warnings: Vec<String>,
     pub images: usize,
     pub exposure: Option<f32>,
     pub runs: Option<RunTimes>,
@@ -118,49 +228,52 @@ pub type Part = (Played, PartWriter, usize);
 /// `--shard I/N`: the shard's frames played, written and recorded one by
 /// one (a frame's images are in place before its record), so a shard
 /// killed part-way plays again only the frames whose record is missing.
-pub fn part(args: &PrtArgs, play: Play, mut images: FrameImages, shard: Shard) -> Result<Part> {
+pub fn part(args: &PrtArgs, mut play: Play, mut images: FrameImages, shard: Shard) -> Result<Part> {
     let frames = play.playback.frames;
     check_frames(frames)?;
     let mut writer = crate::shard::open_part(template(args), shard, frames)?;
     let kept: usize = writer.done().iter().map(|(r, _)| r.len()).sum();
     let todo = contiguous(writer.todo(1));
-    let animation = Animation::prepare(play.runner, (play.mesh, play.env, play.eye), play.playback, false)?;
+    let prepared = play.prepare(false)?;
     if images.exposure.is_none() && todo.first().is_some_and(|r| r.start > 0) {
         // The first frame's radiance sets the exposure of every frame.
-        let (mut positions, mut out) = (Vec::new(), FrameOutput::default());
-        animation.frame(play.runner, 0, &mut positions, &mut out)?;
-        images.exposure = Some(auto_exposure(&out.radiance, images.albedo));
+        images.exposure = Some(auto_exposure(&play.first_radiance(&prepared)?, images.albedo));
     }
+    let triangles = play.triangles;
     for range in todo {
         // The images of the frame, then its record: the exposure the first
         // frame drawn sets and how many images were written.
         let (written, exposure) = (Cell::new(0), Cell::new(images.exposure));
         let on_frame = |f: usize, positions: &[Vec3], out: &FrameOutput| {
             let before = images.written;
-            images.frame((f, frames), (positions, play.triangles), &out.radiance)?;
+            images.frame((f, frames), (positions, triangles), &out.radiance)?;
             written.set(images.written - before);
             exposure.set(images.exposure);
             Ok(())
         };
-        let on_record = |r: &FrameRecord| {
+        let on_record = |measured: Measured| {
+            let frame = match &measured {
+                Measured::Mesh(r) => r.frame,
+                Measured::Scene(r) => r.frame,
+            };
             let record = Record {
-                frame: r.clone(),
+                measured,
                 exposure: exposure.get(),
                 images: written.get(),
             };
             let bytes = serde_json::to_vec(&record).map_err(|e| Error::internal(e.to_string()))?;
-            writer.record(r.frame..r.frame + 1, &bytes)
+            writer.record(frame..frame + 1, &bytes)
         };
-        animation.play(play.runner, range, on_frame, on_record)?;
+        play.play(&prepared, range, on_frame, on_record)?;
     }
     let records = read(&writer.records(), template(args))?;
-    let played = played(&animation, play.runner, &records, false);
+    let played = played(&play, &prepared, &records, template(args), false)?;
     Ok((played, writer, kept))
 }
 
 /// `penumbra merge`: every frame's image checked, the self-check run, the
 /// report made from every frame's record as one process makes it.
-pub fn merge(args: &PrtArgs, play: Play, parts: &Parts) -> Result<Played> {
+pub fn merge(args: &PrtArgs, mut play: Play, parts: &Parts) -> Result<Played> {
     let frames = play.playback.frames;
     let out = template(args);
     if parts.total_items() != frames {
@@ -175,8 +288,8 @@ pub fn merge(args: &PrtArgs, play: Play, parts: &Parts) -> Result<Played> {
         }
     }
     let records = read(&records, out)?;
-    let animation = Animation::prepare(play.runner, (play.mesh, play.env, play.eye), play.playback, true)?;
-    Ok(played(&animation, play.runner, &records, true))
+    let prepared = play.prepare(true)?;
+    played(&play, &prepared, &records, out, true)
 }
 
 /// A split run's frame count, checked once the animation has set it.
@@ -216,14 +329,15 @@ fn read<B: AsRef<[u8]>>(records: &[(Range<usize>, B)], out: &Path) -> Result<Vec
 
 /// The report of `records`' frames; `whole`: every frame of the run, whose
 /// measure (`runs`) is the sum of the frame times, as one process's.
-fn played(animation: &Animation, runner: &PrtRunner, records: &[Record], whole: bool) -> Played {
-    let frames: Vec<FrameRecord> = records.iter().map(|r| r.frame.clone()).collect();
-    let report = animation.report(runner, &frames);
-    let ms: f64 = frames.iter().map(|r| r.ms).sum();
-    Played {
+fn played(play: &Play, prepared: &Prepared, records: &[Record], out: &Path, whole: bool) -> Result<Played> {
+    let measured: Vec<Measured> = records.iter().map(|r| r.measured.clone()).collect();
+    let (report, warnings) = play.report(prepared, &measured, out)?;
+    let ms: f64 = measured.iter().map(Measured::ms).sum();
+    Ok(Played {
         report,
+        warnings,
         images: records.iter().map(|r| r.images).sum(),
         exposure: records.iter().find_map(|r| r.exposure),
         runs: whole.then(|| RunTimes::of("animation_ms", 0, vec![ms])),
-    }
+    })
 }

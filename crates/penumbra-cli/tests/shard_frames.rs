@@ -7,7 +7,9 @@
 //! frame file, and what is not split (one image, --method bounded, prt's
 //! options that cannot be split) is refused naming --shard. A `prt` walk
 //! split 2 ways with a killed shard: every frame's image byte-identical to
-//! one process's and the merged report's counts and errors the same.
+//! one process's and the merged report's counts and errors the same; a
+//! `prt --scene` of moving objects into `--out-frames` split 2 ways, the
+//! same.
 
 mod common;
 
@@ -354,4 +356,57 @@ fn a_prt_walk_split_two_ways_with_a_killed_shard_merges_to_one_process() {
     // A frame's image lost after its shard recorded it: merge names it.
     std::fs::remove_file(dir.p("walk-5.png")).unwrap();
     run(&merge(&out, true)).bad_input(&["walk-5.png", "frame 5 is missing", "1/2"]);
+}
+
+#[test]
+fn a_prt_scene_split_two_ways_merges_to_one_process() {
+    let dir = TempDir::new("shard-frames-prt-scene");
+    let frames = 4;
+    let probe = write_probe(&dir, [2.0, 1.8, 1.5], [0.2, 0.2, 0.25]);
+    let args = cmd(
+        &format!(
+            "prt --scene {{s}} --env {{e}} --frames {frames} --width 48 --height 32 --env-spin 15 --reference \
+             --reference-rays 32 --threads 1 --device cpu --json"
+        ),
+        &[("s", &moving_scene(&dir)), ("e", &probe)],
+    );
+    std::fs::create_dir(dir.p("one")).unwrap();
+    std::fs::create_dir(dir.p("split")).unwrap();
+    let one = run(&with(args.clone(), &["--out-frames", &dir.p("one")])).ok().json();
+    let sharded = with(args, &["--out-frames", &dir.p("split")]);
+    for index in 0..2 {
+        let j = run(&with(sharded.clone(), &["--shard", &format!("{index}/2")]))
+            .ok()
+            .json();
+        assert_eq!(j["frames"], 2, "a shard reports its own frames");
+    }
+    for f in 0..frames {
+        let name = format!("frame-{f:04}.png");
+        let a = std::fs::read(dir.p(&format!("one/{name}"))).unwrap();
+        let b = std::fs::read(dir.p(&format!("split/{name}"))).unwrap();
+        assert!(a == b, "frame {f} differs from one process's");
+    }
+    let merged = run(&merge(&dir.p("split"), true)).ok().json();
+    for field in [
+        "frames",
+        "images",
+        "exposure",
+        "vertices",
+        "blockers_per_vertex",
+        "check",
+        "transfer_l2_error",
+        "errors_by_inter_object",
+        "inter_object_cost",
+    ] {
+        assert_eq!(merged[field], one[field], "{field}");
+    }
+    for (a, b) in merged["objects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(one["objects"].as_array().unwrap())
+    {
+        assert_eq!(a["errors_by_inter_object"], b["errors_by_inter_object"]);
+        assert_eq!(a["self_check"]["estimate"], b["self_check"]["estimate"]);
+    }
 }

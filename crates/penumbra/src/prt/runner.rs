@@ -1031,7 +1031,7 @@ impl PrtReport {
             frames: frame_ms.len(),
             frame_ms: FrameTimes {
                 mean: total_ms / nf,
-                median: sorted[sorted.len() / 2],
+                median: sorted.get(sorted.len() / 2).copied().unwrap_or(0.0),
                 best,
             },
             gpu_ms_per_frame,
