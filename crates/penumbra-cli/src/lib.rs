@@ -24,6 +24,7 @@ mod options;
 mod plot;
 mod progress;
 mod prt;
+mod prt_frames;
 mod raytrace;
 mod raytrace_bounded;
 mod raytrace_frames;

@@ -10,6 +10,7 @@ use serde_json::{Value, json};
 
 use crate::args::{CameraArgs, CameraChoice, Common, check_outputs, parse_vec3};
 use crate::options::prt::{AnimationOptions, PlaybackOptions, PrtOptions};
+use crate::shard::Mode;
 use penumbra::error::Result;
 use penumbra::gpu::device::Device;
 use penumbra::io::image::ImageFormat;
@@ -21,6 +22,7 @@ use penumbra::prt::runner::{Playback, PrtRunner, RayTraced, Shadows, animate_run
 use penumbra::prt::scene_play::play_scene_runs;
 use penumbra::prt::sh_out::write_sh_json;
 use penumbra::prt::tune::choose_cached;
+use penumbra::report::repeats::RunTimes;
 use penumbra::scene::{EnvironmentMap, View, file_stem, load_scene_in, used_bounds};
 use penumbra::tune::Pick;
 
@@ -94,11 +96,9 @@ fn knobs(a: &PrtArgs) -> Result<(PrtSettings, Playback, RayTraced)> {
 }
 
 pub fn run(args: &PrtArgs) -> Result<Value> {
-    if args.shard.shard.is_some() || args.shard.merging.is_some() {
-        let problem = "does not split prt's frames: an animation is played from its first frame (the PVS and \
-                       the self-check are gathered over all of it, and the first frame sets the exposure), \
-                       so run it as one process";
-        return Err(penumbra::error::Error::param("--shard", problem));
+    let mode = args.shard.mode()?;
+    if !matches!(mode, Mode::Whole) {
+        crate::prt_frames::check_split(args)?;
     }
     let threads = args.common.init_threads()?;
     let (mut settings, mut playback, reference) = knobs(args)?;
@@ -144,6 +144,57 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     let (runs, eye) = (args.common.runs.runs(1)?, Some(camera.eye));
     let visibility = (args.play.shadows, reference);
     playback.bars = crate::progress::stderr();
+    let name = args.scene.as_ref().map_or(mesh.name.clone(), |p| file_stem(p));
+    let head = |written: usize, exposure: Option<f32>, times: Option<RunTimes>| {
+        json!({ "scene": name, "images": written, "exposure": exposure, "camera": camera, "max_error": choice,
+                "sh_out": args.sh_out, "per_vertex": args.per_vertex, "runs": times })
+    };
+    if !matches!(mode, Mode::Whole) {
+        let (mut mesh_runner, mut scene_runner);
+        let runner = match &args.scene {
+            Some(_) => {
+                scene_runner = ObjectsRunner::for_scene(&device, &scene, &settings, visibility, args.inter_object)?;
+                crate::io::notes(&scene_runner.notes());
+                crate::prt_frames::Runner::Scene(&mut scene_runner, &scene)
+            }
+            None => {
+                let poses = playback.poses(mesh, settings.hierarchy.poses);
+                mesh_runner = PrtRunner::new_posed(&device, &poses, &triangles, &settings, visibility.0, reference)?;
+                crate::io::notes(mesh_runner.notes());
+                crate::prt_frames::Runner::Mesh(&mut mesh_runner, mesh)
+            }
+        };
+        let used = match &runner {
+            crate::prt_frames::Runner::Mesh(r, _) => r.device().clone(),
+            crate::prt_frames::Runner::Scene(r, _) => r.device().clone(),
+        };
+        let play = crate::prt_frames::Play {
+            runner,
+            env: &env,
+            eye,
+            playback: &playback,
+            triangles: &triangles,
+        };
+        let report_of = |p: &crate::prt_frames::Played| -> Result<Value> {
+            crate::io::notes(&p.warnings);
+            let report = crate::io::merged(head(p.images, p.exposure, p.runs.clone()), &p.report)?;
+            crate::io::merged(report, args.common.report(&used, threads))
+        };
+        return match mode {
+            Mode::Part(shard) => {
+                let (played, writer, kept) = crate::prt_frames::part(args, play, images, shard)?;
+                crate::shard::finish_part(writer, kept, report_of(&played)?)
+            }
+            Mode::Merge(parts) => {
+                let played = crate::prt_frames::merge(args, play, &parts)?;
+                if let Some(p) = &args.sh_out {
+                    write_sh_json(p, &env, &args.env, settings.bands, args.play.env_spin)?;
+                }
+                report_of(&played)
+            }
+            Mode::Whole => unreachable!("a split run's mode"),
+        };
+    }
     let on_frame = |f: usize, positions: &[Vec3], out: &FrameOutput| {
         if let Some(csv) = csv.as_mut() {
             csv.frame(f, &out.radiance, args.albedo.to_array(), &out.transfer)?;
@@ -171,10 +222,7 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     if let Some(p) = &args.sh_out {
         write_sh_json(p, &env, &args.env, settings.bands, args.play.env_spin)?;
     }
-    let name = args.scene.as_ref().map_or(mesh.name.clone(), |p| file_stem(p));
-    let head = json!({ "scene": name, "images": images.written, "exposure": images.exposure, "camera": camera, "max_error": choice,
-                 "sh_out": args.sh_out, "per_vertex": args.per_vertex, "runs": times });
-    let report = crate::io::merged(head, &report)?;
+    let report = crate::io::merged(head(images.written, images.exposure, Some(times)), &report)?;
     crate::io::merged(report, args.common.report(&used, threads))
 }
 

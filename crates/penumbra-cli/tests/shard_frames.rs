@@ -5,7 +5,11 @@
 //! report's sums the same; the same for `ao --method field --frames N`
 //! split 2 ways (per-vertex CSVs and images). `merge` refuses a missing
 //! frame file, and what is not split (one image, --method bounded, prt's
-//! frames) is refused naming --shard.
+//! options that cannot be split) is refused naming --shard. A `prt` walk
+//! split 2 ways with a killed shard: every frame's image byte-identical to
+//! one process's and the merged report's counts and errors the same; a
+//! `prt --scene` of moving objects into `--out-frames` split 2 ways, the
+//! same.
 
 mod common;
 
@@ -175,15 +179,19 @@ fn what_is_not_split_is_refused_naming_shard() {
     assert!(!Path::new(&dir.p("b-0.png")).exists(), "refused before any frame");
 
     let probe = write_probe(&dir, [2.0, 1.8, 1.5], [0.2, 0.2, 0.25]);
-    pen(
-        "prt --mesh {m} --env {e} --frames 4 --width 32 --height 24 --shard 0/2 --json --out {o}",
-        &[
-            ("m", &asset_s("raytrace/checker-spheres.obj")),
-            ("e", &probe),
-            ("o", &dir.p("prt.png")),
-        ],
-    )
-    .bad_input(&["--shard", "does not split prt's frames"]);
+    // The braces of a frame pattern are the binary's, so not through `cmd`.
+    let prt = |extra: &[&str], out: &str| {
+        let template = "prt --mesh {m} --env {e} --frames 4 --width 32 --height 24 --shard 0/2 --json";
+        let mesh = asset_s("raytrace/checker-spheres.obj");
+        let args = with(cmd(template, &[("m", &mesh), ("e", &probe)]), extra);
+        run(&with(args, &["--out", &dir.p(out)]))
+    };
+    prt(&[], "prt.png").bad_input(&["--shard", "an --out name holding {}"]);
+    prt(&["--max-error", "0.05"], "p-{}.png").bad_input(&["--shard", "--max-error", "timing"]);
+    let csv = dir.p("v.csv");
+    prt(&["--per-vertex", &csv], "p-{}.png").bad_input(&["--shard", "--per-vertex", "one CSV"]);
+    prt(&["--repeat", "2"], "p-{}.png").bad_input(&["--shard", "--repeat"]);
+    assert!(!Path::new(&dir.p("p-0.png")).exists(), "refused before any frame");
     let field = "ao --method field --rays 16 --mesh {m} --receiver {m} --frames 2 --per-vertex {o} --shard 0/2 --json";
     let mesh = asset_s("raytrace/checker-spheres.obj");
     pen(field, &[("m", &mesh), ("o", &dir.p("v.csv"))]).bad_input(&["--shard", "--frames N (N > 1)"]);
@@ -262,4 +270,148 @@ fn field_frames_split_two_ways_merge_to_one_process() {
     // A frame file lost: merge names it.
     std::fs::remove_file(dir.p("v-1.csv")).unwrap();
     run(&merge(&dir.p("v-{}.csv"), true)).bad_input(&["v-1.csv", "frame 1 is missing", "0/2"]);
+}
+
+/// `prt` of the cloth with a PVS, exposure set by frame 0 and ray-traced
+/// checks spread over the frames, 1 thread.
+fn prt_walk(dir: &TempDir, frames: u32) -> Vec<String> {
+    let probe = write_probe(dir, [2.0, 1.8, 1.5], [0.2, 0.2, 0.25]);
+    cmd(
+        &format!(
+            "prt --animated cloth --env {{e}} --frames {frames} --width 64 --height 48 --pvs on --pvs-frames 2 \
+             --env-spin 15 --reference --reference-rays 64 --threads 1 --device cpu --json"
+        ),
+        &[("e", &probe)],
+    )
+}
+
+#[test]
+fn a_prt_walk_split_two_ways_with_a_killed_shard_merges_to_one_process() {
+    let dir = TempDir::new("shard-frames-prt");
+    let frames = 8;
+    let args = prt_walk(&dir, frames);
+    let one = run(&with(args.clone(), &["--out", &dir.p("one-{}.png")])).ok().json();
+    let out = dir.p("walk-{}.png");
+    let sharded = with(args, &["--out", &out]);
+
+    // Shard 1 (frames 4..8, which does not play frame 0 that sets the
+    // exposure) killed once its first frame is recorded.
+    let partial = format!("{out}.part-1-of-2.partial");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_penumbra"))
+        .args(with(sharded.clone(), &["--shard", "1/2"]))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("starts");
+    let start = Instant::now();
+    while !has_a_record(Path::new(&partial)) {
+        assert!(start.elapsed() < Duration::from_secs(120), "no record in {partial}");
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "shard 1 ended before it was killed"
+        );
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(!Path::new(&format!("{out}.part-1-of-2.json")).exists());
+
+    for index in 0..2 {
+        let j = run(&with(sharded.clone(), &["--shard", &format!("{index}/2")]))
+            .ok()
+            .json();
+        assert_eq!(j["shard"]["items"], serde_json::json!([4 * index, 4 * index + 4]));
+        assert_eq!(j["frames"], 4, "a shard reports its own frames");
+        assert_eq!(j["exposure"], one["exposure"], "frame 0's exposure in shard {index}");
+        if index == 1 {
+            let kept = j["shard"]["items_kept"].as_u64().unwrap();
+            assert!(kept > 0, "the frames recorded before the kill are kept");
+            assert_eq!(j["shard"]["items_computed"].as_u64().unwrap(), 4 - kept);
+        }
+    }
+    for f in 0..frames {
+        let a = std::fs::read(dir.p(&format!("one-{f}.png"))).unwrap();
+        let b = std::fs::read(dir.p(&format!("walk-{f}.png"))).unwrap();
+        assert!(a == b, "frame {f} differs from one process's");
+    }
+    let merged = run(&merge(&out, true)).ok().json();
+    for field in [
+        "frames",
+        "images",
+        "exposure",
+        "camera",
+        "vertices",
+        "blockers_per_vertex",
+        "culling_per_vertex",
+        "without_normal",
+        "check",
+        "transfer_l2_error",
+        "lighting",
+        "hierarchy",
+    ] {
+        assert_eq!(merged[field], one[field], "{field}");
+    }
+    assert_eq!(merged["pvs"]["avg_size"], one["pvs"]["avg_size"]);
+    assert_eq!(merged["self_check"]["estimate"], one["self_check"]["estimate"]);
+    assert_eq!(merged["check"]["frames"].as_array().unwrap().len(), 4);
+    let total: f64 = (merged["frame_ms"]["mean"].as_f64().unwrap()) * frames as f64;
+    assert!((merged["runs"]["ms"][0].as_f64().unwrap() - total).abs() < 1e-6 * total.max(1.0));
+    assert_eq!(merged["merged"]["parts"], 2);
+
+    // A frame's image lost after its shard recorded it: merge names it.
+    std::fs::remove_file(dir.p("walk-5.png")).unwrap();
+    run(&merge(&out, true)).bad_input(&["walk-5.png", "frame 5 is missing", "1/2"]);
+}
+
+#[test]
+fn a_prt_scene_split_two_ways_merges_to_one_process() {
+    let dir = TempDir::new("shard-frames-prt-scene");
+    let frames = 4;
+    let probe = write_probe(&dir, [2.0, 1.8, 1.5], [0.2, 0.2, 0.25]);
+    let args = cmd(
+        &format!(
+            "prt --scene {{s}} --env {{e}} --frames {frames} --width 48 --height 32 --env-spin 15 --reference \
+             --reference-rays 32 --threads 1 --device cpu --json"
+        ),
+        &[("s", &moving_scene(&dir)), ("e", &probe)],
+    );
+    std::fs::create_dir(dir.p("one")).unwrap();
+    std::fs::create_dir(dir.p("split")).unwrap();
+    let one = run(&with(args.clone(), &["--out-frames", &dir.p("one")])).ok().json();
+    let sharded = with(args, &["--out-frames", &dir.p("split")]);
+    for index in 0..2 {
+        let j = run(&with(sharded.clone(), &["--shard", &format!("{index}/2")]))
+            .ok()
+            .json();
+        assert_eq!(j["frames"], 2, "a shard reports its own frames");
+    }
+    for f in 0..frames {
+        let name = format!("frame-{f:04}.png");
+        let a = std::fs::read(dir.p(&format!("one/{name}"))).unwrap();
+        let b = std::fs::read(dir.p(&format!("split/{name}"))).unwrap();
+        assert!(a == b, "frame {f} differs from one process's");
+    }
+    let merged = run(&merge(&dir.p("split"), true)).ok().json();
+    for field in [
+        "frames",
+        "images",
+        "exposure",
+        "vertices",
+        "blockers_per_vertex",
+        "check",
+        "transfer_l2_error",
+        "errors_by_inter_object",
+        "inter_object_cost",
+    ] {
+        assert_eq!(merged[field], one[field], "{field}");
+    }
+    for (a, b) in merged["objects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(one["objects"].as_array().unwrap())
+    {
+        assert_eq!(a["errors_by_inter_object"], b["errors_by_inter_object"]);
+        assert_eq!(a["self_check"]["estimate"], b["self_check"]["estimate"]);
+    }
 }

@@ -241,7 +241,7 @@ struct PlacedObject {
 }
 
 /// Counts of other objects' blockers, summed over vertices.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct OtherStats {
     /// Triangles of the other objects' approximations, before culling.
     pub candidates: u64,

@@ -139,7 +139,7 @@ impl PrtSettings {
 }
 
 /// Counts of one frame (sums over vertices).
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FrameStats {
     /// Vertices whose transfer was computed (with a normal).
     pub vertices: u64,

@@ -5,10 +5,11 @@
 //! is what a host calls every frame with its own vertex positions;
 //! `animate` is the command line's loop over a scene mesh's animation.
 
+use std::ops::Range;
 use std::time::Instant;
 
 use glam::{DMat3, Vec3};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::blockers::SceneBlockers;
 use super::gpu::{FrameInputs, GpuTransfer, MAX_GPU_BANDS};
@@ -458,90 +459,213 @@ pub fn animate(
     env: &EnvironmentMap,
     eye: Option<Vec3>,
     animation: &Playback,
-    mut on_frame: impl FnMut(usize, &[Vec3], &FrameOutput) -> Result<()>,
+    on_frame: impl FnMut(usize, &[Vec3], &FrameOutput) -> Result<()>,
 ) -> Result<PrtReport> {
-    animation.validate()?;
-    let bands = runner.prt.settings.bands;
-    // Non-negative lighting, so that no visibility shades below zero
-    // (`sh::window`).
-    let (lighting_world, deringing) = nonnegative(&project_environment(env, bands));
-    let rotation = ShRotation::new(bands);
-    let bars = &animation.bars;
-    let pvs = match animation.pvs {
-        Some(sampling) => {
-            let _shown = bars.spinner("gathering the PVS");
-            Some(gather_pvs(runner, mesh, animation, sampling)?)
-        }
-        None => None,
-    };
-    let self_check = match animation.self_check {
-        Some(c) if runner.shadows == Shadows::On => {
-            let _shown = bars.spinner("self-check");
-            Some(self_check(runner, mesh, eye, animation, &c)?)
-        }
-        _ => None,
-    };
-    let checked = animation.checked();
-    let label = if checked.is_empty() {
-        "frames"
-    } else {
-        "frames (ray-traced checks)"
-    };
-    let progress = bars.bar(animation.frames as u64, label);
-    let mut check = CheckReport {
-        rays: runner.reference.rays,
-        frames: checked.clone(),
-        per_frame: Vec::new(),
-        vertices: 0,
-        skipped_dark: 0,
-        seed: runner.reference.seed,
-    };
-    let mut frame_ms = Vec::with_capacity(animation.frames);
-    let mut phases = FramePhases::default();
-    let mut gpu_ms = Vec::new();
-    let mut sum = FrameStats::default();
-    let mut out = FrameOutput::default();
-    let mut positions = Vec::new();
-    for f in 0..animation.frames {
-        // The whole frame is timed: the pose, the
-        // lighting's rotation, then masks, transfer and shading; checks and
-        // the host's output (`on_frame`) are not.
-        let start = Instant::now();
-        mesh.positions_at(animation.time(f), &mut positions);
-        let posed = Instant::now();
-        let lighting = spun(&lighting_world, &rotation, animation.env_spin * f as f32).to_f32_planar();
-        let lit = Instant::now();
-        if let Some(ms) = runner.frame(&positions, eye, &lighting, animation.profile, &mut out)? {
-            gpu_ms.push(ms);
-        }
-        let done = Instant::now();
-        frame_ms.push(ms_between(start, done));
-        phases.animate += ms_between(start, posed);
-        phases.lighting += ms_between(posed, lit);
-        phases.transfer += ms_between(lit, done);
-        sum += &out.stats;
-        progress.inc(1);
-        if checked.contains(&f) {
-            let (e, counted, skipped) = runner.transfer_error(&positions, eye, &out)?;
-            check.per_frame.push(e);
-            check.vertices += counted;
-            check.skipped_dark += skipped;
-        }
-        let output = Instant::now();
-        on_frame(f, &positions, &out)?;
-        phases.output += elapsed_ms(output);
+    let played = Animation::prepare(runner, (mesh, env, eye), animation, true)?;
+    let mut records = Vec::with_capacity(animation.frames);
+    played.play(runner, 0..animation.frames, on_frame, |r| {
+        records.push(r.clone());
+        Ok(())
+    })?;
+    Ok(played.report(runner, &records))
+}
+
+/// An animation ready to play: the lighting, and the PVS and self-check
+/// made before its first frame. Every frame depends on these and on its
+/// index only, so any range of the frames can be played on its own (a
+/// shard of them) with the pixels of a whole run.
+pub struct Animation<'a> {
+    mesh: &'a SceneMesh,
+    eye: Option<Vec3>,
+    playback: &'a Playback,
+    lighting_world: ShRgb,
+    rotation: ShRotation,
+    deringing: Deringing,
+    pvs: Option<PvsReport>,
+    self_check: Option<SelfCheckReport>,
+}
+
+/// What one frame measured (`Animation::play`): the report of a run is
+/// made from its frames' records (`Animation::report`), which a shard of
+/// the frames stores for a merge (serde).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct FrameRecord {
+    /// The frame's index in the playback.
+    pub frame: usize,
+    /// The whole frame: pose, lighting, masks, transfer and shading, ms.
+    pub ms: f64,
+    /// The SH transfer kernel's time from GPU timestamps, where there is one.
+    pub gpu_ms: Option<f64>,
+    /// The frame's phases (`output` is the host's `on_frame`).
+    pub phases: FramePhases,
+    /// The frame's counts.
+    pub stats: FrameStats,
+    /// The comparison with ray tracing, on a checked frame.
+    pub check: Option<FrameCheck>,
+}
+
+/// A checked frame's comparison with ray tracing (`PrtRunner::transfer_error`).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
+pub struct FrameCheck {
+    /// Mean relative L2 transfer error.
+    pub error: f64,
+    /// Vertices compared.
+    pub vertices: usize,
+    /// Vertices skipped as nearly dark.
+    pub skipped_dark: usize,
+}
+
+impl<'a> Animation<'a> {
+    /// Checks `playback`, projects and windows the lighting, gathers the
+    /// PVS where asked for (onto `runner`) and, with `self_check`, runs the
+    /// self-check where asked for (it only reports: a shard of the frames
+    /// may leave it to the merge).
+    pub fn prepare(
+        runner: &mut PrtRunner,
+        (mesh, env, eye): (&'a SceneMesh, &EnvironmentMap, Option<Vec3>),
+        playback: &'a Playback,
+        self_check: bool,
+    ) -> Result<Animation<'a>> {
+        playback.validate()?;
+        let bands = runner.prt.settings.bands;
+        // Non-negative lighting, so that no visibility shades below zero
+        // (`sh::window`).
+        let (lighting_world, deringing) = nonnegative(&project_environment(env, bands));
+        let rotation = ShRotation::new(bands);
+        let bars = &playback.bars;
+        let pvs = match playback.pvs {
+            Some(sampling) => {
+                let _shown = bars.spinner("gathering the PVS");
+                Some(gather_pvs(runner, mesh, playback, sampling)?)
+            }
+            None => None,
+        };
+        let self_check = match playback.self_check {
+            Some(c) if self_check && runner.shadows == Shadows::On => {
+                let _shown = bars.spinner("self-check");
+                Some(self_check_poses(runner, mesh, eye, playback, &c)?)
+            }
+            _ => None,
+        };
+        Ok(Animation {
+            mesh,
+            eye,
+            playback,
+            lighting_world,
+            rotation,
+            deringing,
+            pvs,
+            self_check,
+        })
     }
-    Ok(PrtReport::new(
-        runner,
-        animation,
-        &frame_ms,
-        &gpu_ms,
-        &sum,
-        pvs,
-        (!checked.is_empty()).then_some(check),
-    )
-    .with_setup(self_check, deringing)
-    .with_frames(phases, mesh))
+
+    /// Frame `f`'s pose into `positions` and its results into `out`, not
+    /// checked nor timed (e.g. the first frame, whose radiance sets an
+    /// image's exposure, for a shard that does not play it).
+    pub fn frame(
+        &self,
+        runner: &mut PrtRunner,
+        f: usize,
+        positions: &mut Vec<Vec3>,
+        out: &mut FrameOutput,
+    ) -> Result<Option<f64>> {
+        let animation = self.playback;
+        self.mesh.positions_at(animation.time(f), positions);
+        let lighting = spun(&self.lighting_world, &self.rotation, animation.env_spin * f as f32).to_f32_planar();
+        runner.frame(positions, self.eye, &lighting, animation.profile, out)
+    }
+
+    /// Plays the frames `frames` of the playback (a range of `0..frames`),
+    /// calling `on_frame` with each frame's index, pose and results, then
+    /// `on_record` with what the frame measured.
+    pub fn play(
+        &self,
+        runner: &mut PrtRunner,
+        frames: Range<usize>,
+        mut on_frame: impl FnMut(usize, &[Vec3], &FrameOutput) -> Result<()>,
+        mut on_record: impl FnMut(&FrameRecord) -> Result<()>,
+    ) -> Result<()> {
+        let animation = self.playback;
+        if frames.end > animation.frames {
+            let problem = format!("{frames:?} is past the {} frames played", animation.frames);
+            return Err(Error::param("frames", problem));
+        }
+        let checked = animation.checked();
+        let label = if checked.is_empty() {
+            "frames"
+        } else {
+            "frames (ray-traced checks)"
+        };
+        let progress = animation.bars.bar(frames.len() as u64, label);
+        let mut out = FrameOutput::default();
+        let mut positions = Vec::new();
+        for f in frames {
+            // The whole frame is timed: the pose, the
+            // lighting's rotation, then masks, transfer and shading; checks and
+            // the host's output (`on_frame`) are not.
+            let start = Instant::now();
+            self.mesh.positions_at(animation.time(f), &mut positions);
+            let posed = Instant::now();
+            let lighting = spun(&self.lighting_world, &self.rotation, animation.env_spin * f as f32).to_f32_planar();
+            let lit = Instant::now();
+            let gpu_ms = runner.frame(&positions, self.eye, &lighting, animation.profile, &mut out)?;
+            let done = Instant::now();
+            let mut record = FrameRecord {
+                frame: f,
+                ms: ms_between(start, done),
+                gpu_ms,
+                phases: FramePhases {
+                    animate: ms_between(start, posed),
+                    lighting: ms_between(posed, lit),
+                    transfer: ms_between(lit, done),
+                    output: 0.0,
+                },
+                stats: out.stats.clone(),
+                check: None,
+            };
+            progress.inc(1);
+            if checked.contains(&f) {
+                let (error, vertices, skipped_dark) = runner.transfer_error(&positions, self.eye, &out)?;
+                record.check = Some(FrameCheck {
+                    error,
+                    vertices,
+                    skipped_dark,
+                });
+            }
+            let output = Instant::now();
+            on_frame(f, &positions, &out)?;
+            record.phases.output = elapsed_ms(output);
+            on_record(&record)?;
+        }
+        Ok(())
+    }
+
+    /// The report of the frames `records` (in frame order): a whole run's
+    /// where they are every frame of the playback.
+    pub fn report(&self, runner: &PrtRunner, records: &[FrameRecord]) -> PrtReport {
+        let frame_ms: Vec<f64> = records.iter().map(|r| r.ms).collect();
+        let gpu_ms: Vec<f64> = records.iter().filter_map(|r| r.gpu_ms).collect();
+        let (mut sum, mut phases) = (FrameStats::default(), FramePhases::default());
+        for r in records {
+            sum += &r.stats;
+            phases.animate += r.phases.animate;
+            phases.lighting += r.phases.lighting;
+            phases.transfer += r.phases.transfer;
+            phases.output += r.phases.output;
+        }
+        let checks: Vec<(usize, FrameCheck)> = records.iter().filter_map(|r| Some((r.frame, r.check?))).collect();
+        let check = (!checks.is_empty()).then(|| CheckReport {
+            rays: runner.reference.rays,
+            frames: checks.iter().map(|c| c.0).collect(),
+            per_frame: checks.iter().map(|c| c.1.error).collect(),
+            vertices: checks.iter().map(|c| c.1.vertices).sum(),
+            skipped_dark: checks.iter().map(|c| c.1.skipped_dark).sum(),
+            seed: runner.reference.seed,
+        });
+        PrtReport::new(runner, self.playback, &frame_ms, &gpu_ms, &sum, self.pvs, check)
+            .with_setup(self.self_check.clone(), self.deringing.clone())
+            .with_frames(phases, self.mesh)
+    }
 }
 
 pub(crate) fn ms_between(a: Instant, b: Instant) -> f64 {
@@ -550,7 +674,7 @@ pub(crate) fn ms_between(a: Instant, b: Instant) -> f64 {
 
 /// The self-check on the poses `--check` would compare (the default four
 /// frames; one pose for a static mesh).
-fn self_check(
+fn self_check_poses(
     runner: &PrtRunner,
     mesh: &SceneMesh,
     eye: Option<Vec3>,
@@ -704,7 +828,7 @@ pub struct BlockerCounts {
 }
 
 /// Time of each phase of a frame, summed over the frames.
-#[derive(Debug, Clone, Copy, Default, Serialize)]
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize)]
 pub struct FramePhases {
     /// The pose: the animation's positions (sequence interpolation, skinning).
     pub animate: f64,
@@ -860,7 +984,7 @@ impl PrtReport {
     ) -> PrtReport {
         let prt = &runner.prt;
         let s = &prt.settings;
-        let nf = animation.frames as f64;
+        let nf = frame_ms.len().max(1) as f64;
         let verts = sum.vertices.max(1) as f64;
         let total_ms: f64 = frame_ms.iter().sum();
         let best = frame_ms.iter().cloned().fold(f64::INFINITY, f64::min);
@@ -904,10 +1028,10 @@ impl PrtReport {
             fps: 1e3 * nf / total_ms.max(1e-9),
             fps_best: 1e3 / best.max(1e-9),
             transfer_l2_error: check.as_ref().map(|c| mean(&c.per_frame)),
-            frames: animation.frames,
+            frames: frame_ms.len(),
             frame_ms: FrameTimes {
                 mean: total_ms / nf,
-                median: sorted[sorted.len() / 2],
+                median: sorted.get(sorted.len() / 2).copied().unwrap_or(0.0),
                 best,
             },
             gpu_ms_per_frame,
@@ -954,7 +1078,7 @@ impl PrtReport {
                 back_facing: sum.back_facing as f64 / verts,
                 edge_on: sum.edge_on as f64 / verts,
             },
-            without_normal: sum.without_normal / animation.frames as u64,
+            without_normal: sum.without_normal / frame_ms.len().max(1) as u64,
             phases,
             setup_ms: prt.setup_ms,
             check,

@@ -5,10 +5,11 @@
 //! (section 4.1) and exact (the other objects' full meshes) side by side,
 //! so that the report says what the approximation costs and what it buys.
 
+use std::ops::Range;
 use std::time::Instant;
 
 use glam::Vec3;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::blockers::{InterObject, OtherStats, SceneBlockers};
 use super::objects::{ObjectErrors, ObjectsRunner, instance_positions, pooled};
@@ -19,7 +20,7 @@ use crate::error::{Error, Result};
 use crate::gpu::device::elapsed_ms;
 use crate::scene::{EnvironmentMap, Role, Scene};
 use crate::sh::window::{Deringing, nonnegative};
-use crate::sh::{ShRotation, coefficient_count, project_environment};
+use crate::sh::{ShRgb, ShRotation, coefficient_count, project_environment};
 
 /// What playing a scene measured (`prt --scene --json`).
 #[derive(Debug, Clone, Serialize)]
@@ -156,7 +157,7 @@ pub struct ModeErrors {
 }
 
 /// Milliseconds of each phase of a frame, averaged over the frames.
-#[derive(Debug, Clone, Copy, Default, Serialize)]
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize)]
 pub struct ScenePhases {
     /// The instances' poses.
     pub pose: f64,
@@ -206,6 +207,19 @@ impl Tally {
         }
     }
 
+    /// Adds another tally's sums (a frame's), object by object.
+    fn sum(&mut self, by_object: &[[(f64, usize); 3]]) {
+        if self.by_object.len() < by_object.len() {
+            self.by_object.resize(by_object.len(), Default::default());
+        }
+        for (t, o) in self.by_object.iter_mut().zip(by_object) {
+            for (t, o) in t.iter_mut().zip(o) {
+                t.0 += o.0;
+                t.1 += o.1;
+            }
+        }
+    }
+
     fn mean(&self, object: Option<usize>, mode: usize) -> f64 {
         let (s, n) = self
             .by_object
@@ -239,89 +253,244 @@ fn mode_index(m: InterObject) -> usize {
 pub fn play_scene(
     runner: &mut ObjectsRunner,
     scene: &Scene,
-    (env, eye): (&EnvironmentMap, Option<Vec3>),
+    lit: (&EnvironmentMap, Option<Vec3>),
     animation: &Playback,
-    mut on_frame: impl FnMut(usize, &[Vec3], &FrameOutput) -> Result<()>,
+    on_frame: impl FnMut(usize, &[Vec3], &FrameOutput) -> Result<()>,
 ) -> Result<SceneReport> {
-    animation.validate()?;
-    if animation.pvs.is_some() {
-        return Err(Error::param("pvs", "does not apply to a scene of several objects"));
+    let play = ScenePlay::prepare(runner, scene, lit, animation, true)?;
+    let mut records = Vec::with_capacity(animation.frames);
+    play.play(runner, 0..animation.frames, on_frame, |r| {
+        records.push(r.clone());
+        Ok(())
+    })?;
+    Ok(play.report(runner, &records))
+}
+
+/// A scene ready to play: the lighting and the objects' self-checks.
+/// Every frame depends on these and on its index only, so any range of the
+/// frames can be played on its own (a shard of them) with the pixels of a
+/// whole run.
+pub struct ScenePlay<'a> {
+    scene: &'a Scene,
+    eye: Option<Vec3>,
+    playback: &'a Playback,
+    lighting_world: ShRgb,
+    rotation: ShRotation,
+    deringing: Deringing,
+    self_checks: Vec<Option<SelfCheckReport>>,
+}
+
+/// What one frame of a scene measured (`ScenePlay::play`); a run's report
+/// is made from its frames' records (`ScenePlay::report`).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct SceneFrameRecord {
+    /// The frame's index in the playback.
+    pub frame: usize,
+    /// The whole frame (as `fps`), ms.
+    pub ms: f64,
+    /// The SH transfer kernels' time from GPU timestamps, where there is one.
+    pub gpu_ms: Option<f64>,
+    /// The frame's phases.
+    pub phases: ScenePhases,
+    /// Each object's counts, in instance order.
+    pub stats: Vec<FrameStats>,
+    /// The comparison with ray tracing, on a checked frame.
+    pub check: Option<SceneFrameCheck>,
+}
+
+/// A checked frame of a scene compared with ray tracing of the whole scene.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct SceneFrameCheck {
+    /// The pooled error of the mode in use.
+    pub error: f64,
+    /// Vertices skipped as nearly dark.
+    pub skipped_dark: usize,
+    /// Per object and mode (off, coarse, fine): error times vertices, and
+    /// vertices.
+    pub by_object: Vec<[(f64, usize); 3]>,
+}
+
+impl<'a> ScenePlay<'a> {
+    /// Checks `animation` against the runner, projects and windows the
+    /// lighting and, with `self_check`, runs the objects' self-checks where
+    /// asked for (they only report: a shard of the frames may leave them to
+    /// the merge).
+    pub fn prepare(
+        runner: &ObjectsRunner,
+        scene: &'a Scene,
+        (env, eye): (&EnvironmentMap, Option<Vec3>),
+        animation: &'a Playback,
+        self_check: bool,
+    ) -> Result<ScenePlay<'a>> {
+        animation.validate()?;
+        if animation.pvs.is_some() {
+            return Err(Error::param("pvs", "does not apply to a scene of several objects"));
+        }
+        if scene.instances.len() != runner.len() {
+            return Err(Error::input(
+                "scene",
+                "has another number of instances than the runner objects",
+            ));
+        }
+        let bands = runner.object(0).2.prt().settings.bands;
+        let (lighting_world, deringing) = nonnegative(&project_environment(env, bands));
+        let rotation = ShRotation::new(bands);
+        let self_checks = match self_check {
+            true => self_checks(runner, scene, eye, animation)?,
+            false => vec![None; runner.len()],
+        };
+        Ok(ScenePlay {
+            scene,
+            eye,
+            playback: animation,
+            lighting_world,
+            rotation,
+            deringing,
+            self_checks,
+        })
     }
-    if scene.instances.len() != runner.len() {
-        return Err(Error::input(
-            "scene",
-            "has another number of instances than the runner objects",
-        ));
-    }
-    let bands = runner.object(0).2.prt().settings.bands;
-    let (lighting_world, deringing) = nonnegative(&project_environment(env, bands));
-    let rotation = ShRotation::new(bands);
-    let self_checks = self_checks(runner, scene, eye, animation)?;
-    let checked = animation.checked();
-    let progress = animation.bars.bar(animation.frames as u64, "frames");
-    let (mut frame_ms, mut gpu_ms) = (Vec::with_capacity(animation.frames), Vec::new());
-    let mut phases = ScenePhases::default();
-    let mut sums = vec![FrameStats::default(); runner.len()];
-    let (mut outs, mut merged, mut merged_pos) = (Vec::new(), FrameOutput::default(), Vec::new());
-    let (mut tally, mut per_frame, mut skipped) = (Tally::default(), Vec::new(), 0);
-    for f in 0..animation.frames {
-        let start = Instant::now();
-        let poses: Vec<Vec<Vec3>> = scene
+
+    fn poses(&self, f: usize) -> Vec<Vec<Vec3>> {
+        let scene = self.scene;
+        scene
             .instances
             .iter()
             .map(|i| instance_positions(scene, i, f as u32))
-            .collect();
-        let posed = Instant::now();
-        let lighting = spun(&lighting_world, &rotation, animation.env_spin * f as f32).to_f32_planar();
-        let lit = Instant::now();
-        let blockers = runner.blockers(&poses, runner.inter_object());
-        let placed = Instant::now();
-        if let Some(ms) = runner.frame_with(&poses, eye, &lighting, animation.profile, &blockers, &mut outs)? {
-            gpu_ms.push(ms);
-        }
-        let done = Instant::now();
-        frame_ms.push(ms_between(start, done));
-        phases.pose += ms_between(start, posed);
-        phases.lighting += ms_between(posed, lit);
-        phases.blockers += ms_between(lit, placed);
-        phases.transfer += ms_between(placed, done);
-        for (s, o) in sums.iter_mut().zip(&outs) {
-            *s += &o.stats;
-        }
-        progress.inc(1);
-        if checked.contains(&f) {
-            let errors = check_frame(runner, &poses, eye, &lighting, &mut outs, &mut tally)?;
-            let (e, _, s) = pooled(&errors);
-            per_frame.push(e);
-            skipped += s;
-        }
-        let output = Instant::now();
-        runner.merge(&poses, &outs, &mut merged_pos, &mut merged);
-        on_frame(f, &merged_pos, &merged)?;
-        phases.output += elapsed_ms(output);
+            .collect()
     }
-    let check = (!checked.is_empty()).then(|| SceneCheck {
-        rays: runner.reference().rays,
-        frames: checked,
-        per_frame,
-        vertices: tally.by_object.iter().map(|t| t[0].1.max(t[1].1).max(t[2].1)).sum(),
-        skipped_dark: skipped,
-        seed: runner.reference().seed,
-    });
-    let timing = Timing {
-        frame_ms,
-        gpu_ms,
-        phases,
-        profile: animation.profile,
-    };
-    Ok(report(
-        runner,
-        &sums,
-        timing,
-        check.map(|c| (c, tally)),
-        self_checks,
-        deringing,
-    ))
+
+    fn lighting(&self, f: usize) -> Vec<f32> {
+        let degrees = self.playback.env_spin * f as f32;
+        spun(&self.lighting_world, &self.rotation, degrees).to_f32_planar()
+    }
+
+    /// Frame `f`'s shaded objects' positions and results, merged
+    /// (`ObjectsRunner::merge`), not checked nor timed (e.g. the first
+    /// frame, whose radiance sets an image's exposure, for a shard that
+    /// does not play it).
+    pub fn frame(
+        &self,
+        runner: &mut ObjectsRunner,
+        f: usize,
+        positions: &mut Vec<Vec3>,
+        out: &mut FrameOutput,
+    ) -> Result<()> {
+        let poses = self.poses(f);
+        let blockers = runner.blockers(&poses, runner.inter_object());
+        let mut outs = Vec::new();
+        let profile = self.playback.profile;
+        runner.frame_with(&poses, self.eye, &self.lighting(f), profile, &blockers, &mut outs)?;
+        runner.merge(&poses, &outs, positions, out);
+        Ok(())
+    }
+
+    /// Plays the frames `frames` of the playback (a range of `0..frames`),
+    /// calling `on_frame` with each frame's index and merged results, then
+    /// `on_record` with what the frame measured.
+    pub fn play(
+        &self,
+        runner: &mut ObjectsRunner,
+        frames: Range<usize>,
+        mut on_frame: impl FnMut(usize, &[Vec3], &FrameOutput) -> Result<()>,
+        mut on_record: impl FnMut(&SceneFrameRecord) -> Result<()>,
+    ) -> Result<()> {
+        let animation = self.playback;
+        if frames.end > animation.frames {
+            let problem = format!("{frames:?} is past the {} frames played", animation.frames);
+            return Err(Error::param("frames", problem));
+        }
+        let checked = animation.checked();
+        let progress = animation.bars.bar(frames.len() as u64, "frames");
+        let (mut outs, mut merged, mut merged_pos) = (Vec::new(), FrameOutput::default(), Vec::new());
+        for f in frames {
+            let start = Instant::now();
+            let poses = self.poses(f);
+            let posed = Instant::now();
+            let lighting = self.lighting(f);
+            let lit = Instant::now();
+            let blockers = runner.blockers(&poses, runner.inter_object());
+            let placed = Instant::now();
+            let gpu_ms = runner.frame_with(&poses, self.eye, &lighting, animation.profile, &blockers, &mut outs)?;
+            let done = Instant::now();
+            let mut record = SceneFrameRecord {
+                frame: f,
+                ms: ms_between(start, done),
+                gpu_ms,
+                phases: ScenePhases {
+                    pose: ms_between(start, posed),
+                    lighting: ms_between(posed, lit),
+                    blockers: ms_between(lit, placed),
+                    transfer: ms_between(placed, done),
+                    output: 0.0,
+                },
+                stats: outs.iter().map(|o| o.stats.clone()).collect(),
+                check: None,
+            };
+            progress.inc(1);
+            if checked.contains(&f) {
+                let mut tally = Tally::default();
+                let errors = check_frame(runner, &poses, self.eye, &lighting, &mut outs, &mut tally)?;
+                let (error, _, skipped_dark) = pooled(&errors);
+                record.check = Some(SceneFrameCheck {
+                    error,
+                    skipped_dark,
+                    by_object: tally.by_object,
+                });
+            }
+            let output = Instant::now();
+            runner.merge(&poses, &outs, &mut merged_pos, &mut merged);
+            on_frame(f, &merged_pos, &merged)?;
+            record.phases.output = elapsed_ms(output);
+            on_record(&record)?;
+        }
+        Ok(())
+    }
+
+    /// The report of the frames `records` (in frame order): a whole run's
+    /// where they are every frame of the playback.
+    pub fn report(&self, runner: &ObjectsRunner, records: &[SceneFrameRecord]) -> SceneReport {
+        let mut sums = vec![FrameStats::default(); runner.len()];
+        let mut phases = ScenePhases::default();
+        let (mut tally, mut frames, mut per_frame, mut skipped) = (Tally::default(), Vec::new(), Vec::new(), 0);
+        for r in records {
+            for (s, o) in sums.iter_mut().zip(&r.stats) {
+                *s += o;
+            }
+            phases.pose += r.phases.pose;
+            phases.lighting += r.phases.lighting;
+            phases.blockers += r.phases.blockers;
+            phases.transfer += r.phases.transfer;
+            phases.output += r.phases.output;
+            if let Some(c) = &r.check {
+                tally.sum(&c.by_object);
+                frames.push(r.frame);
+                per_frame.push(c.error);
+                skipped += c.skipped_dark;
+            }
+        }
+        let check = (!frames.is_empty()).then(|| SceneCheck {
+            rays: runner.reference().rays,
+            frames,
+            per_frame,
+            vertices: tally.by_object.iter().map(|t| t[0].1.max(t[1].1).max(t[2].1)).sum(),
+            skipped_dark: skipped,
+            seed: runner.reference().seed,
+        });
+        let timing = Timing {
+            frame_ms: records.iter().map(|r| r.ms).collect(),
+            gpu_ms: records.iter().filter_map(|r| r.gpu_ms).collect(),
+            phases,
+            profile: self.playback.profile,
+        };
+        report(
+            runner,
+            &sums,
+            timing,
+            check.map(|c| (c, tally)),
+            self.self_checks.clone(),
+            self.deringing.clone(),
+        )
+    }
 }
 
 /// The checked frame's errors against the whole scene ray traced: the mode
