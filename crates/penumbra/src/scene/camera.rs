@@ -40,6 +40,7 @@ impl CameraSpec {
     /// `base` (a scene's camera, in that frame) or the default for
     /// `bounds`, with each given part replacing its own. Validated.
     pub fn resolve(&self, base: Option<Camera>, bounds: &Aabb, origin: DVec3) -> Result<Camera> {
+        let framed = base.is_none();
         let base = match base {
             Some(camera) => camera,
             None => Camera::framing(bounds)?,
@@ -51,9 +52,12 @@ impl CameraSpec {
             fov_degrees: self.fov_degrees.unwrap_or(base.fov_degrees),
         };
         camera.validate()?;
+        // The default camera frames the bounds by construction.
         let given = self.eye.is_some() || self.target.is_some();
-        let name = if given { "eye/target" } else { "the scene's \"camera\"" };
-        camera.sees(bounds).map_err(|problem| Error::param(name, problem))?;
+        if given || !framed {
+            let name = if given { "eye/target" } else { "the scene's \"camera\"" };
+            camera.sees(bounds).map_err(|problem| Error::param(name, problem))?;
+        }
         Ok(camera)
     }
 
@@ -239,7 +243,8 @@ impl Camera {
         let (centre, radius) = (bounds.center().as_dvec3(), 0.5 * bounds.diagonal() as f64);
         let to_centre = centre - self.eye.as_dvec3();
         let distance = to_centre.length();
-        if distance <= radius {
+        // A scene of no extent (a point) is the readers' to name.
+        if distance <= radius || radius == 0.0 {
             return Ok(());
         }
         let forward = (self.target.as_dvec3() - self.eye.as_dvec3()).normalize();
