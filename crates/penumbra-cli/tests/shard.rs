@@ -24,7 +24,8 @@ fn args(template: &str, vars: &[(&str, &str)], extra: &[&str]) -> Vec<String> {
 }
 
 /// Starts `args`, waits until the part being written holds a record past
-/// its header (`partial` grew past `header_bytes`), then kills the process
+/// its header (`partial` grew past its first size and then stayed), then
+/// kills the process
 /// (SIGKILL: nothing of it runs after). Returns whether it was still
 /// running when killed.
 fn kill_after_first_record(args: &[String], partial: &Path) -> bool {
@@ -44,7 +45,14 @@ fn kill_after_first_record(args: &[String], partial: &Path) -> bool {
             // The header is written and synced first; a record follows.
             match header {
                 None if m.len() > 0 => header = Some(m.len()),
-                Some(h) if m.len() > h => break,
+                // Grown past the header, and then still for 10 ms: a
+                // record is being written, or was; kill it after.
+                Some(h) if m.len() > h => {
+                    std::thread::sleep(Duration::from_millis(10));
+                    if std::fs::metadata(partial).map(|n| n.len()).ok() == Some(m.len()) {
+                        break;
+                    }
+                }
                 _ => {}
             }
         }
@@ -100,6 +108,25 @@ fn shards(template: &str, vars: &[(&str, &str)], out: &Path, n: u32, killed: u32
     reports
 }
 
+/// A bumpy `n` x `n` grid of vertices (a height field that occludes
+/// itself), as an OBJ in `d`.
+fn bumpy_grid(d: &TempDir, n: usize) -> String {
+    let mut obj = String::new();
+    for j in 0..n {
+        for i in 0..n {
+            let (x, y) = (i as f32 / n as f32 * 8.0, j as f32 / n as f32 * 8.0);
+            obj += &format!("v {x} {} {y}\n", 0.6 * x.sin() * y.cos());
+        }
+    }
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            let v = j * n + i + 1;
+            obj += &format!("f {} {} {} {}\n", v, v + n, v + n + 1, v + 1);
+        }
+    }
+    d.write("grid.obj", obj)
+}
+
 fn same_bytes(a: &Path, b: &Path) {
     let (x, y) = (std::fs::read(a).unwrap(), std::fs::read(b).unwrap());
     assert!(
@@ -115,7 +142,8 @@ fn same_bytes(a: &Path, b: &Path) {
 #[test]
 fn per_vertex_ao_in_four_shards_one_killed_is_one_process_byte_for_byte() {
     let d = TempDir::new("shard_ao");
-    let mesh = model("stanford-bunny.obj");
+    // Enough vertices that a shard has several records to be killed between.
+    let mesh = data_model("stanford-bunny.obj").unwrap_or_else(|| PathBuf::from(bumpy_grid(&d, 200)));
     let (one, split) = (d.p("one.csv"), d.p("split.csv"));
     let template = "ao --method raycast --mesh {m} --rays 512 --device cpu --per-vertex {out}";
     let m = mesh.to_str().unwrap();
