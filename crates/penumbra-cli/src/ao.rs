@@ -247,7 +247,6 @@ fn part(
     let mut ao = AmbientOcclusion::for_scene(device, scene)?.with_progress(crate::progress::stderr());
     let (target, total) = split(&outputs, request, &ao)?;
     let mut writer = crate::shard::open_part(target, shard, total)?;
-    let kept: usize = writer.done().iter().map(|(r, _)| r.len()).sum();
     let mut ms = 0.0;
     for piece in writer.todo(PIECE) {
         let bytes = match &request.image {
@@ -269,7 +268,7 @@ fn part(
         args.common.report(device, threads),
         serde_json::json!({ "ao_ms": ms, "caster_triangles": ao.caster_triangles() }),
     )?;
-    crate::shard::finish_part(writer, kept, report)
+    crate::shard::finish_part(writer, report)
 }
 
 /// `penumbra merge`: the items read from the parts, written and reported as
@@ -310,15 +309,7 @@ fn merge(
             (Some(v), None)
         }
     };
-    let result = penumbra::raycast::runner::RaycastAo {
-        caster_triangles: ao.caster_triangles(),
-        cutout_triangles: ao.cutout_triangles(),
-        warnings: ao.warnings().to_vec(),
-        build_ms: ao.build_ms(),
-        bvh: ao.bvh_stats().cloned(),
-        vertices,
-        image,
-    };
+    let result = penumbra::raycast::runner::RaycastAo::of(&ao, vertices, image);
     crate::io::warn(&result.warnings);
     let radius = request.settings.radius;
     let written = outputs.write(scene, 0, radius, result.vertices.as_ref(), result.image.as_ref())?;

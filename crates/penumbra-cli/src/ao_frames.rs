@@ -68,7 +68,6 @@ pub fn part(
     (device, threads): (&Device, usize),
 ) -> Result<Value> {
     let mut writer = crate::shard::open_part(template(&outputs), shard, frames as usize)?;
-    let kept: usize = writer.done().iter().map(|(r, _)| r.len()).sum();
     let radius = request.settings.radius;
     for piece in writer.todo(1) {
         let f = piece.start as u32;
@@ -87,7 +86,7 @@ pub fn part(
     let (ao_ms, _) = times(&writer.records(), template(&outputs))?;
     let report = json!({ "frame_ao_ms": ao_ms, "frames": ao_ms.len() });
     let report = merged(args.common.report(device, threads), report)?;
-    crate::shard::finish_part(writer, kept, report)
+    crate::shard::finish_part(writer, report)
 }
 
 /// Every frame's field AO time and its moved objects' self-occlusion time
@@ -116,17 +115,9 @@ pub fn merge(
     parts: &Parts,
 ) -> Result<FieldRunReport> {
     let out = template(&outputs);
-    if parts.total_items() != frames as usize {
-        let problem = format!("the parts hold {} frames, the command {frames}", parts.total_items());
-        return Err(Error::file(out, "", problem));
-    }
-    let records = parts.records()?;
-    for f in 0..frames {
-        let path = frame_output(out, f, f + 1 == frames).expect("the template holds {}");
-        if !path.is_file() {
-            return Err(crate::raytrace_frames::missing_frame(parts, out, &path, f));
-        }
-    }
+    let records = crate::shard::frame_records(parts, out, frames as usize, |f| {
+        frame_output(out, f as u32, f as u32 + 1 == frames).expect("the template holds {}")
+    })?;
     let (ao_ms, self_ms) = times(&records, out)?;
     let last = frames - 1;
     let mut run = fields.run_range(request, (frames, last..frames), args.knobs.reference, None)?;

@@ -190,7 +190,6 @@ fn part(
     let progress = crate::progress::stderr();
     let mut job = BakeJob::new(device, mesh, settings, &progress)?;
     let mut writer = crate::shard::open_part(&args.out, shard, job.items())?;
-    let kept: usize = writer.done().iter().map(|(r, _)| r.len()).sum();
     // Pieces of at most a sixteenth of the shard: a shard killed part-way
     // computes again at most that much.
     let step = writer.items().len().div_ceil(16).max(1);
@@ -209,7 +208,7 @@ fn part(
     }
     bar.finish();
     let fields = json!({ "method": "bake", "points": points, "ao_ms": ms });
-    crate::shard::finish_part(writer, kept, merged(report, fields)?)
+    crate::shard::finish_part(writer, merged(report, fields)?)
 }
 
 /// `penumbra merge OUT`: the asset from every shard's pieces, as one process

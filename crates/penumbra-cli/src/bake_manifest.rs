@@ -212,7 +212,6 @@ pub fn run(args: &BakeArgs, manifest: &Path, typed: &[String]) -> Result<Value> 
         }
         Mode::Part(shard) => {
             let mut writer = crate::shard::open_part(&args.out, shard, entries.len())?;
-            let kept: usize = writer.done().iter().map(|(r, _)| r.len()).sum();
             let mut reports = Vec::new();
             for piece in writer.todo(1) {
                 let report = bake_entry(&entries[piece.start])?;
@@ -221,7 +220,7 @@ pub fn run(args: &BakeArgs, manifest: &Path, typed: &[String]) -> Result<Value> 
                 reports.push(report);
             }
             let report = json!({ "method": "bake", "manifest": manifest.display().to_string(), "assets": reports });
-            return crate::shard::finish_part(writer, kept, report);
+            return crate::shard::finish_part(writer, report);
         }
         Mode::Merge(parts) => {
             if parts.total_items() != entries.len() {

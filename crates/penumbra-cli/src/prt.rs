@@ -182,8 +182,8 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
         };
         return match mode {
             Mode::Part(shard) => {
-                let (played, writer, kept) = crate::prt_frames::part(args, play, images, shard)?;
-                crate::shard::finish_part(writer, kept, report_of(&played)?)
+                let (played, writer) = crate::prt_frames::part(args, play, images, shard)?;
+                crate::shard::finish_part(writer, report_of(&played)?)
             }
             Mode::Merge(parts) => {
                 let played = crate::prt_frames::merge(args, play, &parts)?;

@@ -221,9 +221,9 @@ pub struct Played {
     pub runs: Option<RunTimes>,
 }
 
-/// A shard's finished frames, its part still open (`shard::finish_part`)
-/// and how many of its frames a run cut short had recorded.
-pub type Part = (Played, PartWriter, usize);
+/// A shard's finished frames and its part, still open
+/// (`shard::finish_part`).
+pub type Part = (Played, PartWriter);
 
 /// `--shard I/N`: the shard's frames played, written and recorded one by
 /// one (a frame's images are in place before its record), so a shard
@@ -232,7 +232,6 @@ pub fn part(args: &PrtArgs, mut play: Play, mut images: FrameImages, shard: Shar
     let frames = play.playback.frames;
     check_frames(frames)?;
     let mut writer = crate::shard::open_part(template(args), shard, frames)?;
-    let kept: usize = writer.done().iter().map(|(r, _)| r.len()).sum();
     let todo = contiguous(writer.todo(1));
     let prepared = play.prepare(false)?;
     if images.exposure.is_none() && todo.first().is_some_and(|r| r.start > 0) {
@@ -268,7 +267,7 @@ pub fn part(args: &PrtArgs, mut play: Play, mut images: FrameImages, shard: Shar
     }
     let records = read(&writer.records(), template(args))?;
     let played = played(&play, &prepared, &records, template(args), false)?;
-    Ok((played, writer, kept))
+    Ok((played, writer))
 }
 
 /// `penumbra merge`: every frame's image checked, the self-check run, the
@@ -276,17 +275,7 @@ pub fn part(args: &PrtArgs, mut play: Play, mut images: FrameImages, shard: Shar
 pub fn merge(args: &PrtArgs, mut play: Play, parts: &Parts) -> Result<Played> {
     let frames = play.playback.frames;
     let out = template(args);
-    if parts.total_items() != frames {
-        let problem = format!("the parts hold {} frames, the command {frames}", parts.total_items());
-        return Err(Error::file(out, "", problem));
-    }
-    let records = parts.records()?;
-    for f in 0..frames {
-        let path = frame_file(args, f, frames);
-        if !path.is_file() {
-            return Err(crate::raytrace_frames::missing_frame(parts, out, &path, f as u32));
-        }
-    }
+    let records = crate::shard::frame_records(parts, out, frames, |f| frame_file(args, f, frames))?;
     let records = read(&records, out)?;
     let prepared = play.prepare(true)?;
     played(&play, &prepared, &records, out, true)

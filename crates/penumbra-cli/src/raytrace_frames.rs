@@ -27,7 +27,6 @@ fn template(args: &RaytraceArgs) -> &Path {
 pub(super) fn part(args: &RaytraceArgs, setup: Setup, mut renderer: WhittedRenderer, shard: Shard) -> Result<Value> {
     let (size, frames) = ((args.size.width, args.size.height), args.knobs.frames);
     let mut writer = crate::shard::open_part(template(args), shard, frames as usize)?;
-    let kept: usize = writer.done().iter().map(|(r, _)| r.len()).sum();
     let todo = writer.todo(1);
     let pixels = todo.len() as u64 * size.0 as u64 * size.1 as u64;
     let progress = crate::progress::stderr().bar(pixels, "ray tracing");
@@ -46,7 +45,7 @@ pub(super) fn part(args: &RaytraceArgs, setup: Setup, mut renderer: WhittedRende
         writer.records().into_iter().map(|(r, b)| (r, b.to_vec())).collect();
     let items = writer.items();
     let report = report(args, &setup, &renderer, &records, items.end as u32 - 1)?;
-    crate::shard::finish_part(writer, kept, report)
+    crate::shard::finish_part(writer, report)
 }
 
 /// `penumbra merge 'walk-{}.png'`: every frame's file checked, the report
@@ -54,17 +53,9 @@ pub(super) fn part(args: &RaytraceArgs, setup: Setup, mut renderer: WhittedRende
 pub(super) fn merge(args: &RaytraceArgs, setup: Setup, renderer: WhittedRenderer, parts: &Parts) -> Result<Value> {
     let (size, frames) = ((args.size.width, args.size.height), args.knobs.frames);
     let out = template(args);
-    if parts.total_items() != frames as usize {
-        let problem = format!("the parts hold {} frames, the command {frames}", parts.total_items());
-        return Err(Error::file(out, "", problem));
-    }
-    let records = parts.records()?;
-    for f in 0..frames {
-        let path = frame_output(out, f, f + 1 == frames).expect("the template holds {}");
-        if !path.is_file() {
-            return Err(missing_frame(parts, out, &path, f));
-        }
-    }
+    let records = crate::shard::frame_records(parts, out, frames as usize, |f| {
+        frame_output(out, f as u32, f as u32 + 1 == frames).expect("the template holds {}")
+    })?;
     let mut report = report(args, &setup, &renderer, &records, frames - 1)?;
     let render_ms = report["render_ms"].as_f64().unwrap_or(0.0);
     report["runs"] = json!(RunTimes::of("render_ms", 0, vec![render_ms]));
@@ -72,20 +63,6 @@ pub(super) fn merge(args: &RaytraceArgs, setup: Setup, renderer: WhittedRenderer
         report["ray_tree"] = json!(renderer.pixel_tree_report(&setup.base, size, &setup.settings, pixel)?);
     }
     Ok(report)
-}
-
-/// Frame `f`'s file `path` is missing though a part of `out` records it:
-/// the error names the frame, the file and the shard to run again.
-pub(super) fn missing_frame(parts: &Parts, out: &Path, path: &Path, f: u32) -> Error {
-    let side = parts.sidecars.iter().find(|s| s.items.contains(&(f as usize)));
-    let shard = side.map_or_else(|| "?".into(), |s| s.shard.to_string());
-    let problem = format!(
-        "frame {f} is missing, though shard {shard}'s part records it: remove that shard's part \
-         ({}.part-{}) and its .json, run the shard again, then merge",
-        out.display(),
-        shard.replace('/', "-of-")
-    );
-    Error::file(path, "", problem)
 }
 
 /// The report of the frames `records` hold, in order, `last` the last of

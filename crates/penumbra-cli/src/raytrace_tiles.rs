@@ -31,7 +31,6 @@ fn encode(ms: f64, pixels: &[PixelOut]) -> Vec<u8> {
 pub(super) fn part(args: &RaytraceArgs, setup: Setup, mut renderer: WhittedRenderer, shard: Shard) -> Result<Value> {
     let (width, height) = (args.size.width, args.size.height);
     let mut writer = crate::shard::open_part(out(args), shard, height as usize)?;
-    let kept: usize = writer.done().iter().map(|(r, _)| r.len()).sum();
     let bands = (0..height as usize)
         .step_by(BAND)
         .map(|s| s..(s + BAND).min(height as usize));
@@ -57,7 +56,7 @@ pub(super) fn part(args: &RaytraceArgs, setup: Setup, mut renderer: WhittedRende
         report["timing"] = json!(s.timing);
         report["path"] = json!(s.path);
     }
-    crate::shard::finish_part(writer, kept, report)
+    crate::shard::finish_part(writer, report)
 }
 
 /// `penumbra merge IMG`: the image from every band, written and reported

@@ -182,7 +182,7 @@ pub fn open_part(output: &Path, shard: Shard, total: usize) -> Result<PartWriter
         inputs,
     };
     let writer = PartWriter::open(output, shard, job)?;
-    let kept: usize = writer.done().iter().map(|(r, _)| r.len()).sum();
+    let kept = writer.kept();
     if kept > 0 {
         crate::io::note(&format!(
             "shard {shard}: {kept} of its {} items kept from a run cut short",
@@ -194,7 +194,8 @@ pub fn open_part(output: &Path, shard: Shard, total: usize) -> Result<PartWriter
 
 /// Finishes a part: the sidecar gets `report`; the command prints what the
 /// shard did.
-pub fn finish_part(writer: PartWriter, kept: usize, report: Value) -> Result<Value> {
+pub fn finish_part(writer: PartWriter, report: Value) -> Result<Value> {
+    let kept = writer.kept();
     let shard = writer.shard();
     let items = writer.items();
     let seconds = writer.seconds();
@@ -210,6 +211,43 @@ pub fn finish_part(writer: PartWriter, kept: usize, report: Value) -> Result<Val
         "seconds": seconds,
     });
     Ok(out)
+}
+
+/// The records of a job whose items are `frames` frames, each written by
+/// its shard under its own name (`path(f)`): an error where the parts
+/// hold another frame count or a recorded frame's file is missing.
+pub fn frame_records(
+    parts: &Parts,
+    out: &Path,
+    frames: usize,
+    path: impl Fn(usize) -> PathBuf,
+) -> Result<Vec<(std::ops::Range<usize>, Vec<u8>)>> {
+    if parts.total_items() != frames {
+        let problem = format!("the parts hold {} frames, the command {frames}", parts.total_items());
+        return Err(Error::file(out, "", problem));
+    }
+    let records = parts.records()?;
+    for f in 0..frames {
+        let file = path(f);
+        if !file.is_file() {
+            return Err(missing_frame(parts, out, &file, f));
+        }
+    }
+    Ok(records)
+}
+
+/// Frame `f`'s file `path` is missing though a part of `out` records it:
+/// the error names the frame, the file and the shard to run again.
+fn missing_frame(parts: &Parts, out: &Path, path: &Path, f: usize) -> Error {
+    let side = parts.sidecars.iter().find(|s| s.items.contains(&f));
+    let shard = side.map_or_else(|| "?".into(), |s| s.shard.to_string());
+    let problem = format!(
+        "frame {f} is missing, though shard {shard}'s part records it: remove that shard's part \
+         ({}.part-{}) and its .json, run the shard again, then merge",
+        out.display(),
+        shard.replace('/', "-of-")
+    );
+    Error::file(path, "", problem)
 }
 
 /// What `merge` adds to the command's report: each shard's items and time.

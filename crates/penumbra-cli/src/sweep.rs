@@ -101,7 +101,7 @@ pub fn run(args: &SweepArgs) -> Result<Value> {
         Ok(report) => report,
         Err(shard) => {
             let report = crate::io::merged(args.common.report(&device, threads), shard.report)?;
-            return crate::shard::finish_part(shard.writer, shard.kept, report);
+            return crate::shard::finish_part(shard.writer, report);
         }
     };
     write_outputs(&mut report, &args.out)?;
@@ -125,7 +125,6 @@ pub fn write_outputs(report: &mut SweepReport, dir: &Path) -> Result<()> {
 /// A finished shard's part, handed out of the method's closure.
 struct Finished {
     writer: PartWriter,
-    kept: usize,
     report: Value,
 }
 
@@ -154,7 +153,6 @@ fn part(args: &SweepArgs, method: &mut dyn Sweep, grid: &Grid, runs: Repeats, sh
     }
     let total = grid.settings().len();
     let mut writer = crate::shard::open_part(&target(args), shard, total)?;
-    let kept: usize = writer.done().iter().map(|(r, _)| r.len()).sum();
     let which: Vec<usize> = writer.todo(1).into_iter().map(|r| r.start).collect();
     let progress = crate::progress::stderr();
     let measured = tune::sweep_settings(method, grid, runs, &which, &progress, |i, row| {
@@ -175,7 +173,7 @@ fn part(args: &SweepArgs, method: &mut dyn Sweep, grid: &Grid, runs: Repeats, sh
         "estimated_s": measured.estimated_s,
         "sweep_ms": measured.sweep_ms,
     });
-    Ok(Finished { writer, kept, report })
+    Ok(Finished { writer, report })
 }
 
 /// `penumbra merge DIR/sweep.csv`: every shard's rows, the front marked on

@@ -187,6 +187,7 @@ pub struct PartWriter {
     job: Job,
     file: std::fs::File,
     done: Vec<(Range<usize>, Vec<u8>)>,
+    kept: usize,
     seconds_before: f64,
     started: std::time::Instant,
 }
@@ -232,6 +233,7 @@ impl PartWriter {
             shard,
             job,
             file,
+            kept: done.iter().map(|(r, _)| r.len()).sum(),
             done,
             seconds_before,
             started: std::time::Instant::now(),
@@ -246,6 +248,11 @@ impl PartWriter {
     /// This shard's items.
     pub fn items(&self) -> Range<usize> {
         self.shard.range(self.job.total_items)
+    }
+
+    /// Items whose records were kept from runs before this one.
+    pub fn kept(&self) -> usize {
+        self.kept
     }
 
     /// The records kept from runs before this one.

@@ -113,15 +113,23 @@ pub fn raycast(device: &Device, scene: &Scene, request: &AoRequest, bars: &Repor
         Some(view) => Some(ao.image(view, &request.settings)?),
         None => None,
     };
-    Ok(RaycastAo {
-        caster_triangles: ao.caster_triangles(),
-        cutout_triangles: ao.cutout_triangles(),
-        warnings: ao.warnings().to_vec(),
-        build_ms: ao.build_ms(),
-        bvh: ao.bvh_stats().cloned(),
-        vertices,
-        image,
-    })
+    Ok(RaycastAo::of(&ao, vertices, image))
+}
+
+impl RaycastAo {
+    /// `vertices` and `image` (computed by `ao`, or by the shards of a job
+    /// and read back) with what `ao` knows of its casters.
+    pub fn of(ao: &AmbientOcclusion, vertices: Option<VertexAo>, image: Option<PixelAo>) -> RaycastAo {
+        RaycastAo {
+            caster_triangles: ao.caster_triangles(),
+            cutout_triangles: ao.cutout_triangles(),
+            warnings: ao.warnings().to_vec(),
+            build_ms: ao.build_ms(),
+            bvh: ao.bvh_stats().cloned(),
+            vertices,
+            image,
+        }
+    }
 }
 
 /// The casters at `frame`, merged; an error if there are none.
