@@ -20,10 +20,10 @@ pub struct Common {
     #[arg(long, value_enum, default_value_t = DeviceChoice::Auto)]
     pub device: DeviceChoice,
     /// CPU threads (default: all cores).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<usize>(1), allow_negative_numbers = true)]
     pub threads: Option<usize>,
     /// Seed of the sample sequence.
-    #[arg(long, default_value_t = DEFAULT_SEED, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(0), default_value_t = DEFAULT_SEED, allow_negative_numbers = true)]
     pub seed: u32,
     /// Print exactly one JSON object on stdout.
     #[arg(long)]

@@ -37,7 +37,7 @@ pub struct BuildArgs {
     #[arg(short = 'o', long = "out")]
     pub out: PathBuf,
     /// CPU threads (default: all cores).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<usize>(1), allow_negative_numbers = true)]
     pub threads: Option<usize>,
     /// Print exactly one JSON object on stdout.
     #[arg(long)]

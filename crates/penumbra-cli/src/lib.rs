@@ -242,6 +242,13 @@ fn typed_aliases(args: &[OsString]) -> Vec<(String, String)> {
     out
 }
 
+/// The message of a count option's bad value (`options::count`), if that
+/// is what clap refused.
+fn count_error(e: &clap::Error) -> Option<String> {
+    let source = std::error::Error::source(e)?;
+    source.downcast_ref::<options::CountError>().map(|c| c.0.clone())
+}
+
 /// Runs the command line; returns the process exit code.
 pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
     let args: Vec<OsString> = args.into_iter().collect();
@@ -252,6 +259,20 @@ pub fn run(args: impl IntoIterator<Item = OsString>) -> i32 {
         .and_then(|m| Cli::from_arg_matches(&m).map(|cli| (cli, m)));
     let (cli, matches) = match parsed {
         Ok(parsed) => parsed,
+        Err(e) if count_error(&e).is_some() => {
+            // A count's own bound, said as the other bad values are: the
+            // option as typed (an alias too), then the problem.
+            let long = match e.get(clap::error::ContextKind::InvalidArg) {
+                Some(clap::error::ContextValue::String(arg)) => arg.split(' ').next().unwrap_or(arg).to_string(),
+                _ => String::new(),
+            };
+            let flag = typed
+                .iter()
+                .find(|(l, _)| *l == long)
+                .map_or(long.as_str(), |(_, t)| t.as_str());
+            eprintln!("penumbra: error: {flag}: {}", count_error(&e).unwrap_or_default());
+            return 2;
+        }
         Err(e) => {
             let _ = e.print();
             return e.exit_code();

@@ -40,16 +40,16 @@ pub struct SweepArgs {
     pub out: PathBuf,
     /// Rays per point of the reference, the ground truth (field: per vertex; ssao: per
     /// pixel; prt: per vertex) [default: field 64, ssao 256, prt 1024].
-    #[arg(long, alias = "truth-rays", allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(0), alias = "truth-rays", allow_negative_numbers = true)]
     pub reference_rays: Option<u32>,
     /// field and ssao: the AO radius [default: field infinite, ssao 5% of the scene's diagonal].
     #[arg(long, allow_negative_numbers = true)]
     pub radius: Option<f32>,
     /// Image width (ssao, trace, bounded).
-    #[arg(long, default_value_t = 400, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(1), default_value_t = 400, allow_negative_numbers = true)]
     pub width: u32,
     /// Image height (ssao, trace, bounded).
-    #[arg(long, default_value_t = 300, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(1), default_value_t = 300, allow_negative_numbers = true)]
     pub height: u32,
     #[command(flatten)]
     pub camera: CameraArgs,

@@ -33,14 +33,59 @@ fn every_numeric_option_takes_a_leading_minus() {
         };
         for value in values {
             let flag = format!("--{long}");
-            if let Some(e) = parse_error(&["penumbra", sub, &flag, value])
-                && (e.contains("unexpected argument") || e.contains("a value is required"))
-            {
+            let Some(e) = parse_error(&["penumbra", sub, &flag, value]) else {
+                continue;
+            };
+            // Refused as no value, or with the integer type's range
+            // (`0..=4294967295`) rather than the option's own bound.
+            if e.contains("unexpected argument") || e.contains("a value is required") || e.contains("is not in") {
                 failures.push(format!("{sub} {flag} {value}: {e}"));
             }
         }
     }
-    assert!(failures.is_empty(), "refused as no value:\n{}", failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "refused without the option's range:\n{}",
+        failures.join("\n")
+    );
+}
+
+/// A negative count meets the option's own least value, under the name
+/// typed (an alias included), with exit 2.
+#[test]
+fn a_negative_count_names_the_options_least_value() {
+    let cases = [
+        ("ao --mesh m.obj --rays -1", "--rays", "at least 1, got -1"),
+        ("trace --mesh m.obj --tile -1", "--tile", "at least 4, got -1"),
+        ("raytrace --mesh m.obj --spp -2", "--spp", "at least 1, got -2"),
+        (
+            "raytrace --mesh m.obj --max-depth -1",
+            "--max-depth",
+            "at least 0, got -1",
+        ),
+        ("ao --mesh m.obj --rays 4 --width -8", "--width", "at least 1, got -8"),
+        (
+            "ao --mesh m.obj --rays 4 --threads -1",
+            "--threads",
+            "at least 1, got -1",
+        ),
+        (
+            "ssao --mesh m.obj --spp 4 --truth-rays -1",
+            "--truth-rays",
+            "at least 0, got -1",
+        ),
+        ("ao --mesh m.obj --rays 4 --repeat -3", "--repeat", "at least 1, got -3"),
+    ];
+    for (line, flag, problem) in cases {
+        let r = pen(line, &[]);
+        println!("{line}: {}", r.stderr.trim());
+        assert_eq!(r.code, 2, "{line}\n{}", r.describe());
+        assert!(
+            r.stderr.contains(&format!("penumbra: error: {flag}: ")) && r.stderr.contains(problem),
+            "{line}\n{}",
+            r.describe()
+        );
+    }
 }
 
 /// A negative list value reaches the option's own check, by name.

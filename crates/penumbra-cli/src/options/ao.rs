@@ -24,7 +24,7 @@ pub struct AoOptions {
     #[arg(long, value_enum)]
     pub method: AoMethod,
     /// Rays per point.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(1), allow_negative_numbers = true)]
     pub rays: u32,
     /// Occluders beyond this distance do not count (default: infinite).
     #[arg(long, allow_negative_numbers = true)]

@@ -37,7 +37,7 @@ pub struct BoundedOptions {
     #[arg(long, default_value_t = 1024.0, allow_negative_numbers = true)]
     pub memory_mb: f64,
     /// bounded: a failed cell is split only if at least this many pixels per child ask for it.
-    #[arg(long, default_value_t = BoundedSettings::default().min_pixels, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(1), default_value_t = BoundedSettings::default().min_pixels, allow_negative_numbers = true)]
     pub min_pixels: u32,
     /// bounded: on a GPU, trace the pixels that are not interpolated and the extremal rays' trees with the Whitted kernel or on the CPU.
     #[arg(long, value_enum, default_value_t = SlowPath::Auto)]
@@ -46,7 +46,7 @@ pub struct BoundedOptions {
     #[arg(long)]
     pub reference: bool,
     /// bounded: trace K random lines in every accepted cell a frame uses and count violations.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(1), allow_negative_numbers = true)]
     pub check: Option<u32>,
 }
 

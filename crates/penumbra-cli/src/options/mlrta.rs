@@ -28,19 +28,19 @@ pub struct TraceOptions {
     #[arg(long, value_enum)]
     pub accel: Option<Structure>,
     /// Initial tile side in pixels (the paper's ITS).
-    #[arg(long, default_value_t = 128, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(4), default_value_t = 128, allow_negative_numbers = true)]
     pub tile: u32,
     /// Tiles no larger than this are not split (MTS) [default: 32, or --tile
     /// if smaller]. 8 traverses fewer cells; 32 is faster on the CPU.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(4), allow_negative_numbers = true)]
     pub min_tile: Option<u32>,
     /// Pieces a tile is split into (SF): 4, 16, 64...
-    #[arg(long, default_value_t = 16, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(4), default_value_t = 16, allow_negative_numbers = true)]
     pub split_factor: u32,
     /// Nodes the entry-point search visits in a far subtree before it
     /// counts it as one with potential hits (the entry point moves up); 0
     /// searches every far subtree to the end, as the paper.
-    #[arg(long, default_value_t = DEFAULT_EP_BUDGET)]
+    #[arg(long, value_parser = crate::options::count::<u32>(0), default_value_t = DEFAULT_EP_BUDGET, allow_negative_numbers = true)]
     pub ep_budget: u32,
     /// Point light "X,Y,Z": adds a shadow ray per hit (Table 3's statistics).
     #[arg(long, value_parser = penumbra::scene::frame::parse_point, allow_hyphen_values = true)]
@@ -53,7 +53,7 @@ pub struct TraceOptions {
     #[arg(long, value_enum, default_value_t = AaMode::None)]
     pub aa: AaMode,
     /// Rays per pixel where anti-aliasing applies (a square: 4, 16).
-    #[arg(long, default_value_t = 4, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(4), default_value_t = 4, allow_negative_numbers = true)]
     pub aa_samples: u32,
     /// Measure the anti-aliased image's error on edge pixels against 16 rays
     /// per pixel everywhere, and the rays uniform supersampling would use.

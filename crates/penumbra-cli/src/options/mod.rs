@@ -41,7 +41,7 @@ pub struct CameraChoice {
     /// The input's camera N (from 0: a glTF file's cameras in scene order,
     /// a scene file's camera) instead of its first; --eye/--target/--fov
     /// still override its parts.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_parser = crate::options::count::<usize>(0), value_name = "N", allow_negative_numbers = true)]
     pub camera: Option<usize>,
 }
 
@@ -79,6 +79,54 @@ impl CameraOptions {
             fov_degrees: self.fov,
         }
     }
+}
+
+/// Clap's parser of a count option whose least value is `lo`: a leading
+/// minus is read as a value (never as another option) and a negative one is
+/// refused with the option's own least value (`CountError`, which the
+/// command line reports as its other bad values), where clap's integer
+/// parser would name the type's range (`0..=4294967295`). Values from 0 up
+/// reach the library's checks, which know the knob's whole range.
+pub fn count<T>(lo: u32) -> impl Fn(&str) -> std::result::Result<T, CountParseError> + Clone + Send + Sync + 'static
+where
+    T: TryFrom<i128> + std::fmt::Display + Bounded + Send + Sync + 'static,
+{
+    move |text: &str| {
+        // Not a number: clap's own words, as for every other option.
+        let v: i128 = text.trim().parse()?;
+        if v < 0 {
+            return Err(CountError(format!("must be at least {lo}, got {v}")).into());
+        }
+        T::try_from(v).map_err(|_| CountError(format!("must be at most {}, got {v}", T::MAX)).into())
+    }
+}
+
+/// What `count` refuses: not a number, or a `CountError`.
+pub type CountParseError = Box<dyn std::error::Error + Send + Sync>;
+
+/// A count option's value out of its bounds (`count`).
+#[derive(Debug)]
+pub struct CountError(pub String);
+
+impl std::fmt::Display for CountError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for CountError {}
+
+/// The largest value of a count type (`count`'s message names it).
+pub trait Bounded {
+    const MAX: Self;
+}
+
+impl Bounded for u32 {
+    const MAX: u32 = u32::MAX;
+}
+
+impl Bounded for usize {
+    const MAX: usize = usize::MAX;
 }
 
 /// A count option that must be positive (`name`: the library's name).
@@ -158,10 +206,10 @@ pub fn refuse_unused(rules: &[Applies], matches: &clap::ArgMatches) -> Result<()
 #[derive(Args, Clone, Copy, Debug)]
 pub struct ImageSize {
     /// Image width in pixels.
-    #[arg(long, default_value_t = 800, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(1), default_value_t = 800, allow_negative_numbers = true)]
     pub width: u32,
     /// Image height in pixels.
-    #[arg(long, default_value_t = 600, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(1), default_value_t = 600, allow_negative_numbers = true)]
     pub height: u32,
 }
 
@@ -189,11 +237,11 @@ impl GreyImageOptions {
 #[derive(Args, Clone, Debug, Default)]
 pub struct RepeatOptions {
     /// Untimed runs before the measured ones.
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(0), default_value_t = 0, allow_negative_numbers = true)]
     pub warmup: u32,
     /// Measured runs: the report gives min, median and max of their times
     /// [default: 1; sweep: 3 per setting].
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(1), allow_negative_numbers = true)]
     pub repeat: Option<u32>,
 }
 

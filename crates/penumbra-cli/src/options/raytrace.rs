@@ -13,17 +13,17 @@ use penumbra::whitted::{LightingSettings, Packets, WhittedSettings};
 #[derive(Args, Clone, Debug)]
 pub struct WhittedOptions {
     /// Deepest reflection/refraction (0: primary and shadow rays only).
-    #[arg(long, default_value_t = 5, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(0), default_value_t = 5, allow_negative_numbers = true)]
     pub max_depth: u32,
     /// Samples per pixel: 1 through the pixel centre, more jittered (anti-aliasing).
-    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(1), default_value_t = 1, allow_negative_numbers = true)]
     pub spp: u32,
     /// Fresnel-weighted (Schlick) reflection and transmission instead of
     /// the materials' constant coefficients.
     #[arg(long, value_enum, default_value_t = OnOff::Off)]
     pub fresnel: OnOff,
     /// Point lights per emissive polygon (1: at its centroid; more soften shadows).
-    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(1), default_value_t = 1, allow_negative_numbers = true)]
     pub light_samples: u32,
     /// Ambient light "R,G,B" (over the scene file's; default 0.05 grey).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
@@ -75,7 +75,7 @@ pub struct RaytraceOptions {
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub exposure: f32,
     /// Render this many frames along --path (or the built-in walk from the camera without one).
-    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(1), default_value_t = 1, allow_negative_numbers = true)]
     pub frames: u32,
     /// Adds the ray tree of pixel "X,Y" (first sample, first frame) to the JSON.
     #[arg(long, value_parser = parse_pixel)]

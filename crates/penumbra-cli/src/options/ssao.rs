@@ -16,7 +16,7 @@ pub struct SsaoOptions {
     #[arg(long, value_enum, required_unless_present = "max_error")]
     pub estimator: Option<Estimator>,
     /// Samples (depth-buffer tests) per pixel (with --max-error: fixed, else chosen).
-    #[arg(long, allow_negative_numbers = true, required_unless_present = "max_error")]
+    #[arg(long, value_parser = crate::options::count::<u32>(1), allow_negative_numbers = true, required_unless_present = "max_error")]
     pub spp: Option<u32>,
     /// The fastest estimator and spp whose RMSE against the ray-traced truth,
     /// estimated on 2048 pixels, is within this at 95% confidence (cached per scene).
@@ -32,7 +32,7 @@ pub struct SsaoOptions {
     #[arg(long, allow_negative_numbers = true)]
     pub sigma: Option<f32>,
     /// Steps per ray of raymarch (rays = spp / steps).
-    #[arg(long, default_value_t = 4, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(1), default_value_t = 4, allow_negative_numbers = true)]
     pub steps: u32,
     /// Interleaved sampling over 4x4 pixel patterns.
     #[arg(long, value_enum, default_value_t = OnOff::On)]
@@ -110,10 +110,10 @@ pub struct SsaoRunOptions {
     pub ambient: f32,
     /// Rays per pixel of the ray-traced reference, the ground truth (0: skip
     /// it, rmse_vs_raytraced is null).
-    #[arg(long, alias = "truth-rays", default_value_t = 256, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(0), alias = "truth-rays", default_value_t = 256, allow_negative_numbers = true)]
     pub reference_rays: u32,
     /// Samples per pixel of the screen-space reference (0: skip it).
-    #[arg(long, alias = "reference-spp", default_value_t = 1024, allow_negative_numbers = true)]
+    #[arg(long, value_parser = crate::options::count::<u32>(0), alias = "reference-spp", default_value_t = 1024, allow_negative_numbers = true)]
     pub screen_reference_spp: u32,
 }
 

@@ -162,7 +162,20 @@ pub struct SampleTable {
     /// the sample point in the tangent frame in units of R (base-disk: the disk
     /// offset in camera x, y) and its weight.
     pub entries: Vec<[f32; 4]>,
+    /// Sets of a volume estimator (`Estimator::needs_density`) that carry
+    /// no weight at an open point, where the estimator's expectation is 1:
+    /// every weight is zero in f32 (calibrated sets: calibration rescales
+    /// any positive sum to 1) or they sum to less than `WEIGHTLESS`
+    /// (uncalibrated). The measure's weight then lies closer to the point
+    /// than any of the set's uniform samples (the exponential measure at a
+    /// large sigma R), and the pixels using the set read about 0 whatever
+    /// occludes them.
+    pub weightless_sets: u32,
 }
+
+/// An uncalibrated set's value at an open point below which it counts as
+/// weightless.
+pub const WEIGHTLESS: f64 = 1e-3;
 
 impl SampleTable {
     /// The table of `s`'s estimator, measure, radius, samples per pixel,
@@ -181,6 +194,7 @@ impl SampleTable {
         let r = s.radius;
         let tangent_norm = m.tangent_sphere_open_value(r);
         let mut entries = Vec::with_capacity((patterns.count() * n) as usize);
+        let mut weightless_sets = 0;
         for pattern in 0..patterns.count() {
             let first = entries.len();
             for j in 0..rays {
@@ -226,8 +240,16 @@ impl SampleTable {
                     }
                 }
             }
+            // Every volume estimator's weight carries the cosine factor
+            // max(0, z) (tangent sphere: points above the plane only), so
+            // the plain sum is the set's value at an open point.
+            let open: f64 = entries[first..].iter().map(|e| e[3] as f64).sum();
+            let least = if s.calibrate { f64::MIN_POSITIVE } else { WEIGHTLESS };
+            if s.estimator.needs_density() && open < least {
+                weightless_sets += 1;
+            }
             if s.calibrate && family == Family::Points {
-                let sum: f64 = entries[first..].iter().map(|e| e[3] as f64).sum();
+                let sum = open;
                 if sum > 0.0 {
                     for e in &mut entries[first..] {
                         e[3] = (e[3] as f64 / sum) as f32;
@@ -243,6 +265,7 @@ impl SampleTable {
             steps,
             open_weight: 1.0 / rays as f32,
             entries,
+            weightless_sets,
         })
     }
 }
@@ -595,6 +618,39 @@ mod tests {
         s.measure = m;
         s.calibrate = false;
         s
+    }
+
+    /// A volume estimator's sets carry no weight once the exponential
+    /// measure's weight lies closer to the point than its samples reach
+    /// (sigma R 1000: e^-(sigma r) underflows f32 beyond r = R / 11), and
+    /// carry it at the default sigma R 3; importance sampling never loses it.
+    #[test]
+    fn weightless_sets_are_counted_where_the_measure_outruns_the_samples() {
+        for calibrate in [true, false] {
+            for e in [
+                Estimator::Sphere,
+                Estimator::Hemisphere,
+                Estimator::TangentSphere,
+                Estimator::Importance,
+            ] {
+                let count = |sigma: f32| {
+                    let mut s = settings(e, Measure::Exp { sigma });
+                    s.calibrate = calibrate;
+                    let t = SampleTable::build(&s).unwrap();
+                    (t.weightless_sets, t.patterns.count())
+                };
+                let (at_default, _) = count(3.0);
+                let (far, sets) = count(1000.0);
+                println!(
+                    "{} calibrate {calibrate}: sigma R 3 -> {at_default}, 1000 -> {far} of {sets}",
+                    e.name()
+                );
+                assert_eq!(at_default, 0, "{}", e.name());
+                let expected = if e.needs_density() { sets } else { 0 };
+                // One tangent-sphere set of 16 may hold a point close enough.
+                assert!(far + 1 >= expected && far <= expected, "{}: {far} of {sets}", e.name());
+            }
+        }
     }
 
     /// Without calibration, each estimator's weights average to 1 over many

@@ -6,6 +6,7 @@
 
 use serde::Serialize;
 
+use super::estimators::SampleTable;
 use super::gbuffer::{GBuffer, ScreenView, gbuffer_with, validate_lights};
 use super::gpu::{GBufferSource, run_frame};
 use super::surfaces::GBufferSurfaces;
@@ -137,6 +138,11 @@ pub struct SsaoReport {
     pub bias_px: f32,
     /// Whether each pixel's weights were scaled to give 1 at an open point.
     pub calibrate: bool,
+    /// Sample sets that carry no weight at an open point
+    /// (`SampleTable::weightless_sets`): 0 unless the measure's weight lies
+    /// closer to the point than a volume estimator's samples reach; the
+    /// pixels using them read about 0 (a warning says so).
+    pub weightless_sets: u32,
     /// The estimation grid: `full` or `half`.
     pub resolution: &'static str,
     /// Seed of the sample tables.
@@ -193,6 +199,10 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: &Reporte
         Ok(tree.get().expect("set above"))
     };
     let mut warnings = Vec::new();
+    let table = SampleTable::build(settings)?;
+    if table.weightless_sets > 0 {
+        warnings.push(weightless_warning(settings, &table));
+    }
     let surfaces = GBufferSurfaces::of_scene(scene, DEFAULT_TEXTURE_BYTES, &mut warnings);
     let framed = device.run(
         |ctx| {
@@ -252,6 +262,7 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: &Reporte
     });
     let mut report = SsaoReport::new(request, &camera, &gb, &frame, &truth, &reference);
     report.build_ms = tree.get().map_or(0.0, |t| t.kdtree().stats.build_ms);
+    report.weightless_sets = table.weightless_sets;
     report.runs = Some(RunTimes::of("frame_ms", request.runs.warmup, runs_ms));
     report.skipped = skipped(request, tree.get().is_none());
     Ok(SsaoRun {
@@ -263,6 +274,25 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: &Reporte
         report,
         warnings,
     })
+}
+
+/// Why a volume estimator's image reads about 0: its sets' uniform samples
+/// miss where the measure puts its weight.
+fn weightless_warning(s: &SsaoSettings, table: &SampleTable) -> String {
+    let sets = table.patterns.count();
+    let scale = match s.measure {
+        Measure::Exp { sigma } => format!(" (`sigma` x `radius` = {:.3e})", sigma as f64 * s.radius as f64),
+        _ => String::new(),
+    };
+    format!(
+        "{} of {sets} sample sets of the {} estimator carry no weight: the {} measure's weight lies \
+         closer to the point{scale} than their uniform samples reach, so the pixels using them read \
+         AO about 0 whatever occludes them; the importance or raymarch estimator samples the \
+         measure's own density, or lower `sigma`",
+        table.weightless_sets,
+        s.estimator.name(),
+        s.measure.name(),
+    )
 }
 
 /// What `request` left out (`tree_unused`: the whole scene's kd-tree was
@@ -353,6 +383,7 @@ impl SsaoReport {
             filter_depth: s.filter_depth(),
             bias_px: s.bias_px,
             calibrate: s.calibrate,
+            weightless_sets: 0,
             resolution: s.resolution.name(),
             seed: s.seed,
             width: gb.width,
