@@ -36,6 +36,7 @@ pub fn rules(command: &Command) -> Vec<Rule> {
         | Command::Field(_)
         | Command::GenAssets(_)
         | Command::Bake(_)
+        | Command::Bench(_)
         | Command::Merge(_) => Vec::new(),
     }
 }

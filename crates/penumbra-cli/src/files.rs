@@ -75,6 +75,11 @@ pub fn of(command: &Command) -> Files {
                 }
             }
         }
+        Command::Bench(a) => {
+            f.mesh("--mesh", &a.mesh);
+            f.scene(&a.scene);
+            a.outputs().into_iter().for_each(|p| f.output("--out", &Some(p)));
+        }
         Command::Sweep(a) => {
             f.mesh("--mesh", &a.mesh);
             f.mesh("--receiver", &a.receiver);

@@ -15,6 +15,7 @@ mod applies;
 mod args;
 mod bake;
 mod bake_manifest;
+mod bench;
 mod field;
 mod files;
 mod gen_assets;
@@ -77,6 +78,8 @@ enum Command {
     Raytrace(raytrace::RaytraceArgs),
     /// Time and error of every setting of a grid of a method's knobs on your scene.
     Sweep(sweep::SweepArgs),
+    /// CPU against GPU on your scene: every method at its defaults on every device and thread count, min / median / max, throughput and error, into DIR/bench.{csv,json,png}.
+    Bench(bench::BenchArgs),
     /// Write OUTPUT from the parts of a run split with --shard, as one process writes it.
     Merge(MergeArgs),
     /// Write the procedural scenes (corner, closed box, well, ...) as OBJ files, the ray tracer's scenes into OUT/raytrace, example animations into OUT/animations and the chess-like scene into OUT/chess and OUT/scenes/chess.json.
@@ -331,6 +334,13 @@ fn dispatch(command: Command, args: &[String]) -> Result<()> {
         Command::Ssao(a) => emit(a.common.json, ssao::run(&a)?),
         Command::Raytrace(a) => emit(a.common.json, raytrace::run(&a)?),
         Command::Sweep(a) => emit(a.common.json, sweep::run(&a)?),
+        Command::Bench(a) => {
+            let report = bench::run(&a)?;
+            if a.json {
+                emit(true, report)?;
+            }
+            Ok(())
+        }
         Command::GenAssets(a) => {
             let written = gen_assets::write_every_asset(&a.out)?;
             let files: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();

@@ -161,3 +161,104 @@ where
     root.present()?;
     Ok(())
 }
+
+/// `bench.png`: the median time of each method (x, in the report's order)
+/// on each device and thread count (one colour each), with the fastest and
+/// slowest run as a bar, on a log axis of milliseconds.
+pub fn write_bench_png(path: &Path, report: &penumbra::bench::BenchReport) -> Result<()> {
+    register_font()?;
+    let mut pixels = vec![255u8; (WIDTH * HEIGHT * 3) as usize];
+    draw_bench(&mut pixels, report).map_err(|e| Error::internal(format!("cannot draw the bench plot: {e}")))?;
+    let image = image::RgbImage::from_raw(WIDTH, HEIGHT, pixels).expect("buffer of the image's size");
+    penumbra::io::output::write_image(path, &image, image::ImageFormat::Png)
+}
+
+fn draw_bench(pixels: &mut [u8], report: &penumbra::bench::BenchReport) -> DrawResult {
+    let rows: Vec<_> = report
+        .rows
+        .iter()
+        .filter(|r| r.median_ms.is_finite() && r.min_ms > 0.0)
+        .collect();
+    let mut methods: Vec<&'static str> = Vec::new();
+    let mut series: Vec<String> = Vec::new();
+    for r in &rows {
+        if !methods.contains(&r.method.name()) {
+            methods.push(r.method.name());
+        }
+        let s = format!("{} x{}", r.device, r.threads);
+        if !series.contains(&s) {
+            series.push(s);
+        }
+    }
+    let lo = rows.iter().map(|r| r.min_ms).fold(f64::INFINITY, f64::min);
+    let hi = rows.iter().map(|r| r.max_ms).fold(0.0, f64::max);
+    let (lo, hi) = if lo.is_finite() && hi > 0.0 {
+        (lo / 2.0, hi * 2.0)
+    } else {
+        (0.1, 10.0)
+    };
+    let root = BitMapBackend::with_buffer(pixels, (WIDTH, HEIGHT)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let caption = format!(
+        "penumbra bench: median of {} runs after {} warm-up (bars: fastest to slowest)",
+        report.repeat, report.warmup
+    );
+    let n = methods.len().max(1) as f64;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(caption, (FONT, 20))
+        .margin(20)
+        .x_label_area_size(50)
+        .y_label_area_size(90)
+        .build_cartesian_2d(-0.5..n - 0.5, (lo..hi).log_scale())?;
+    let names = methods.clone();
+    let label = move |x: &f64| {
+        let i = x.round();
+        match (x - i).abs() < 1e-6 && i >= 0.0 {
+            true => names.get(i as usize).map_or(String::new(), |s| s.to_string()),
+            false => String::new(),
+        }
+    };
+    chart
+        .configure_mesh()
+        .x_labels(methods.len() * 2 + 1)
+        .y_labels(10)
+        .x_label_formatter(&label)
+        .y_label_formatter(&tick)
+        .disable_x_mesh()
+        .y_desc("time per run, ms (log)")
+        .axis_desc_style((FONT, 16))
+        .label_style((FONT, 14))
+        .draw()?;
+    let k = series.len().max(1) as f64;
+    for (s, name) in series.iter().enumerate() {
+        let colour = Palette99::pick(s).mix(0.9);
+        let x = |r: &&penumbra::bench::BenchRow| {
+            let m = methods.iter().position(|&m| m == r.method.name()).unwrap_or(0) as f64;
+            m - 0.3 + 0.6 * (s as f64 + 0.5) / k
+        };
+        let mine: Vec<_> = rows
+            .iter()
+            .filter(|r| format!("{} x{}", r.device, r.threads) == *name)
+            .collect();
+        chart.draw_series(
+            mine.iter()
+                .map(|r| PathElement::new(vec![(x(r), r.min_ms), (x(r), r.max_ms)], colour.stroke_width(2))),
+        )?;
+        chart
+            .draw_series(
+                mine.iter()
+                    .map(|r| Circle::new((x(r), r.median_ms), 5, colour.filled())),
+            )?
+            .label(name.clone())
+            .legend(move |(x, y)| Circle::new((x, y), 5, colour.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .label_font((FONT, 14))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
+    root.present()?;
+    Ok(())
+}

@@ -46,6 +46,7 @@
 pub mod accel;
 #[cfg(all(feature = "gltf", feature = "png"))]
 pub mod bake;
+pub mod bench;
 pub mod bounded;
 pub(crate) mod choice;
 pub mod error;

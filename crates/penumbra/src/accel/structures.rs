@@ -29,6 +29,8 @@ pub enum Structure {
     Kdtree,
 }
 
+crate::choice!(Structure { Bvh = "bvh", Kdtree = "kdtree" });
+
 /// What the BVH cost and holds (JSON `bvh`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct BvhStats {
