@@ -20,6 +20,7 @@ const COMMANDS: &[&str] = &[
     "ssao",
     "raytrace",
     "sweep",
+    "bench",
     "merge",
     "gen-assets",
 ];

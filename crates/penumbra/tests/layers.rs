@@ -21,7 +21,7 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("methods on ray casting", &["mlrta", "field", "ssao", "prt", "bake"]),
     ("Whitted ray tracing", &["whitted"]),
     ("bounded-error ray tracing", &["bounded"]),
-    ("sweeps over every method", &["sweep"]),
+    ("sweeps and benches over every method", &["sweep", "bench"]),
 ];
 
 fn layer_of(module: &str) -> Option<usize> {
