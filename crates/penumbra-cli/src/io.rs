@@ -37,20 +37,13 @@ pub fn merged(mut report: Value, more: impl serde::Serialize) -> Result<Value> {
 }
 
 /// Prints a command's report on stdout: the JSON object alone (`json`), else
-/// a `key: value` line per field.
+/// the person's `summary` of it (`crate::summary`).
 /// A closed stdout (`penumbra ... | head -c 10`) ends the run quietly.
-pub fn print_report(json: bool, value: &serde_json::Value) -> Result<()> {
-    let mut text = String::new();
-    if json {
-        text = format!("{value}\n");
-    } else if let serde_json::Value::Object(map) = value {
-        for (k, v) in map {
-            match v {
-                serde_json::Value::String(s) => text += &format!("{k}: {s}\n"),
-                _ => text += &format!("{k}: {v}\n"),
-            }
-        }
-    }
+pub fn print_report(json: bool, value: &serde_json::Value, summary: impl FnOnce() -> String) -> Result<()> {
+    let text = match json {
+        true => format!("{value}\n"),
+        false => summary(),
+    };
     let mut out = std::io::stdout().lock();
     match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
         Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {

@@ -32,6 +32,7 @@ mod raytrace_frames;
 mod raytrace_tiles;
 mod shard;
 mod ssao;
+mod summary;
 mod sweep;
 mod trace;
 mod trace_rays;
@@ -322,6 +323,9 @@ fn dispatch(command: Command, args: &[String]) -> Result<()> {
     files.check()?;
     let inputs = files.inputs.iter().map(|(_, p)| p.clone()).collect();
     shard::record_invocation(args, inputs);
+    let name = command.name();
+    let emit =
+        |json: bool, value: Value| io::print_report(json, &value, || summary::text(name, &files.outputs, &value));
     match command {
         Command::Merge(a) => emit(a.json, merge(&a.output)?),
         Command::Info(a) => emit(a.json, info::run(&a)?),
@@ -350,6 +354,24 @@ fn dispatch(command: Command, args: &[String]) -> Result<()> {
 }
 
 impl Command {
+    /// The subcommand's name, as typed.
+    fn name(&self) -> &'static str {
+        match self {
+            Command::Info(_) => "info",
+            Command::TraceRays(_) => "trace-rays",
+            Command::Ao(_) => "ao",
+            Command::Bake(_) => "bake",
+            Command::Trace(_) => "trace",
+            Command::Prt(_) => "prt",
+            Command::Field(_) => "field",
+            Command::Ssao(_) => "ssao",
+            Command::Raytrace(_) => "raytrace",
+            Command::Sweep(_) => "sweep",
+            Command::Merge(_) => "merge",
+            Command::GenAssets(_) => "gen-assets",
+        }
+    }
+
     /// The `--shard` options of a command that has them.
     fn shard_args(&mut self) -> Option<&mut shard::ShardArgs> {
         match self {
@@ -397,11 +419,6 @@ fn merge(output: &std::path::Path) -> Result<Value> {
     };
     value["merged"] = shard::merge_report(&parts);
     Ok(value)
-}
-
-/// Prints the result (`io::print_report`).
-fn emit(json: bool, value: Value) -> Result<()> {
-    io::print_report(json, &value)
 }
 
 /// `PENUMBRA_ISA=avx512|avx2|sse|scalar` runs the CPU's vector lanes at a
@@ -466,7 +483,7 @@ mod defaults {
             d.spp, d.radius
         );
         let Command::Ssao(a) = parse(&args) else { unreachable!() };
-        assert_eq!(a.knobs.settings(a.common.seed).unwrap(), d);
+        assert_eq!(a.knobs.settings(a.common.seed, 0.5).unwrap(), d);
     }
 
     #[test]

@@ -47,15 +47,18 @@ pub struct SsaoArgs {
     pub common: Common,
 }
 
-fn request(a: &SsaoArgs) -> Result<SsaoRequest> {
+/// The request with `scene_radius` the radius without --radius.
+fn request(a: &SsaoArgs, scene_radius: f32) -> Result<SsaoRequest> {
     let view = View::new(a.camera.spec(), a.size.width, a.size.height)?;
-    let (settings, runs) = (a.knobs.settings(a.common.seed)?, a.common.runs.runs(1)?);
+    let (settings, runs) = (a.knobs.settings(a.common.seed, scene_radius)?, a.common.runs.runs(1)?);
     a.run.request(settings, view, (a.image.is_some(), runs))
 }
 
 pub fn run(args: &SsaoArgs) -> Result<Value> {
     let threads = args.common.init_threads()?;
-    let mut request = request(args)?;
+    // The knobs are checked before the scene is read (a unit radius stands
+    // in for the scene's until then), so a bad option is named first.
+    let mut request = request(args, 1.0)?;
     if args.out.is_none() && args.image.is_none() {
         return Err(Error::param(
             "--out",
@@ -72,6 +75,9 @@ pub fn run(args: &SsaoArgs) -> Result<Value> {
     args.choice.choose(&mut scene)?;
     crate::io::warn(&scene.warnings);
     penumbra::ssao::gbuffer::validate_lights(&scene.lights)?;
+    if args.knobs.radius.is_none() {
+        request = self::request(args, penumbra::ssao::suggested_radius(&scene))?;
+    }
     let bounds = scene.world_mesh(|_| true).bounds();
     request.view.camera = scene.complete_camera(&request.view.camera, &bounds)?;
     let device = args.common.open_device_for(&penumbra::gpu::device::Needs::SSAO)?;

@@ -8,7 +8,7 @@ use serde_json::Value;
 use crate::args::{CameraArgs, CameraChoice, Common, check_outputs, load_input};
 use crate::options::mlrta::TraceOptions;
 use penumbra::error::Result;
-use penumbra::io::image::ImageFormat;
+use penumbra::io::image::{Background, GreyStyle, ImageFormat, PngBits};
 use penumbra::mlrta::images::TraceImages;
 use penumbra::mlrta::runner::trace_view;
 use penumbra::scene::View;
@@ -26,9 +26,13 @@ pub struct TraceArgs {
     #[command(flatten)]
     pub knobs: TraceOptions,
     /// Image: |cos| between the ray and the hit triangle (shadowed hits at
-    /// a quarter): .png (linear grey, background transparent), .exr or .pfm.
+    /// a quarter): .png (linear grey), .exr or .pfm.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// --out and --aa-image: what shows where no surface is (black: opaque;
+    /// transparent: alpha 0, PNG and EXR).
+    #[arg(long, value_enum, default_value_t = Background::Black)]
+    pub background: Background,
     /// Map of the final tiles: brightness = entry point's subtree size (log),
     /// red = diverging tile, blue = the search stopped at an occluder.
     #[arg(long)]
@@ -58,8 +62,12 @@ pub fn run(args: &TraceArgs) -> Result<Value> {
         (&args.aa_image, "--aa-image"),
         (&args.dump_rays, "--dump-rays"),
     ])?;
-    o[0].map(|p| ImageFormat::check(p, "--out")).transpose()?;
-    o[2].map(|p| ImageFormat::check(p, "--aa-image")).transpose()?;
+    let style = GreyStyle {
+        bits: PngBits::Eight,
+        background: args.background,
+    };
+    o[0].map(|p| style.check(p, "--out")).transpose()?;
+    o[2].map(|p| style.check(p, "--aa-image")).transpose()?;
     o[1].map(|p| ImageFormat::check_png(p, "--tiles-image")).transpose()?;
     let mut scene = load_input(args.mesh.as_deref(), args.scene.as_deref())?;
     args.choice.choose(&mut scene)?;
@@ -74,6 +82,7 @@ pub fn run(args: &TraceArgs) -> Result<Value> {
         tiles: o[1],
         aa_rays: o[2],
         rays: o[3],
+        background: args.background,
     };
     images.write(&image, &mesh)?;
     let report = crate::io::merged(args.common.report(&device, threads), &image.stats)?;

@@ -780,19 +780,23 @@ fn trace_with_camera_and_image() {
     assert_eq!(image::image_dimensions(&png).unwrap(), (32, 24));
 }
 
+/// Without --json stdout is a short summary for a person: aligned `label
+/// value` lines (what was computed, the device, the headline time, the
+/// files written), no JSON in any of them.
 #[test]
 fn without_json_stdout_is_a_readable_summary() {
     let out = trace("--width 8 --height 8");
     out.ok();
-    assert!(
-        out.stdout.contains("trace_ms"),
-        "the readable summary names the fields\n{}",
-        out.describe()
-    );
-    assert!(
-        serde_json::from_str::<Value>(&out.stdout).is_err(),
-        "without --json stdout is not JSON"
-    );
+    let lines: Vec<&str> = out.stdout.lines().collect();
+    let labels: Vec<&str> = lines.iter().filter_map(|l| l.split_whitespace().next()).collect();
+    assert_eq!(labels[..3], ["computed", "device", "time"], "{}", out.describe());
+    assert!(lines[0].starts_with("computed  trace: "), "{}", out.describe());
+    let column = lines[0].find("trace").unwrap();
+    for line in &lines {
+        assert!(!line.contains('{') && !line.contains('"'), "no JSON: {line}");
+        assert!(line.len() > column && line[..column].ends_with("  "), "aligned: {line}");
+    }
+    assert!(lines[2].contains(" ms (trace)"), "{}", out.describe());
 }
 
 // ---------------------------------------------------------------------------

@@ -606,3 +606,163 @@ fn an_interrupted_run_leaves_no_output_and_no_temporary() {
     assert!(temporaries().is_empty(), "temporaries left: {:?}", temporaries());
     assert!(!std::path::Path::new(&csv).exists(), "a partial output was left");
 }
+
+/// `asset`'s OBJ with every vertex scaled by `scale` and `extra` lines
+/// appended, written to `dir/name`.
+fn scaled_obj(dir: &TempDir, asset: &str, scale: f32, extra: &str, name: &str) -> String {
+    let text = std::fs::read_to_string(asset_s(asset)).unwrap();
+    let mut out = String::new();
+    for line in text.lines() {
+        match line.strip_prefix("v ") {
+            Some(rest) => {
+                let v: Vec<String> = rest
+                    .split_whitespace()
+                    .map(|x| (x.parse::<f32>().unwrap() * scale).to_string())
+                    .collect();
+                out += &format!("v {}\n", v.join(" "));
+            }
+            None => out += &format!("{line}\n"),
+        }
+    }
+    out += extra;
+    let path = dir.p(name);
+    std::fs::write(&path, out).unwrap();
+    path
+}
+
+/// Vertices no face uses are written (ao = 1) but left out of the mean:
+/// the JSON's mean_ao is the mean of the used vertices' CSV values and
+/// says so (`mean_over`, `used_vertices`).
+#[test]
+fn mean_ao_is_over_the_vertices_faces_use() {
+    let d = TempDir::new("out-unused");
+    let mesh = scaled_obj(
+        &d,
+        "corner.obj",
+        1.0,
+        "v 9 9 9\nv 9 9 8\nv 9 8 9\nv 8 9 9\n",
+        "corner.obj",
+    );
+    let csv = d.p("ao.csv");
+    let r = pen(
+        "ao --mesh {mesh} --method raycast --rays 16 --per-vertex {csv} --device cpu --json",
+        &[("mesh", &mesh), ("csv", &csv)],
+    );
+    let j = r.ok().json();
+    let ao: Vec<f64> = std::fs::read_to_string(&csv)
+        .unwrap()
+        .lines()
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect();
+    let used = ao.len() - 4;
+    assert!(ao[used..].iter().all(|&a| a == 1.0), "unused vertices read 1");
+    let v = &j["per_vertex"];
+    assert_eq!(v["vertices"], ao.len());
+    assert_eq!(v["without_normal"], 4);
+    assert_eq!(v["used_vertices"], used);
+    assert_eq!(v["mean_over"], "used_vertices");
+    let mean_used = ao[..used].iter().sum::<f64>() / used as f64;
+    let mean_all = ao.iter().sum::<f64>() / ao.len() as f64;
+    let mean = v["mean_ao"].as_f64().unwrap();
+    assert!((mean - mean_used).abs() < 1e-6, "{mean} vs {mean_used}");
+    assert!(
+        (mean - mean_all).abs() > 1e-5,
+        "the unused vertices would move the mean"
+    );
+    assert!(r.stderr.contains("left out of mean_ao"), "{}", r.describe());
+}
+
+/// A scanned-size model (the sphere on its plane, 300 times larger) with
+/// a radius meant for a unit scene: AO reads 1 everywhere, and stderr says
+/// so naming --radius with one to try; a radius at the scene's scale is
+/// not warned about.
+#[test]
+fn ao_of_one_everywhere_from_a_small_radius_is_warned_about() {
+    let d = TempDir::new("out-near-one");
+    let mesh = scaled_obj(&d, "sphere-on-plane.obj", 300.0, "", "big.obj");
+    let (csv, png) = (d.p("ao.csv"), d.p("ao.png"));
+    let r = pen(
+        "ao --mesh {mesh} --method raycast --rays 16 --radius 0.2 --per-vertex {csv} --device cpu --json",
+        &[("mesh", &mesh), ("csv", &csv)],
+    );
+    let j = r.ok().json();
+    assert!(j["per_vertex"]["mean_ao"].as_f64().unwrap() > 0.995, "{}", r.describe());
+    assert!(r.stderr.contains("AO is at least"), "{}", r.describe());
+    assert!(r.stderr.contains("--radius 0.2 is"), "{}", r.describe());
+    let r = pen(
+        "ao --mesh {mesh} --method raycast --rays 16 --radius 0.2 --width 40 --height 30 --image {png} --device cpu",
+        &[("mesh", &mesh), ("png", &png)],
+    );
+    assert!(
+        r.ok().stderr.contains("AO is at least"),
+        "the image too: {}",
+        r.describe()
+    );
+    let r = pen(
+        "ao --mesh {mesh} --method raycast --rays 16 --radius 60 --per-vertex {csv} --device cpu",
+        &[("mesh", &mesh), ("csv", &csv)],
+    );
+    assert!(!r.ok().stderr.contains("AO is at least"), "{}", r.describe());
+}
+
+/// ssao without --radius takes 5% of the scene's diagonal, so a model's
+/// scale does not decide what occludes: the sphere on its plane at 300
+/// times its size gives the same mean AO as at unit size; --radius 0.2 on
+/// the large one reads 1 everywhere, with a warning naming --radius.
+#[test]
+fn ssao_radius_defaults_to_the_scene_scale() {
+    let d = TempDir::new("out-ssao-scale");
+    let small = asset_s("sphere-on-plane.obj");
+    let big = scaled_obj(&d, "sphere-on-plane.obj", 300.0, "", "big.obj");
+    let out = d.p("ao.png");
+    let ssao = |mesh: &str, extra: &str| {
+        pen(
+            &format!(
+                "ssao --mesh {{mesh}} --estimator importance --spp 16 --width 48 --height 36 --reference-rays 0 \
+                 --screen-reference-spp 0 --out {{out}} --device cpu --json {extra}"
+            ),
+            &[("mesh", mesh), ("out", &out)],
+        )
+    };
+    let (s, b) = (ssao(&small, ""), ssao(&big, ""));
+    let (js, jb) = (s.ok().json(), b.ok().json());
+    let (rs, rb) = (js["radius"].as_f64().unwrap(), jb["radius"].as_f64().unwrap());
+    assert!((rb / rs - 300.0).abs() < 0.01, "{rs} {rb}");
+    let (ms, mb) = (js["mean_ao"].as_f64().unwrap(), jb["mean_ao"].as_f64().unwrap());
+    assert!(ms < 0.995 && (ms - mb).abs() < 1e-3, "{ms} {mb}");
+    assert!(!b.stderr.contains("AO is at least"), "{}", b.describe());
+    let r = ssao(&big, "--radius 0.2");
+    let j = r.ok().json();
+    assert!(j["mean_ao"].as_f64().unwrap() > 0.995, "{}", r.describe());
+    assert!(r.stderr.contains("--radius 0.2 is"), "{}", r.describe());
+}
+
+/// trace's images keep the convention of every grey image: opaque black
+/// where no surface is by default, alpha 0 there with `--background
+/// transparent`, which a PFM (no alpha) refuses.
+#[test]
+fn trace_images_have_the_ao_images_background() {
+    let d = TempDir::new("out-trace-background");
+    let mesh = asset_s("sphere-on-plane.obj");
+    let png = d.p("t.png");
+    let trace = |extra: &str| {
+        pen(
+            &format!("trace --mesh {{mesh}} --width 40 --height 30 --out {{png}} --device cpu {extra}"),
+            &[("mesh", &mesh), ("png", &png)],
+        )
+    };
+    trace("").ok();
+    let opaque = image::open(&png).unwrap().into_luma_alpha8();
+    let corner = opaque.get_pixel(0, 0).0;
+    assert_eq!(corner, [0, 255], "the sky corner is opaque black");
+    assert!(opaque.pixels().all(|p| p.0[1] == 255));
+    trace("--background transparent").ok();
+    let keyed = image::open(&png).unwrap().into_luma_alpha8();
+    assert_eq!(keyed.get_pixel(0, 0).0[1], 0, "alpha 0 where no surface is");
+    let pfm = d.p("t.pfm");
+    pen(
+        "trace --mesh {mesh} --width 40 --height 30 --out {pfm} --background transparent --device cpu",
+        &[("mesh", &mesh), ("pfm", &pfm)],
+    )
+    .bad_input(&["--out"]);
+}

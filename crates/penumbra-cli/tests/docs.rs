@@ -339,3 +339,62 @@ fn quoted_cargo_targets_exist() {
     }
     assert!(missing.is_empty(), "quoted targets that do not exist: {missing:?}");
 }
+
+/// docs/guide/sweep.md quotes what its two commands printed: the settings
+/// and repeats it states are those of the command shown (its `--grid`s over
+/// the method's default grid, its `--repeat`), and the SSAO image size is
+/// the command's `--width`x`--height`.
+#[test]
+fn the_sweep_guide_quotes_its_own_commands() {
+    let path = root().join("docs/guide/sweep.md");
+    let (blocks, text) = split(&path);
+    let commands = blocks[0].text.replace("\\\n", " ");
+    let prose = text.split_whitespace().collect::<Vec<_>>().join(" ");
+    let cases: [(&str, &[penumbra::tune::Knob], &str); 2] = [
+        ("ssao", penumbra::ssao::tune::KNOBS, "SSAO on the bunny"),
+        (
+            "field",
+            penumbra::field::tune::KNOBS,
+            "Fields of the bunny over a ground",
+        ),
+    ];
+    for (method, knobs, label) in cases {
+        let line = commands
+            .lines()
+            .find(|l| l.contains(&format!("sweep {method} ")))
+            .unwrap_or_else(|| panic!("no `sweep {method}` command in {}", path.display()));
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let after = |option: &str| -> Vec<String> {
+            words
+                .windows(2)
+                .filter(|w| w[0] == option)
+                .map(|w| w[1].trim_matches('\'').to_string())
+                .collect()
+        };
+        let settings = penumbra::tune::Grid::parse(&after("--grid"), knobs)
+            .unwrap()
+            .settings()
+            .len();
+        let repeat: u32 = after("--repeat").first().map_or(3, |r| r.parse().unwrap());
+        let plural = if repeat == 1 { "" } else { "s" };
+        let quote = prose
+            .split(label)
+            .nth(1)
+            .unwrap_or_else(|| panic!("{label:?} not in {}", path.display()));
+        let stated = format!("({settings} settings x {repeat} repeat{plural}");
+        assert!(
+            quote.starts_with(&format!(" {stated}")),
+            "{}: `sweep {method}` as shown runs {stated}), the text says {:?}",
+            path.display(),
+            &quote[..quote.len().min(60)]
+        );
+        if let (Some(w), Some(h)) = (after("--width").first(), after("--height").first()) {
+            let size = format!("at {w}x{h}");
+            assert!(
+                quote[..quote.len().min(200)].contains(&size),
+                "{}: `sweep {method}` as shown draws {size}",
+                path.display()
+            );
+        }
+    }
+}

@@ -100,3 +100,55 @@ fn the_library_docs_build_without_a_warning() {
     assert!(out.status.success(), "cargo doc -p penumbra failed:\n{stderr}");
     assert!(!stderr.contains("warning:"), "{stderr}");
 }
+
+/// Every crate's features as `cargo tree` resolves them over the workspace
+/// with `edges` (a crate built twice, e.g. as a build dependency, keeps
+/// each set).
+fn features(edges: &str) -> std::collections::BTreeMap<String, std::collections::BTreeSet<String>> {
+    let out = Command::new(env!("CARGO"))
+        .args([
+            "tree",
+            "--workspace",
+            "-e",
+            edges,
+            "-f",
+            "{p} {f}",
+            "--prefix",
+            "none",
+            "--offline",
+        ])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("cargo tree runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let mut map = std::collections::BTreeMap::<String, std::collections::BTreeSet<String>>::new();
+    for line in String::from_utf8_lossy(&out.stdout).lines() {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        if words.len() < 2 {
+            continue;
+        }
+        let last = words[words.len() - 1];
+        let listed = words.len() > 2 && !last.starts_with('(') && !last.ends_with(')');
+        let features = if listed { last } else { "" };
+        map.entry(format!("{} {}", words[0], words[1]))
+            .or_default()
+            .insert(features.to_string());
+    }
+    map
+}
+
+/// `cargo test --release` (dev-dependencies included) and `cargo run
+/// --release` (without them) resolve every crate the binary uses with the
+/// same features, so the binary after the suite is the suite's build and
+/// the README's first job starts at once.
+#[test]
+fn the_test_build_and_the_binary_resolve_the_same_features() {
+    let with_dev = features("normal,build,dev");
+    let without = features("normal,build");
+    let differing: Vec<String> = without
+        .iter()
+        .filter(|(name, f)| with_dev.get(*name).is_some_and(|d| d != *f))
+        .map(|(name, f)| format!("{name}: binary {f:?}, tests {:?}", with_dev[name]))
+        .collect();
+    assert!(differing.is_empty(), "features differ:\n{}", differing.join("\n"));
+}

@@ -91,7 +91,7 @@ pub fn with_method<R>(
         SweepKind::Ssao => {
             let scene = load_input_in(inputs.mesh, inputs.scene, inputs.data_dir)?;
             let bounds = scene.world_mesh(|_| true).bounds();
-            let radius = inputs.radius.unwrap_or(0.05 * bounds.diagonal());
+            let radius = inputs.radius.unwrap_or_else(|| crate::ssao::suggested_radius(&scene));
             let camera = scene.complete_camera(&view.camera, &bounds)?;
             let view = View { camera, ..view };
             let truth = rays.unwrap_or(256);

@@ -22,9 +22,10 @@ pub struct SsaoOptions {
     /// estimated on 2048 pixels, is within this at 95% confidence (cached per scene).
     #[arg(long, allow_negative_numbers = true)]
     pub max_error: Option<f64>,
-    /// Neighbourhood radius R (scene units).
+    /// Neighbourhood radius R (scene units) [default: 5% of the scene's
+    /// bounding-box diagonal].
     #[arg(long, allow_negative_numbers = true)]
-    pub radius: f32,
+    pub radius: Option<f32>,
     /// Fuzzy measure mu(r).
     #[arg(long, value_enum, default_value_t = MeasureKind::Poly4)]
     pub measure: MeasureKind,
@@ -59,13 +60,16 @@ pub struct SsaoOptions {
 
 impl SsaoOptions {
     /// The checked settings with the sample sequence's `seed` (without
-    /// --estimator/--spp, as --max-error allows: its starting point).
-    pub fn settings(&self, seed: u32) -> Result<SsaoSettings> {
+    /// --estimator/--spp, as --max-error allows: its starting point), and
+    /// `scene_radius` without --radius (`ssao::suggested_radius` of the
+    /// scene).
+    pub fn settings(&self, seed: u32, scene_radius: f32) -> Result<SsaoSettings> {
+        let radius = self.radius.unwrap_or(scene_radius);
         let settings = SsaoSettings {
             estimator: self.estimator.unwrap_or(Estimator::Importance),
             spp: self.spp.unwrap_or(16),
-            radius: self.radius,
-            measure: Measure::new(self.measure, self.sigma, self.radius)?,
+            radius,
+            measure: Measure::new(self.measure, self.sigma, radius)?,
             steps: self.steps,
             interleave: self.interleave.on(),
             filter: self.filter.on(),

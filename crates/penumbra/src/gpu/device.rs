@@ -16,14 +16,31 @@ use crate::gpu::GpuContext;
 pub use crate::gpu::{AdapterSettings, AdapterSummary, LimitsChoice, enumerate_adapters};
 
 /// Which device a user asks for.
+///
+/// | choice | hardware GPU | only a software GPU (lavapipe) | no adapter |
+/// |---|---|---|---|
+/// | `Auto` | the GPU | the CPU | the CPU |
+/// | `GpuIfAny` | the GPU | the software GPU | the CPU |
+/// | `Gpu` | the GPU | the software GPU | an error |
+/// | `Cpu` | the CPU | the CPU | the CPU |
+///
+/// `Auto` and `GpuIfAny` are automatic choices: a method whose GPU path the
+/// adapter cannot run moves to the CPU (`Device::require`). The CLI's
+/// `--device` offers `auto`, `gpu` and `cpu`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-#[serde(rename_all = "lowercase")]
+#[serde(rename_all = "snake_case")]
 pub enum DeviceChoice {
     /// A hardware GPU adapter if there is one, else the CPU (a software
     /// adapter such as lavapipe is slower than the CPU path on the same cores).
     #[default]
     Auto,
+    /// Any GPU adapter, software ones included, else the CPU: for a host
+    /// that wants its work on "the GPU if there is one" (e.g. to test its
+    /// GPU path on a machine with lavapipe only) without failing where
+    /// there is none.
+    #[cfg_attr(feature = "clap", value(skip))]
+    GpuIfAny,
     /// The best GPU adapter, software ones included; an error if there is none.
     Gpu,
     /// The CPU reference path.
@@ -134,8 +151,8 @@ impl Device {
     }
 
     /// Opens what `choice` names: `Gpu` fails without an adapter, `Auto`
-    /// falls back to the CPU (see `fallback_reason`), `Cpu` never touches
-    /// the GPU.
+    /// (hardware adapters only) and `GpuIfAny` (software ones too) fall
+    /// back to the CPU (see `fallback_reason`), `Cpu` never touches the GPU.
     pub fn open(choice: DeviceChoice) -> Result<Device> {
         Device::open_with(choice, &AdapterSettings::default())
     }
@@ -146,17 +163,27 @@ impl Device {
         match choice {
             DeviceChoice::Cpu => Ok(Device::cpu()),
             DeviceChoice::Gpu => GpuContext::headless_on(AdapterKinds::Any, options).map(Device::gpu),
-            DeviceChoice::Auto => Ok(match GpuContext::headless_on(AdapterKinds::Hardware, options) {
-                Ok(ctx) => Device {
-                    automatic: true,
-                    ..Device::gpu(ctx)
-                },
-                Err(e) => Device {
-                    automatic: true,
-                    fallback: Some(e),
-                    ..Device::cpu()
-                },
-            }),
+            DeviceChoice::Auto => Ok(Device::automatic(GpuContext::headless_on(
+                AdapterKinds::Hardware,
+                options,
+            ))),
+            DeviceChoice::GpuIfAny => Ok(Device::automatic(GpuContext::headless_on(AdapterKinds::Any, options))),
+        }
+    }
+
+    /// An automatic choice's device: the adapter opened, else the CPU
+    /// with the reason.
+    fn automatic(opened: Result<GpuContext>) -> Device {
+        match opened {
+            Ok(ctx) => Device {
+                automatic: true,
+                ..Device::gpu(ctx)
+            },
+            Err(e) => Device {
+                automatic: true,
+                fallback: Some(e),
+                ..Device::cpu()
+            },
         }
     }
 

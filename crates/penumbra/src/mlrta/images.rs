@@ -6,7 +6,7 @@ use std::path::Path;
 
 use super::runner::TracedImage;
 use crate::error::Result;
-use crate::io::image::{GreyStyle, write_grey, write_rgb_png};
+use crate::io::image::{Background, GreyStyle, PngBits, write_grey, write_rgb_png};
 use crate::io::rays::write_rays;
 use crate::scene::Mesh;
 
@@ -21,12 +21,19 @@ pub struct TraceImages<'a> {
     pub aa_rays: Option<&'a Path>,
     /// The primary rays, in the ray-file format.
     pub rays: Option<&'a Path>,
+    /// What the shading and anti-aliasing images show where no surface is:
+    /// black (opaque, the default of every grey image) or transparent.
+    pub background: Background,
 }
 
 impl TraceImages<'_> {
     /// Writes what `image` (of `mesh`) has of the wanted images.
     pub fn write(&self, image: &TracedImage, mesh: &Mesh) -> Result<()> {
         let (w, h) = (image.width, image.height);
+        let style = GreyStyle {
+            bits: PngBits::Eight,
+            background: self.background,
+        };
         if let Some(path) = self.rays {
             write_rays(path, &image.rays)?;
         }
@@ -34,10 +41,10 @@ impl TraceImages<'_> {
             write_rgb_png(path, w, h, &image.tile_map())?;
         }
         if let (Some(path), Some(rays)) = (self.aa_rays, image.aa_rays()) {
-            write_grey(path, w, h, &rays, GreyStyle::keyed(path))?;
+            write_grey(path, w, h, &rays, style)?;
         }
         if let Some(path) = self.shading {
-            write_grey(path, w, h, &image.shading(mesh), GreyStyle::keyed(path))?;
+            write_grey(path, w, h, &image.shading(mesh), style)?;
         }
         Ok(())
     }

@@ -35,9 +35,15 @@ pub struct VertexSummary {
     pub file: String,
     /// Vertices written: the receivers'.
     pub vertices: usize,
-    /// Vertices no triangle of non-zero area uses (ao = 1, no rays).
+    /// Vertices no triangle of non-zero area uses (ao = 1, no rays): written,
+    /// but left out of `mean_ao`.
     pub without_normal: usize,
-    /// Mean AO over the vertices (in [0, 1], 1 open).
+    /// Vertices some triangle of non-zero area uses: those `mean_ao` is over.
+    pub used_vertices: usize,
+    /// What `mean_ao` is over: always `"used_vertices"`, so that a reader
+    /// of the JSON need not guess whether unused vertices (ao = 1) count.
+    pub mean_over: &'static str,
+    /// Mean AO over the used vertices (in [0, 1], 1 open); 0 when none is used.
     pub mean_ao: f64,
     /// Ray casting's time for the vertices (the field runner reports per frame instead).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -98,23 +104,28 @@ impl AoOutputs<'_> {
             if v.without_normal > 0 {
                 written.notes.push(format!(
                     "{} vertices are used by no triangle of non-zero area; they have no normal, cast no rays and \
-                     are reported as ao = 1",
+                     are written as ao = 1 and left out of mean_ao",
                     v.without_normal
                 ));
             }
-            written.notes.extend(near_zero_warning(&v.ao, radius, scene));
+            let used_ao = used_values(scene, frame, &v.ao)?;
+            written.notes.extend(near_zero_warning(&used_ao, radius, scene));
+            written.notes.extend(near_one(&used_ao, radius, scene));
             write_vertex_ao(path, scene, frame, &v.ao)?;
             written.per_vertex = Some(VertexSummary {
                 file: path.display().to_string(),
                 vertices: v.ao.len(),
                 without_normal: v.without_normal,
-                mean_ao: mean(&v.ao),
+                used_vertices: used_ao.len(),
+                mean_over: "used_vertices",
+                mean_ao: mean(&used_ao),
                 ao_ms: (v.ms > 0.0).then_some(v.ms),
             });
         }
         if let (Some(path), Some(image)) = (self.image, image) {
             let values: Vec<f32> = image.values.iter().flatten().copied().collect();
             written.notes.extend(near_zero_warning(&values, radius, scene));
+            written.notes.extend(near_one(&values, radius, scene));
             write_grey(path, image.width, image.height, &image.values, self.style)?;
             written.image = Some(ImageSummary::of(path, image));
         }
@@ -149,6 +160,31 @@ impl AoOutputs<'_> {
             .flatten()
             .any(|p| frame_path(p, 0).is_some())
     }
+}
+
+/// The warning for AO about 1 everywhere under a finite `radius` far below
+/// the scene's size (`report::near_one_warning`), suggesting a tenth of it.
+fn near_one(ao: &[f32], radius: Option<f32>, scene: &Scene) -> Option<String> {
+    let radius = radius?;
+    let size = scene.world_mesh(|_| true).bounds().diagonal();
+    crate::report::near_one_warning(ao, "radius", radius, size, 0.1 * size).map(|w| format!("warning: {w}"))
+}
+
+/// The values of `ao` (one per receiver vertex at `frame`) at the vertices
+/// some triangle of non-zero area uses: an unused vertex casts no rays and
+/// reads 1, which would pull a mean towards open. Values of another length
+/// than the receivers' vertices are all kept.
+pub fn used_values(scene: &Scene, frame: u32, ao: &[f32]) -> Result<Vec<f32>> {
+    let normals = super::runner::receivers(scene, frame)?.vertex_normals();
+    if normals.len() != ao.len() {
+        return Ok(ao.to_vec());
+    }
+    Ok(ao
+        .iter()
+        .zip(&normals)
+        .filter(|(_, n)| **n != glam::Vec3::ZERO)
+        .map(|(&a, _)| a)
+        .collect())
 }
 
 impl ImageSummary {

@@ -89,8 +89,8 @@ impl Ssao {
         run(&self.device, &self.scene, request, &self.progress)
     }
 
-    /// A radius R for this scene: 5% of its bounding box's diagonal.
+    /// A radius R for this scene: [`suggested_radius`](super::suggested_radius).
     pub fn suggested_radius(&self) -> f32 {
-        0.05 * self.scene.world_mesh(|_| true).bounds().diagonal()
+        super::suggested_radius(&self.scene)
     }
 }

@@ -121,6 +121,18 @@ pub struct SsaoSettings {
 /// `Ssao::suggested_radius`), the fourth-order polynomial measure,
 /// interleaving, filter and calibration on, full resolution, the default
 /// seed.
+/// The fraction of a scene's size (its bounding box's diagonal) that
+/// [`suggested_radius`] gives.
+pub const RADIUS_OF_SIZE: f32 = 0.05;
+
+/// A neighbourhood radius R for `scene`: [`RADIUS_OF_SIZE`] of its bounding
+/// box's diagonal, so that a model's scale (millimetres or metres, a scan
+/// 300 units across) does not decide what occludes. The CLI's `ssao`
+/// without `--radius` and `sweep ssao` use it.
+pub fn suggested_radius(scene: &crate::scene::Scene) -> f32 {
+    RADIUS_OF_SIZE * scene.world_mesh(|_| true).bounds().diagonal()
+}
+
 impl Default for SsaoSettings {
     fn default() -> Self {
         SsaoSettings::new(Estimator::Importance, 16, 1.0)

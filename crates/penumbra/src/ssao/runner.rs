@@ -261,6 +261,19 @@ pub fn run(device: &Device, scene: &Scene, request: &SsaoRequest, bars: &Reporte
         screen_reference(&gb, &view, settings, request.reference_spp, &progress)
     });
     let mut report = SsaoReport::new(request, &camera, &gb, &frame, &truth, &reference);
+    let surface_ao: Vec<f32> = (0..gb.pixels())
+        .filter(|&i| gb.is_surface(i))
+        .map(|i| frame.ao[i])
+        .collect();
+    let size = mesh.bounds().diagonal();
+    let suggested = super::RADIUS_OF_SIZE * size;
+    warnings.extend(crate::report::near_one_warning(
+        &surface_ao,
+        "radius",
+        settings.radius,
+        size,
+        suggested,
+    ));
     report.build_ms = tree.get().map_or(0.0, |t| t.kdtree().stats.build_ms);
     report.weightless_sets = table.weightless_sets;
     report.runs = Some(RunTimes::of("frame_ms", request.runs.warmup, runs_ms));
