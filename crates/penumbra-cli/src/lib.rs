@@ -367,6 +367,7 @@ impl Command {
             Command::Ssao(_) => "ssao",
             Command::Raytrace(_) => "raytrace",
             Command::Sweep(_) => "sweep",
+            Command::Bench(_) => "bench",
             Command::Merge(_) => "merge",
             Command::GenAssets(_) => "gen-assets",
         }

@@ -782,3 +782,51 @@ pub fn csv_text(report: &BenchReport) -> String {
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The first rays `embree_bench assets/corner.obj --gen-rays 3 OUT`
+    /// wrote (Embree 3.13.5's tool, its own OBJ loader): the bench's random
+    /// rays are the ones the Embree baseline traces.
+    #[test]
+    fn random_rays_are_embree_benchs() {
+        const EMBREE: [[f32; 6]; 3] = [
+            [
+                0.168_229_85,
+                0.847_273_9,
+                -0.706_991_8,
+                -0.105_705_72,
+                -0.428_723_45,
+                0.897_230_5,
+            ],
+            [
+                0.619_844_9,
+                -0.782_419_7,
+                0.331_071_7,
+                0.290_216_06,
+                0.922_929_5,
+                0.252_934_7,
+            ],
+            [
+                -0.667_151_1,
+                0.926_586_03,
+                0.121_473_31,
+                0.898_930_55,
+                -0.423_114_15,
+                -0.113_570_43,
+            ],
+        ];
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/corner.obj");
+        let mesh = crate::scene::load_mesh(&path).unwrap();
+        let rays = random_rays(&mesh, 3);
+        for (ray, want) in rays.iter().zip(EMBREE) {
+            let [o, d] = [ray.origin, ray.dir];
+            let got = [o[0], o[1], o[2], d[0], d[1], d[2]];
+            let worst = got.iter().zip(want).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
+            println!("worst component difference {worst:e}");
+            assert!(worst < 1e-6, "{got:?} != {want:?}");
+        }
+    }
+}
