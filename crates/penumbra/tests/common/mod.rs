@@ -11,8 +11,41 @@ use penumbra::gpu::device::Device;
 /// missing adapter fails the test instead of skipping its GPU half, so a
 /// broken adapter set-up cannot pass as "no GPU here".
 pub fn gpu_required() -> bool {
-    let ci = std::env::var("CI").is_ok_and(|v| !matches!(v.trim(), "" | "false" | "0"));
-    ci || std::env::var("PENUMBRA_REQUIRE_GPU").is_ok_and(|v| v == "1")
+    on_ci() || std::env::var("PENUMBRA_REQUIRE_GPU").is_ok_and(|v| v == "1")
+}
+
+/// Whether this is a CI run: `CI` set to anything but "", "false" or "0".
+pub fn on_ci() -> bool {
+    std::env::var("CI").is_ok_and(|v| !matches!(v.trim(), "" | "false" | "0"))
+}
+
+/// Whether a test may rewrite its reference files instead of comparing:
+/// `PENUMBRA_BLESS=1` exactly (any other value, "0" included, compares),
+/// and never on CI, where a rewritten file would pass by construction.
+pub fn bless() -> bool {
+    let asked = std::env::var("PENUMBRA_BLESS").is_ok_and(|v| v == "1");
+    if asked && on_ci() {
+        println!("PENUMBRA_BLESS=1 ignored on CI: the reference files are compared");
+    }
+    asked && !on_ci()
+}
+
+/// How many cases a fuzz test runs: `PENUMBRA_FUZZ_CASES` where set, else
+/// `default`. A value that is not a count, or (on CI) one below `default`,
+/// is refused: a suite run with 0 cases would pass every fuzz test.
+pub fn fuzz_cases(default: u32) -> u32 {
+    let Ok(value) = std::env::var("PENUMBRA_FUZZ_CASES") else {
+        return default;
+    };
+    let cases: u32 = value
+        .trim()
+        .parse()
+        .unwrap_or_else(|_| panic!("PENUMBRA_FUZZ_CASES={value:?} is not a count of cases"));
+    assert!(
+        !on_ci() || cases >= default,
+        "PENUMBRA_FUZZ_CASES={cases} is below this test's {default} cases, which CI does not allow"
+    );
+    cases
 }
 
 /// Where skipped GPU tests are listed, one line each, for the suite's last
