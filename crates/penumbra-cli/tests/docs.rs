@@ -4,6 +4,8 @@
 //! text names only options that subcommand has, and docs/reference/ is what
 //! `--help` prints (`PENUMBRA_BLESS=1` rewrites it).
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -121,7 +123,7 @@ fn help(command: &str) -> String {
 
 #[test]
 fn the_reference_pages_are_what_help_prints() {
-    let bless = std::env::var_os("PENUMBRA_BLESS").is_some();
+    let bless = common::bless();
     let mut stale = Vec::new();
     for command in COMMANDS {
         let page = root()

@@ -65,3 +65,19 @@ fn packets_equal_single_rays_on_shared_models() {
         compare(model, &mesh, 64);
     }
 }
+
+/// A run one point short is not equal to the full one, whatever the
+/// words it has in common say.
+#[test]
+fn masks_of_another_length_differ() {
+    let full = penumbra::raycast::VisibilityMasks {
+        rays_per_point: 32,
+        words_per_point: 1,
+        bits: vec![0xffff_0000; 4],
+    };
+    let mut short = full.clone();
+    short.bits.pop();
+    assert_eq!(full.differing_rays(&full), 0);
+    assert_eq!(full.differing_rays(&short), 128);
+    assert_eq!(short.differing_rays(&full), 128);
+}

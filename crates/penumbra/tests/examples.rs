@@ -59,8 +59,7 @@ fn host_ssao_example_equals_the_cpu_twin_on_the_hosts_gbuffer() {
     let dir = TempDir::new("host-ssao");
     let out = dir.0.join("host-ssao.png");
     let Some(frame) = host_ssao::run(&out).unwrap() else {
-        println!("no GPU adapter: host_ssao skipped");
-        return;
+        return common::skip_gpu("host_ssao", &"the example found none");
     };
     let (w, h) = (host_ssao::WIDTH, host_ssao::HEIGHT);
     let gb = GBuffer {
@@ -105,8 +104,7 @@ fn host_prt_example_equals_the_cpu_runner_and_ray_tracing() {
     let dir = TempDir::new("host-prt");
     let out = dir.0.join("host-prt.png");
     let Some(report) = host_prt::run(&out).unwrap() else {
-        println!("no GPU adapter: host_prt skipped");
-        return;
+        return common::skip_gpu("host_prt", &"the example found none");
     };
     let settings = host_prt::settings();
     let reference = RayTraced { rays: 64, seed: 7 };
@@ -184,8 +182,7 @@ fn host_ao_example_is_short_and_the_gpu_gives_the_cpus_ao() {
 #[test]
 fn host_field_example_equals_the_cpu_twin_every_frame_and_follows_the_ball() {
     let Some(report) = host_field::run().unwrap() else {
-        println!("no GPU adapter: host_field skipped");
-        return;
+        return common::skip_gpu("host_field", &"the example found none");
     };
     let owners = vec![NO_OWNER; report.points.len()];
     let rays = report.points.len() as u64 * report.settings.rays_per_point as u64;
@@ -268,8 +265,7 @@ fn host_whitted_example_draws_the_cpu_renderers_image_into_the_hosts_texture() {
     let out = dir.0.join("host-whitted.png");
     let scene_file = common::asset("raytrace").join("checker-spheres.json");
     let Some(report) = host_whitted::run(&scene_file, &out).unwrap() else {
-        println!("no GPU adapter: host_whitted skipped");
-        return;
+        return common::skip_gpu("host_whitted", &"the example found none");
     };
     let (w, h) = (host_whitted::WIDTH, host_whitted::HEIGHT);
     let scene = penumbra::scene::load_scene_shaded(&scene_file).unwrap();

@@ -68,10 +68,7 @@ fn accel(mesh: &Mesh) -> Accel {
 /// The fixed configuration: `cases` cases (or `PENUMBRA_FUZZ_CASES`), a
 /// seed of its own per test, nothing persisted.
 fn config(test: &str, cases: u32) -> Config {
-    let cases = std::env::var("PENUMBRA_FUZZ_CASES")
-        .ok()
-        .and_then(|n| n.parse().ok())
-        .unwrap_or(cases);
+    let cases = common::fuzz_cases(cases);
     let seed = test.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
         (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
     });

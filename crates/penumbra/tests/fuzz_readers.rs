@@ -88,6 +88,8 @@
 //! errors, seeds and regressions replayed), `inputs.rs` (edits and value
 //! generators), and a file per reader with its seeds, check and generators.
 
+mod common;
+
 #[path = "fuzz_readers/allocation.rs"]
 mod allocation;
 #[path = "fuzz_readers/camera_path.rs"]

@@ -150,9 +150,9 @@ fn passes_record_into_a_host_engines_encoder() {
         backends: wgpu::Backends::all() - wgpu::Backends::GL,
         ..wgpu::InstanceDescriptor::new_without_display_handle()
     });
-    let Ok(adapter) = pollster::block_on(instance.request_adapter(&Default::default())) else {
-        println!("no adapter: host-embedding test skipped");
-        return;
+    let adapter = match pollster::block_on(instance.request_adapter(&Default::default())) {
+        Ok(adapter) => adapter,
+        Err(e) => return common::skip_gpu("host-embedding test", &e),
     };
     let (device, queue) = pollster::block_on(adapter.request_device(&Default::default())).unwrap();
 

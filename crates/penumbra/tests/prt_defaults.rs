@@ -94,7 +94,15 @@ fn measured_error(prt: &Prt, case: &Case, pose: &[Vec3]) -> f64 {
         .flat_map(|&v| out.transfer[v * c..(v + 1) * c].to_vec())
         .collect();
     let floor = 0.01 * prt.tables.unoccluded.iter().map(|v| v * v).sum::<f32>().sqrt();
-    relative_l2_error(&mine, &reference, c, floor).0
+    let (error, counted, skipped) = relative_l2_error(&mine, &reference, c, floor);
+    // The mean is over the vertices above the floor only: with none (or
+    // few) of them counted, a wrong transfer would pass as error 0.
+    assert!(
+        counted >= 9 * at.len() / 10,
+        "only {counted} of {} vertices counted ({skipped} below the floor)",
+        at.len()
+    );
+    error
 }
 
 /// Default settings: error <= 3% on every pose, and the self-check's

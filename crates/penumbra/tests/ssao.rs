@@ -220,6 +220,16 @@ fn nan_and_far_plane_depths_are_background() {
             "{}",
             estimator.name()
         );
+        assert_eq!(f.ao.len(), n);
+        // The pixels of no finite depth are background: fully open.
+        for i in (0..n).step_by(7).chain((3..n).step_by(11)) {
+            assert_eq!(
+                f.ao[i],
+                1.0,
+                "{}: pixel {i}, of NaN or infinite depth",
+                estimator.name()
+            );
+        }
     }
 }
 

@@ -138,17 +138,10 @@ pub fn asset_s(name: &str) -> String {
     asset(name).to_str().unwrap().to_string()
 }
 
+/// Whether the binary's GPU runs can be tested here: `false` skips them
+/// (`skip_gpu`: counted, or a failure where a GPU is expected).
 pub fn gpu_available() -> bool {
-    match penumbra::gpu::GpuContext::headless() {
-        Ok(ctx) => {
-            println!("GPU adapter: {}", ctx.name);
-            true
-        }
-        Err(e) => {
-            println!("no GPU adapter ({e}): GPU test skipped");
-            false
-        }
-    }
+    super::gpu().is_some()
 }
 
 /// The sky and ground of the probe most PRT tests light with.

@@ -18,9 +18,12 @@ pub enum TraceReason {
     Eye,
     /// Its ray hit another face of the object than the cell's rays.
     Mismatch,
-    /// Epsilon 0, or the eye inside glass: the frame is the Whitted
+    /// Epsilon 0: the frame is the Whitted renderer's own.
+    EpsilonZero,
+    /// The eye inside glass (a medium around it): no linetree is built
+    /// for lines that start inside a medium, so the frame is the Whitted
     /// renderer's own.
-    Exact,
+    EyeInMedium,
     /// Its hit lies within rounding of an edge of its surface's texture,
     /// where the renderer's own hit point could fall in the other check.
     TextureEdge,
@@ -62,8 +65,8 @@ pub struct PathCounts {
     /// Pixels `PixelPath::Traced`, whatever the reason.
     pub traced: u64,
     /// Traced pixels by the reason: a `Failure`'s name (`topology`,
-    /// `nonlinear`, ...), `eye`, `face_mismatch`, `epsilon_zero` or
-    /// `texture_edge`.
+    /// `nonlinear`, ...), `eye`, `face_mismatch`, `epsilon_zero`,
+    /// `eye_in_medium` or `texture_edge`.
     pub traced_by: std::collections::BTreeMap<String, u64>,
 }
 
@@ -190,7 +193,8 @@ pub(crate) fn count_paths(paths: &[PixelPath], stats: &mut FrameStats) {
                 .unwrap_or_default(),
             TraceReason::Eye => "eye".into(),
             TraceReason::Mismatch => "face_mismatch".into(),
-            TraceReason::Exact => "epsilon_zero".into(),
+            TraceReason::EpsilonZero => "epsilon_zero".into(),
+            TraceReason::EyeInMedium => "eye_in_medium".into(),
             TraceReason::TextureEdge => "texture_edge".into(),
         };
         *p.traced_by.entry(name).or_default() += count;

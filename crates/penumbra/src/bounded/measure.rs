@@ -152,7 +152,7 @@ pub fn path_colour(path: PixelPath) -> [u8; 3] {
             TraceReason::Failure(Failure::Tir) => [255, 140, 0],
             TraceReason::Eye => [255, 255, 255],
             TraceReason::Mismatch => [128, 128, 128],
-            TraceReason::Exact => [60, 60, 60],
+            TraceReason::EpsilonZero | TraceReason::EyeInMedium => [60, 60, 60],
             TraceReason::TextureEdge => [0, 90, 230],
         },
     }

@@ -169,8 +169,12 @@ impl BoundedRenderer {
         let mut assigned: Vec<(u32, Assigned)> = Vec::new();
         // Pixels left to trace, with their primary hit where known.
         let mut slow: Vec<(u32, Option<(f32, u32)>)> = Vec::new();
-        let exact = self.settings.epsilon == 0.0 || params.media_len > 0;
-        if exact {
+        let exact = if self.settings.epsilon == 0.0 {
+            Some(TraceReason::EpsilonZero)
+        } else {
+            (params.media_len > 0).then_some(TraceReason::EyeInMedium)
+        };
+        if let Some(reason) = exact {
             // The Whitted renderer itself (packets or its kernel): the image
             // `--method whitted` makes, bit for bit.
             let t = Instant::now();
@@ -179,7 +183,7 @@ impl BoundedRenderer {
                 .render(camera, width, height, &self.settings.whitted, &Bar::hidden())?;
             stats.trace_ms = elapsed_ms(t);
             stats.rays_traced_slow_path = out.stats.rays.total();
-            paths.fill(PixelPath::Traced(TraceReason::Exact));
+            paths.fill(PixelPath::Traced(reason));
             count_paths(&paths, &mut stats);
             stats.frame_ms = elapsed_ms(start);
             self.last_used.clear();

@@ -305,10 +305,12 @@ impl GpuContext {
         let backend = format!("{:?}", info.backend).to_lowercase();
         install_error_handler(&device, format!("{} ({backend})", info.name));
         let capabilities = Capabilities::of_adapter(&adapter, &device);
-        Ok(GpuContext {
+        let ctx = GpuContext {
             capabilities,
             ..Self::adopt(device, queue, info.name.clone(), backend)
-        })
+        };
+        ctx.kernels.log.warm_up_on(&ctx.queue);
+        Ok(ctx)
     }
 
     /// Adopts a host engine's device and queue. Passes are built for this

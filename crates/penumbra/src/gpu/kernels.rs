@@ -4,6 +4,13 @@
 //! kernel set declares every entry point of its modules, a run pays only for
 //! the ones it uses, and the context's `PipelineLog` says which those were
 //! and what compiling them cost (apart from the passes' own timings).
+//!
+//! Creating a pipeline may return before the driver compiles it (lavapipe
+//! builds its machine code at the first dispatch): on a context that owns
+//! its queue (`GpuContext::headless`), each pipeline's first
+//! `record_dispatch` also submits an empty dispatch of it over the same
+//! bind groups and waits for it, so that cost lands in `compile_ms` and not
+//! in the first timed pass.
 
 use std::any::{Any, TypeId};
 use std::collections::HashMap;
@@ -53,6 +60,9 @@ pub trait Kernels: Any + Send + Sync + Sized {
 #[derive(Default)]
 pub struct PipelineLog {
     entries: Mutex<Vec<LogEntry>>,
+    /// The queue empty warm-up dispatches are submitted to; unset for a
+    /// host's device, whose queue penumbra must not stall.
+    warm_up: OnceLock<wgpu::Queue>,
 }
 
 struct LogEntry {
@@ -78,7 +88,8 @@ pub struct CompiledPipeline {
     pub name: String,
     /// Wall-clock milliseconds of creating the pipeline, and the shader
     /// module where this entry point was the first of its module to need
-    /// it (or has a variant of its own).
+    /// it (or has a variant of its own), and of its empty warm-up dispatch
+    /// where the context owns its queue (the driver's compile).
     pub ms: f64,
 }
 
@@ -93,6 +104,12 @@ impl PipelineLog {
                 entries.len() - 1
             }
         }
+    }
+
+    /// Dispatches each pipeline once (empty) on `queue` before its first
+    /// use, counting what the driver spends in `compile_ms`.
+    pub(crate) fn warm_up_on(&self, queue: &wgpu::Queue) {
+        let _ = self.warm_up.set(queue.clone());
     }
 
     fn compiled(&self, index: usize, ms: f64) {
@@ -134,16 +151,62 @@ pub struct Pipelines {
     layout: wgpu::PipelineLayout,
     shader: OnceLock<wgpu::ShaderModule>,
     entries: Vec<(&'static str, usize, OnceLock<wgpu::ComputePipeline>)>,
+    /// Per entry point, whether its empty warm-up dispatch has run.
+    warmed: Vec<OnceLock<()>>,
     /// Per entry point, the variant of the module it is compiled from,
     /// where it has its own.
     variants: Vec<Option<Composition>>,
     log: Arc<PipelineLog>,
 }
 
+/// One entry point of a `Pipelines`, as `record_dispatch` records it.
+#[derive(Clone, Copy)]
+pub struct Kernel<'a> {
+    pipelines: &'a Pipelines,
+    index: usize,
+}
+
+impl<'a> Kernel<'a> {
+    /// The compute pipeline, compiled now if it was not yet.
+    pub fn pipeline(&self) -> &'a wgpu::ComputePipeline {
+        self.pipelines.pipeline(self.index)
+    }
+
+    /// Submits an empty dispatch of the pipeline over `bind_groups` and
+    /// waits for it, once per entry point, where the log has a queue: the
+    /// driver's own compile then happens here, timed into `compile_ms`.
+    fn warm_up(&self, bind_groups: &[&wgpu::BindGroup]) {
+        let p = self.pipelines;
+        let Some(queue) = p.log.warm_up.get() else {
+            return;
+        };
+        p.warmed[self.index].get_or_init(|| {
+            let pipeline = self.pipeline();
+            let start = Instant::now();
+            let mut encoder = p.device.create_command_encoder(&Default::default());
+            record_pass(&mut encoder, "warm-up", None, pipeline, bind_groups, (0, 0));
+            queue.submit([encoder.finish()]);
+            // A failed wait shows up again, and is reported, at the real
+            // dispatch's read-back.
+            let _ = p.device.poll(wgpu::PollType::wait_indefinitely());
+            p.log
+                .compiled(p.entries[self.index].1, crate::gpu::device::elapsed_ms(start));
+        });
+    }
+}
+
 impl Pipelines {
-    /// The pipeline of entry point `i` (in the order given to
-    /// `compute_pipelines`), compiled now if it was not yet.
-    pub fn get(&self, i: usize) -> &wgpu::ComputePipeline {
+    /// Entry point `i` (in the order given to `compute_pipelines`), for
+    /// `record_dispatch`.
+    pub fn get(&self, i: usize) -> Kernel<'_> {
+        Kernel {
+            pipelines: self,
+            index: i,
+        }
+    }
+
+    /// The pipeline of entry point `i`, compiled now if it was not yet.
+    pub fn pipeline(&self, i: usize) -> &wgpu::ComputePipeline {
         let (entry, logged, cell) = &self.entries[i];
         cell.get_or_init(|| {
             let start = Instant::now();
@@ -210,14 +273,29 @@ pub fn compute_pipelines(
         layout,
         shader: OnceLock::new(),
         variants: vec![None; entry_points.len()],
+        warmed: entry_points.iter().map(|_| OnceLock::new()).collect(),
         entries,
         log: Arc::clone(log),
     }
 }
 
-/// Records one compute pass: `pipeline` with bind groups 0, 1, ... over a
-/// 2D grid of workgroups (from `gpu::dispatch_grid`).
+/// Records one compute pass: `kernel` with bind groups 0, 1, ... over a
+/// 2D grid of workgroups (from `gpu::dispatch_grid`). A kernel's first
+/// dispatch on a headless context is preceded by its warm-up (see the
+/// module's doc), submitted and waited for apart from `encoder`.
 pub fn record_dispatch(
+    encoder: &mut wgpu::CommandEncoder,
+    label: &str,
+    timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    kernel: Kernel<'_>,
+    bind_groups: &[&wgpu::BindGroup],
+    grid: (u32, u32),
+) {
+    kernel.warm_up(bind_groups);
+    record_pass(encoder, label, timestamp_writes, kernel.pipeline(), bind_groups, grid);
+}
+
+fn record_pass(
     encoder: &mut wgpu::CommandEncoder,
     label: &str,
     timestamp_writes: Option<wgpu::ComputePassTimestampWrites<'_>>,

@@ -251,8 +251,14 @@ impl VisibilityMasks {
             .collect()
     }
 
-    /// Number of rays whose result differs between two runs.
+    /// Number of rays whose result differs between two runs. Masks of
+    /// another shape (points, rays per point) differ in every ray of the
+    /// larger: pairing words would let a run that lost points compare equal.
     pub fn differing_rays(&self, other: &VisibilityMasks) -> u64 {
+        if self.bits.len() != other.bits.len() || self.rays_per_point != other.rays_per_point {
+            let rays = |m: &VisibilityMasks| m.points() as u64 * m.rays_per_point as u64;
+            return rays(self).max(rays(other)).max(1);
+        }
         self.bits
             .iter()
             .zip(&other.bits)

@@ -504,7 +504,7 @@ impl Kernels for SsaoKernels {
 
 impl SsaoKernels {
     /// The pipeline of `kernel`, compiled on first use.
-    fn pipeline(&self, kernel: SsaoKernel) -> &wgpu::ComputePipeline {
+    fn pipeline(&self, kernel: SsaoKernel) -> crate::gpu::kernels::Kernel<'_> {
         use SsaoKernel::*;
         match kernel {
             PackDepth => self.estimate.get(0),

@@ -6,8 +6,90 @@ use std::path::PathBuf;
 use penumbra::gpu::GpuContext;
 use penumbra::gpu::device::Device;
 
-/// The GPU if there is one. Tests must pass without an adapter: they then run
-/// their CPU half and say that the GPU half was skipped.
+/// Whether a GPU is expected: `CI` set to anything but "", "false" or "0"
+/// (as CI services set it), or `PENUMBRA_REQUIRE_GPU=1`. Where it is, a
+/// missing adapter fails the test instead of skipping its GPU half, so a
+/// broken adapter set-up cannot pass as "no GPU here".
+pub fn gpu_required() -> bool {
+    on_ci() || std::env::var("PENUMBRA_REQUIRE_GPU").is_ok_and(|v| v == "1")
+}
+
+/// Whether this is a CI run: `CI` set to anything but "", "false" or "0".
+pub fn on_ci() -> bool {
+    std::env::var("CI").is_ok_and(|v| !matches!(v.trim(), "" | "false" | "0"))
+}
+
+/// Whether a test may rewrite its reference files instead of comparing:
+/// `PENUMBRA_BLESS=1` exactly (any other value, "0" included, compares),
+/// and never on CI, where a rewritten file would pass by construction.
+pub fn bless() -> bool {
+    let asked = std::env::var("PENUMBRA_BLESS").is_ok_and(|v| v == "1");
+    if asked && on_ci() {
+        println!("PENUMBRA_BLESS=1 ignored on CI: the reference files are compared");
+    }
+    asked && !on_ci()
+}
+
+/// How many cases a fuzz test runs: `PENUMBRA_FUZZ_CASES` where set, else
+/// `default`. A value that is not a count, or (on CI) one below `default`,
+/// is refused: a suite run with 0 cases would pass every fuzz test.
+pub fn fuzz_cases(default: u32) -> u32 {
+    let Ok(value) = std::env::var("PENUMBRA_FUZZ_CASES") else {
+        return default;
+    };
+    let cases: u32 = value
+        .trim()
+        .parse()
+        .unwrap_or_else(|_| panic!("PENUMBRA_FUZZ_CASES={value:?} is not a count of cases"));
+    assert!(
+        !on_ci() || cases >= default,
+        "PENUMBRA_FUZZ_CASES={cases} is below this test's {default} cases, which CI does not allow"
+    );
+    cases
+}
+
+/// Where skipped GPU tests are listed, one line each, for the suite's last
+/// test binary (`crates/penumbra-cli/tests/zz_skips.rs`) to print and
+/// count: cargo runs each test file as its own process, so a count over
+/// the whole suite has to be kept outside them. Both crates' tests share
+/// the target directory, hence this file.
+pub fn skips_file() -> PathBuf {
+    PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("penumbra-skips.txt")
+}
+
+/// A GPU test part that cannot run because there is no adapter (`why`):
+/// panics where `gpu_required`, else prints the skip and lists it in
+/// `skips_file` as `cargo's pid <TAB> test binary <TAB> test <TAB> what <TAB>
+/// why` (the pid tells one `cargo test` run's skips from an earlier one's).
+pub fn skip_gpu(what: &str, why: &dyn std::fmt::Display) {
+    let why = why.to_string().replace(['\t', '\n'], " ");
+    assert!(
+        !gpu_required(),
+        "no GPU adapter ({why}), but CI or PENUMBRA_REQUIRE_GPU=1 expects one: {what} cannot be skipped"
+    );
+    println!("no GPU adapter ({why}): {what} skipped");
+    let binary = std::env::current_exe()
+        .ok()
+        .and_then(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .unwrap_or_default();
+    let binary = binary.split('-').next().unwrap_or_default().to_string();
+    let test = std::thread::current().name().unwrap_or("?").to_string();
+    let line = format!(
+        "{}\t{binary}\t{test}\t{what}\t{why}\n",
+        std::os::unix::process::parent_id()
+    );
+    use std::io::Write;
+    let _ = std::fs::create_dir_all(env!("CARGO_TARGET_TMPDIR"));
+    let file = std::fs::OpenOptions::new().create(true).append(true).open(skips_file());
+    // One write of a short line to a file opened for appending: lines of
+    // tests running at once do not interleave.
+    file.and_then(|mut f| f.write_all(line.as_bytes()))
+        .expect("the skipped-tests list is writable");
+}
+
+/// The GPU if there is one. Without an adapter, tests run their CPU half
+/// and the GPU half is skipped (`skip_gpu`: counted, or a failure where a
+/// GPU is expected).
 pub fn gpu() -> Option<GpuContext> {
     match GpuContext::headless() {
         Ok(ctx) => {
@@ -15,7 +97,7 @@ pub fn gpu() -> Option<GpuContext> {
             Some(ctx)
         }
         Err(e) => {
-            println!("no GPU adapter ({e}): GPU half skipped");
+            skip_gpu("GPU half", &e);
             None
         }
     }
@@ -36,7 +118,7 @@ pub fn portable_gpu() -> Option<GpuContext> {
             Some(ctx)
         }
         Err(e) => {
-            println!("no GPU adapter ({e}): portable-limits test skipped");
+            skip_gpu("portable-limits test", &e);
             None
         }
     }
