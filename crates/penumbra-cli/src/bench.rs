@@ -149,6 +149,7 @@ pub fn table(report: &BenchReport) -> String {
         "min ms",
         "median ms",
         "max ms",
+        "wall ms",
         "throughput",
         "error",
         "setup ms",
@@ -176,6 +177,7 @@ pub fn table(report: &BenchReport) -> String {
             format!("{:.2}", r.min_ms),
             format!("{:.2}", r.median_ms),
             format!("{:.2}", r.max_ms),
+            format!("{:.2}", r.wall_median_ms),
             format!("{:.2} {}", r.throughput, r.unit),
             r.error
                 .map_or("-".into(), |e| format!("{e:.3e} {}", r.error_measure.unwrap_or(""))),

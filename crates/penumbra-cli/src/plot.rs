@@ -225,7 +225,7 @@ fn draw_bench(pixels: &mut [u8], report: &penumbra::bench::BenchReport) -> DrawR
         .x_label_formatter(&label)
         .y_label_formatter(&tick)
         .disable_x_mesh()
-        .y_desc("time per run, ms (log)")
+        .y_desc("timed work per run, ms (log)")
         .axis_desc_style((FONT, 16))
         .label_style((FONT, 14))
         .draw()?;

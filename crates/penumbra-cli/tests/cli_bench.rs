@@ -32,6 +32,11 @@ fn check_rows(json: &serde_json::Value, devices: usize, threads: &[u64]) {
         );
         assert!(lo > 0.0 && lo <= mid && mid <= hi, "{r}");
         assert_eq!(r["ms"].as_array().unwrap().len(), 2, "two measured runs: {r}");
+        let (wlo, whi) = (r["wall_min_ms"].as_f64().unwrap(), r["wall_max_ms"].as_f64().unwrap());
+        assert!(
+            wlo > 0.0 && wlo <= r["wall_median_ms"].as_f64().unwrap() && r["wall_median_ms"].as_f64().unwrap() <= whi,
+            "{r}"
+        );
         assert!(r["throughput"].as_f64().unwrap() > 0.0, "{r}");
         let with_truth = matches!(method, "primary" | "ssao");
         assert_eq!(r["error"].is_number(), with_truth, "{r}");
@@ -78,6 +83,13 @@ fn bench_writes_a_row_per_method_device_and_thread_count() {
         .collect();
     assert_eq!(table.len(), 10, "{}", r.stdout);
     assert!(r.stdout.starts_with("method"), "{}", r.stdout);
+    // Aligned: each row's throughput starts under the header's.
+    let column = r.stdout.lines().next().unwrap().find("throughput").unwrap();
+    for line in &table {
+        let unit = line.find(" Mrays/s").or_else(|| line.find(" fps")).unwrap();
+        let start = line[..unit].rfind(' ').unwrap() + 1;
+        assert_eq!(start, column, "{}", r.stdout);
+    }
 }
 
 #[test]

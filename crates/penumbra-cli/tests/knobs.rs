@@ -1,5 +1,6 @@
 //! Every numeric knob at both ends of its allowed range, and just outside:
-//! inside, exit 0 and a JSON report whose numbers are
+//! inside, exit 0, an answer that keeps the invariants its inputs fix
+//! (`answer_holds`) and a JSON report whose numbers are
 //! finite (serde writes a non-finite number as null: the figures each
 //! command must report are checked to be numbers); outside, exit 2 naming
 //! the option and its range. On the CPU, with an 8-vertex mesh
@@ -142,6 +143,74 @@ fn with_option(line: &str, option: &str, value: &str) -> String {
     }
 }
 
+/// What an in-range run's answer must satisfy, whatever the knob's value:
+/// an invariant its inputs fix (the 8 vertices of `wall-on-floor.obj`, the
+/// image's size, ray-cast AO a whole number of escaped rays over the rays
+/// cast, hits among the primary rays, a lit Whitted image).
+fn answer_holds(knob: &Knob, value: &str, json: &serde_json::Value, out: &str) -> Result<(), String> {
+    let image = |w: u32, h: u32| -> Result<image::RgbaImage, String> {
+        let img = image::open(format!("{out}.png"))
+            .map_err(|e| format!("{out}.png: {e}"))?
+            .to_rgba8();
+        match img.dimensions() == (w, h) {
+            true => Ok(img),
+            false => Err(format!("{out}.png is {:?}, not {w}x{h}", img.dimensions())),
+        }
+    };
+    match knob.command {
+        "ao" | "ao-field" => {
+            let csv = std::fs::read_to_string(format!("{out}.csv")).map_err(|e| format!("{out}.csv: {e}"))?;
+            let rays: f64 = match (knob.command, knob.option) {
+                ("ao", "rays") => value.parse().unwrap(),
+                ("ao", _) => 4.0,
+                _ => 0.0,
+            };
+            let rows: Vec<&str> = csv.lines().collect();
+            if rows.len() != 8 {
+                return Err(format!("{} rows for 8 vertices", rows.len()));
+            }
+            for (i, row) in rows.iter().enumerate() {
+                let (index, ao) = row.split_once(',').ok_or(format!("row {row:?}"))?;
+                let ao: f64 = ao.parse().map_err(|_| format!("row {row:?}"))?;
+                let whole = rays == 0.0 || ((ao * rays).round() - ao * rays).abs() < 1e-6 * rays.max(1.0);
+                if index != i.to_string() || !(0.0..=1.0).contains(&ao) || !whole {
+                    return Err(format!("row {row:?}: AO outside [0, 1] or not escaped/{rays}"));
+                }
+            }
+            Ok(())
+        }
+        "ao-image" => image(8, 8).map(drop),
+        "ssao" | "ssao-exp" | "ssao-raymarch" => {
+            let mean = json["mean_ao"].as_f64().ok_or("no mean_ao")?;
+            match (0.0..=1.0).contains(&mean) {
+                true => image(16, 16).map(drop),
+                false => Err(format!("mean_ao {mean}")),
+            }
+        }
+        "prt" => image(16, 16).map(drop),
+        "trace" => {
+            let (hits, rays) = (
+                json["hits"].as_u64().ok_or("no hits")?,
+                json["rays"].as_u64().ok_or("no rays")?,
+            );
+            match rays == 256 && (1..=rays).contains(&hits) {
+                true => Ok(()),
+                false => Err(format!("{hits} hits of {rays} rays (16x16, the scene framed)")),
+            }
+        }
+        "raytrace" | "bounded" => {
+            let img = image(8, 8)?;
+            // An exposure of 1e-30 makes any radiance black.
+            let dark = knob.option == "exposure" && value.parse::<f64>().is_ok_and(|e| e < 1e-6);
+            match dark || img.pixels().any(|p| p[0] > 0 || p[1] > 0 || p[2] > 0) {
+                true => Ok(()),
+                false => Err("every pixel black".into()),
+            }
+        }
+        other => Err(format!("no answer check for {other}")),
+    }
+}
+
 /// The `--long-options` a message spells.
 fn flags_in(text: &str) -> impl Iterator<Item = &str> {
     text.match_indices("--").filter_map(|(i, _)| {
@@ -177,7 +246,11 @@ fn every_knob_at_both_ends_answers_or_is_refused_with_its_range() {
             let fine = match (allowed, r.code) {
                 (true, 0) => {
                     let json = r.json();
-                    figures.iter().all(|f| json[f].as_f64().is_some_and(f64::is_finite))
+                    let answer = answer_holds(knob, value, &json, &out);
+                    if let Err(why) = &answer {
+                        println!("  answer: {why}");
+                    }
+                    answer.is_ok() && figures.iter().all(|f| json[f].as_f64().is_some_and(f64::is_finite))
                 }
                 (false, 2) => {
                     // Every option the message names is one `--help` lists.

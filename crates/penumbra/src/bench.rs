@@ -232,24 +232,29 @@ pub struct BenchRow {
     pub threads: usize,
     /// The settings away from the defaults, `knob=value` each.
     pub settings: BTreeMap<String, String>,
-    /// What the method's own timer measures (`work_*_ms`).
+    /// What the times measure: the method's own timed work (a sweep's
+    /// time measure), without what a run rebuilds (reported in
+    /// `setup_ms`). On a GPU, timestamps where the adapter has them: a
+    /// software adapter's can leave out most of its work (lavapipe's for
+    /// field lookups and Whitted), which the wall times then show.
     pub measure: &'static str,
-    /// The fastest run's own timed work, ms: GPU timestamps where the
-    /// device has them (a software adapter's may leave out most of its
-    /// work), else the wall clock around the work.
-    pub work_min_ms: f64,
-    /// The median run's own timed work, ms.
-    pub work_median_ms: f64,
-    /// The fastest measured run, wall clock, ms: the call that does the
-    /// work, from its start until its results are back on the CPU (what a
-    /// host waits for; the throughput is of the median).
+    /// The fastest measured run's timed work, ms.
     pub min_ms: f64,
-    /// The median measured run, ms.
+    /// The median measured run's timed work, ms (the throughput's).
     pub median_ms: f64,
-    /// The slowest measured run, ms.
+    /// The slowest measured run's timed work, ms.
     pub max_ms: f64,
-    /// Every measured run, ms.
+    /// Every measured run's timed work, ms.
     pub ms: Vec<f64>,
+    /// The fastest measured run by the wall clock around the whole call,
+    /// ms: from its start until its results are back on the CPU, with
+    /// whatever the method's run rebuilds each time (the primary-ray
+    /// sweep its kd-tree, SSAO its G-buffer).
+    pub wall_min_ms: f64,
+    /// The median measured run by the wall clock, ms.
+    pub wall_median_ms: f64,
+    /// The slowest measured run by the wall clock, ms.
+    pub wall_max_ms: f64,
     /// Rays a run traces (ray-casting methods), else 0.
     pub rays: u64,
     /// The throughput at the median: rays or frames a second.
@@ -435,7 +440,7 @@ impl Measured {
     fn row(self, method: BenchMethod, dev: &BenchDevice, given: &[(String, String)]) -> BenchRow {
         let runs = self.runs.unwrap_or_else(|| RunTimes::of("", 0, Vec::new()));
         let work = self.work.unwrap_or_else(|| RunTimes::of("", 0, Vec::new()));
-        let median_s = runs.median_ms / 1000.0;
+        let median_s = work.median_ms / 1000.0;
         let throughput = match method.unit() {
             "Mrays/s" => self.rays as f64 / median_s / 1e6,
             _ => 1.0 / median_s,
@@ -447,12 +452,13 @@ impl Measured {
             threads: self.threads,
             settings: given.iter().cloned().collect(),
             measure: self.measure,
-            work_min_ms: work.min_ms,
-            work_median_ms: work.median_ms,
-            min_ms: runs.min_ms,
-            median_ms: runs.median_ms,
-            max_ms: runs.max_ms,
-            ms: runs.ms,
+            min_ms: work.min_ms,
+            median_ms: work.median_ms,
+            max_ms: work.max_ms,
+            ms: work.ms,
+            wall_min_ms: runs.min_ms,
+            wall_median_ms: runs.median_ms,
+            wall_max_ms: runs.max_ms,
             rays: self.rays,
             throughput,
             unit: method.unit(),
@@ -752,7 +758,7 @@ pub fn random_rays(mesh: &Mesh, n: usize) -> Vec<Ray> {
 /// as `name=ms` with `;`).
 pub fn csv_text(report: &BenchReport) -> String {
     let mut s = String::from(
-        "method,device,software,threads,settings,min_ms,median_ms,max_ms,work_median_ms,throughput,unit,error,error_measure,setup_ms,skipped\n",
+        "method,device,software,threads,settings,min_ms,median_ms,max_ms,wall_median_ms,throughput,unit,error,error_measure,setup_ms,skipped\n",
     );
     for r in &report.rows {
         let settings: Vec<String> = r.settings.iter().map(|(k, v)| format!("{k}={v}")).collect();
@@ -771,7 +777,7 @@ pub fn csv_text(report: &BenchReport) -> String {
             r.min_ms,
             r.median_ms,
             r.max_ms,
-            r.work_median_ms,
+            r.wall_median_ms,
             r.throughput,
             r.unit,
             r.error.map_or(String::new(), |e| format!("{e:.6e}")),
