@@ -116,7 +116,13 @@ pub fn run(args: &BenchArgs) -> Result<Value> {
     if devices.is_empty() {
         return Err(Error::Device(format!("no device to bench on ({})", refused.join("; "))));
     }
-    let report = bench(&inputs, &devices, refused, &settings, &crate::progress::stderr())?;
+    let mut report = bench(&inputs, &devices, refused, &settings, &crate::progress::stderr())?;
+    // Why a row was skipped, its parameters spelled as the options typed.
+    for row in &mut report.rows {
+        if let Some(why) = &row.skipped {
+            row.skipped = Some(penumbra::error::rename_quoted(why, crate::args::flag));
+        }
+    }
     let files = write_outputs(args, &report)?;
     if !args.json {
         print!("{}", table(&report));

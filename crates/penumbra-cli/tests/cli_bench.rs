@@ -140,3 +140,27 @@ fn bad_bench_settings_name_the_option() {
         assert!(!std::path::Path::new(&out).exists(), "nothing written on bad input");
     }
 }
+
+/// A scene file: the methods that take one mesh are rows saying so, the
+/// others run on the whole scene.
+#[test]
+fn bench_of_a_scene_file_says_which_methods_take_a_mesh() {
+    let d = TempDir::new("bench_scene");
+    let out = d.p("b");
+    let scene = asset_s("scenes/chess.json");
+    let line = "bench --scene {scene} --devices cpu --threads 1 --warmup 0 --repeat 1 \
+                --methods primary,random-rays,prt,whitted --width 16 --height 12 --out {out} --json";
+    let r = pen(line, &[("scene", &scene), ("out", &out)]);
+    assert_eq!(r.code, 0, "{}", r.describe());
+    let json = r.json();
+    let rows = json["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 4, "{json:#}");
+    for row in rows {
+        let method = row["method"].as_str().unwrap();
+        let skipped = row["skipped"].as_str();
+        match method {
+            "random-rays" | "prt" => assert!(skipped.is_some_and(|s| s.contains("--mesh")), "{row}"),
+            _ => assert!(skipped.is_none() && row["median_ms"].as_f64().unwrap() > 0.0, "{row}"),
+        }
+    }
+}

@@ -307,6 +307,13 @@ pub fn bench(
                 true => vec![settings.threads.iter().copied().max().unwrap_or(1)],
                 false => settings.threads.clone(),
             };
+            // Random rays and PRT take one mesh; a scene file's bench says
+            // so in their rows and runs the rest.
+            if inputs.mesh.is_none() && matches!(method, BenchMethod::RandomRays | BenchMethod::Prt) {
+                let why = format!("{} takes a mesh (`mesh`), not a scene file", method.name());
+                rows.push(Measured::skipped(threads[0], why).row(method, dev, &given));
+                continue;
+            }
             let out = match method.sweep() {
                 Some(kind) => swept(kind, inputs, dev, &threads, &given, settings.runs, bars),
                 None => own(method, inputs, dev, &threads, &given, settings, bars),
