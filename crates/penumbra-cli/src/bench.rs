@@ -75,14 +75,7 @@ pub fn run(args: &BenchArgs) -> Result<Value> {
     if args.mesh.is_none() && args.scene.is_none() {
         return Err(Error::param("--mesh/--scene", "one of them is needed"));
     }
-    if let Some(parent) = args.out.parent().filter(|p| !p.as_os_str().is_empty())
-        && !parent.is_dir()
-    {
-        return Err(Error::param(
-            "--out",
-            format!("folder {} does not exist", parent.display()),
-        ));
-    }
+    crate::files::check_out_folder(&args.out, "--out")?;
     let mut settings = BenchSettings {
         runs: Repeats {
             warmup: args.warmup,
@@ -134,10 +127,7 @@ pub fn run(args: &BenchArgs) -> Result<Value> {
 }
 
 fn write_outputs(args: &BenchArgs, report: &BenchReport) -> Result<Vec<String>> {
-    if !args.out.is_dir() {
-        std::fs::create_dir(&args.out)
-            .map_err(|e| Error::file(&args.out, "", format!("cannot create the folder: {e}")))?;
-    }
+    crate::files::make_out_folder(&args.out)?;
     let [csv, json, png] = args.outputs();
     penumbra::io::output::write_bytes(&csv, csv_text(report).as_bytes())?;
     crate::plot::write_bench_png(&png, report)?;

@@ -219,3 +219,24 @@ impl Files {
         refuse_overwrites(&self.inputs, &self.outputs)
     }
 }
+
+/// An output folder option (`--out DIR` of sweep and bench): refused before
+/// any work when its parent does not exist.
+pub fn check_out_folder(dir: &Path, option: &str) -> Result<()> {
+    match dir.parent().filter(|p| !p.as_os_str().is_empty()) {
+        Some(parent) if !parent.is_dir() => Err(Error::param(
+            option,
+            format!("folder {} does not exist", parent.display()),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Creates the output folder `dir` if it is missing (its parent exists:
+/// `check_out_folder`).
+pub fn make_out_folder(dir: &Path) -> Result<()> {
+    if !dir.is_dir() {
+        std::fs::create_dir(dir).map_err(|e| Error::file(dir, "", format!("cannot create the folder: {e}")))?;
+    }
+    Ok(())
+}

@@ -69,12 +69,7 @@ impl SweepArgs {
 pub fn run(args: &SweepArgs) -> Result<Value> {
     let threads = args.common.init_threads()?;
     let runs = args.common.runs.runs(3)?;
-    if let Some(parent) = args.out.parent().filter(|p| !p.as_os_str().is_empty())
-        && !parent.is_dir()
-    {
-        let problem = format!("folder {} does not exist", parent.display());
-        return Err(Error::param("--out", problem));
-    }
+    crate::files::check_out_folder(&args.out, "--out")?;
     let data_dir = crate::args::data_dir();
     let inputs = SweepInputs {
         mesh: args.mesh.as_deref(),
@@ -111,9 +106,7 @@ pub fn run(args: &SweepArgs) -> Result<Value> {
 /// Writes `sweep.csv`, `sweep.json` and `sweep.png` into `dir` (created if
 /// missing, its parent must exist); records them in the report.
 pub fn write_outputs(report: &mut SweepReport, dir: &Path) -> Result<()> {
-    if !dir.is_dir() {
-        std::fs::create_dir(dir).map_err(|e| Error::file(dir, "", format!("cannot create the folder: {e}")))?;
-    }
+    crate::files::make_out_folder(dir)?;
     let [csv, json, png] = tune::output_files(dir);
     report.files = [&csv, &json, &png].iter().map(|p| p.display().to_string()).collect();
     penumbra::io::output::write_bytes(&csv, tune::csv_text(report).as_bytes())?;
@@ -147,10 +140,7 @@ struct Measured {
 /// `--shard I/N`: this shard's settings of the grid, each row recorded as
 /// it is measured; the truth is computed in every shard.
 fn part(args: &SweepArgs, method: &mut dyn Sweep, grid: &Grid, runs: Repeats, shard: Shard) -> Result<Finished> {
-    if !args.out.is_dir() {
-        std::fs::create_dir(&args.out)
-            .map_err(|e| Error::file(&args.out, "", format!("cannot create the folder: {e}")))?;
-    }
+    crate::files::make_out_folder(&args.out)?;
     let total = grid.settings().len();
     let mut writer = crate::shard::open_part(&target(args), shard, total)?;
     let which: Vec<usize> = writer.todo(1).into_iter().map(|r| r.start).collect();

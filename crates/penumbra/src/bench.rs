@@ -485,23 +485,17 @@ fn timed<T>(
     mut once: impl FnMut() -> Result<T>,
     work: impl Fn(&T) -> f64,
 ) -> Result<(T, RunTimes, RunTimes)> {
-    for _ in 0..runs.warmup {
-        once()?;
-    }
-    let (mut wall, mut own, mut last) = (Vec::new(), Vec::new(), None);
-    for _ in 0..runs.repeat.max(1) {
+    let mut wall = Vec::new();
+    let timed_once = || {
         let start = Instant::now();
         let value = once()?;
         wall.push(elapsed_ms(start));
-        own.push(work(&value));
-        last = Some(value);
-    }
-    let last = last.expect("one run at least");
-    Ok((
-        last,
-        RunTimes::of("wall_ms", runs.warmup, wall),
-        RunTimes::of("ms", runs.warmup, own),
-    ))
+        Ok(value)
+    };
+    let (last, own) = runs.run("ms", timed_once, work)?;
+    // The warm-up runs were timed too: the measured ones are the last.
+    let measured = wall.split_off(runs.warmup as usize);
+    Ok((last, RunTimes::of("wall_ms", runs.warmup, measured), own))
 }
 
 /// Runs `f` on a pool of `threads` CPU threads (rayon's work inside runs
