@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """penumbra against native Embree, one thread each, on the very same rays.
 
-The comparison of issue 18: `../shared/tools/embree_bench` (Embree 3 through its
-C API, built with -O3 -march=native; see its README for how its rays are made
-bit-identical to penumbra's) and `target/release/penumbra`, run alternately,
+`benches/embree_bench` (the project's copy of `../shared/tools/embree_bench`
+with `--threads N`: Embree 3 through its C API, built with -O3 -march=native;
+see its README for how its rays are made bit-identical to penumbra's) and `target/release/penumbra`, run alternately,
 ROUNDS times each, keeping each side's best. Every process measures one
 repetition (`--reps 1` for Embree), so both sides are "best of ROUNDS" over
 the same stretch of time on this shared machine. Embree's tool traces the
@@ -28,10 +28,20 @@ Workloads (the issue's table):
   build      Embree's high-quality BVH build against the kd-tree build plus
              MLRTA's `prepare` (milliseconds, lower is better).
 
+Then, at each of `--threads` (default 1,2), on bunny, dragon100k, cow and every
+`--public` mesh (OBJ files we did not make; public scans):
+  random     1M random rays aimed at that mesh (`--gen-rays`) through
+             rtcIntersect1 on N threads against `trace-rays --accel bvh
+             --threads N` (`--warmup 1 --repeat 3`); the hits compared.
+  primary    1024^2 primary rays (bunny and the public meshes): Embree's best
+             coherent API at one thread (the stream calls), its threaded
+             rtcIntersect1M at N > 1, against `trace` (MLRTA) on N threads.
+
 Writes `assets/figures/embree-table.md` (also printed). Exits 0 with a message
 when Embree (libembree-dev), g++, the tool's source or the models are missing.
 
-    PENUMBRA_DATA=../shared/data python3 benches/embree_table.py [--rounds 5] [--quick]
+    PENUMBRA_DATA=../shared/data python3 benches/embree_table.py [--rounds 5] [--quick] \
+        [--threads 1,2] [--public a.obj,b.obj]
 
 `--quick` runs 256^2 primary rays, 16 AO rays and 100K random rays, one round
 (checks the script).
@@ -50,8 +60,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 EXE = ROOT / "target" / "release" / "penumbra"
-TOOL_DIR = Path(os.environ.get("EMBREE_BENCH_DIR", ROOT.parent / "shared" / "tools" / "embree_bench"))
-TOOL = ROOT / "target" / "embree_bench" / "embree_bench"
+TOOL_DIR = Path(os.environ.get("EMBREE_BENCH_DIR", ROOT / "benches" / "embree_bench"))
+TOOL = ROOT / "target" / "embree_bench_threads" / "embree_bench"
 OUT = ROOT / "assets" / "figures" / "embree-table.md"
 KITCHEN_VIEW = ["--eye", "3.2,1.6,2.2", "--target", "-1.0,0.9,-1.5", "--fov", "60"]
 STREAM_APIS = ("rtcIntersect1M(coherent ctx)", "rtcIntersectNp(coherent ctx)")
@@ -76,10 +86,10 @@ def embree(args):
     return {(l["mode"], l.get("api", "")): l for l in lines}
 
 
-def penumbra(args, warm=False):
+def penumbra(args, warm=False, threads=1):
     """One measured run; `warm`: after one untimed run (see the docstring)."""
     warmup = ["--warmup", "1"] if warm else []
-    return json.loads(run([EXE] + args + warmup + ["--threads", "1", "--json"]))
+    return json.loads(run([EXE] + args + warmup + ["--threads", threads, "--json"]))
 
 
 def tool_available():
@@ -95,6 +105,20 @@ def tool_available():
     env = dict(os.environ, OUT=str(TOOL.parent))
     out = subprocess.run(["sh", str(TOOL_DIR / "build.sh")], env=env, capture_output=True, text=True)
     return None if out.returncode == 0 and TOOL.is_file() else f"building embree_bench failed: {out.stderr.strip()}"
+
+
+def hits_agree(a, b):
+    """"yes", or how many of Embree's hits penumbra's file has on the same triangle."""
+    x, y = Path(a).read_bytes(), Path(b).read_bytes()
+    if x == y:
+        return "yes"
+    import struct
+    rec = 8  # f32 t, u32 triangle (a miss: +inf, 0xFFFFFFFF), both tools' format
+    n = min(len(x), len(y)) // rec
+    tri = lambda d, i: struct.unpack_from("<I", d, i * rec + 4)[0]
+    hit = [i for i in range(n) if tri(x, i) != 0xFFFFFFFF]
+    agree = sum(1 for i in hit if tri(x, i) == tri(y, i))
+    return f"{agree:,} of Embree's {len(hit):,}"
 
 
 class Best:
@@ -115,7 +139,14 @@ def main():
     p.add_argument("--rounds", type=int, default=5)
     p.add_argument("--quick", action="store_true")
     p.add_argument("--out", type=Path, default=OUT)
+    p.add_argument("--threads", default="1,2", help="thread counts of the random and primary rows")
+    p.add_argument("--public", default="", help="comma-separated OBJ files we did not make")
     args = p.parse_args()
+    threads = [int(t) for t in args.threads.split(",") if t]
+    public = [Path(m) for m in args.public.split(",") if m]
+    for m in public:
+        if not m.is_file():
+            sys.exit(f"--public: {m}: no such file")
     data = os.environ.get("PENUMBRA_DATA")
     if not data:
         skip("PENUMBRA_DATA is not set (the folder holding models/)")
@@ -169,6 +200,29 @@ def main():
             best.hi(("stanford-bunny", "random", "embree"), e[("rays", "rtcIntersect1")]["mrays_per_s"])
             pen = penumbra(["trace-rays", "--mesh", mesh, "--rays", rays, "--out", Path(tmp) / "hits.bin"])
             best.hi(("stanford-bunny", "random", "penumbra"), pen["mrays_per_s"])
+        # Random and primary rays per mesh and thread count.
+        meshes = [(n, models / f"{n}.obj", False) for n in ["stanford-bunny", "dragon100k", "cow"]]
+        meshes += [(m.stem, m, True) for m in public]
+        same = {}
+        for name, mesh, _ in meshes:
+            rays = Path(tmp) / f"{name}.f32"
+            run([TOOL, mesh, "--modes", "none", "--gen-rays", n_random, rays])
+            for r in range(rounds):
+                print(f"{name}: round {r + 1}/{rounds}", file=sys.stderr)
+                for t in threads:
+                    eh, ph = Path(tmp) / "e.hits", Path(tmp) / "p.hits"
+                    e = embree([mesh, "--modes", "rays", "--rays", rays, "--reps", 1, "--threads", t, "--hits", eh])
+                    best.hi((name, "random", t, "embree"), e[("rays", "rtcIntersect1")]["mrays_per_s"])
+                    pen = penumbra(["trace-rays", "--mesh", mesh, "--rays", rays, "--accel", "bvh", "--out", ph,
+                                    "--repeat", 3], warm=True, threads=t)
+                    best.hi((name, "random", t, "penumbra"), pen["mrays_per_s"])
+                    same[name] = hits_agree(eh, ph)
+                    if name == "stanford-bunny" or (name, mesh, True) in meshes:
+                        e = embree([mesh, "--modes", "primary", "--reps", 1, "--threads", t] + size)
+                        apis = STREAM_APIS if t == 1 else ("rtcIntersect1M(coherent ctx)",)
+                        best.hi((name, "primary", t, "embree"), max(e[("primary", a)]["mrays_per_s"] for a in apis))
+                        pen = penumbra(["trace", "--mesh", mesh] + size, warm=True, threads=t)
+                        best.hi((name, "primary", t, "penumbra"), pen["mrays_per_s"])
     b = best.v
     load = (load_before, os.getloadavg()[0])
     k = f"{side}^2"
@@ -209,6 +263,36 @@ def main():
                     f"{b[(m, 'ao', 'penumbra')] / b[(m, 'ao ready', 'embree')]:.2f})" for m in ["cow", "stanford-bunny"])
         + ".",
     ]
+    lines += [
+        "",
+        f"## Random rays and threads",
+        "",
+        f"{n_random:,} random rays per mesh aimed at it (`embree_bench --gen-rays`, the rays `penumbra bench`'s "
+        "`random-rays` also traces), closest hits, `rtcIntersect1` against `penumbra trace-rays --accel bvh` "
+        f"(`--warmup 1 --repeat 3`) at {', '.join(map(str, threads))} threads on both sides; best of {rounds} "
+        "alternating rounds. Same hits: the triangle ids of both hit files compared.",
+        "",
+        "| mesh | threads | Embree Mrays/s | penumbra Mrays/s | penumbra / Embree | same hits |",
+        "|---|---:|---:|---:|---:|---|",
+    ]
+    label = {n: f"{n} (public)" if pub else n for n, _, pub in meshes}
+    for name, _, _ in meshes:
+        for t in threads:
+            em, pe = b[(name, "random", t, "embree")], b[(name, "random", t, "penumbra")]
+            lines.append(f"| {label[name]} | {t} | {em:.2f} | {pe:.2f} | {pe / em:.2f} | {same[name]} |")
+    lines += [
+        "",
+        f"Primary rays, {k}, the default camera, `penumbra trace` (MLRTA) against Embree's best coherent "
+        "API at one thread (the stream calls) and its threaded `rtcIntersect1M` stream above:",
+        "",
+        "| mesh | threads | Embree Mrays/s | penumbra Mrays/s | penumbra / Embree |",
+        "|---|---:|---:|---:|---:|",
+    ]
+    for name, _, _ in meshes:
+        for t in threads:
+            if (name, "primary", t, "embree") in b:
+                em, pe = b[(name, "primary", t, "embree")], b[(name, "primary", t, "penumbra")]
+                lines.append(f"| {label[name]} | {t} | {em:.1f} | {pe:.1f} | {pe / em:.2f} |")
     table = "\n".join(lines) + "\n"
     print(table)
     if not args.quick:

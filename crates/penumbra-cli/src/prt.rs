@@ -18,6 +18,7 @@ use penumbra::prt::blockers::InterObject;
 use penumbra::prt::images::FrameImages;
 use penumbra::prt::objects::{ObjectsRunner, shaded_pose};
 use penumbra::prt::pipeline::{FrameOutput, PrtSettings};
+use penumbra::prt::probe::{Probe, ProbeReport, probe};
 use penumbra::prt::runner::{Playback, PrtRunner, RayTraced, Shadows, animate_runs};
 use penumbra::prt::scene_play::play_scene_runs;
 use penumbra::prt::sh_out::write_sh_json;
@@ -132,6 +133,12 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
         )?),
         None => None,
     };
+    let probed = match (args.max_error, args.knobs.probe(), &args.scene, args.play.shadows) {
+        (None, Some(p), None, Shadows::On) => {
+            Some(probe_choice(args, (&rest, &triangles), &mut settings, camera.eye, &p)?)
+        }
+        _ => None,
+    };
     let transfer = args.per_vertex_transfer as usize * penumbra::sh::coefficient_count(settings.bands);
     let mut csv = args
         .per_vertex
@@ -146,7 +153,7 @@ pub fn run(args: &PrtArgs) -> Result<Value> {
     playback.bars = crate::progress::stderr();
     let name = args.scene.as_ref().map_or(mesh.name.clone(), |p| file_stem(p));
     let head = |written: usize, exposure: Option<f32>, times: Option<RunTimes>| {
-        json!({ "scene": name, "images": written, "exposure": exposure, "camera": camera, "max_error": choice,
+        json!({ "scene": name, "images": written, "exposure": exposure, "camera": camera, "max_error": choice, "probe": probed,
                 "sh_out": args.sh_out, "per_vertex": args.per_vertex, "runs": times })
     };
     if !matches!(mode, Mode::Whole) {
@@ -253,6 +260,31 @@ fn max_error_choice(
     )?;
     crate::io::note_choice(&choice);
     Ok(choice)
+}
+
+/// The probe's choice of the knobs not given, applied to `settings`, and
+/// said on stderr.
+fn probe_choice(
+    args: &PrtArgs,
+    (rest, triangles): (&[Vec3], &[[u32; 3]]),
+    settings: &mut PrtSettings,
+    eye: Vec3,
+    p: &Probe,
+) -> Result<ProbeReport> {
+    let report = probe(rest, triangles, settings, Some(eye), p, args.common.seed)?;
+    report.apply(settings);
+    let c = report.choice();
+    crate::io::note(&format!(
+        "probe: {} ({}: estimated error {:.2}%, 95% bound {:.2}%; {} of {} settings estimated in {:.2} s)",
+        report.options(),
+        report.rule,
+        100.0 * c.error.unwrap_or(f64::NAN),
+        100.0 * c.upper.unwrap_or(f64::NAN),
+        report.rows.iter().filter(|r| r.error.is_some()).count(),
+        report.rows.len(),
+        report.ms / 1000.0
+    ));
+    Ok(report)
 }
 
 /// The checked `--out` (its image format too), `--sh-out`, `--per-vertex`

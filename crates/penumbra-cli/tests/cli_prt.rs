@@ -135,6 +135,66 @@ fn self_check_reports_and_warns() {
     assert!(r.ok().json()["self_check"].is_null());
 }
 
+/// The probe: on by default, its choice applied and reported (the JSON's
+/// `mask` and `hierarchy` are the chosen row's), said on stderr; knobs given
+/// are the only values tried; off, or with all three given, the fixed
+/// defaults and no probe. On the shipped cylindrical well the hierarchy's
+/// coarse level is 5-6% off, so the choice has it off.
+#[test]
+fn the_probe_chooses_the_knobs_not_given() {
+    let dir = TempDir::new("prt-probe");
+    let env = write_probe(&dir, SKY, GROUND);
+    let mesh = asset_s("cylindrical-well.obj");
+    let run = |knobs: &str| {
+        let r = pen(
+            &format!("prt --mesh {{mesh}} --env {{env}} --frames 1 --device cpu --json {knobs}"),
+            &[("mesh", &mesh), ("env", &env)],
+        );
+        let j = r.ok().json();
+        (j, r.stderr)
+    };
+    let (j, stderr) = run("");
+    let p = &j["probe"];
+    let chosen = &p["rows"][p["chosen"].as_u64().unwrap() as usize];
+    assert_eq!(chosen["hierarchy"], false, "{p}");
+    assert_eq!(j["hierarchy"]["enabled"], false, "{p}");
+    assert_eq!(j["mask"], chosen["mask"], "{p}");
+    assert!(chosen["upper"].as_f64().unwrap() <= 0.03, "{p}");
+    assert!(stderr.contains("probe: --mask 32 --hierarchy off"), "{stderr}");
+    assert_eq!(p["rows"].as_array().unwrap().len(), 9, "{p}");
+    // The run's own self-check agrees with the probe's estimate.
+    let sc = j["self_check"]["estimate"].as_f64().unwrap();
+    assert!(
+        (sc - chosen["error"].as_f64().unwrap()).abs() < 0.005,
+        "{sc} vs {chosen}"
+    );
+    // A given knob is the only value tried.
+    let (j, _) = run("--mask 64");
+    let rows = j["probe"]["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 3);
+    assert!(rows.iter().all(|r| r["mask"] == 64), "{rows:?}");
+    assert_eq!(j["mask"], 64);
+    let (j, _) = run("--near rings");
+    assert!(
+        j["probe"]["rows"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|r| r["near"] == "rings")
+    );
+    assert_eq!(j["hierarchy"]["enabled"], true);
+    // Off, or nothing left to choose: the fixed defaults, no probe.
+    for knobs in ["--probe off", "--mask 32 --hierarchy on --near clusters"] {
+        let (j, stderr) = run(knobs);
+        assert!(j["probe"].is_null(), "{knobs}");
+        assert_eq!(
+            (j["mask"].as_u64(), &j["hierarchy"]["enabled"]),
+            (Some(32), &serde_json::json!(true))
+        );
+        assert!(!stderr.contains("probe:"), "{stderr}");
+    }
+}
+
 #[test]
 fn bad_input_is_exit_code_two() {
     let dir = TempDir::new("prt-bad");

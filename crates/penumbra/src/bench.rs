@@ -12,6 +12,7 @@
 //! report none. Like `crate::sweep`, this module sits above every method.
 
 use std::collections::BTreeMap;
+use std::path::Path;
 use std::time::Instant;
 
 use serde::Serialize;
@@ -23,10 +24,13 @@ use crate::geom::ray::Ray;
 use crate::gpu::device::{Device, elapsed_ms};
 use crate::gpu::{AdapterKinds, AdapterSettings, GpuContext, enumerate_adapters};
 use crate::progress::Reporter;
+use crate::prt::hierarchy::NearField;
+use crate::prt::pipeline::PrtSettings;
+use crate::prt::probe::{Probe, probe as probe_prt};
 use crate::raycast::tracer::Tracer;
 use crate::raycast::{AmbientOcclusion, AoSettings};
 use crate::report::repeats::{Repeats, RunTimes};
-use crate::scene::{Mesh, load_input_in, load_shaded_input_in};
+use crate::scene::{Mesh, load_input_in, load_mesh, load_shaded_input_in};
 use crate::sweep::{SweepInputs, SweepKind, with_method};
 use crate::tune::{Given, Knob, Setting};
 use crate::whitted::{LightingSettings, RenderScene, WhittedRenderer, WhittedSettings};
@@ -301,7 +305,14 @@ pub fn bench(
     settings.check()?;
     let mut rows = Vec::new();
     for &method in &settings.methods {
-        let given = given_for(method, &settings.set)?;
+        let mut given = given_for(method, &settings.set)?;
+        // PRT's defaults are the probe's choice, as `prt` makes it: made
+        // once (its counted work is the same on every device and thread
+        // count), its choice a row's settings, its time a setup phase.
+        let probe_ms = match (method, inputs.mesh) {
+            (BenchMethod::Prt, Some(mesh)) => prt_probe(mesh, inputs, &mut given)?,
+            _ => None,
+        };
         for dev in devices {
             let threads: Vec<usize> = match dev.device.is_gpu() {
                 true => vec![settings.threads.iter().copied().max().unwrap_or(1)],
@@ -326,7 +337,11 @@ pub fn bench(
                 Err(e) => return Err(e),
             };
             for m in measured {
-                rows.push(m.row(method, dev, &given));
+                let mut row = m.row(method, dev, &given);
+                if let Some(ms) = probe_ms {
+                    row.setup_ms.insert("probe".into(), ms);
+                }
+                rows.push(row);
             }
         }
     }
@@ -337,6 +352,49 @@ pub fn bench(
         rows,
         devices_refused: refused,
     })
+}
+
+/// PRT's probe of the knobs `given` leaves open (mask, hierarchy, near) on
+/// `mesh`, its choice added to `given`; the probe's milliseconds, or `None`
+/// when every one is given.
+fn prt_probe(mesh: &Path, inputs: &SweepInputs, given: &mut Vec<(String, String)>) -> Result<Option<f64>> {
+    let is = |k: &str| given.iter().any(|(n, _)| n == k);
+    if is("mask") && is("hierarchy") && is("near") {
+        return Ok(None);
+    }
+    let mut probe = Probe::default();
+    let mut base = PrtSettings::default();
+    let setting = setting_of(BenchMethod::Prt, crate::prt::tune::KNOBS, given)?;
+    if let Some(m) = setting.get::<usize>("mask") {
+        (probe.masks, base.mask_side) = (vec![m], m);
+    }
+    if let Some(h) = setting.get::<bool>("hierarchy") {
+        (probe.hierarchy, base.hierarchy.enabled) = (vec![h], h);
+    }
+    if let Some(n) = setting.get::<NearField>("near") {
+        (probe.near, base.hierarchy.near) = (vec![n], n);
+    }
+    let loaded = load_mesh(mesh)?;
+    let eye = inputs.view.camera.resolve(None, &loaded.bounds(), loaded.origin)?.eye;
+    let report = probe_prt(
+        &loaded.positions,
+        &loaded.triangles,
+        &base,
+        Some(eye),
+        &probe,
+        inputs.seed,
+    )?;
+    let c = report.choice();
+    for (knob, value) in [
+        ("mask", c.mask.to_string()),
+        ("hierarchy", if c.hierarchy { "on" } else { "off" }.to_string()),
+        ("near", c.near.unwrap_or(base.hierarchy.near).name().to_string()),
+    ] {
+        if !given.iter().any(|(n, _)| n == knob) {
+            given.push((knob.to_string(), value));
+        }
+    }
+    Ok(Some(report.ms))
 }
 
 impl BenchSettings {

@@ -20,10 +20,12 @@ use std::path::Path;
 
 use common::data_model;
 use glam::Vec3;
+use penumbra::DEFAULT_SEED;
 use penumbra::accel::Accel;
 use penumbra::accel::kdtree::{KdTree, KdTreeSettings};
 use penumbra::gpu::device::Device;
 use penumbra::prt::pipeline::{FrameOutput, Prt, PrtSettings};
+use penumbra::prt::probe::{Probe, ProbeReport, probe};
 use penumbra::prt::reference::{reference_transfer, relative_l2_error};
 use penumbra::prt::render::{auto_exposure, render};
 use penumbra::prt::runner::{Playback, PrtRunner, RayTraced, Shadows, animate};
@@ -105,17 +107,38 @@ fn measured_error(prt: &Prt, case: &Case, pose: &[Vec3]) -> f64 {
     error
 }
 
-/// Default settings: error <= 3% on every pose, and the self-check's
-/// estimate within a point of the measurement.
+/// The settings `prt` shades with by default: the probe's choice for the
+/// rest pose, and its report.
+fn probed(case: &Case) -> (PrtSettings, ProbeReport) {
+    let base = PrtSettings::default();
+    let report = probe(
+        &case.rest,
+        &case.triangles,
+        &base,
+        Some(case.eye),
+        &Probe::default(),
+        DEFAULT_SEED,
+    )
+    .unwrap();
+    let mut settings = base;
+    report.apply(&mut settings);
+    (settings, report)
+}
+
+/// Default settings (the probe's choice): error <= 3% on every pose, and
+/// the self-check's estimate within a point of the measurement.
 fn check_defaults(case: &Case) {
-    let prt = Prt::new(&case.rest, &case.triangles, &PrtSettings::default()).unwrap();
+    let (settings, report) = probed(case);
+    let prt = Prt::new(&case.rest, &case.triangles, &settings).unwrap();
     let errors: Vec<f64> = case.poses.iter().map(|p| measured_error(&prt, case, p)).collect();
     let mean = errors.iter().sum::<f64>() / errors.len() as f64;
     let poses: Vec<(usize, Vec<Vec3>)> = case.poses.iter().cloned().enumerate().collect();
     let selfcheck = estimate(&prt, &case.triangles, &poses, Some(case.eye), &SelfCheck::default(), 1).unwrap();
     println!(
-        "{}: error {:?}%, self-check {:.2}% +/- {:.2} ({:.0} ms); culling {}, two-sided {}, {:.0} blockers/vertex before culling",
+        "{}: probe {} in {:.0} ms; error {:?}%, self-check {:.2}% +/- {:.2} ({:.0} ms); culling {}, two-sided {}, {:.0} blockers/vertex before culling",
         case.name,
+        report.options(),
+        report.ms,
         errors.iter().map(|e| (1e4 * e).round() / 100.0).collect::<Vec<_>>(),
         100.0 * selfcheck.estimate,
         100.0 * selfcheck.uncertainty,
@@ -148,6 +171,69 @@ fn defaults_are_within_three_percent_on_the_shared_models() {
             check_defaults(&case);
         }
     }
+}
+
+/// The shipped meshes: the cylindrical well is 5.7% off with the hierarchy
+/// at 32x32 masks, which the probe sees and leaves. Not here: the closed
+/// box (seen from outside, every vertex is dark inside it: nothing to
+/// measure), the sphere on its plane (1,067 of its 2,275 vertices are dark
+/// in the reference, so fewer than the 90% this measure needs are counted;
+/// `prt --reference` puts the rest at 0.8%) and the wall on its
+/// floor, 8 vertices of which 4 lie on the contact line, 7% off at every
+/// mask side tried (the probe says none is within the bound and the
+/// self-check warns).
+#[test]
+fn defaults_are_within_three_percent_on_the_shipped_meshes() {
+    for name in ["cylindrical-well", "cube-with-hole", "corner", "open-plane"] {
+        let mesh = load_obj(&common::asset(&format!("{name}.obj"))).unwrap();
+        check_defaults(&mesh_case(name, mesh.positions, mesh.triangles));
+    }
+}
+
+/// The probe's choice is never dominated: no setting it estimated is both
+/// cheaper (by the counted work) and at least as accurate, and what it
+/// left unestimated is dearer than the choice. Its counted work does not
+/// depend on the threads: the same choice on one thread as on all.
+#[test]
+fn the_probe_chooses_no_dominated_setting_and_the_same_on_any_thread_count() {
+    let well = load_obj(&common::asset("cylindrical-well.obj")).unwrap();
+    let mut cases = vec![mesh_case("cylindrical-well", well.positions, well.triangles), curtain()];
+    cases.extend(model("cow"));
+    for case in &cases {
+        let (settings, report) = probed(case);
+        let c = report.choice();
+        let (error, upper) = (c.error.unwrap(), c.upper.unwrap());
+        println!(
+            "{}: {} ({}), {:.2}% (bound {:.2}%)",
+            case.name,
+            report.options(),
+            report.rule,
+            100.0 * error,
+            100.0 * upper
+        );
+        for r in &report.rows {
+            match r.upper {
+                Some(u) => assert!(
+                    !(r.model_ms < c.model_ms && u <= upper),
+                    "{}: {r:?} dominates the choice {c:?}",
+                    case.name
+                ),
+                None => assert!(r.model_ms >= c.model_ms, "{}: {r:?} unestimated but cheaper", case.name),
+            }
+        }
+        if report.rule == "cheapest within the bound" {
+            assert!(upper <= 0.03);
+        }
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let (again, report1) = one.install(|| probed(case));
+        assert_eq!(settings, again, "{}", case.name);
+        let costs = |r: &ProbeReport| r.rows.iter().map(|r| r.model_ms).collect::<Vec<_>>();
+        assert_eq!(costs(&report), costs(&report1), "{}", case.name);
+    }
+    // The well: the hierarchy's coarse level is 5-6% off at every mask
+    // side; without it 32x32 is within the bound.
+    let (settings, _) = probed(&cases[0]);
+    assert!(!settings.hierarchy.enabled, "{settings:?}");
 }
 
 #[test]

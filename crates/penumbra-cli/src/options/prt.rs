@@ -10,6 +10,7 @@ use penumbra::error::{Error, Result};
 use penumbra::field::runner::MAX_FRAMES;
 use penumbra::prt::hierarchy::{DEFAULT_POSES, DEFAULT_TOLERANCE, HierarchySettings, NearField};
 use penumbra::prt::pipeline::{PrtSettings, Toggle};
+use penumbra::prt::probe::Probe;
 use penumbra::prt::runner::{Playback, PvsSampling, RayTraced, Shadows};
 use penumbra::prt::selfcheck::SelfCheck;
 use penumbra::prt::transfer::{Brdf, BrdfKind, Integration};
@@ -22,9 +23,9 @@ pub struct PrtOptions {
     /// SH bands (5 = 25 coefficients).
     #[arg(long, default_value_t = 5, allow_negative_numbers = true)]
     pub order: i64,
-    /// Visibility mask side in pixels: 16, 32 or 64.
-    #[arg(long, default_value_t = 32, allow_negative_numbers = true)]
-    pub mask: i64,
+    /// Visibility mask side in pixels: 16, 32 or 64 [default: chosen per mesh by the probe; 32 with --probe off].
+    #[arg(long, allow_negative_numbers = true)]
+    pub mask: Option<i64>,
     /// Plane LUT cells per cube-face side (the paper: 128).
     #[arg(long, default_value_t = 128, allow_negative_numbers = true)]
     pub lut: i64,
@@ -41,12 +42,15 @@ pub struct PrtOptions {
     /// moments, or every pixel.
     #[arg(long, value_enum, default_value_t = Integration::CellsLinear)]
     pub integration: Integration,
-    /// Two-level mesh hierarchy (coarse mesh for distant blockers).
+    /// Two-level mesh hierarchy (coarse mesh for distant blockers) [default: chosen per mesh by the probe; on with --probe off].
+    #[arg(long, value_enum)]
+    pub hierarchy: Option<OnOff>,
+    /// Fine triangles drawn near a vertex [default: chosen per mesh by the probe; clusters with --probe off].
+    #[arg(long, value_enum)]
+    pub near: Option<NearField>,
+    /// Choose --mask, --hierarchy and --near (those not given) per mesh: each candidate's transfer error estimated on the self-check's sample of vertices and its frame's work counted and priced; the cheapest within 3% (95% upper bound) is used, else the most accurate. The work is counted, not timed, so every run and shard chooses alike.
     #[arg(long, value_enum, default_value_t = OnOff::On)]
-    pub hierarchy: OnOff,
-    /// Fine triangles drawn near a vertex.
-    #[arg(long, value_enum, default_value_t = NearField::Clusters)]
-    pub near: NearField,
+    pub probe: OnOff,
     /// Ring of the full mesh drawn at full resolution: 1 or 2.
     #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
     pub ring: i64,
@@ -79,21 +83,26 @@ impl PrtOptions {
         let hierarchy = &["near", "ring", "coarse", "coarse_tolerance", "coarse_poses"];
         vec![
             applies(self.brdf == BrdfKind::Phong, &["shininess", "specular"], "--brdf phong"),
-            applies(self.hierarchy == OnOff::On, hierarchy, "--hierarchy on"),
+            applies(self.hierarchy != Some(OnOff::Off), hierarchy, "--hierarchy on"),
         ]
     }
 
     /// The checked settings (`shadows`: rasterise at all).
     pub fn settings(&self, shadows: bool) -> Result<PrtSettings> {
+        let base = PrtSettings::default();
         let settings = PrtSettings {
-            mask_side: positive("--mask", self.mask)?,
+            mask_side: self
+                .mask
+                .map(|m| positive("--mask", m))
+                .transpose()?
+                .unwrap_or(base.mask_side),
             lut_size: positive("--lut", self.lut)?,
             bands: positive("--order", self.order)?,
             brdf: Brdf::new(self.brdf, self.shininess, self.specular),
             integration: self.integration,
             hierarchy: HierarchySettings {
-                enabled: self.hierarchy.on(),
-                near: self.near,
+                enabled: self.hierarchy.map_or(base.hierarchy.enabled, OnOff::on),
+                near: self.near.unwrap_or(base.hierarchy.near),
                 ring: positive("--ring", self.ring)?,
                 coarse_triangles: self.coarse.map(|c| positive("--coarse", c)).transpose()?,
                 group_size: positive("--group-size", self.group_size)?,
@@ -106,6 +115,28 @@ impl PrtOptions {
             shadows,
         };
         Ok(settings)
+    }
+}
+
+impl PrtOptions {
+    /// The probe of the knobs not given (`None` with `--probe off` or all
+    /// three given): each given one is the only value tried.
+    pub fn probe(&self) -> Option<Probe> {
+        if self.probe == OnOff::Off || (self.mask.is_some() && self.hierarchy.is_some() && self.near.is_some()) {
+            return None;
+        }
+        let mut p = Probe::default();
+        if let Some(m) = self.mask {
+            p.masks = vec![m.max(0) as usize];
+        }
+        if let Some(h) = self.hierarchy {
+            p.hierarchy = vec![h.on()];
+        }
+        if let Some(n) = self.near {
+            p.near = vec![n];
+            p.hierarchy = vec![true];
+        }
+        (p.masks.len() * p.hierarchy.len() * p.near.len() > 1).then_some(p)
     }
 }
 

@@ -19,6 +19,7 @@
 //! * `pipeline` — the per-frame loop on the CPU
 //! * `reference` — Monte Carlo ray-traced transfer (the error measure of Table 1)
 //! * `selfcheck` — the ray-traced error estimate made at setup
+//! * `probe` — mask side, hierarchy and near field chosen per mesh by error and counted cost
 //! * `gpu` — the WGSL passes
 //! * `runner` — per-frame transfer of a deforming mesh on any device, with checks
 //! * `blockers` — other objects' coarse levels as blockers (section 4.1)
@@ -37,6 +38,7 @@ pub mod lut;
 pub mod mask;
 pub mod objects;
 pub mod pipeline;
+pub mod probe;
 pub(crate) mod proxy;
 pub(crate) mod pvs;
 pub mod raster;

@@ -352,10 +352,52 @@ impl Prt {
         let t = Instant::now();
         let lut = PlaneLut::build(&grid, settings.lut_size)?;
         let lut_ms = elapsed_ms(t);
-        let tables = CellTables::with_integration(&grid, settings.bands, settings.integration);
-        let rotation = ShRotation::new(settings.bands);
         let hierarchy = Hierarchy::build_posed(poses, triangles, &settings.hierarchy)?;
         let sides = super::sides::decide(rest, triangles, settings.backface.forced(), settings.two_sided.forced())?;
+        let mut prt = Self::assemble(rest, triangles, settings, (grid, lut, lut_ms), hierarchy, sides);
+        prt.setup_ms = elapsed_ms(start);
+        Ok(prt)
+    }
+
+    /// `new` from parts another `Prt` of the same mesh built: the LUT of
+    /// `settings`' mask side and LUT size, the hierarchy of its hierarchy
+    /// settings and the sidedness of its toggles (what a probe of several
+    /// settings shares between them). `setup_ms` counts only the rest.
+    pub(crate) fn with_parts(
+        rest: &[Vec3],
+        triangles: &[[u32; 3]],
+        settings: &PrtSettings,
+        lut: &PlaneLut,
+        hierarchy: &Hierarchy,
+        sides: Sides,
+    ) -> Result<Prt> {
+        let start = Instant::now();
+        let grid = MaskGrid::new(settings.mask_side)?;
+        if lut.n != settings.lut_size || lut.words != grid.words {
+            return Err(Error::internal("a LUT of other settings"));
+        }
+        let mut prt = Self::assemble(
+            rest,
+            triangles,
+            settings,
+            (grid, lut.clone(), 0.0),
+            hierarchy.clone(),
+            sides,
+        );
+        prt.setup_ms = elapsed_ms(start);
+        Ok(prt)
+    }
+
+    fn assemble(
+        rest: &[Vec3],
+        triangles: &[[u32; 3]],
+        settings: &PrtSettings,
+        (grid, lut, lut_ms): (MaskGrid, PlaneLut, f64),
+        hierarchy: Hierarchy,
+        sides: Sides,
+    ) -> Prt {
+        let tables = CellTables::with_integration(&grid, settings.bands, settings.integration);
+        let rotation = ShRotation::new(settings.bands);
         let (cull_backfaces, two_sided) = (sides.backface_culling, sides.two_sided);
         let scale = used_bounds(rest, triangles).diagonal().max(f32::MIN_POSITIVE);
         #[cfg(target_arch = "x86_64")]
@@ -381,8 +423,7 @@ impl Prt {
             avx2,
         };
         prt.build_own_lists();
-        prt.setup_ms = elapsed_ms(start);
-        Ok(prt)
+        prt
     }
 
     /// Uses a potentially visible set (per vertex, blocker ids as
@@ -524,15 +565,8 @@ impl Prt {
         self.run_frame(positions, eye, &[], work, others, out)
     }
 
-    fn run_frame(
-        &self,
-        positions: &[Vec3],
-        eye: Option<Vec3>,
-        lighting: &[f32],
-        work: FrameWork,
-        others: Option<(&SceneBlockers, usize)>,
-        out: &mut FrameOutput,
-    ) -> Result<()> {
+    /// A frame's positions: one per vertex, all finite.
+    fn check_positions(&self, positions: &[Vec3]) -> Result<()> {
         if positions.len() != self.vertex_count {
             return Err(Error::input(
                 "frame",
@@ -546,6 +580,140 @@ impl Prt {
         if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
             return Err(Error::input(format!("vertex {}", i + 1), "has a non-finite coordinate"));
         }
+        Ok(())
+    }
+
+    /// The transfer of the listed `vertices` only, as a frame computes it
+    /// there: `out.transfer` holds `coeffs` values per listed vertex in the
+    /// list's order, `out.normals` every vertex's shading normal, and
+    /// `out.stats` the listed vertices' counts (radiance and masks are not
+    /// computed). What a probe of settings measures on a sample of vertices
+    /// without paying for whole frames.
+    pub fn transfer_at(
+        &self,
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        vertices: &[u32],
+        out: &mut FrameOutput,
+    ) -> Result<()> {
+        self.check_positions(positions)?;
+        if let Some(&v) = vertices.iter().find(|&&v| v as usize >= self.vertex_count) {
+            return Err(Error::input(
+                "vertices",
+                format!("vertex {v} of a mesh of {} vertices", self.vertex_count),
+            ));
+        }
+        match self.grid.words {
+            4 => self.transfer_at_impl::<4>(positions, eye, vertices, out),
+            16 => self.transfer_at_impl::<16>(positions, eye, vertices, out),
+            64 => self.transfer_at_impl::<64>(positions, eye, vertices, out),
+            w => return Err(Error::internal(format!("no rasteriser for {w} mask words"))),
+        }
+        Ok(())
+    }
+
+    fn transfer_at_impl<const W: usize>(
+        &self,
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        vertices: &[u32],
+        out: &mut FrameOutput,
+    ) {
+        let n = self.coeffs();
+        out.transfer.clear();
+        out.transfer.resize(vertices.len() * n, 0.0);
+        out.radiance.clear();
+        out.radiance.resize(vertices.len(), [0.0; 3]);
+        out.masks.clear();
+        let mut normals = std::mem::take(&mut out.normals);
+        self.shading_normals(positions, eye, &mut normals);
+        let lighting = vec![0.0; 3 * n];
+        let work = FrameWork {
+            profile: false,
+            keep_masks: false,
+            integrate: true,
+        };
+        let shared = self.frame_shared(positions, &normals, eye, &lighting, work, None);
+        let counters: [AtomicU64; COUNTERS] = std::array::from_fn(|_| AtomicU64::new(0));
+        const CHUNK: usize = 16;
+        out.transfer
+            .par_chunks_mut(CHUNK * n)
+            .zip(out.radiance.par_chunks_mut(CHUNK))
+            .zip(vertices.par_chunks(CHUNK))
+            .for_each(|((transfer, radiance), listed)| {
+                SCRATCH.with(|s| {
+                    let scratch = &mut *s.borrow_mut();
+                    let mut local = [0u64; COUNTERS];
+                    let verts = listed.iter().map(|&v| v as usize);
+                    #[cfg(target_arch = "x86_64")]
+                    if self.avx2 {
+                        // SAFETY: AVX2 and FMA were detected in `Prt::new`.
+                        unsafe {
+                            self.chunk_avx2::<W, _>(verts, &shared, scratch, transfer, radiance, None, &mut local)
+                        };
+                    } else {
+                        self.chunk::<W, _>(verts, &shared, scratch, transfer, radiance, None, &mut local);
+                    }
+                    #[cfg(not(target_arch = "x86_64"))]
+                    self.chunk::<W, _>(verts, &shared, scratch, transfer, radiance, None, &mut local);
+                    for (c, l) in counters.iter().zip(local) {
+                        c.fetch_add(l, Ordering::Relaxed);
+                    }
+                });
+            });
+        drop(shared);
+        out.normals = normals;
+        out.stats = stats_of(counters.map(|c| c.into_inner()), 0);
+    }
+
+    /// What every vertex of a frame reads: positions, normals, the
+    /// culling groups' boxes and far vertices (without a PVS).
+    fn frame_shared<'a>(
+        &self,
+        positions: &'a [Vec3],
+        normals: &'a [Vec3],
+        eye: Option<Vec3>,
+        lighting: &'a [f32],
+        work: FrameWork,
+        others: Option<(&'a SceneBlockers, usize)>,
+    ) -> FrameShared<'a> {
+        let h = &self.hierarchy;
+        let mut shared = FrameShared {
+            positions,
+            normals,
+            eye,
+            lighting,
+            boxes: Vec::new(),
+            far_xyz: Default::default(),
+            profile: work.profile,
+            integrate: work.integrate,
+            others: others.filter(|(b, _)| !b.is_empty()).map(|(blockers, id)| Receiver {
+                blockers,
+                id,
+                pixel: 1.0 / self.grid.side as f32,
+            }),
+        };
+        if self.pvs.is_none() {
+            if self.settings.group_culling {
+                h.group_boxes(positions, &mut shared.boxes);
+            }
+            for (axis, a) in shared.far_xyz.iter_mut().enumerate() {
+                a.extend(h.group_verts.iter().map(|&v| positions[v as usize][axis]));
+            }
+        }
+        shared
+    }
+
+    fn run_frame(
+        &self,
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        lighting: &[f32],
+        work: FrameWork,
+        others: Option<(&SceneBlockers, usize)>,
+        out: &mut FrameOutput,
+    ) -> Result<()> {
+        self.check_positions(positions)?;
         match self.grid.words {
             4 => self.frame_impl::<4>(positions, eye, lighting, work, others, out),
             16 => self.frame_impl::<16>(positions, eye, lighting, work, others, out),
@@ -564,11 +732,7 @@ impl Prt {
         others: Option<(&SceneBlockers, usize)>,
         out: &mut FrameOutput,
     ) {
-        let FrameWork {
-            profile,
-            keep_masks,
-            integrate,
-        } = work;
+        let keep_masks = work.keep_masks;
         let other_start = Instant::now();
         let n = self.coeffs();
         let nv = positions.len();
@@ -578,30 +742,7 @@ impl Prt {
         out.masks.resize(if keep_masks { nv * W } else { 0 }, 0);
         let mut normals = std::mem::take(&mut out.normals);
         self.shading_normals(positions, eye, &mut normals);
-        let h = &self.hierarchy;
-        let mut shared = FrameShared {
-            positions,
-            normals: &normals,
-            eye,
-            lighting,
-            boxes: Vec::new(),
-            far_xyz: Default::default(),
-            profile,
-            integrate,
-            others: others.filter(|(b, _)| !b.is_empty()).map(|(blockers, id)| Receiver {
-                blockers,
-                id,
-                pixel: 1.0 / self.grid.side as f32,
-            }),
-        };
-        if self.pvs.is_none() {
-            if self.settings.group_culling {
-                h.group_boxes(positions, &mut shared.boxes);
-            }
-            for (axis, a) in shared.far_xyz.iter_mut().enumerate() {
-                a.extend(h.group_verts.iter().map(|&v| positions[v as usize][axis]));
-            }
-        }
+        let shared = self.frame_shared(positions, &normals, eye, lighting, work, others);
         let counters: [AtomicU64; COUNTERS] = std::array::from_fn(|_| AtomicU64::new(0));
         let setup_ns = other_start.elapsed().as_nanos() as u64;
 
@@ -621,16 +762,18 @@ impl Prt {
                 SCRATCH.with(|s| {
                     let scratch = &mut *s.borrow_mut();
                     let mut local = [0u64; COUNTERS];
-                    let first = chunk * CHUNK;
+                    let verts = chunk * CHUNK..nv;
                     #[cfg(target_arch = "x86_64")]
                     if self.avx2 {
                         // SAFETY: AVX2 and FMA were detected in `Prt::new`.
-                        unsafe { self.chunk_avx2::<W>(first, &shared, scratch, transfer, radiance, masks, &mut local) };
+                        unsafe {
+                            self.chunk_avx2::<W, _>(verts, &shared, scratch, transfer, radiance, masks, &mut local)
+                        };
                     } else {
-                        self.chunk::<W>(first, &shared, scratch, transfer, radiance, masks, &mut local);
+                        self.chunk::<W, _>(verts, &shared, scratch, transfer, radiance, masks, &mut local);
                     }
                     #[cfg(not(target_arch = "x86_64"))]
-                    self.chunk::<W>(first, &shared, scratch, transfer, radiance, masks, &mut local);
+                    self.chunk::<W, _>(verts, &shared, scratch, transfer, radiance, masks, &mut local);
                     for (c, l) in counters.iter().zip(local) {
                         c.fetch_add(l, Ordering::Relaxed);
                     }
@@ -638,35 +781,15 @@ impl Prt {
             });
         drop(shared);
         out.normals = normals;
-        let c = counters.map(|c| c.into_inner());
-        out.stats = FrameStats {
-            vertices: c[0],
-            without_normal: c[1],
-            candidates: c[2],
-            group_culled: c[3],
-            below_horizon: c[4],
-            back_facing: c[5],
-            edge_on: c[6],
-            drawn: c[7],
-            phase_ns: [c[8], c[9], c[10], c[11] + setup_ns],
-            others: OtherStats {
-                candidates: c[12],
-                object_culled: c[13],
-                group_culled: c[14],
-                refined: c[15],
-                refined_fine: c[16],
-                below_horizon: c[17],
-                gathered: c[18],
-            },
-        };
+        out.stats = stats_of(counters.map(|c| c.into_inner()), setup_ns);
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
     #[allow(clippy::too_many_arguments)]
-    unsafe fn chunk_avx2<const W: usize>(
+    unsafe fn chunk_avx2<const W: usize, I: Iterator<Item = usize>>(
         &self,
-        first: usize,
+        verts: I,
         shared: &FrameShared,
         scratch: &mut Scratch,
         transfer: &mut [f32],
@@ -674,15 +797,15 @@ impl Prt {
         masks: Option<&mut [u64]>,
         counts: &mut [u64; COUNTERS],
     ) {
-        self.chunk::<W>(first, shared, scratch, transfer, radiance, masks, counts)
+        self.chunk::<W, I>(verts, shared, scratch, transfer, radiance, masks, counts)
     }
 
-    /// A run of consecutive vertices starting at `first`.
+    /// The vertices `verts`, as many as `radiance` has room for.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn chunk<const W: usize>(
+    fn chunk<const W: usize, I: Iterator<Item = usize>>(
         &self,
-        first: usize,
+        verts: I,
         shared: &FrameShared,
         scratch: &mut Scratch,
         transfer: &mut [f32],
@@ -692,9 +815,9 @@ impl Prt {
     ) {
         let n = self.coeffs();
         scratch.tris.reserve(self.own.max_candidates);
-        for (k, (t, r)) in transfer.chunks_mut(n).zip(radiance.iter_mut()).enumerate() {
+        for (k, ((t, r), v)) in transfer.chunks_mut(n).zip(radiance.iter_mut()).zip(verts).enumerate() {
             let mut mask = [0u64; W];
-            *r = self.vertex::<W>(first + k, shared, scratch, t, &mut mask, counts);
+            *r = self.vertex::<W>(v, shared, scratch, t, &mut mask, counts);
             if let Some(m) = masks.as_mut() {
                 m[k * W..(k + 1) * W].copy_from_slice(&mask);
             }
@@ -932,4 +1055,28 @@ pub(super) fn emit(local: &[Vec<f32>; 3], l: [u16; 3], tris: &mut TriangleBatch)
     let above = t[0].z > 0.0 || t[1].z > 0.0 || t[2].z > 0.0;
     tris.len += above as usize;
     above
+}
+
+/// A frame's counters as its statistics, `setup_ns` added to "other".
+fn stats_of(c: [u64; COUNTERS], setup_ns: u64) -> FrameStats {
+    FrameStats {
+        vertices: c[0],
+        without_normal: c[1],
+        candidates: c[2],
+        group_culled: c[3],
+        below_horizon: c[4],
+        back_facing: c[5],
+        edge_on: c[6],
+        drawn: c[7],
+        phase_ns: [c[8], c[9], c[10], c[11] + setup_ns],
+        others: OtherStats {
+            candidates: c[12],
+            object_culled: c[13],
+            group_culled: c[14],
+            refined: c[15],
+            refined_fine: c[16],
+            below_horizon: c[17],
+            gathered: c[18],
+        },
+    }
 }

@@ -132,41 +132,23 @@ pub fn estimate(
         return Err(Error::param("self_check", "needs at least one pose"));
     }
     let start = Instant::now();
-    let s = &prt.settings;
-    let coeffs = prt.coeffs();
-    let floor = 0.01 * prt.tables.unoccluded.iter().map(|v| v * v).sum::<f32>().sqrt();
-    let lighting = vec![0.0; 3 * coeffs];
     let per_pose = check.vertices.div_ceil(poses.len());
     // (error, weight) of each sampled vertex the reference does not call dark.
     let mut samples: Vec<(f64, f64)> = Vec::new();
     let mut skipped = 0;
-    let mut frame = FrameOutput::default();
     for (p, (_, positions)) in poses.iter().enumerate() {
-        prt.frame(positions, eye, &lighting, false, false, &mut frame)?;
-        let norms: Vec<f32> = frame
-            .transfer
-            .chunks(coeffs)
-            .map(|t| t.iter().map(|x| x * x).sum::<f32>().sqrt())
-            .collect();
-        let picked = pick(&norms, &frame.normals, floor, per_pose, hash_u32(seed ^ p as u32));
-        let at: Vec<Vec3> = picked.iter().map(|&(v, _)| positions[v]).collect();
-        let nrm: Vec<Vec3> = picked.iter().map(|&(v, _)| frame.normals[v]).collect();
-        let mine: Vec<f32> = picked
-            .iter()
-            .flat_map(|&(v, _)| frame.transfer[v * coeffs..(v + 1) * coeffs].iter().copied())
-            .collect();
-        let soup: Vec<[Vec3; 3]> = triangles.iter().map(|t| t.map(|i| positions[i as usize])).collect();
-        let tree = Accel::new(KdTree::from_triangles(soup, &KdTreeSettings::default())?);
-        let reference = reference_transfer(&tree, &at, &nrm, prt.scale, s.bands, &s.brdf, eye, check.rays, seed);
-        for (e, &(_, w)) in relative_l2_errors(&mine, &reference, coeffs, floor)
-            .into_iter()
-            .zip(&picked)
-        {
-            match e {
-                Some(e) => samples.push((e, w)),
-                None => skipped += 1,
-            }
-        }
+        let pick_seed = hash_u32(seed ^ p as u32);
+        let (sample, mine) = TracedSample::trace_with(
+            prt,
+            triangles,
+            positions,
+            eye,
+            (per_pose, check.rays),
+            (pick_seed, seed),
+        )?;
+        let (mut errors, dark) = sample.errors(&mine);
+        samples.append(&mut errors);
+        skipped += dark;
     }
     let (estimate, uncertainty) = ratio_estimate(&samples);
     Ok(SelfCheckReport {
@@ -180,6 +162,116 @@ pub fn estimate(
         exceeded: estimate > check.threshold,
         ms: elapsed_ms(start),
     })
+}
+
+/// Sampled vertices of one pose traced once with the reference's rays,
+/// against which the transfer of any settings that shade with the same
+/// normals is compared (a probe of several settings shares it: their
+/// estimates then differ by what the settings change, not by which
+/// vertices each happened to draw).
+pub struct TracedSample {
+    /// The sampled vertices (a vertex drawn twice is listed twice).
+    pub vertices: Vec<u32>,
+    /// Each draw's weight (`pick`).
+    weights: Vec<f64>,
+    /// The reference transfer at each draw, `coeffs` values each.
+    reference: Vec<f32>,
+    coeffs: usize,
+    /// The dark floor: 1% of the unoccluded transfer's length.
+    floor: f32,
+}
+
+impl TracedSample {
+    /// `check.vertices` vertices of the pose `positions` drawn from `prt`'s
+    /// frame there (nearly dark ones more often) and traced with
+    /// `check.rays` rays each.
+    pub fn trace(
+        prt: &Prt,
+        triangles: &[[u32; 3]],
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        check: &SelfCheck,
+        seed: u32,
+    ) -> Result<TracedSample> {
+        check.validate()?;
+        let seeds = (hash_u32(seed), seed);
+        Ok(Self::trace_with(prt, triangles, positions, eye, (check.vertices, check.rays), seeds)?.0)
+    }
+
+    /// `trace` of `n` draws with `rays` rays, the draws from `pick_seed`,
+    /// the rays from `ray_seed`; also `prt`'s transfer at the draws.
+    fn trace_with(
+        prt: &Prt,
+        triangles: &[[u32; 3]],
+        positions: &[Vec3],
+        eye: Option<Vec3>,
+        (n, rays): (usize, u32),
+        (pick_seed, ray_seed): (u32, u32),
+    ) -> Result<(TracedSample, Vec<f32>)> {
+        let s = &prt.settings;
+        let coeffs = prt.coeffs();
+        let floor = 0.01 * prt.tables.unoccluded.iter().map(|v| v * v).sum::<f32>().sqrt();
+        let lighting = vec![0.0; 3 * coeffs];
+        let mut frame = FrameOutput::default();
+        prt.frame(positions, eye, &lighting, false, false, &mut frame)?;
+        let norms: Vec<f32> = frame
+            .transfer
+            .chunks(coeffs)
+            .map(|t| t.iter().map(|x| x * x).sum::<f32>().sqrt())
+            .collect();
+        let picked = pick(&norms, &frame.normals, floor, n, pick_seed);
+        let at: Vec<Vec3> = picked.iter().map(|&(v, _)| positions[v]).collect();
+        let nrm: Vec<Vec3> = picked.iter().map(|&(v, _)| frame.normals[v]).collect();
+        let mine: Vec<f32> = picked
+            .iter()
+            .flat_map(|&(v, _)| frame.transfer[v * coeffs..(v + 1) * coeffs].iter().copied())
+            .collect();
+        let soup: Vec<[Vec3; 3]> = triangles.iter().map(|t| t.map(|i| positions[i as usize])).collect();
+        let tree = Accel::new(KdTree::from_triangles(soup, &KdTreeSettings::default())?);
+        let reference = reference_transfer(&tree, &at, &nrm, prt.scale, s.bands, &s.brdf, eye, rays, ray_seed);
+        let sample = TracedSample {
+            vertices: picked.iter().map(|&(v, _)| v as u32).collect(),
+            weights: picked.iter().map(|&(_, w)| w).collect(),
+            reference,
+            coeffs,
+            floor,
+        };
+        Ok((sample, mine))
+    }
+
+    /// (error, weight) of each draw not dark in the reference, and how many
+    /// were dark, for `transfer` at the draws (`coeffs` values each, as
+    /// `Prt::transfer_at` of `vertices` gives it).
+    fn errors(&self, transfer: &[f32]) -> (Vec<(f64, f64)>, usize) {
+        let mut samples = Vec::new();
+        let mut dark = 0;
+        for (e, &w) in relative_l2_errors(transfer, &self.reference, self.coeffs, self.floor)
+            .into_iter()
+            .zip(&self.weights)
+        {
+            match e {
+                Some(e) => samples.push((e, w)),
+                None => dark += 1,
+            }
+        }
+        (samples, dark)
+    }
+
+    /// The estimated mean relative L2 error of `transfer` at the draws and
+    /// one standard error of it.
+    pub fn estimate(&self, transfer: &[f32]) -> Result<(f64, f64)> {
+        if transfer.len() != self.reference.len() {
+            return Err(Error::input(
+                "transfer",
+                format!(
+                    "{} values for {} sampled coefficients",
+                    transfer.len(),
+                    self.reference.len()
+                ),
+            ));
+        }
+        Ok(ratio_estimate(&self.errors(transfer).0))
+    }
 }
 
 /// `n` vertices (with repeats) drawn with probability `p_v` half uniform,
