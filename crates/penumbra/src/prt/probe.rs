@@ -14,7 +14,8 @@
 //!   drew), as the estimate `--check` would measure and its 95% upper
 //!   bound;
 //! * **cost**: the work of its frame counted on an even stride of vertices
-//!   (blockers transformed, blockers rasterised, masks integrated) and
+//!   (culling groups tested, blockers transformed, blockers rasterised,
+//!   masks integrated) and
 //!   priced by a [`CostModel`] measured once per machine kind. The same
 //!   counts price the same on every run, thread count and shard, so the same
 //!   command shades with the same settings everywhere; a frame of those
@@ -41,19 +42,24 @@ use crate::gpu::device::elapsed_ms;
 use crate::tune::budget::Z95;
 
 /// Nanoseconds per unit of a frame's work on one thread, by mask side (16,
-/// 32, 64). Fitted by least squares (relative) to one-thread frames of six
-/// settings (hierarchy on and off, three masks) on eleven meshes: the
-/// shared cow, spot and teapot, both animations, the shipped
+/// 32, 64). Fitted by non-negative least squares (relative) to one-thread
+/// frames of six settings (hierarchy on and off, three masks) on eleven
+/// meshes: the shared cow, spot and teapot, both animations, the shipped
 /// cylindrical well and five public meshes (AVX-512 machine, AVX2
-/// rasteriser). Median residual 11%; the largest, 56%, on a mesh whose
-/// blockers are all culled, where only the per-vertex term is left. What
-/// matters to the choice is their ratios, which hold across x86 machines
-/// far better than the absolute figures.
+/// rasteriser). Median residual 8%, largest 36%; of the 165 pairs of
+/// settings of one mesh, the model orders all but 2 as their timed frames
+/// do, and those 2 were within 15% of each other. The per-vertex
+/// integration of 16x16 masks fits at 0: it is within the other terms'
+/// noise. What matters to the choice is the terms' ratios, which hold
+/// across x86 machines far better than the absolute figures.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct CostModel {
     /// Per blocker gathered and moved into the tangent frame (after group
     /// culling).
     pub transform_ns: f64,
+    /// Per culling group's box tested at a vertex (every group, at every
+    /// vertex, with group culling on).
+    pub group_ns: f64,
     /// Per blocker rasterised, masks of 16, 32 and 64 pixels a side.
     pub raster_ns: [f64; 3],
     /// Per vertex integrated and rotated, by mask side.
@@ -63,25 +69,29 @@ pub struct CostModel {
 impl Default for CostModel {
     fn default() -> Self {
         CostModel {
-            transform_ns: 15.5,
-            raster_ns: [6.4, 13.4, 52.1],
-            integrate_ns: [1020.0, 1332.0, 1707.0],
+            transform_ns: 18.3,
+            group_ns: 5.6,
+            raster_ns: [3.3, 11.1, 49.2],
+            integrate_ns: [0.0, 83.0, 336.0],
         }
     }
 }
 
 impl CostModel {
-    /// Nanoseconds of the counted work `stats` with masks of `side` pixels.
-    pub fn ns(&self, stats: &FrameStats, side: usize) -> f64 {
+    /// Nanoseconds of the counted work `stats` with masks of `side` pixels,
+    /// `groups` culling groups tested at each vertex.
+    pub fn ns(&self, stats: &FrameStats, side: usize, groups: usize) -> f64 {
         let k = match side {
             16 => 0,
             32 => 1,
             _ => 2,
         };
         let transformed = stats.candidates.saturating_sub(stats.group_culled) as f64;
+        let vertices = stats.vertices as f64;
         self.transform_ns * transformed
+            + self.group_ns * (groups as f64) * vertices
             + self.raster_ns[k] * stats.drawn as f64
-            + self.integrate_ns[k] * stats.vertices as f64
+            + self.integrate_ns[k] * vertices
     }
 }
 
@@ -333,7 +343,12 @@ pub fn probe(
     let kind = |c: &(usize, bool, NearField)| kinds.iter().position(|k| k.key == (c.1, c.2)).expect("counted above");
     let model_ms = |c: &(usize, bool, NearField)| {
         let k = &kinds[kind(c)];
-        probe.cost.ns(&k.stats, c.0) * k.scale * 1e-6
+        let groups = if base.group_culling {
+            k.hierarchy.groups.len()
+        } else {
+            0
+        };
+        probe.cost.ns(&k.stats, c.0, groups) * k.scale * 1e-6
     };
     let mut order: Vec<usize> = (0..candidates.len()).collect();
     order.sort_by(|&a, &b| model_ms(&candidates[a]).total_cmp(&model_ms(&candidates[b])));
