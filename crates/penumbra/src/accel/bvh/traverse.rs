@@ -17,6 +17,7 @@ use glam::Vec3;
 
 use super::{Bvh8, LEAF_BIT, Node8, SLACK, WIDTH};
 use crate::accel::kdtree::KdTree;
+use crate::accel::kdtree::leaf_blocks::BLOCK;
 use crate::accel::kdtree::watertight::ShearedRay;
 use crate::geom::ray::{Hit, Ray, flush_subnormal};
 
@@ -224,21 +225,38 @@ fn walk<const ANY: bool, T: BoxTest>(bvh: &Bvh8, origin: Vec3, dir: Vec3, t_max:
                     current = node.child[first];
                     continue;
                 }
-                current = nearest_first(node, mask, &near, &mut stack, &mut sp);
+                if rest & (rest - 1) == 0 {
+                    // Two children, the most common fork: the farther is
+                    // pushed, the nearer entered, without a sort.
+                    let second = rest.trailing_zeros() as usize;
+                    let (d0, d1) = (near[first], near[second]);
+                    let (c0, c1) = (node.child[first], node.child[second]);
+                    let swap = d1 < d0;
+                    let (far_child, far_d) = if swap { (c0, d0) } else { (c1, d1) };
+                    current = if swap { c1 } else { c0 };
+                    stack[sp & STACK_MASK].write((far_child, far_d));
+                    sp += 1;
+                } else {
+                    current = nearest_first(node, mask, &near, &mut stack, &mut sp);
+                }
                 prefetch_pushed(bvh, &stack, sp);
                 continue;
             }
         } else {
             let block = &bvh.blocks[(current & !LEAF_BIT) as usize];
             let t = sheared.intersect_block(block);
-            for (&t, &triangle) in t.iter().zip(&block.triangles) {
-                if triangle == Hit::MISS_INDEX {
-                    break;
-                }
+            // Most blocks hold no lane as close as the best hit: one mask
+            // of the lanes that may be, instead of a branch per lane.
+            let mut lanes = candidates(&t, best_frame);
+            while lanes != 0 {
+                let lane = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                let (t, triangle) = (t[lane], block.triangles[lane]);
                 // Closest first; at an equal t the smaller index (never
-                // a t equal to t_max itself).
+                // a t equal to t_max itself). Unused lanes are zero
+                // triangles, whose t is NaN: never a candidate.
                 let closer = t < best_frame || (t == best_frame && best.is_hit() && triangle < best.triangle);
-                if t > 0.0 && closer {
+                if closer {
                     best_frame = t;
                     best = Hit {
                         t: t * sheared.inv_scale,
@@ -264,6 +282,31 @@ fn walk<const ANY: bool, T: BoxTest>(bvh: &Bvh8, origin: Vec3, dir: Vec3, t_max:
                 break;
             }
         }
+    }
+}
+
+/// The lanes of a block's t (NaN where a lane misses) with
+/// `0 < t <= best`: bit l for lane l.
+#[inline(always)]
+fn candidates(t: &[f32; BLOCK], best: f32) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of x86-64; the comparisons are ordered
+        // (false on NaN), as Rust's.
+        unsafe {
+            let t = _mm_loadu_ps(t.as_ptr());
+            let keep = _mm_and_ps(_mm_cmpgt_ps(t, _mm_setzero_ps()), _mm_cmple_ps(t, _mm_set1_ps(best)));
+            _mm_movemask_ps(keep) as u32
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let mut mask = 0;
+        for (l, &t) in t.iter().enumerate() {
+            mask |= ((t > 0.0 && t <= best) as u32) << l;
+        }
+        mask
     }
 }
 
