@@ -56,6 +56,18 @@ pub(super) trait BoxTest {
     /// Which children `ray` enters before `t_far` (bit i for child i), and
     /// the entry distance of each.
     fn test(node: &Node8, ray: &BoxRay, t_far: f32) -> (u32, [f32; WIDTH]);
+
+    /// `nearest_first` in this instruction set.
+    #[inline(always)]
+    fn nearest_first(
+        node: &Node8,
+        mask: u32,
+        near: &[f32; WIDTH],
+        stack: &mut [MaybeUninit<(u32, f32)>; STACK_SIZE],
+        sp: &mut usize,
+    ) -> u32 {
+        nearest_first(node, mask, near, stack, sp)
+    }
 }
 
 /// The box test in plain lanes (any CPU).
@@ -127,6 +139,57 @@ impl BoxTest for Avx8 {
             }
             entered_avx(near, far)
         }
+    }
+
+    /// The entered children's order by rank, without the insertion sort's
+    /// branches: a child's rank is the number of entered children whose key
+    /// is smaller, the key its distance's bits with the slot in the three
+    /// lowest (distances are not negative, so their bits order as they do;
+    /// the slot makes the keys distinct). Keys distinct and totally ordered
+    /// make the ranks the places 0..n once each: every pushed slot is
+    /// written.
+    #[inline(always)]
+    fn nearest_first(
+        node: &Node8,
+        mask: u32,
+        near: &[f32; WIDTH],
+        stack: &mut [MaybeUninit<(u32, f32)>; STACK_SIZE],
+        sp: &mut usize,
+    ) -> u32 {
+        use std::arch::x86_64::*;
+        // SAFETY: only compiled into `trace_avx2`, which requires AVX2.
+        let rank = unsafe {
+            let bits = _mm256_castps_si256(_mm256_loadu_ps(near.as_ptr()));
+            let key = _mm256_or_si256(
+                _mm256_and_si256(bits, _mm256_set1_epi32(!7)),
+                _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
+            );
+            let mut keys = [0i32; WIDTH];
+            _mm256_storeu_si256(keys.as_mut_ptr().cast(), key);
+            let mut rank = _mm256_setzero_si256();
+            let mut rest = mask;
+            while rest != 0 {
+                let j = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                // Lanes whose key is above child j's count it.
+                rank = _mm256_sub_epi32(rank, _mm256_cmpgt_epi32(key, _mm256_set1_epi32(keys[j])));
+            }
+            let mut out = [0u32; WIDTH];
+            _mm256_storeu_si256(out.as_mut_ptr().cast(), rank);
+            out
+        };
+        // Rank r goes to sp + n - 1 - r: the farthest lowest, the nearest
+        // just above the entries pushed (a scratch slot, read back at once).
+        let top = *sp + mask.count_ones() as usize - 1;
+        let mut rest = mask;
+        while rest != 0 {
+            let i = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            stack[(top - rank[i] as usize) & STACK_MASK].write((node.child[i], near[i]));
+        }
+        *sp = top;
+        // SAFETY: the rank-0 child was written at `top` just above.
+        unsafe { stack[top & STACK_MASK].assume_init() }.0
     }
 }
 
@@ -323,7 +386,7 @@ impl Walk {
                     self.stack[self.sp & STACK_MASK].write((far_child, far_d));
                     self.sp += 1;
                 } else {
-                    self.current = nearest_first(node, mask, &near, &mut self.stack, &mut self.sp);
+                    self.current = T::nearest_first(node, mask, &near, &mut self.stack, &mut self.sp);
                 }
                 prefetch_pushed(bvh, &self.stack, self.sp);
                 return false;
