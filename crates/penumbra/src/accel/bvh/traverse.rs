@@ -17,6 +17,7 @@ use glam::Vec3;
 
 use super::{Bvh8, LEAF_BIT, Node8, SLACK, WIDTH};
 use crate::accel::kdtree::KdTree;
+use crate::accel::kdtree::leaf_blocks::BLOCK;
 use crate::accel::kdtree::watertight::ShearedRay;
 use crate::geom::ray::{Hit, Ray, flush_subnormal};
 
@@ -55,6 +56,18 @@ pub(super) trait BoxTest {
     /// Which children `ray` enters before `t_far` (bit i for child i), and
     /// the entry distance of each.
     fn test(node: &Node8, ray: &BoxRay, t_far: f32) -> (u32, [f32; WIDTH]);
+
+    /// `nearest_first` in this instruction set.
+    #[inline(always)]
+    fn nearest_first(
+        node: &Node8,
+        mask: u32,
+        near: &[f32; WIDTH],
+        stack: &mut [MaybeUninit<(u32, f32)>; STACK_SIZE],
+        sp: &mut usize,
+    ) -> u32 {
+        nearest_first(node, mask, near, stack, sp)
+    }
 }
 
 /// The box test in plain lanes (any CPU).
@@ -127,6 +140,57 @@ impl BoxTest for Avx8 {
             entered_avx(near, far)
         }
     }
+
+    /// The entered children's order by rank, without the insertion sort's
+    /// branches: a child's rank is the number of entered children whose key
+    /// is smaller, the key its distance's bits with the slot in the three
+    /// lowest (distances are not negative, so their bits order as they do;
+    /// the slot makes the keys distinct). Keys distinct and totally ordered
+    /// make the ranks the places 0..n once each: every pushed slot is
+    /// written.
+    #[inline(always)]
+    fn nearest_first(
+        node: &Node8,
+        mask: u32,
+        near: &[f32; WIDTH],
+        stack: &mut [MaybeUninit<(u32, f32)>; STACK_SIZE],
+        sp: &mut usize,
+    ) -> u32 {
+        use std::arch::x86_64::*;
+        // SAFETY: only compiled into `trace_avx2`, which requires AVX2.
+        let rank = unsafe {
+            let bits = _mm256_castps_si256(_mm256_loadu_ps(near.as_ptr()));
+            let key = _mm256_or_si256(
+                _mm256_and_si256(bits, _mm256_set1_epi32(!7)),
+                _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
+            );
+            let mut keys = [0i32; WIDTH];
+            _mm256_storeu_si256(keys.as_mut_ptr().cast(), key);
+            let mut rank = _mm256_setzero_si256();
+            let mut rest = mask;
+            while rest != 0 {
+                let j = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                // Lanes whose key is above child j's count it.
+                rank = _mm256_sub_epi32(rank, _mm256_cmpgt_epi32(key, _mm256_set1_epi32(keys[j])));
+            }
+            let mut out = [0u32; WIDTH];
+            _mm256_storeu_si256(out.as_mut_ptr().cast(), rank);
+            out
+        };
+        // Rank r goes to sp + n - 1 - r: the farthest lowest, the nearest
+        // just above the entries pushed (a scratch slot, read back at once).
+        let top = *sp + mask.count_ones() as usize - 1;
+        let mut rest = mask;
+        while rest != 0 {
+            let i = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            stack[(top - rank[i] as usize) & STACK_MASK].write((node.child[i], near[i]));
+        }
+        *sp = top;
+        // SAFETY: the rank-0 child was written at `top` just above.
+        unsafe { stack[top & STACK_MASK].assume_init() }.0
+    }
 }
 
 /// `entered` of eight intervals in AVX registers, and the entries.
@@ -190,80 +254,211 @@ fn trace_avx2<const ANY: bool>(bvh: &Bvh8, rays: &[Ray], t_max: f32, hits: &mut 
     trace::<ANY, Avx8>(bvh, rays, t_max, hits);
 }
 
+/// Rays walked at once by `trace`, taking turns node by node.
+const INTERLEAVE: usize = 4;
+
+/// Traces `rays` with `INTERLEAVE` walks taking turns: after each step of
+/// one walk the node or leaf it goes to next is prefetched, and the other
+/// walks' steps run while it arrives. Random rays spend most of their time
+/// waiting for nodes and leaf blocks that are not in the caches (the walk
+/// decides where to go only once a node has arrived), and each ray's walk
+/// is its own: the hits are those of walking the rays one by one.
 #[inline(always)]
 fn trace<const ANY: bool, T: BoxTest>(bvh: &Bvh8, rays: &[Ray], t_max: f32, hits: &mut [Hit]) {
-    for (r, h) in rays.iter().zip(hits) {
-        *h = walk::<ANY, T>(bvh, r.o(), flush_subnormal(r.d()), t_max);
+    let ray_count = rays.len().min(hits.len());
+    if ray_count < INTERLEAVE {
+        let mut walk = Walk::new();
+        for (r, h) in rays.iter().zip(hits) {
+            walk.start(bvh, r, t_max);
+            while !walk.step::<ANY, T>(bvh) {}
+            *h = walk.hit();
+        }
+        return;
+    }
+    let mut walks: [Walk; INTERLEAVE] = std::array::from_fn(|_| Walk::new());
+    // The ray each walk traces; `usize::MAX` once the rays ran out.
+    let mut tracing = [usize::MAX; INTERLEAVE];
+    for (k, walk) in walks.iter_mut().enumerate() {
+        walk.start(bvh, &rays[k], t_max);
+        tracing[k] = k;
+    }
+    let mut next = INTERLEAVE;
+    let mut live = INTERLEAVE;
+    while live > 0 {
+        for (walk, ray) in walks.iter_mut().zip(&mut tracing) {
+            if *ray == usize::MAX {
+                continue;
+            }
+            if !walk.step::<ANY, T>(bvh) {
+                prefetch(bvh, walk.current);
+                continue;
+            }
+            hits[*ray] = walk.hit();
+            if next < ray_count {
+                walk.start(bvh, &rays[next], t_max);
+                *ray = next;
+                next += 1;
+            } else {
+                *ray = usize::MAX;
+                live -= 1;
+            }
+        }
     }
 }
 
-/// One ray's traversal.
-#[inline(always)]
-fn walk<const ANY: bool, T: BoxTest>(bvh: &Bvh8, origin: Vec3, dir: Vec3, t_max: f32) -> Hit {
-    let sheared = ShearedRay::in_frame(origin, dir, bvh.frame_scale);
-    let ray = BoxRay::new(origin, dir);
-    let mut best = Hit {
-        t: t_max,
-        triangle: Hit::MISS_INDEX,
-    };
-    // The best t in the triangle test's frame (a power of two times `t`).
-    let mut best_frame = t_max * sheared.scale;
-    // Uninitialised: every slot below `sp` was written by its push.
-    let mut stack = [const { MaybeUninit::<(u32, f32)>::uninit() }; STACK_SIZE];
-    let mut sp = 0usize;
-    let mut current = 0u32;
-    loop {
-        if current & LEAF_BIT == 0 {
-            let node = &bvh.nodes[current as usize];
-            let (mask, near) = T::test(node, &ray, best.t);
+/// One ray's traversal, a step at a time.
+struct Walk {
+    sheared: ShearedRay,
+    ray: BoxRay,
+    /// The closest hit so far (`t` the ray's `t_max` while there is none).
+    best: Hit,
+    /// The best t in the triangle test's frame (a power of two times
+    /// `best.t`).
+    best_frame: f32,
+    /// The node or leaf (a child word) the next step visits.
+    current: u32,
+    /// Children deferred, with the distance their box begins at; every
+    /// slot below `sp` was written by its push.
+    stack: [MaybeUninit<(u32, f32)>; STACK_SIZE],
+    sp: usize,
+}
+
+impl Walk {
+    /// A walk to be `start`ed.
+    #[inline(always)]
+    fn new() -> Walk {
+        Walk {
+            sheared: ShearedRay::new(Vec3::ZERO, Vec3::Z),
+            ray: BoxRay::new(Vec3::ZERO, Vec3::Z),
+            best: Hit::MISS,
+            best_frame: 0.0,
+            current: 0,
+            stack: [const { MaybeUninit::uninit() }; STACK_SIZE],
+            sp: 0,
+        }
+    }
+
+    /// Begins the walk of `r` (0 < t < `t_max`) at the root.
+    #[inline(always)]
+    fn start(&mut self, bvh: &Bvh8, r: &Ray, t_max: f32) {
+        let (origin, dir) = (r.o(), flush_subnormal(r.d()));
+        self.sheared = ShearedRay::in_frame(origin, dir, bvh.frame_scale);
+        self.ray = BoxRay::new(origin, dir);
+        self.best = Hit {
+            t: t_max,
+            triangle: Hit::MISS_INDEX,
+        };
+        self.best_frame = t_max * self.sheared.scale;
+        self.current = 0;
+        self.sp = 0;
+    }
+
+    /// The walk's answer once `step` returned true.
+    #[inline(always)]
+    fn hit(&self) -> Hit {
+        if self.best.is_hit() { self.best } else { Hit::MISS }
+    }
+
+    /// Visits the current node or leaf and moves on to the next; true when
+    /// the walk is over (with `ANY`, at the first hit).
+    #[inline(always)]
+    fn step<const ANY: bool, T: BoxTest>(&mut self, bvh: &Bvh8) -> bool {
+        if self.current & LEAF_BIT == 0 {
+            let node = &bvh.nodes[self.current as usize];
+            let (mask, near) = T::test(node, &self.ray, self.best.t);
             let mask = mask & node.used;
             if mask != 0 {
                 let first = mask.trailing_zeros() as usize;
                 let rest = mask & (mask - 1);
                 if rest == 0 {
-                    current = node.child[first];
-                    continue;
+                    self.current = node.child[first];
+                    return false;
                 }
-                current = nearest_first(node, mask, &near, &mut stack, &mut sp);
-                prefetch_pushed(bvh, &stack, sp);
-                continue;
+                if rest & (rest - 1) == 0 {
+                    // Two children, the most common fork: the farther is
+                    // pushed, the nearer entered, without a sort.
+                    let second = rest.trailing_zeros() as usize;
+                    let (d0, d1) = (near[first], near[second]);
+                    let (c0, c1) = (node.child[first], node.child[second]);
+                    let swap = d1 < d0;
+                    let (far_child, far_d) = if swap { (c0, d0) } else { (c1, d1) };
+                    self.current = if swap { c1 } else { c0 };
+                    self.stack[self.sp & STACK_MASK].write((far_child, far_d));
+                    self.sp += 1;
+                } else {
+                    self.current = T::nearest_first(node, mask, &near, &mut self.stack, &mut self.sp);
+                }
+                prefetch_pushed(bvh, &self.stack, self.sp);
+                return false;
             }
         } else {
-            let block = &bvh.blocks[(current & !LEAF_BIT) as usize];
+            let sheared = &self.sheared;
+            let block = &bvh.blocks[(self.current & !LEAF_BIT) as usize];
             let t = sheared.intersect_block(block);
-            for (&t, &triangle) in t.iter().zip(&block.triangles) {
-                if triangle == Hit::MISS_INDEX {
-                    break;
-                }
+            // Most blocks hold no lane as close as the best hit: one
+            // mask of the lanes that may be, instead of a branch per
+            // lane.
+            let mut lanes = candidates(&t, self.best_frame);
+            while lanes != 0 {
+                let lane = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                let (t, triangle) = (t[lane], block.triangles[lane]);
                 // Closest first; at an equal t the smaller index (never
-                // a t equal to t_max itself).
-                let closer = t < best_frame || (t == best_frame && best.is_hit() && triangle < best.triangle);
-                if t > 0.0 && closer {
-                    best_frame = t;
-                    best = Hit {
+                // a t equal to t_max itself). Unused lanes are zero
+                // triangles, whose t is NaN: never a candidate.
+                let closer = t < self.best_frame
+                    || (t == self.best_frame && self.best.is_hit() && triangle < self.best.triangle);
+                if closer {
+                    self.best_frame = t;
+                    self.best = Hit {
                         t: t * sheared.inv_scale,
                         triangle,
                     };
                     if ANY {
-                        return best;
+                        return true;
                     }
                 }
             }
         }
         // Pop the next child whose box begins before the best hit.
         loop {
-            if sp == 0 {
-                return if best.is_hit() { best } else { Hit::MISS };
+            if self.sp == 0 {
+                return true;
             }
-            sp -= 1;
+            self.sp -= 1;
             // SAFETY: slot `sp` was written by the push that raised `sp`
             // above it.
-            let (child, near) = unsafe { stack[sp & STACK_MASK].assume_init() };
-            if near * (1.0 - SLACK) <= best.t * (1.0 + SLACK) {
-                current = child;
-                break;
+            let (child, near) = unsafe { self.stack[self.sp & STACK_MASK].assume_init() };
+            if near * (1.0 - SLACK) <= self.best.t * (1.0 + SLACK) {
+                self.current = child;
+                return false;
             }
         }
+    }
+}
+
+/// The lanes of a block's t (NaN where a lane misses) with
+/// `0 < t <= best`: bit l for lane l.
+#[inline(always)]
+fn candidates(t: &[f32; BLOCK], best: f32) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of x86-64; the comparisons are ordered
+        // (false on NaN), as Rust's.
+        unsafe {
+            let t = _mm_loadu_ps(t.as_ptr());
+            let keep = _mm_and_ps(_mm_cmpgt_ps(t, _mm_setzero_ps()), _mm_cmple_ps(t, _mm_set1_ps(best)));
+            _mm_movemask_ps(keep) as u32
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let mut mask = 0;
+        for (l, &t) in t.iter().enumerate() {
+            mask |= ((t > 0.0 && t <= best) as u32) << l;
+        }
+        mask
     }
 }
 
@@ -302,11 +497,18 @@ fn nearest_first(
 /// Asks for the node or block on top of the stack ahead of its pop.
 #[inline(always)]
 fn prefetch_pushed(bvh: &Bvh8, stack: &[MaybeUninit<(u32, f32)>; STACK_SIZE], sp: usize) {
+    // SAFETY: slot sp - 1 was just written (sp >= 1 after a push).
+    let (child, _) = unsafe { stack[(sp - 1) & STACK_MASK].assume_init() };
+    prefetch(bvh, child);
+}
+
+/// Asks for the first four cache lines of the node or leaf block of child
+/// word `child`.
+#[inline(always)]
+fn prefetch(bvh: &Bvh8, child: u32) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        // SAFETY: slot sp - 1 was just written (sp >= 1 after a push).
-        let (child, _) = unsafe { stack[(sp - 1) & STACK_MASK].assume_init() };
         let p: *const i8 = if child & LEAF_BIT == 0 {
             bvh.nodes.as_ptr().wrapping_add(child as usize).cast()
         } else {
@@ -319,4 +521,6 @@ fn prefetch_pushed(bvh: &Bvh8, stack: &[MaybeUninit<(u32, f32)>; STACK_SIZE], sp
             }
         }
     }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (bvh, child);
 }
