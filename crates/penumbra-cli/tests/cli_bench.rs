@@ -164,3 +164,32 @@ fn bench_of_a_scene_file_says_which_methods_take_a_mesh() {
         }
     }
 }
+
+/// PRT's row at its defaults is the probe's choice, as `prt` makes it: the
+/// row's settings name it and its setup has the probe's time; on the
+/// cylindrical well that is the hierarchy off. Settings given are kept.
+#[test]
+fn the_prt_row_runs_the_probe_s_choice() {
+    let d = TempDir::new("bench_prt");
+    let mesh = asset_s("cylindrical-well.obj");
+    let run = |extra: &str, out: &str| {
+        let line = format!(
+            "bench --mesh {{mesh}} --devices cpu --threads 1 --warmup 0 --repeat 1 --methods prt \
+             --set prt.order=3 --out {{out}} --json {extra}"
+        );
+        let r = pen(&line, &[("mesh", &mesh), ("out", out)]);
+        assert_eq!(r.code, 0, "{}", r.describe());
+        r.json()["rows"][0].clone()
+    };
+    let row = run("", &d.p("a"));
+    assert_eq!(row["settings"]["hierarchy"], "off", "{row}");
+    assert_eq!(row["settings"]["order"], "3", "{row}");
+    assert!(row["settings"]["mask"].is_string(), "{row}");
+    assert!(row["setup_ms"]["probe"].as_f64().unwrap() > 0.0, "{row}");
+    let row = run(
+        "--set prt.mask=16 --set prt.hierarchy=on --set prt.near=rings",
+        &d.p("b"),
+    );
+    assert_eq!(row["settings"]["mask"], "16", "{row}");
+    assert!(row["setup_ms"].get("probe").is_none(), "{row}");
+}

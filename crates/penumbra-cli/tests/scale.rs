@@ -200,6 +200,9 @@ struct Answers {
     ssao: Vec<u8>,
     prt: Vec<u8>,
     prt_error: f64,
+    /// The probe's choice (hierarchy and near field at 32x32 masks) and
+    /// each candidate's modelled cost.
+    probe: (String, Vec<f64>),
 }
 
 fn answers(d: &TempDir, text: &str, at: Placement, radius: f32, device: &str) -> Answers {
@@ -248,10 +251,17 @@ fn answers(d: &TempDir, text: &str, at: Placement, radius: f32, device: &str) ->
     .ok();
     let prt = pen(
         "prt --mesh {mesh} --env {env} --check --check-rays 64 --check-frames 1 --out {prt} --width 96 \
-         --height 72 --device {device} --json",
+         --height 72 --device {device} --mask 32 --json",
         &vars,
     );
-    let prt_error = prt.ok().json()["transfer_l2_error"].as_f64().unwrap();
+    let j = prt.ok().json();
+    let prt_error = j["transfer_l2_error"].as_f64().unwrap();
+    let rows = j["probe"]["rows"].as_array().unwrap();
+    let chosen = &rows[j["probe"]["chosen"].as_u64().unwrap() as usize];
+    let probe = (
+        format!("{} {}", chosen["hierarchy"], chosen["near"]),
+        rows.iter().map(|r| r["model_ms"].as_f64().unwrap()).collect(),
+    );
     Answers {
         hits: hits(&p("hits.bin")),
         ao: csv(&p("ao.csv")),
@@ -259,6 +269,7 @@ fn answers(d: &TempDir, text: &str, at: Placement, radius: f32, device: &str) ->
         ssao: grey(&p("ssao.png")),
         prt: rgb(&p("prt.png")),
         prt_error,
+        probe,
     }
 }
 
@@ -296,6 +307,18 @@ fn compare(name: &str, base: &Answers, other: &Answers, at: &str, image_toleranc
     assert!(ssao <= image_tolerance, "{name} at {at}: SSAO");
     assert!(prt <= image_tolerance, "{name} at {at}: PRT image");
     assert!(prt_error <= 1e-3, "{name} at {at}: PRT transfer error");
+    assert_eq!(base.probe.0, other.probe.0, "{name} at {at}: the probe's choice");
+    // The counts behind the costs move by a few percent where a culling
+    // test's rounding flips at another scale (4% on the rings near field of
+    // spot at 1e-18); a scale-dependent count would move them far more.
+    for (a, b) in base.probe.1.iter().zip(&other.probe.1) {
+        assert!(
+            (a - b).abs() <= 0.1 * a,
+            "{name} at {at}: probed costs {:?} vs {:?}",
+            base.probe.1,
+            other.probe.1
+        );
+    }
 }
 
 fn check_scene(name: &str, text: &str, radius: f32, scales: &[(f32, f64)]) {

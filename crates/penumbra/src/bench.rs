@@ -25,8 +25,8 @@ use crate::gpu::device::{Device, elapsed_ms};
 use crate::gpu::{AdapterKinds, AdapterSettings, GpuContext, enumerate_adapters};
 use crate::progress::Reporter;
 use crate::prt::hierarchy::NearField;
-use crate::prt::pipeline::PrtSettings;
 use crate::prt::probe::{Probe, probe as probe_prt};
+use crate::prt::tune::PrtSweep;
 use crate::raycast::tracer::Tracer;
 use crate::raycast::{AmbientOcclusion, AoSettings};
 use crate::report::repeats::{Repeats, RunTimes};
@@ -363,16 +363,17 @@ fn prt_probe(mesh: &Path, inputs: &SweepInputs, given: &mut Vec<(String, String)
         return Ok(None);
     }
     let mut probe = Probe::default();
-    let mut base = PrtSettings::default();
     let setting = setting_of(BenchMethod::Prt, crate::prt::tune::KNOBS, given)?;
+    // The other settings given (bands, LUT, ...) are the probe's base.
+    let base = PrtSweep::settings(&setting)?;
     if let Some(m) = setting.get::<usize>("mask") {
-        (probe.masks, base.mask_side) = (vec![m], m);
+        probe.masks = vec![m];
     }
     if let Some(h) = setting.get::<bool>("hierarchy") {
-        (probe.hierarchy, base.hierarchy.enabled) = (vec![h], h);
+        probe.hierarchy = vec![h];
     }
     if let Some(n) = setting.get::<NearField>("near") {
-        (probe.near, base.hierarchy.near) = (vec![n], n);
+        probe.near = vec![n];
     }
     let loaded = load_mesh(mesh)?;
     let eye = inputs.view.camera.resolve(None, &loaded.bounds(), loaded.origin)?.eye;

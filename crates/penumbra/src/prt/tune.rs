@@ -88,7 +88,7 @@ impl PrtSweep {
         }
     }
 
-    fn settings(s: &Setting) -> Result<PrtSettings> {
+    pub(crate) fn settings(s: &Setting) -> Result<PrtSettings> {
         let (base, h) = (PrtSettings::default(), HierarchySettings::default());
         let settings = PrtSettings {
             mask_side: s.get("mask").unwrap_or(base.mask_side),
