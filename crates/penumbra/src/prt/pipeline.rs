@@ -641,25 +641,8 @@ impl Prt {
             .zip(out.radiance.par_chunks_mut(CHUNK))
             .zip(vertices.par_chunks(CHUNK))
             .for_each(|((transfer, radiance), listed)| {
-                SCRATCH.with(|s| {
-                    let scratch = &mut *s.borrow_mut();
-                    let mut local = [0u64; COUNTERS];
-                    let verts = listed.iter().map(|&v| v as usize);
-                    #[cfg(target_arch = "x86_64")]
-                    if self.avx2 {
-                        // SAFETY: AVX2 and FMA were detected in `Prt::new`.
-                        unsafe {
-                            self.chunk_avx2::<W, _>(verts, &shared, scratch, transfer, radiance, None, &mut local)
-                        };
-                    } else {
-                        self.chunk::<W, _>(verts, &shared, scratch, transfer, radiance, None, &mut local);
-                    }
-                    #[cfg(not(target_arch = "x86_64"))]
-                    self.chunk::<W, _>(verts, &shared, scratch, transfer, radiance, None, &mut local);
-                    for (c, l) in counters.iter().zip(local) {
-                        c.fetch_add(l, Ordering::Relaxed);
-                    }
-                });
+                let verts = listed.iter().map(|&v| v as usize);
+                self.run_chunk::<W, _>(verts, &shared, (transfer, radiance, None), &counters);
             });
         drop(shared);
         out.normals = normals;
@@ -759,29 +742,39 @@ impl Prt {
             .zip(mask_chunks.into_par_iter())
             .enumerate()
             .for_each(|(chunk, ((transfer, radiance), masks))| {
-                SCRATCH.with(|s| {
-                    let scratch = &mut *s.borrow_mut();
-                    let mut local = [0u64; COUNTERS];
-                    let verts = chunk * CHUNK..nv;
-                    #[cfg(target_arch = "x86_64")]
-                    if self.avx2 {
-                        // SAFETY: AVX2 and FMA were detected in `Prt::new`.
-                        unsafe {
-                            self.chunk_avx2::<W, _>(verts, &shared, scratch, transfer, radiance, masks, &mut local)
-                        };
-                    } else {
-                        self.chunk::<W, _>(verts, &shared, scratch, transfer, radiance, masks, &mut local);
-                    }
-                    #[cfg(not(target_arch = "x86_64"))]
-                    self.chunk::<W, _>(verts, &shared, scratch, transfer, radiance, masks, &mut local);
-                    for (c, l) in counters.iter().zip(local) {
-                        c.fetch_add(l, Ordering::Relaxed);
-                    }
-                });
+                self.run_chunk::<W, _>(chunk * CHUNK..nv, &shared, (transfer, radiance, masks), &counters);
             });
         drop(shared);
         out.normals = normals;
         out.stats = stats_of(counters.map(|c| c.into_inner()), setup_ns);
+    }
+
+    /// One parallel task's vertices `verts` on this thread's scratch, in
+    /// AVX2 where the CPU has it; its counts added to `counters`.
+    #[inline(always)]
+    fn run_chunk<const W: usize, I: Iterator<Item = usize>>(
+        &self,
+        verts: I,
+        shared: &FrameShared,
+        (transfer, radiance, masks): (&mut [f32], &mut [[f32; 3]], Option<&mut [u64]>),
+        counters: &[AtomicU64; COUNTERS],
+    ) {
+        SCRATCH.with(|s| {
+            let scratch = &mut *s.borrow_mut();
+            let mut local = [0u64; COUNTERS];
+            #[cfg(target_arch = "x86_64")]
+            if self.avx2 {
+                // SAFETY: AVX2 and FMA were detected in `Prt::new`.
+                unsafe { self.chunk_avx2::<W, I>(verts, shared, scratch, transfer, radiance, masks, &mut local) };
+            } else {
+                self.chunk::<W, I>(verts, shared, scratch, transfer, radiance, masks, &mut local);
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            self.chunk::<W, I>(verts, shared, scratch, transfer, radiance, masks, &mut local);
+            for (c, l) in counters.iter().zip(local) {
+                c.fetch_add(l, Ordering::Relaxed);
+            }
+        });
     }
 
     #[cfg(target_arch = "x86_64")]

@@ -155,28 +155,30 @@ impl Probe {
     /// The candidates in order of preference on ties: `base`'s own values
     /// first where they are among those tried.
     fn candidates(&self, base: &PrtSettings) -> Vec<(usize, bool, NearField)> {
-        let first = |v: &[usize], b: usize| -> Vec<usize> {
-            let mut v = v.to_vec();
-            v.sort_by_key(|&x| x != b);
-            v.dedup();
-            v
-        };
-        let mut hs = self.hierarchy.clone();
-        hs.sort_by_key(|&h| h != base.hierarchy.enabled);
-        hs.dedup();
-        let mut nears = self.near.clone();
-        nears.sort_by_key(|&n| n != base.hierarchy.near);
-        nears.dedup();
+        let masks = base_first(&self.masks, base.mask_side);
+        let nears = base_first(&self.near, base.hierarchy.near);
+        let hs = base_first(&self.hierarchy, base.hierarchy.enabled);
         let mut out = Vec::new();
         for h in hs {
             for &near in if h { &nears[..] } else { &nears[..1] } {
-                for m in first(&self.masks, base.mask_side) {
+                for &m in &masks {
                     out.push((m, h, near));
                 }
             }
         }
         out
     }
+}
+
+/// `values` without repeats, `base` first where it is among them.
+fn base_first<T: Copy + PartialEq>(values: &[T], base: T) -> Vec<T> {
+    let mut out: Vec<T> = values.iter().copied().filter(|&v| v == base).take(1).collect();
+    for &v in values {
+        if !out.contains(&v) {
+            out.push(v);
+        }
+    }
+    out
 }
 
 /// One candidate's figures.
@@ -350,15 +352,37 @@ pub fn probe(
         };
         probe.cost.ns(&k.stats, c.0, groups) * k.scale * 1e-6
     };
+    // Every candidate's row with its price; the estimated ones filled in
+    // below.
+    let mut rows: Vec<ProbeRow> = candidates
+        .iter()
+        .map(|c| {
+            let stats = &kinds[kind(c)].stats;
+            let n = stats.vertices.max(1) as f64;
+            ProbeRow {
+                mask: c.0,
+                hierarchy: c.1,
+                near: c.1.then_some(c.2),
+                error: None,
+                uncertainty: None,
+                upper: None,
+                model_ms: model_ms(c),
+                timed_ms: None,
+                estimated: false,
+                drawn_per_vertex: stats.drawn as f64 / n,
+                transformed_per_vertex: stats.candidates.saturating_sub(stats.group_culled) as f64 / n,
+                setup_ms: None,
+                fits: None,
+            }
+        })
+        .collect();
     let mut order: Vec<usize> = (0..candidates.len()).collect();
-    order.sort_by(|&a, &b| model_ms(&candidates[a]).total_cmp(&model_ms(&candidates[b])));
+    order.sort_by(|&a, &b| rows[a].model_ms.total_cmp(&rows[b].model_ms));
     let mut sample: Option<TracedSample> = None;
-    let mut rows: Vec<Option<ProbeRow>> = vec![None; candidates.len()];
     for &i in &order {
         let c = &candidates[i];
         let Counted {
             hierarchy,
-            stats,
             scale,
             setup_ms: hierarchy_ms,
             ..
@@ -381,53 +405,20 @@ pub fn probe(
             prt.transfer_at(rest, eye, &counted, &mut out)?;
             timed = timed.min(elapsed_ms(t));
         }
-        let n = stats.vertices.max(1) as f64;
         let upper = error + Z95 * uncertainty;
         let fits = upper <= probe.max_error;
-        rows[i] = Some(ProbeRow {
-            mask: c.0,
-            hierarchy: c.1,
-            near: c.1.then_some(c.2),
-            error: Some(error),
-            uncertainty: Some(uncertainty),
-            upper: Some(upper),
-            model_ms: model_ms(c),
-            timed_ms: Some(timed * scale),
-            estimated: true,
-            drawn_per_vertex: stats.drawn as f64 / n,
-            transformed_per_vertex: stats.candidates.saturating_sub(stats.group_culled) as f64 / n,
-            setup_ms: Some(setup_ms),
-            fits: Some(fits),
-        });
+        let row = &mut rows[i];
+        row.error = Some(error);
+        row.uncertainty = Some(uncertainty);
+        row.upper = Some(upper);
+        row.timed_ms = Some(timed * scale);
+        row.estimated = true;
+        row.setup_ms = Some(setup_ms);
+        row.fits = Some(fits);
         if fits {
             break;
         }
     }
-    let rows: Vec<ProbeRow> = rows
-        .into_iter()
-        .zip(&candidates)
-        .map(|(r, c)| {
-            r.unwrap_or_else(|| {
-                let stats = &kinds[kind(c)].stats;
-                let n = stats.vertices.max(1) as f64;
-                ProbeRow {
-                    mask: c.0,
-                    hierarchy: c.1,
-                    near: c.1.then_some(c.2),
-                    error: None,
-                    uncertainty: None,
-                    upper: None,
-                    model_ms: model_ms(c),
-                    timed_ms: None,
-                    estimated: false,
-                    drawn_per_vertex: stats.drawn as f64 / n,
-                    transformed_per_vertex: stats.candidates.saturating_sub(stats.group_culled) as f64 / n,
-                    setup_ms: None,
-                    fits: None,
-                }
-            })
-        })
-        .collect();
     let (chosen, rule) = choose(&rows);
     let traced = sample.as_ref().expect("at least one candidate");
     Ok(ProbeReport {
